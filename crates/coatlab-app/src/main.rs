@@ -1,0 +1,56 @@
+//! `coatlab`: the command line (and, in a later issue, the designer's GUI).
+//!
+//! The CLI's command names and CSV column names are an interface that scripts depend
+//! on; keep them exactly as documented in the README.
+
+mod cmd;
+
+use std::io::{self, BufWriter, Write};
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser, Debug)]
+#[command(name = "coatlab", version, about = "Spectral colour design for gloss solid automotive paints")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Tabulate the body BRDF and directional albedo: CSV on stdin
+    /// (`n,rho,kh,theta_i_deg,theta_o_deg,dphi_deg`), CSV on stdout.
+    Brdf,
+    /// CIE XYZ and CIELAB of spectra in a CSV file (`wavelength_nm` plus one column per sample).
+    Color(cmd::color::ColorArgs),
+    /// CIEDE2000 of colour pairs: CSV `L1,a1,b1,L2,a2,b2` on stdin, adds `dE00`.
+    DeltaE,
+    /// Multi-angle colour and gloss readings of a paint design file.
+    Measure(cmd::measure::MeasureArgs),
+    /// Convert between a glossmeter reading (GU) and the lobe exponent m.
+    Gloss(cmd::gloss::GlossArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let stdin = io::stdin().lock();
+    let mut stdout = BufWriter::new(io::stdout().lock());
+    let result = match &cli.command {
+        Command::Brdf => cmd::brdf::run(stdin, &mut stdout),
+        Command::Color(args) => cmd::color::run(args, &mut stdout),
+        Command::DeltaE => cmd::delta_e::run(stdin, &mut stdout),
+        Command::Measure(args) => cmd::measure::run(args, &mut stdout),
+        Command::Gloss(args) => cmd::gloss::run(args, &mut stdout),
+    }
+    .and_then(|()| stdout.flush().map_err(anyhow::Error::from));
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            drop(stdout);
+            eprintln!("coatlab: {err:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+

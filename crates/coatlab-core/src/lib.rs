@@ -1,0 +1,21 @@
+//! Coatlab's core: spectra, colour science and the gloss solid paint model.
+//!
+//! The physics is specified in `shared/docs/paint-model.md` (the "spec"); section
+//! numbers in comments refer to it. This crate has no GUI dependency.
+//!
+//! Layers, each depending only on those above it:
+//! - [`units`], [`quadrature`]: small numeric foundations;
+//! - [`spectrum`], [`cie`], [`colour`]: wavelength grids, CIE data, colorimetry;
+//! - [`paint`]: Fresnel, the coat integral C, the body and specular terms, the gloss
+//!   lobe and its normalisation, m(g), sampling, Phong;
+//! - [`instruments`]: the virtual multi-angle spectrophotometer and glossmeter;
+//! - [`design`]: paint design files.
+
+pub mod cie;
+pub mod colour;
+pub mod design;
+pub mod instruments;
+pub mod paint;
+pub mod quadrature;
+pub mod spectrum;
+pub mod units;
