@@ -1,1 +1,4 @@
-//! (in progress)
+//! The gloss solid paint model (spec sections 3–5).
+
+pub mod coat;
+pub mod fresnel;
