@@ -1,18 +1,53 @@
-use std::io::Write;
+//! `coatlab color`: CIE XYZ and CIELAB of measured spectra (spec section 6).
+//!
+//! Plain summation at the file's own wavelengths — the way a spectrophotometer
+//! report is computed — rather than the renderer's grid colorimeter, so nothing is
+//! resampled.
+
+use std::fs::File;
+use std::io::{BufReader, Write};
 use std::path::PathBuf;
+
+use anyhow::Context;
+use coatlab_core::cie::{Illuminant, Observer, summation_weights};
+use coatlab_core::spectrum::{ValueBounds, read_spectra_csv};
+
+/// Reflectance factors above 1 are allowed up to this value: fluorescent samples and
+/// measurement noise on near-white samples exceed 1 a little, while 1.5 still
+/// catches percentages (50 for 0.5) and other unit mistakes.
+const MAX_REFLECTANCE_FACTOR: f64 = 1.5;
 
 #[derive(clap::Args, Debug)]
 pub struct ColorArgs {
-    /// Illuminant: D65, D50, A, F2, F7 or F11.
+    /// Illuminant: D65, D50, A, F2, F7 or F11 (case-insensitive).
     #[arg(long, default_value = "D65")]
-    pub illuminant: String,
-    /// Standard observer: 2 (CIE 1931) or 10 (CIE 1964).
+    pub illuminant: Illuminant,
+    /// Standard observer: 2 (CIE 1931) or 10 (CIE 1964); "2deg"/"10deg" also work.
     #[arg(long, default_value = "10")]
-    pub observer: u32,
-    /// CSV file with a `wavelength_nm` column and one column per sample.
+    pub observer: Observer,
+    /// CSV file with a `wavelength_nm` column and one column of reflectance factors
+    /// (0 to 1.5) per sample; prints `name,X,Y,Z,L,a,b` per sample.
     pub file: PathBuf,
 }
 
-pub fn run(_args: &ColorArgs, _out: &mut impl Write) -> anyhow::Result<()> {
-    anyhow::bail!("in progress")
+pub fn run(args: &ColorArgs, out: &mut impl Write) -> anyhow::Result<()> {
+    let file_name = args.file.display().to_string();
+    let file = File::open(&args.file).with_context(|| format!("cannot open {file_name}"))?;
+    let bounds = ValueBounds::new(0.0, MAX_REFLECTANCE_FACTOR)?;
+    let spectra = read_spectra_csv(BufReader::new(file), &file_name, bounds)?;
+    let weights = summation_weights(args.illuminant, args.observer, &spectra.wavelengths_nm)
+        .with_context(|| format!("{file_name}: cannot compute colour"))?;
+
+    let mut writer = csv::Writer::from_writer(out);
+    writer.write_record(["name", "X", "Y", "Z", "L", "a", "b"])?;
+    for (name, values) in &spectra.samples {
+        let xyz = weights.xyz(values);
+        let lab = weights.lab(values);
+        let numbers = [xyz.x, xyz.y, xyz.z, lab.l, lab.a, lab.b].map(|v| v.to_string());
+        writer.write_record(
+            std::iter::once(name.as_str()).chain(numbers.iter().map(String::as_str)),
+        )?;
+    }
+    writer.flush()?;
+    Ok(())
 }
