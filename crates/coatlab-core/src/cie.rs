@@ -144,9 +144,17 @@ impl Illuminant {
         self.series().value_at_nm(wavelength_nm)
     }
 
-    /// The power sampled at each grid wavelength.
+    /// The power on `grid` by the resampling rule of [`crate::spectrum`]: the table
+    /// values on the reference grid, bin averages on coarser grids, so the narrow
+    /// mercury and rare-earth lines of the F series keep their energy instead of
+    /// being hit or missed by point samples. Beyond the CIE table the end value is
+    /// held, as for any tabulated spectrum.
     pub fn spd(self, grid: &WavelengthGrid) -> SampledSpectrum {
-        SampledSpectrum::from_fn(*grid, |wavelength_nm| self.spd_at_nm(wavelength_nm))
+        let series = self.series();
+        // A table column is finite, increasing and has many rows, so this cannot fail.
+        TabulatedSpectrum::new(series.wavelengths_nm().collect(), series.values.clone())
+            .expect("CIE illuminant tables are valid")
+            .to_grid(grid)
     }
 
     fn series(self) -> &'static Series {
