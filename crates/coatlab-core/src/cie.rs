@@ -498,29 +498,24 @@ fn tables() -> &'static Tables {
     TABLES.get_or_init(|| {
         let main = parse_table(CIE_TABLES_CSV, "cie_tables.csv");
         let basis = parse_table(DAYLIGHT_BASIS_CSV, "cie_daylight_basis.csv");
-        let first_nm = main.first_nm;
-        let row_count = main.rows;
-        let mut main = main;
-        let mut take = |name: &str| main.take(name);
-        let cmf_2 = [take("x2"), take("y2"), take("z2")];
-        let cmf_10 = [take("x10"), take("y10"), take("z10")];
-        let (d65, a, f2, f7, f11) = (take("D65"), take("A"), take("F2"), take("F7"), take("F11"));
-        let mut basis = basis;
-        let daylight_basis = [basis.take("S0"), basis.take("S1"), basis.take("S2")];
+        let column = |name: &str| main.series(name);
+        let cmf_2 = [column("x2"), column("y2"), column("z2")];
+        let cmf_10 = [column("x10"), column("y10"), column("z10")];
+        let daylight_basis = [basis.series("S0"), basis.series("S1"), basis.series("S2")];
         let d50 = daylight_from_basis(&daylight_basis, 5000.0 * 1.4388 / 1.4380)
             .expect("D50's CCT is in the daylight range");
         Tables {
             cmf_2,
             cmf_10,
-            d65,
+            d65: column("D65"),
             d50,
-            a,
-            f2,
-            f7,
-            f11,
+            a: column("A"),
+            f2: column("F2"),
+            f7: column("F7"),
+            f11: column("F11"),
             daylight_basis,
-            first_nm,
-            row_count,
+            first_nm: main.first_nm,
+            row_count: main.rows,
         }
     })
 }
@@ -546,7 +541,7 @@ struct RawTable {
 impl RawTable {
     /// The column's contiguous run of values as a series. The embedded data are
     /// checked by the tests, so malformed data is a build defect and panics.
-    fn take(&mut self, name: &str) -> Series {
+    fn series(&self, name: &str) -> Series {
         let (_, cells) = self
             .columns
             .iter()

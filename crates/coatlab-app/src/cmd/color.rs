@@ -10,6 +10,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use coatlab_core::cie::{Illuminant, Observer, summation_weights};
+use coatlab_core::colour::lab_from_xyz;
 use coatlab_core::spectrum::{ValueBounds, read_spectra_csv};
 
 /// Reflectance factors above 1 are allowed up to this value: fluorescent samples and
@@ -42,7 +43,7 @@ pub fn run(args: &ColorArgs, out: &mut impl Write) -> anyhow::Result<()> {
     writer.write_record(["name", "X", "Y", "Z", "L", "a", "b"])?;
     for (name, values) in &spectra.samples {
         let xyz = weights.xyz(values);
-        let lab = weights.lab(values);
+        let lab = lab_from_xyz(xyz, weights.white());
         let numbers = [xyz.x, xyz.y, xyz.z, lab.l, lab.a, lab.b].map(|v| v.to_string());
         writer.write_record(
             std::iter::once(name.as_str()).chain(numbers.iter().map(String::as_str)),
