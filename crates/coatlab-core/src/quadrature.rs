@@ -140,7 +140,11 @@ fn adaptive_step(
     let left = rule.integrate(a, mid, &mut *f);
     let right = rule.integrate(mid, b, &mut *f);
     let halves = left + right;
-    if depth_left == 0 || (halves - whole).abs() <= abs_tol || mid <= a || mid >= b {
+    // A tolerance below the rounding noise of the panel sum can never be met;
+    // accepting there keeps the recursion finite on any integrand.
+    let noise_floor = 64.0 * f64::EPSILON * (left.abs() + right.abs());
+    let error = (halves - whole).abs();
+    if depth_left == 0 || error <= abs_tol.max(noise_floor) || mid <= a || mid >= b {
         return halves;
     }
     let tol = 0.5 * abs_tol;
@@ -150,34 +154,67 @@ fn adaptive_step(
 
 /// Integrates a non-negative integrand to a relative accuracy `rel_tol`.
 ///
-/// A first pass on 8 equal panels estimates the size of the integral, which sets
-/// the absolute tolerance of the adaptive pass; an integrand that is zero
-/// everywhere returns 0 without further work.
+/// Globally adaptive: starts from 8 equal panels and keeps bisecting the panel with
+/// the largest error estimate (10-point rule against its two halves) until the
+/// summed estimate is below `rel_tol` times the integral. A budget of panels bounds
+/// the work on integrands that cannot meet the tolerance (rounding noise, a
+/// singularity); the result is then the best estimate found.
 pub fn integrate_relative(mut f: impl FnMut(f64) -> f64, a: f64, b: f64, rel_tol: f64) -> f64 {
     if b <= a {
         return 0.0;
     }
+    const INITIAL_PANELS: usize = 8;
+    const MAX_PANELS: usize = 4000;
     let rule = GaussLegendre::order10();
-    const PANELS: usize = 8;
-    let width = (b - a) / PANELS as f64;
-    let mut panel_sums = [0.0; PANELS];
-    for (i, sum) in panel_sums.iter_mut().enumerate() {
-        let lo = a + width * i as f64;
-        *sum = rule.integrate(lo, lo + width, &mut f);
-    }
-    let estimate: f64 = panel_sums.iter().map(|s| s.abs()).sum();
-    if estimate == 0.0 || !estimate.is_finite() {
-        return panel_sums.iter().sum();
-    }
-    let tol = rel_tol * estimate / PANELS as f64;
-    panel_sums
-        .iter()
-        .enumerate()
-        .map(|(i, &whole)| {
+    let mut evaluate = |lo: f64, hi: f64| {
+        let mid = 0.5 * (lo + hi);
+        let whole = rule.integrate(lo, hi, &mut f);
+        let left = rule.integrate(lo, mid, &mut f);
+        let right = rule.integrate(mid, hi, &mut f);
+        let noise_floor = 64.0 * f64::EPSILON * (left.abs() + right.abs());
+        let error = ((left + right) - whole).abs();
+        Panel { lo, hi, left, right, error: if error <= noise_floor { 0.0 } else { error } }
+    };
+    let width = (b - a) / INITIAL_PANELS as f64;
+    let mut panels: Vec<Panel> = (0..INITIAL_PANELS)
+        .map(|i| {
             let lo = a + width * i as f64;
-            adaptive_step(&mut f, rule, lo, lo + width, whole, tol, 40)
+            evaluate(lo, if i + 1 == INITIAL_PANELS { b } else { lo + width })
         })
-        .sum()
+        .collect();
+    loop {
+        let total: f64 = panels.iter().map(|p| p.left + p.right).sum();
+        let error: f64 = panels.iter().map(|p| p.error).sum();
+        if error <= rel_tol * total.abs() || panels.len() >= MAX_PANELS || !error.is_finite() {
+            return total;
+        }
+        // Split the worst panels: all whose error exceeds an equal share of the budget.
+        let share = rel_tol * total.abs() / panels.len() as f64;
+        let mut next = Vec::with_capacity(panels.len() * 2);
+        let mut split_any = false;
+        for p in panels {
+            let mid = 0.5 * (p.lo + p.hi);
+            if p.error > share && mid > p.lo && mid < p.hi && next.len() + 2 < MAX_PANELS {
+                next.push(evaluate(p.lo, mid));
+                next.push(evaluate(mid, p.hi));
+                split_any = true;
+            } else {
+                next.push(p);
+            }
+        }
+        panels = next;
+        if !split_any {
+            return panels.iter().map(|p| p.left + p.right).sum();
+        }
+    }
+}
+
+struct Panel {
+    lo: f64,
+    hi: f64,
+    left: f64,
+    right: f64,
+    error: f64,
 }
 
 #[cfg(test)]

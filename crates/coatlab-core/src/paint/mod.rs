@@ -2,3 +2,4 @@
 
 pub mod coat;
 pub mod fresnel;
+pub mod lobe;
