@@ -118,10 +118,11 @@ pub fn below_horizon_correction(cos_r: f64, m: f64) -> f64 {
     if sin_r == 0.0 {
         return 0.0;
     }
-    // t^m falls below e^{-50} (relative to t_k^m) under t_k·e^{−50/m}.
-    let lower = if m > 0.0 { sin_r * (-50.0 / m).exp() } else { 0.0 };
-    let log_tk = sin_r.ln();
-    let integrand = |t: f64| {
+    // Integrate in v = t_k − t so the small differences near the lobe's edge are
+    // exact. t^m falls below e^{-50} (relative to t_k^m) beyond v = t_k(1 − e^{−50/m}).
+    let v_max = if m > 0.0 { -sin_r * (-50.0 / m).exp_m1() } else { sin_r };
+    let integrand = |v: f64| {
+        let t = sin_r - v;
         if t <= 0.0 && m > 0.0 {
             return 0.0;
         }
@@ -129,17 +130,16 @@ pub fn below_horizon_correction(cos_r: f64, m: f64) -> f64 {
         if b <= 0.0 {
             return 0.0;
         }
-        // 1 − c from (t_k − t)(t_k + t) = b² − (tμ)², exact near c = 1 where the
-        // two terms of h cancel.
-        let one_minus_c = ((sin_r - t) * (sin_r + t) / (b * (b + t * mu))).clamp(0.0, 1.0);
+        // 1 − c = (t_k − t)(t_k + t)/(b(b + tμ)) since b² − (tμ)² = t_k² − t².
+        let one_minus_c = (v * (sin_r + t) / (b * (b + t * mu))).clamp(0.0, 1.0);
         let h = ring_below_horizon(one_minus_c);
-        // Factor t_k^m out so the quadrature's tolerance is relative to the
+        // (t/t_k)^m: t_k^m is factored out so the tolerance is relative to the
         // integral itself, not to an underflowing scale.
-        let power = if m == 0.0 { 1.0 } else { (m * (t.ln() - log_tk)).exp() };
+        let power = if m == 0.0 { 1.0 } else { (m * (-v / sin_r).ln_1p()).exp() };
         power * 2.0 * b * h
     };
-    let scaled = integrate_relative(integrand, lower, sin_r, 1e-11);
-    let scale = if m == 0.0 { 1.0 } else { (m * log_tk).exp() };
+    let scaled = integrate_relative(integrand, 0.0, v_max, 1e-10);
+    let scale = if m == 0.0 { 1.0 } else { (m * sin_r.ln()).exp() };
     scaled * scale
 }
 

@@ -3,3 +3,4 @@
 pub mod coat;
 pub mod fresnel;
 pub mod lobe;
+pub mod gloss;
