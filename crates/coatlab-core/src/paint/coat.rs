@@ -159,7 +159,12 @@ pub fn body_brdf<F: Float>(rho: F, n: F, tau: F, c: F, cos_i: F, cos_o: F) -> F 
     let pi = F::from(PI).unwrap_or_else(F::one);
     let through_i = transmittance(cos_i, n) * attenuation(tau, cos_refracted(cos_i, n));
     let through_o = transmittance(cos_o, n) * attenuation(tau, cos_refracted(cos_o, n));
-    rho * through_i * through_o / (n * n * (pi - rho * c))
+    let numerator = rho * through_i * through_o;
+    if numerator == F::zero() {
+        // Also where π − ρC rounds to 0 (huge n in single precision): no light in.
+        return F::zero();
+    }
+    numerator / (n * n * (pi - rho * c))
 }
 
 /// Directional albedo of the body term at incidence cosine μi: ∫ f_body cos θo dωo.

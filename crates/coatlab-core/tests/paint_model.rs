@@ -1,0 +1,485 @@
+//! The spectral paint model against the spec's checklist (section 9): energy,
+//! white furnace, reciprocity, limits, no NaN at the corners, f32 against f64, and
+//! χ² tests of the sampler. Statistical tests use fixed seeds and real tests
+//! (Z-scores, χ² p-values), each with a negative control showing it can fail.
+
+use coatlab_core::paint::coat::{body_albedo, body_brdf, c_integral};
+use coatlab_core::paint::fresnel::reflectance;
+use coatlab_core::paint::gloss::{GlossExponent, GlossGeometry};
+use coatlab_core::paint::lobe::{LobeKind, phong_lobe};
+use coatlab_core::paint::model::{GlossSetting, PaintModel, PaintParams, SpectralBsdf};
+use coatlab_core::spectrum::WavelengthGrid;
+use proptest::prelude::*;
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64;
+
+fn direction(theta_deg: f64, phi_deg: f64) -> [f64; 3] {
+    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
+    [t.sin() * p.cos(), t.sin() * p.sin(), t.cos()]
+}
+
+fn to_f32(w: [f64; 3]) -> [f32; 3] {
+    w.map(|x| x as f32)
+}
+
+fn grey_model(rho: f64, n: f64, tau: f64, m: GlossExponent, lobe: LobeKind) -> PaintModel {
+    let grid = WavelengthGrid::visible(16).expect("16-sample grid");
+    let mut params = PaintParams::grey(grid, rho, n, tau, 1.0, GlossSetting::Exponent(m));
+    params.lobe = lobe;
+    PaintModel::new(params).expect("valid grey parameters")
+}
+
+/// A paint with real dispersion and a UV absorber, on the reference grid.
+fn realistic_model(gu: f64) -> PaintModel {
+    let grid = WavelengthGrid::reference();
+    let wl: Vec<f64> = grid.wavelengths_nm().collect();
+    let albedo = wl.iter().map(|l| 0.05 + 0.7 / (1.0 + (-(l - 600.0) / 15.0).exp())).collect();
+    let index: Vec<f64> = wl.iter().map(|l| 1.492 + 0.0045 / (l / 1000.0).powi(2)).collect();
+    let absorption = wl.iter().map(|l| 0.0004 + 0.2 / (1.0 + ((l - 390.0) / 6.0).exp())).collect();
+    let params = PaintParams {
+        grid,
+        albedo,
+        refractive_index: index,
+        index_at_gloss_wavelength: 1.492 + 0.0045 / 0.5876_f64.powi(2),
+        absorption_per_um: absorption,
+        thickness_um: 45.0,
+        gloss: GlossSetting::Reading { gu, geometry: GlossGeometry::Deg20 },
+        lobe: LobeKind::Normalised,
+    };
+    PaintModel::new(params).expect("valid realistic parameters")
+}
+
+#[test]
+fn an_edit_recomputes_only_what_it_touches() {
+    let mut model = realistic_model(85.0);
+    let before = model.recompute_counts();
+    model.set_albedo(vec![0.5; 81]).expect("valid albedo");
+    let after = model.recompute_counts();
+    assert_eq!(after.coat_integrals, before.coat_integrals, "ρ must not recompute C");
+    assert_eq!(after.angular_tables, before.angular_tables);
+    assert_eq!(after.normalisation, before.normalisation);
+    assert_eq!(after.body_factor, before.body_factor + 1);
+
+    let before = model.recompute_counts();
+    model
+        .set_gloss(GlossSetting::Reading { gu: 70.0, geometry: GlossGeometry::Deg20 })
+        .expect("valid gloss");
+    let after = model.recompute_counts();
+    assert_eq!(after.coat_integrals, before.coat_integrals, "gloss must not recompute C");
+    assert_eq!(after.angular_tables, before.angular_tables);
+    assert_eq!(after.normalisation, before.normalisation + 1);
+
+    let before = model.recompute_counts();
+    model.set_thickness(50.0).expect("valid thickness");
+    let after = model.recompute_counts();
+    assert_eq!(after.coat_integrals, before.coat_integrals + 1);
+    assert_eq!(after.normalisation, before.normalisation, "h must not touch the lobe");
+    assert_eq!(after.exponent, before.exponent);
+}
+
+#[test]
+fn invalid_parameters_are_refused_with_their_value() {
+    let mut model = realistic_model(85.0);
+    let mut bad = vec![0.5; 81];
+    bad[10] = 1.2;
+    let err = model.set_albedo(bad).expect_err("ρ > 1 must be refused").to_string();
+    assert!(err.contains("1.2") && err.contains("430 nm"), "{err}");
+    let err = model.set_thickness(-1.0).expect_err("h < 0").to_string();
+    assert!(err.contains("-1"), "{err}");
+    let err = model.set_refractive_index(vec![0.9; 81], 0.9).expect_err("n < 1").to_string();
+    assert!(err.contains("0.9"), "{err}");
+    let err = model.set_absorption(vec![f64::NAN; 81]).expect_err("NaN k").to_string();
+    assert!(err.contains("NaN"), "{err}");
+    // The model is unchanged by refused edits.
+    assert_eq!(model.thickness_um(), 45.0);
+}
+
+/// Worst relative disagreement of the f32 evaluator with the f64 reference
+/// (relative to the value plus 1e-3/sr), over directions up to 85° from the normal
+/// and over grazing ones (85°–89.9°), separately.
+fn worst_f32_error(model: &PaintModel) -> (f64, f64) {
+    let len = model.grid().len();
+    let (mut reference, mut single) = (vec![0.0; len], vec![0.0_f32; len]);
+    let (mut worst, mut worst_grazing) = (0.0_f64, 0.0_f64);
+    for &ti in &[0.0, 10.0, 33.0, 60.0, 80.0, 85.0, 88.0, 89.9] {
+        for &to in &[0.0, 15.0, 45.0, 70.0, 85.0, 89.5] {
+            for &dphi in &[180.0, 150.0, 90.0, 0.0] {
+                let wi = direction(ti, 0.0);
+                let wo = direction(to, dphi);
+                model.eval_reference(wi, wo, &mut reference);
+                model.spectral().eval(to_f32(wi), to_f32(wo), &mut single);
+                for (r, s) in reference.iter().zip(&single) {
+                    let error = (f64::from(*s) - r).abs() / (r.abs() + 1e-3);
+                    if ti > 85.0 || to > 85.0 {
+                        worst_grazing = worst_grazing.max(error);
+                    } else {
+                        worst = worst.max(error);
+                    }
+                }
+            }
+        }
+    }
+    (worst, worst_grazing)
+}
+
+/// The stated tolerances of the f32 evaluator (see `SpectralPaint`).
+const F32_TOLERANCE: f64 = 1e-3;
+const F32_TOLERANCE_GRAZING: f64 = 5e-2;
+
+#[test]
+fn single_precision_agrees_with_double_precision_on_a_real_paint() {
+    for gu in [30.0, 85.0] {
+        let model = realistic_model(gu);
+        let (worst, grazing) = worst_f32_error(&model);
+        assert!(worst < F32_TOLERANCE, "{gu} GU: worst relative f32 error {worst:e}");
+        assert!(grazing < F32_TOLERANCE_GRAZING, "{gu} GU: worst grazing f32 error {grazing:e}");
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    #[test]
+    fn single_precision_agrees_with_double_precision_over_the_domain(
+        rho in prop_oneof![Just(0.0), Just(1.0), 0.0..=1.0f64],
+        n in prop_oneof![Just(1.0), Just(4.0), 1.0..=4.0f64],
+        log_tau in -6.0..4.0f64,
+        zero_tau in any::<bool>(),
+        log_m in 0.0..7.0f64,
+        paper in any::<bool>(),
+    ) {
+        let tau = if zero_tau { 0.0 } else { 10f64.powf(log_tau) };
+        let lobe = if paper { LobeKind::Paper } else { LobeKind::Normalised };
+        let model = grey_model(rho, n, tau, GlossExponent::Finite(10f64.powf(log_m)), lobe);
+        let (worst, grazing) = worst_f32_error(&model);
+        prop_assert!(worst < F32_TOLERANCE, "worst relative f32 error {:e}", worst);
+        prop_assert!(grazing < F32_TOLERANCE_GRAZING, "worst grazing f32 error {:e}", grazing);
+    }
+
+    #[test]
+    fn the_formulas_in_f32_agree_with_f64(
+        rho in 0.0..=1.0f64,
+        n in 1.0..=4.0f64,
+        tau in prop_oneof![Just(0.0), 0.0..5.0f64],
+        mu_i in 0.0..=1.0f64,
+        mu_o in 0.0..=1.0f64,
+    ) {
+        let c = c_integral(n, tau);
+        let f64_value = body_brdf(rho, n, tau, c, mu_i, mu_o);
+        let f32_value = body_brdf(rho as f32, n as f32, tau as f32, c as f32, mu_i as f32, mu_o as f32);
+        prop_assert!(f32_value.is_finite());
+        prop_assert!((f64::from(f32_value) - f64_value).abs() <= 1e-5 * (f64_value + 1e-3),
+            "{} vs {}", f32_value, f64_value);
+        let r64 = reflectance(mu_i, n);
+        let r32 = reflectance(mu_i as f32, n as f32);
+        prop_assert!((f64::from(r32) - r64).abs() <= 2e-6, "{} vs {}", r32, r64);
+    }
+
+    #[test]
+    fn no_nan_or_infinity_and_albedo_at_most_one(
+        rho in prop_oneof![Just(0.0), Just(1.0), 0.0..=1.0f64],
+        n in prop_oneof![Just(1.0), Just(4.0), Just(1e6), 1.0..=4.0f64],
+        tau in prop_oneof![Just(0.0), Just(1e4), Just(800.0), 0.0..20.0f64],
+        mu_i in prop_oneof![Just(0.0), Just(1.0), Just(1e-12), 0.0..=1.0f64],
+        mu_o in prop_oneof![Just(0.0), Just(1.0), 0.0..=1.0f64],
+    ) {
+        let c = c_integral(n, tau);
+        prop_assert!((0.0..std::f64::consts::PI).contains(&c), "C = {}", c);
+        let f = body_brdf(rho, n, tau, c, mu_i, mu_o);
+        prop_assert!(f.is_finite() && f >= 0.0, "f_body = {}", f);
+        let albedo = reflectance(mu_i, n) + body_albedo(rho, n, tau, mu_i);
+        prop_assert!(albedo.is_finite() && albedo <= 1.0 + 1e-12, "albedo = {}", albedo);
+        if n <= 4.0 {
+            // The renderer's single precision is stated for n in [1, 4].
+            let f32_value = body_brdf(rho as f32, n as f32, tau as f32, c as f32, mu_i as f32, mu_o as f32);
+            prop_assert!(f32_value.is_finite() && f32_value >= 0.0);
+        }
+    }
+
+    #[test]
+    fn body_and_lobe_shape_are_reciprocal(
+        rho in 0.0..=1.0f64, n in 1.0..=4.0f64, tau in 0.0..3.0f64,
+        ti in 0.0..89.0f64, to in 0.0..89.0f64, pi in 0.0..360.0f64, po in 0.0..360.0f64,
+        m in 0.0..500.0f64,
+    ) {
+        let c = c_integral(n, tau);
+        let (wi, wo) = (direction(ti, pi), direction(to, po));
+        let a = body_brdf(rho, n, tau, c, wi[2], wo[2]);
+        let b = body_brdf(rho, n, tau, c, wo[2], wi[2]);
+        prop_assert!((a - b).abs() <= 1e-14 * a.max(1e-300));
+        let da = phong_lobe(wi, wo, m);
+        let db = phong_lobe(wo, wi, m);
+        prop_assert!((da - db).abs() <= 1e-12 * da.max(1e-300));
+    }
+}
+
+#[test]
+fn stated_limits_hold() {
+    // n = 1: no reflection, C = 0, f_body = ρ/π·exp(−τ(1/μi + 1/μo)).
+    for &(rho, tau, mi, mo) in &[(0.7, 0.3, 0.5, 0.8), (1.0, 0.0, 0.1, 1.0), (0.2, 2.0, 0.9, 0.3)] {
+        assert_eq!(reflectance(mi, 1.0), 0.0);
+        assert_eq!(c_integral(1.0, tau), 0.0);
+        let f = body_brdf(rho, 1.0, tau, 0.0, mi, mo);
+        let want = rho / std::f64::consts::PI * (-tau * (1.0 / mi + 1.0 / mo)).exp();
+        assert!((f - want).abs() < 1e-15, "{f} vs {want}");
+    }
+    // ρ = 0: no body.
+    assert_eq!(body_brdf(0.0, 1.5, 0.1, c_integral(1.5, 0.1), 0.5, 0.5), 0.0);
+    // τ → ∞: body → 0 (and no NaN on the way).
+    assert_eq!(body_brdf(1.0, 1.5, 1e4, c_integral(1.5, 1e4), 0.5, 0.5), 0.0);
+    assert!(body_brdf(1.0, 1.5, 50.0, c_integral(1.5, 50.0), 1.0, 1.0) < 1e-40);
+    // n → ∞: R → 1.
+    assert!(reflectance(0.5, 1e8) > 1.0 - 1e-7);
+    // τ = 0 with μ′ = 0 (n = 1, grazing) is finite.
+    assert!(body_brdf(1.0_f64, 1.0, 0.0, 0.0, 0.0, 0.0).is_finite());
+}
+
+/// Mean and standard error of a Monte Carlo estimate of the directional albedo at
+/// `w`, by importance sampling with the model's own sampler.
+///
+/// `light_side` estimates the spec's albedo ∫ f(ωi = w, ωo) cos θo dωo (light
+/// arriving from `w`). Otherwise it estimates ∫ f(ωi, ωo = w) cos θi dωi, what a
+/// path traced from a camera at `w` integrates. The two differ because the
+/// normalised lobe is not reciprocal.
+fn sampled_albedo(model: &PaintModel, w: [f32; 3], light_side: bool, samples: usize, seed: u64) -> (f64, f64) {
+    let bsdf = model.spectral();
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let mut weight = vec![0.0_f32; bsdf.len()];
+    let mut value = vec![0.0_f32; bsdf.len()];
+    let (mut sum, mut sum2) = (0.0_f64, 0.0_f64);
+    for _ in 0..samples {
+        let u = [rng.random::<f32>(), rng.random::<f32>(), rng.random::<f32>()];
+        let estimate = match bsdf.sample(w, u, &mut weight) {
+            Some(s) if light_side && !s.delta => {
+                // The lobe proposal is symmetric, so directions about the mirror of
+                // `w` serve both sides; weigh them with f(w, ωo) instead.
+                bsdf.eval(w, s.wi, &mut value);
+                f64::from(value[0]) * f64::from(s.wi[2]) / f64::from(s.pdf)
+            }
+            Some(_) => f64::from(weight[0]),
+            None => 0.0,
+        };
+        sum += estimate;
+        sum2 += estimate * estimate;
+    }
+    let mean = sum / samples as f64;
+    let variance = (sum2 / samples as f64 - mean * mean).max(0.0);
+    (mean, (variance / samples as f64).sqrt())
+}
+
+#[test]
+fn white_furnace_by_importance_sampling() {
+    // ρ = 1, τ = 0, normalised lobe: the directional albedo is exactly 1. The
+    // estimate is judged by its Z-score (its standard error plus the f32 tables'
+    // tolerance), and a 1 % error must be detectable.
+    for m in [GlossExponent::Finite(30.0), GlossExponent::Finite(3000.0), GlossExponent::Mirror] {
+        let model = grey_model(1.0, 1.5, 0.0, m, LobeKind::Normalised);
+        for theta in [0.0, 40.0, 75.0, 85.0] {
+            let w = to_f32(direction(theta, 30.0));
+            let (mean, se) = sampled_albedo(&model, w, true, 400_000, 7);
+            let tolerance = se + 5e-4;
+            let z = (mean - 1.0) / tolerance;
+            assert!(z.abs() < 4.0, "{m:?} θ {theta}: albedo {mean} ± {se} (z {z})");
+            let z_wrong = (mean - 1.01) / tolerance;
+            assert!(z_wrong.abs() > 4.0, "the furnace test cannot see a 1% error ({m:?}, θ {theta})");
+        }
+    }
+}
+
+#[test]
+fn view_side_albedo_exceeds_one_only_by_the_measured_amount() {
+    // Seen from the camera, the white furnace integrates R(μi)/N(μi) over ωi, which
+    // the normalisation does not make exactly 1 (the lobe is normalised over ωo).
+    // Measured (400 000 samples, n = 1.5), recorded in docs/paint-model-notes.md:
+    // the largest excess is 4.0 % (m = 5 at 40°), 3.2 % (m = 30 at 60°), 1.3 %
+    // (m = 300 at 75°), 0.36 % (m = 3000 at 85°); at grazing views it falls below 1
+    // as the lobe about the mirror of ωo dips under the horizon.
+    for (m, bound) in [(5.0, 0.045), (30.0, 0.035), (300.0, 0.015), (3000.0, 0.005)] {
+        let model = grey_model(1.0, 1.5, 0.0, GlossExponent::Finite(m), LobeKind::Normalised);
+        for theta in [0.0, 40.0, 60.0, 75.0, 85.0] {
+            let (mean, se) = sampled_albedo(&model, to_f32(direction(theta, 0.0)), false, 400_000, 8);
+            assert!(mean - 1.0 < bound + 4.0 * se, "m {m} θ {theta}: view-side albedo {mean} ± {se}");
+        }
+    }
+}
+
+#[test]
+fn albedo_is_at_most_one_for_every_lobe_but_the_papers() {
+    for (rho, n, tau) in [(0.9, 1.5, 0.01), (1.0, 3.0, 0.0), (1.0, 1.0, 0.0), (0.5, 4.0, 2.0)] {
+        let model = grey_model(rho, n, tau, GlossExponent::Finite(100.0), LobeKind::Normalised);
+        for theta in [0.0, 60.0, 85.0] {
+            let (mean, se) = sampled_albedo(&model, to_f32(direction(theta, 0.0)), true, 100_000, 11);
+            assert!(mean - 4.0 * se <= 1.0 + 2e-4, "ρ {rho} n {n} τ {tau} θ {theta}: {mean} ± {se}");
+        }
+    }
+    // The paper's lobe as printed is not normalised: at low m it reflects more
+    // energy than it receives, which is why it is not the default.
+    let paper = grey_model(1.0, 1.5, 0.0, GlossExponent::Finite(2.0), LobeKind::Paper);
+    let (mean, se) = sampled_albedo(&paper, to_f32(direction(60.0, 0.0)), true, 100_000, 12);
+    assert!(mean - 4.0 * se > 1.0, "paper lobe albedo {mean} ± {se}");
+}
+
+// ---------------------------------------------------------------------------
+// χ² test of the sampler against its own density.
+
+/// ln Γ(x), Lanczos approximation (g = 7, n = 9), accurate to ~1e-15.
+fn ln_gamma(x: f64) -> f64 {
+    const G: [f64; 9] = [
+        0.999_999_999_999_809_9,
+        676.520_368_121_885_1,
+        -1_259.139_216_722_402_8,
+        771.323_428_777_653_1,
+        -176.615_029_162_140_6,
+        12.507_343_278_686_905,
+        -0.138_571_095_265_720_12,
+        9.984_369_578_019_572e-6,
+        1.505_632_735_149_311_6e-7,
+    ];
+    let x = x - 1.0;
+    let mut a = G[0];
+    let t = x + 7.5;
+    for (i, g) in G.iter().enumerate().skip(1) {
+        a += g / (x + i as f64);
+    }
+    0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
+}
+
+/// Upper regularised incomplete gamma Q(a, x): the χ² p-value is Q(dof/2, χ²/2).
+fn gamma_q(a: f64, x: f64) -> f64 {
+    if x < a + 1.0 {
+        let mut sum = 1.0 / a;
+        let mut term = sum;
+        for k in 1..10_000 {
+            term *= x / (a + k as f64);
+            sum += term;
+            if term < sum * 1e-16 {
+                break;
+            }
+        }
+        1.0 - sum * (-x + a * x.ln() - ln_gamma(a)).exp()
+    } else {
+        let tiny = 1e-300;
+        let mut b = x + 1.0 - a;
+        let mut c = 1.0 / tiny;
+        let mut d = 1.0 / b;
+        let mut h = d;
+        for i in 1..10_000 {
+            let an = -(i as f64) * (i as f64 - a);
+            b += 2.0;
+            d = an * d + b;
+            if d.abs() < tiny {
+                d = tiny;
+            }
+            c = b + an / c;
+            if c.abs() < tiny {
+                c = tiny;
+            }
+            d = 1.0 / d;
+            let delta = d * c;
+            h *= delta;
+            if (delta - 1.0).abs() < 1e-16 {
+                break;
+            }
+        }
+        (-x + a * x.ln() - ln_gamma(a)).exp() * h
+    }
+}
+
+/// χ² p-value of samples of `bsdf` at `wo` against the density `pdf`, on a grid of
+/// (cos θ, φ) bins; bins with fewer than 5 expected samples are pooled, and lost
+/// samples (below the surface) form a bin of their own.
+fn chi_square_p_value(
+    bsdf: &dyn SpectralBsdf,
+    wo: [f32; 3],
+    pdf: &dyn Fn([f32; 3]) -> f64,
+    samples: usize,
+    seed: u64,
+) -> f64 {
+    const MU_BINS: usize = 64;
+    const PHI_BINS: usize = 128;
+    let mut observed = vec![0.0_f64; MU_BINS * PHI_BINS + 1];
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let mut weight = vec![0.0_f32; bsdf.len()];
+    for _ in 0..samples {
+        let u = [rng.random::<f32>(), rng.random::<f32>(), rng.random::<f32>()];
+        match bsdf.sample(wo, u, &mut weight) {
+            Some(s) if !s.delta => {
+                let mu = f64::from(s.wi[2]).clamp(0.0, 1.0 - 1e-12);
+                let phi = f64::from(s.wi[1]).atan2(f64::from(s.wi[0])).rem_euclid(2.0 * std::f64::consts::PI);
+                let i = ((mu * MU_BINS as f64) as usize).min(MU_BINS - 1);
+                let j = ((phi / (2.0 * std::f64::consts::PI) * PHI_BINS as f64) as usize).min(PHI_BINS - 1);
+                observed[i * PHI_BINS + j] += 1.0;
+            }
+            _ => observed[MU_BINS * PHI_BINS] += 1.0,
+        }
+    }
+    // Expected counts: ∫ pdf dω over each bin (dω = dμ dφ), 4×4 Gauss–Legendre per bin.
+    let nodes = [-0.861_136_311_594_052_6, -0.339_981_043_584_856_3, 0.339_981_043_584_856_3, 0.861_136_311_594_052_6];
+    let weights = [0.347_854_845_137_453_9, 0.652_145_154_862_546_1, 0.652_145_154_862_546_1, 0.347_854_845_137_453_9];
+    let mut expected = vec![0.0_f64; MU_BINS * PHI_BINS + 1];
+    let (dmu, dphi) = (1.0 / MU_BINS as f64, 2.0 * std::f64::consts::PI / PHI_BINS as f64);
+    let mut total = 0.0;
+    for i in 0..MU_BINS {
+        for j in 0..PHI_BINS {
+            let mut integral = 0.0;
+            for (a, wa) in nodes.iter().zip(&weights) {
+                for (b, wb) in nodes.iter().zip(&weights) {
+                    let mu = (i as f64 + 0.5 + 0.5 * a) * dmu;
+                    let phi = (j as f64 + 0.5 + 0.5 * b) * dphi;
+                    let s = (1.0 - mu * mu).sqrt();
+                    let w = [(s * phi.cos()) as f32, (s * phi.sin()) as f32, mu as f32];
+                    integral += wa * wb * pdf(w);
+                }
+            }
+            let e = integral * 0.25 * dmu * dphi * samples as f64;
+            expected[i * PHI_BINS + j] = e;
+            total += e;
+        }
+    }
+    expected[MU_BINS * PHI_BINS] = (samples as f64 - total).max(0.0);
+    // Pool small bins.
+    let (mut chi2, mut dof) = (0.0, 0_i64);
+    let (mut pooled_e, mut pooled_o) = (0.0, 0.0);
+    for (e, o) in expected.iter().zip(&observed) {
+        if *e < 5.0 {
+            pooled_e += e;
+            pooled_o += o;
+        } else {
+            chi2 += (o - e).powi(2) / e;
+            dof += 1;
+        }
+    }
+    if pooled_e > 0.0 {
+        chi2 += (pooled_o - pooled_e).powi(2) / pooled_e;
+        dof += 1;
+    }
+    gamma_q((dof - 1) as f64 / 2.0, chi2 / 2.0)
+}
+
+#[test]
+fn sampler_matches_its_density() {
+    let cases = [
+        (GlossExponent::Finite(5.0), LobeKind::Normalised, 30.0),
+        (GlossExponent::Finite(60.0), LobeKind::Normalised, 70.0),
+        (GlossExponent::Finite(400.0), LobeKind::Normalised, 10.0),
+        (GlossExponent::Finite(40.0), LobeKind::Paper, 45.0),
+        (GlossExponent::Mirror, LobeKind::Normalised, 50.0),
+    ];
+    for (m, lobe, theta) in cases {
+        let model = grey_model(0.6, 1.5, 0.05, m, lobe);
+        let bsdf = model.spectral();
+        let wo = to_f32(direction(theta, 20.0));
+        let p = chi_square_p_value(bsdf, wo, &|wi| f64::from(bsdf.pdf(wo, wi)), 1_000_000, 3);
+        assert!(p > 1e-3, "{m:?} {lobe:?} θ {theta}: χ² p-value {p:e}");
+    }
+}
+
+#[test]
+fn chi_square_test_rejects_a_wrong_density() {
+    // Negative control: the density of a 25 % different exponent must be rejected.
+    let model = grey_model(0.6, 1.5, 0.05, GlossExponent::Finite(60.0), LobeKind::Normalised);
+    let wrong = grey_model(0.6, 1.5, 0.05, GlossExponent::Finite(75.0), LobeKind::Normalised);
+    let wo = to_f32(direction(40.0, 0.0));
+    let p = chi_square_p_value(model.spectral(), wo, &|wi| f64::from(wrong.spectral().pdf(wo, wi)), 1_000_000, 3);
+    assert!(p < 1e-6, "χ² accepted a 25% wrong exponent: p = {p:e}");
+}
