@@ -13,3 +13,4 @@ pub mod fresnel;
 pub mod gloss;
 pub mod lobe;
 pub mod model;
+pub mod phong;

@@ -743,7 +743,7 @@ impl SpectralBsdf for SpectralPaint {
             cosine_hemisphere([u[1], u[2]])
         };
         let pdf = self.pdf(wo, wi);
-        if !(pdf > 0.0) {
+        if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
         self.eval(wi, wo, weight);
