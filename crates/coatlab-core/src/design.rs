@@ -58,6 +58,7 @@ use crate::paint::gloss::{
     GLOSS_WAVELENGTH_NM, GlossError, GlossExponent, GlossGeometry, exponent_from_reading,
 };
 use crate::paint::lobe::LobeKind;
+use crate::paint::model::{GlossSetting, PaintModel, PaintParams};
 use crate::spectrum::{SampledSpectrum, TabulatedSpectrum, WavelengthGrid};
 
 /// The `format` key every design file starts with.
@@ -375,6 +376,25 @@ impl PaintDesign {
     /// n at one wavelength (nm); at [`GLOSS_WAVELENGTH_NM`] it sets the gloss.
     pub fn refractive_index_at_nm(&self, wavelength_nm: f64) -> f64 {
         self.refractive_index.at_nm(wavelength_nm)
+    }
+
+    /// The paint model of this design on a wavelength grid, with all derived tables.
+    pub fn model(&self, grid: WavelengthGrid) -> Result<PaintModel, DesignError> {
+        self.validate()?;
+        let params = PaintParams {
+            grid,
+            albedo: self.albedo_on(&grid).into_values(),
+            refractive_index: self.refractive_index_on(&grid).into_values(),
+            index_at_gloss_wavelength: self.refractive_index_at_nm(GLOSS_WAVELENGTH_NM),
+            absorption_per_um: self.absorption_on(&grid).into_values(),
+            thickness_um: self.thickness_um,
+            gloss: GlossSetting::Reading { gu: self.gloss.gu, geometry: self.gloss.geometry },
+            lobe: self.lobe,
+        };
+        PaintModel::new(params).map_err(|error| DesignError::Invalid {
+            field: "design".to_string(),
+            message: format!("{}: {error}", self.name),
+        })
     }
 
     /// The lobe exponent m(g) from the gloss reading, its geometry and n at 587.6 nm
