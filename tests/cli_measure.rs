@@ -8,26 +8,44 @@ fn coatlab() -> Command {
 }
 
 fn preset(slug: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/presets").join(format!("{slug}.toml"))
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../assets/presets")
+        .join(format!("{slug}.toml"))
 }
 
 fn json_of(args: &[&str]) -> serde_json::Value {
     let output = coatlab().args(args).output().expect("coatlab runs");
-    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
     serde_json::from_slice(&output.stdout).expect("valid JSON")
 }
 
 #[test]
 fn measure_prints_five_angles_and_three_gloss_readings() {
     let path = preset("signal-red");
-    let output = coatlab().arg("measure").arg(&path).output().expect("coatlab runs");
-    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let output = coatlab()
+        .arg("measure")
+        .arg(&path)
+        .output()
+        .expect("coatlab runs");
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
     let text = String::from_utf8_lossy(&output.stdout);
     for angle in ["15°", "25°", "45°", "75°", "110°"] {
         assert!(text.contains(angle), "{angle} missing from\n{text}");
     }
     for geometry in ["20°", "60°", "85°"] {
-        assert!(text.lines().any(|l| l.trim_start().starts_with(geometry) && l.contains("GU")), "{text}");
+        assert!(
+            text.lines()
+                .any(|l| l.trim_start().starts_with(geometry) && l.contains("GU")),
+            "{text}"
+        );
     }
 }
 
@@ -39,7 +57,10 @@ fn measure_json_reports_a_red_as_red_and_its_designed_gloss() {
     assert_eq!(angles.len(), 5);
     let lab = &angles[2]["lab"];
     let (a, b) = (lab["a"].as_f64().expect("a"), lab["b"].as_f64().expect("b"));
-    assert!(a > 30.0 && a > b.abs() * 0.5, "a red has a large positive a*: {lab}");
+    assert!(
+        a > 30.0 && a > b.abs() * 0.5,
+        "a red has a large positive a*: {lab}"
+    );
     // The design asks for 88 GU at 20° with n at 587.6 nm; the instrument weights
     // the dispersive coat by ȳ under D65, which moves the reading by < 1 GU.
     let gloss = json["measurement"]["gloss"].as_array().expect("gloss");
@@ -50,12 +71,24 @@ fn measure_json_reports_a_red_as_red_and_its_designed_gloss() {
 #[test]
 fn measure_against_a_target_reports_delta_e_per_angle() {
     let red = preset("signal-red");
-    let json = json_of(&["measure", "--json", red.to_str().expect("path"), "--target", red.to_str().expect("path")]);
+    let json = json_of(&[
+        "measure",
+        "--json",
+        red.to_str().expect("path"),
+        "--target",
+        red.to_str().expect("path"),
+    ]);
     let de = json["delta_e00"].as_array().expect("dE00 per angle");
     assert_eq!(de.len(), 5);
     assert!(de.iter().all(|d| d.as_f64() == Some(0.0)));
     let blue = preset("deep-blue");
-    let json = json_of(&["measure", "--json", red.to_str().expect("path"), "--target", blue.to_str().expect("path")]);
+    let json = json_of(&[
+        "measure",
+        "--json",
+        red.to_str().expect("path"),
+        "--target",
+        blue.to_str().expect("path"),
+    ]);
     assert!(json["delta_e00"][0].as_f64().is_some_and(|d| d > 20.0));
 }
 
@@ -64,13 +97,23 @@ fn measure_refuses_a_bad_file_with_its_name() {
     let dir = std::env::temp_dir().join(format!("coatlab-measure-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
     let bad = dir.join("broken.toml");
-    let text = std::fs::read_to_string(preset("signal-red")).expect("preset").replace("thickness_um = 45", "thickness_um = -45");
+    let text = std::fs::read_to_string(preset("signal-red"))
+        .expect("preset")
+        .replace("thickness_um = 45", "thickness_um = -45");
     std::fs::write(&bad, text).expect("write");
-    let output = coatlab().arg("measure").arg(&bad).output().expect("coatlab runs");
+    let output = coatlab()
+        .arg("measure")
+        .arg(&bad)
+        .output()
+        .expect("coatlab runs");
     assert!(!output.status.success());
     let err = String::from_utf8_lossy(&output.stderr);
     assert!(err.contains("broken.toml") && err.contains("-45"), "{err}");
-    let missing = coatlab().arg("measure").arg(dir.join("nope.toml")).output().expect("coatlab runs");
+    let missing = coatlab()
+        .arg("measure")
+        .arg(dir.join("nope.toml"))
+        .output()
+        .expect("coatlab runs");
     assert!(!missing.status.success());
     assert!(String::from_utf8_lossy(&missing.stderr).contains("nope.toml"));
     std::fs::remove_dir_all(&dir).ok();

@@ -11,7 +11,11 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser, Debug)]
-#[command(name = "coatlab", version, about = "Spectral colour design for gloss solid automotive paints")]
+#[command(
+    name = "coatlab",
+    version,
+    about = "Spectral colour design for gloss solid automotive paints"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -56,10 +60,11 @@ fn main() -> ExitCode {
     }
 }
 
-
 fn is_broken_pipe(err: &anyhow::Error) -> bool {
     err.chain().any(|cause| {
-        cause.downcast_ref::<io::Error>().is_some_and(|e| e.kind() == io::ErrorKind::BrokenPipe)
+        cause
+            .downcast_ref::<io::Error>()
+            .is_some_and(|e| e.kind() == io::ErrorKind::BrokenPipe)
             || cause
                 .downcast_ref::<serde_json::Error>()
                 .and_then(|e| e.io_error_kind())

@@ -388,7 +388,10 @@ impl PaintDesign {
             index_at_gloss_wavelength: self.refractive_index_at_nm(GLOSS_WAVELENGTH_NM),
             absorption_per_um: self.absorption_on(&grid).into_values(),
             thickness_um: self.thickness_um,
-            gloss: GlossSetting::Reading { gu: self.gloss.gu, geometry: self.gloss.geometry },
+            gloss: GlossSetting::Reading {
+                gu: self.gloss.gu,
+                geometry: self.gloss.geometry,
+            },
             lobe: self.lobe,
         };
         PaintModel::new(params).map_err(|error| DesignError::Invalid {

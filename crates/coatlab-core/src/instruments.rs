@@ -100,11 +100,23 @@ pub fn measure(model: &PaintModel) -> Measurement {
             model.eval_reference(wi, wo, &mut f);
             let reflectance_factor: Vec<f64> = f.iter().map(|v| PI * v).collect();
             let lab = colorimeter.lab(&reflectance_factor);
-            AngleReading { aspecular_deg: aspecular, detector_deg: detector, lab, reflectance_factor }
+            AngleReading {
+                aspecular_deg: aspecular,
+                detector_deg: detector,
+                lab,
+                reflectance_factor,
+            }
         })
         .collect();
-    let gloss = GlossGeometry::ALL.iter().map(|&g| gloss_reading(model, g)).collect();
-    Measurement { wavelength_nm: grid.wavelengths_nm().collect(), angles, gloss }
+    let gloss = GlossGeometry::ALL
+        .iter()
+        .map(|&g| gloss_reading(model, g))
+        .collect();
+    Measurement {
+        wavelength_nm: grid.wavelengths_nm().collect(),
+        angles,
+        gloss,
+    }
 }
 
 /// The glossmeter's specular-only and total readings of a design at one geometry.
@@ -124,7 +136,8 @@ pub fn gloss_reading(model: &PaintModel, geometry: GlossGeometry) -> GlossReadin
             (GlossExponent::Mirror, _) => 1.0,
             (GlossExponent::Finite(m), LobeKind::Normalised) => {
                 let peak = [-wi[0], -wi[1], wi[2]];
-                let captured = meter.receptor_integral(peak, 1.0 / (m + 1.0).sqrt(), |wo| phong_lobe(wi, wo, m));
+                let captured = meter
+                    .receptor_integral(peak, 1.0 / (m + 1.0).sqrt(), |wo| phong_lobe(wi, wo, m));
                 captured / phong_normalisation(wi[2], m)
             }
             (GlossExponent::Finite(m), LobeKind::Paper) => {
@@ -133,7 +146,11 @@ pub fn gloss_reading(model: &PaintModel, geometry: GlossGeometry) -> GlossReadin
                 meter.receptor_integral(peak, 2.0 / (m + 1.0).sqrt(), |wo| paper_lobe(wi, wo, m))
             }
         };
-        let r: f64 = w.iter().zip(index).map(|(w, &n)| w * reflectance(wi[2], n)).sum();
+        let r: f64 = w
+            .iter()
+            .zip(index)
+            .map(|(w, &n)| w * reflectance(wi[2], n))
+            .sum();
         r * fraction
     });
     let body = meter.reading_of(|wi| {
@@ -152,18 +169,32 @@ pub fn gloss_reading(model: &PaintModel, geometry: GlossGeometry) -> GlossReadin
                 .sum()
         })
     });
-    GlossReading { geometry, specular_gu: specular, total_gu: specular + body }
+    GlossReading {
+        geometry,
+        specular_gu: specular,
+        total_gu: specular + body,
+    }
 }
 
 /// CIEDE2000 between a design and a target design at each aspecular angle.
 pub fn delta_e_per_angle(design: &Measurement, target: &Measurement) -> Vec<f64> {
-    design.angles.iter().zip(&target.angles).map(|(a, b)| ciede2000(a.lab, b.lab)).collect()
+    design
+        .angles
+        .iter()
+        .zip(&target.angles)
+        .map(|(a, b)| ciede2000(a.lab, b.lab))
+        .collect()
 }
 
 /// The reading a design's gloss setting should reproduce: the specular reading
 /// at the design's own geometry, through the tabulated glossmeter.
 pub fn specular_reading_tabulated(model: &PaintModel, geometry: GlossGeometry) -> Option<f64> {
-    reading_from_exponent(geometry, model.index_at_gloss_wavelength(), model.exponent()).ok()
+    reading_from_exponent(
+        geometry,
+        model.index_at_gloss_wavelength(),
+        model.exponent(),
+    )
+    .ok()
 }
 
 #[cfg(test)]
@@ -173,13 +204,26 @@ mod tests {
     use crate::spectrum::WavelengthGrid;
 
     fn grey(rho: f64, gloss: GlossSetting) -> PaintModel {
-        PaintModel::new(PaintParams::grey(WavelengthGrid::reference(), rho, 1.5, 0.0005, 40.0, gloss))
-            .expect("valid model")
+        PaintModel::new(PaintParams::grey(
+            WavelengthGrid::reference(),
+            rho,
+            1.5,
+            0.0005,
+            40.0,
+            gloss,
+        ))
+        .expect("valid model")
     }
 
     #[test]
     fn a_grey_design_measures_neutral_and_flops_darker() {
-        let model = grey(0.5, GlossSetting::Reading { gu: 88.0, geometry: GlossGeometry::Deg20 });
+        let model = grey(
+            0.5,
+            GlossSetting::Reading {
+                gu: 88.0,
+                geometry: GlossGeometry::Deg20,
+            },
+        );
         let m = measure(&model);
         assert_eq!(m.angles.len(), 5);
         for a in &m.angles {
@@ -196,7 +240,10 @@ mod tests {
         for (gu, geometry) in [(75.0, GlossGeometry::Deg20), (60.0, GlossGeometry::Deg60)] {
             let model = grey(0.0, GlossSetting::Reading { gu, geometry });
             let reading = gloss_reading(&model, geometry);
-            assert!((reading.specular_gu - gu).abs() < 0.05, "{geometry}: {reading:?} vs {gu}");
+            assert!(
+                (reading.specular_gu - gu).abs() < 0.05,
+                "{geometry}: {reading:?} vs {gu}"
+            );
             // A black pigment adds nothing.
             assert!((reading.total_gu - reading.specular_gu).abs() < 1e-12);
             let tabulated = specular_reading_tabulated(&model, geometry).unwrap_or(f64::NAN);
@@ -206,7 +253,13 @@ mod tests {
 
     #[test]
     fn a_white_pigment_raises_the_total_reading() {
-        let model = grey(0.9, GlossSetting::Reading { gu: 85.0, geometry: GlossGeometry::Deg20 });
+        let model = grey(
+            0.9,
+            GlossSetting::Reading {
+                gu: 85.0,
+                geometry: GlossGeometry::Deg20,
+            },
+        );
         let reading = gloss_reading(&model, GlossGeometry::Deg60);
         assert!(reading.total_gu > reading.specular_gu + 0.01, "{reading:?}");
     }

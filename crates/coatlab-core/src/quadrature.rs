@@ -173,13 +173,26 @@ pub fn integrate_relative(mut f: impl FnMut(f64) -> f64, a: f64, b: f64, rel_tol
         let right = rule.integrate(mid, hi, &mut f);
         let noise_floor = 64.0 * f64::EPSILON * (left.abs() + right.abs());
         let error = ((left + right) - whole).abs();
-        Panel { lo, hi, left, right, error: if error <= noise_floor { 0.0 } else { error } }
+        Panel {
+            lo,
+            hi,
+            left,
+            right,
+            error: if error <= noise_floor { 0.0 } else { error },
+        }
     };
     let width = (b - a) / INITIAL_PANELS as f64;
     let mut panels: Vec<Panel> = (0..INITIAL_PANELS)
         .map(|i| {
             let lo = a + width * i as f64;
-            evaluate(lo, if i + 1 == INITIAL_PANELS { b } else { lo + width })
+            evaluate(
+                lo,
+                if i + 1 == INITIAL_PANELS {
+                    b
+                } else {
+                    lo + width
+                },
+            )
         })
         .collect();
     loop {

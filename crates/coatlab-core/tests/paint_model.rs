@@ -33,9 +33,18 @@ fn grey_model(rho: f64, n: f64, tau: f64, m: GlossExponent, lobe: LobeKind) -> P
 fn realistic_model(gu: f64) -> PaintModel {
     let grid = WavelengthGrid::reference();
     let wl: Vec<f64> = grid.wavelengths_nm().collect();
-    let albedo = wl.iter().map(|l| 0.05 + 0.7 / (1.0 + (-(l - 600.0) / 15.0).exp())).collect();
-    let index: Vec<f64> = wl.iter().map(|l| 1.492 + 0.0045 / (l / 1000.0).powi(2)).collect();
-    let absorption = wl.iter().map(|l| 0.0004 + 0.2 / (1.0 + ((l - 390.0) / 6.0).exp())).collect();
+    let albedo = wl
+        .iter()
+        .map(|l| 0.05 + 0.7 / (1.0 + (-(l - 600.0) / 15.0).exp()))
+        .collect();
+    let index: Vec<f64> = wl
+        .iter()
+        .map(|l| 1.492 + 0.0045 / (l / 1000.0).powi(2))
+        .collect();
+    let absorption = wl
+        .iter()
+        .map(|l| 0.0004 + 0.2 / (1.0 + ((l - 390.0) / 6.0).exp()))
+        .collect();
     let params = PaintParams {
         grid,
         albedo,
@@ -43,7 +52,10 @@ fn realistic_model(gu: f64) -> PaintModel {
         index_at_gloss_wavelength: 1.492 + 0.0045 / 0.5876_f64.powi(2),
         absorption_per_um: absorption,
         thickness_um: 45.0,
-        gloss: GlossSetting::Reading { gu, geometry: GlossGeometry::Deg20 },
+        gloss: GlossSetting::Reading {
+            gu,
+            geometry: GlossGeometry::Deg20,
+        },
         lobe: LobeKind::Normalised,
     };
     PaintModel::new(params).expect("valid realistic parameters")
@@ -55,17 +67,26 @@ fn an_edit_recomputes_only_what_it_touches() {
     let before = model.recompute_counts();
     model.set_albedo(vec![0.5; 81]).expect("valid albedo");
     let after = model.recompute_counts();
-    assert_eq!(after.coat_integrals, before.coat_integrals, "ρ must not recompute C");
+    assert_eq!(
+        after.coat_integrals, before.coat_integrals,
+        "ρ must not recompute C"
+    );
     assert_eq!(after.angular_tables, before.angular_tables);
     assert_eq!(after.normalisation, before.normalisation);
     assert_eq!(after.body_factor, before.body_factor + 1);
 
     let before = model.recompute_counts();
     model
-        .set_gloss(GlossSetting::Reading { gu: 70.0, geometry: GlossGeometry::Deg20 })
+        .set_gloss(GlossSetting::Reading {
+            gu: 70.0,
+            geometry: GlossGeometry::Deg20,
+        })
         .expect("valid gloss");
     let after = model.recompute_counts();
-    assert_eq!(after.coat_integrals, before.coat_integrals, "gloss must not recompute C");
+    assert_eq!(
+        after.coat_integrals, before.coat_integrals,
+        "gloss must not recompute C"
+    );
     assert_eq!(after.angular_tables, before.angular_tables);
     assert_eq!(after.normalisation, before.normalisation + 1);
 
@@ -73,7 +94,10 @@ fn an_edit_recomputes_only_what_it_touches() {
     model.set_thickness(50.0).expect("valid thickness");
     let after = model.recompute_counts();
     assert_eq!(after.coat_integrals, before.coat_integrals + 1);
-    assert_eq!(after.normalisation, before.normalisation, "h must not touch the lobe");
+    assert_eq!(
+        after.normalisation, before.normalisation,
+        "h must not touch the lobe"
+    );
     assert_eq!(after.exponent, before.exponent);
 }
 
@@ -82,13 +106,22 @@ fn invalid_parameters_are_refused_with_their_value() {
     let mut model = realistic_model(85.0);
     let mut bad = vec![0.5; 81];
     bad[10] = 1.2;
-    let err = model.set_albedo(bad).expect_err("ρ > 1 must be refused").to_string();
+    let err = model
+        .set_albedo(bad)
+        .expect_err("ρ > 1 must be refused")
+        .to_string();
     assert!(err.contains("1.2") && err.contains("430 nm"), "{err}");
     let err = model.set_thickness(-1.0).expect_err("h < 0").to_string();
     assert!(err.contains("-1"), "{err}");
-    let err = model.set_refractive_index(vec![0.9; 81], 0.9).expect_err("n < 1").to_string();
+    let err = model
+        .set_refractive_index(vec![0.9; 81], 0.9)
+        .expect_err("n < 1")
+        .to_string();
     assert!(err.contains("0.9"), "{err}");
-    let err = model.set_absorption(vec![f64::NAN; 81]).expect_err("NaN k").to_string();
+    let err = model
+        .set_absorption(vec![f64::NAN; 81])
+        .expect_err("NaN k")
+        .to_string();
     assert!(err.contains("NaN"), "{err}");
     // The model is unchanged by refused edits.
     assert_eq!(model.thickness_um(), 45.0);
@@ -131,8 +164,14 @@ fn single_precision_agrees_with_double_precision_on_a_real_paint() {
     for gu in [30.0, 85.0] {
         let model = realistic_model(gu);
         let (worst, grazing) = worst_f32_error(&model);
-        assert!(worst < F32_TOLERANCE, "{gu} GU: worst relative f32 error {worst:e}");
-        assert!(grazing < F32_TOLERANCE_GRAZING, "{gu} GU: worst grazing f32 error {grazing:e}");
+        assert!(
+            worst < F32_TOLERANCE,
+            "{gu} GU: worst relative f32 error {worst:e}"
+        );
+        assert!(
+            grazing < F32_TOLERANCE_GRAZING,
+            "{gu} GU: worst grazing f32 error {grazing:e}"
+        );
     }
 }
 
@@ -216,7 +255,11 @@ proptest! {
 #[test]
 fn stated_limits_hold() {
     // n = 1: no reflection, C = 0, f_body = ρ/π·exp(−τ(1/μi + 1/μo)).
-    for &(rho, tau, mi, mo) in &[(0.7, 0.3, 0.5, 0.8), (1.0, 0.0, 0.1, 1.0), (0.2, 2.0, 0.9, 0.3)] {
+    for &(rho, tau, mi, mo) in &[
+        (0.7, 0.3, 0.5, 0.8),
+        (1.0, 0.0, 0.1, 1.0),
+        (0.2, 2.0, 0.9, 0.3),
+    ] {
         assert_eq!(reflectance(mi, 1.0), 0.0);
         assert_eq!(c_integral(1.0, tau), 0.0);
         let f = body_brdf(rho, 1.0, tau, 0.0, mi, mo);
@@ -224,9 +267,15 @@ fn stated_limits_hold() {
         assert!((f - want).abs() < 1e-15, "{f} vs {want}");
     }
     // ρ = 0: no body.
-    assert_eq!(body_brdf(0.0, 1.5, 0.1, c_integral(1.5, 0.1), 0.5, 0.5), 0.0);
+    assert_eq!(
+        body_brdf(0.0, 1.5, 0.1, c_integral(1.5, 0.1), 0.5, 0.5),
+        0.0
+    );
     // τ → ∞: body → 0 (and no NaN on the way).
-    assert_eq!(body_brdf(1.0, 1.5, 1e4, c_integral(1.5, 1e4), 0.5, 0.5), 0.0);
+    assert_eq!(
+        body_brdf(1.0, 1.5, 1e4, c_integral(1.5, 1e4), 0.5, 0.5),
+        0.0
+    );
     assert!(body_brdf(1.0, 1.5, 50.0, c_integral(1.5, 50.0), 1.0, 1.0) < 1e-40);
     // n → ∞: R → 1.
     assert!(reflectance(0.5, 1e8) > 1.0 - 1e-7);
@@ -241,14 +290,24 @@ fn stated_limits_hold() {
 /// arriving from `w`). Otherwise it estimates ∫ f(ωi, ωo = w) cos θi dωi, what a
 /// path traced from a camera at `w` integrates. The two differ because the
 /// normalised lobe is not reciprocal.
-fn sampled_albedo(model: &PaintModel, w: [f32; 3], light_side: bool, samples: usize, seed: u64) -> (f64, f64) {
+fn sampled_albedo(
+    model: &PaintModel,
+    w: [f32; 3],
+    light_side: bool,
+    samples: usize,
+    seed: u64,
+) -> (f64, f64) {
     let bsdf = model.spectral();
     let mut rng = Pcg64::seed_from_u64(seed);
     let mut weight = vec![0.0_f32; bsdf.len()];
     let mut value = vec![0.0_f32; bsdf.len()];
     let (mut sum, mut sum2) = (0.0_f64, 0.0_f64);
     for _ in 0..samples {
-        let u = [rng.random::<f32>(), rng.random::<f32>(), rng.random::<f32>()];
+        let u = [
+            rng.random::<f32>(),
+            rng.random::<f32>(),
+            rng.random::<f32>(),
+        ];
         let estimate = match bsdf.sample(w, u, &mut weight) {
             Some(s) if light_side && !s.delta => {
                 // The lobe proposal is symmetric, so directions about the mirror of
@@ -272,16 +331,26 @@ fn white_furnace_by_importance_sampling() {
     // ρ = 1, τ = 0, normalised lobe: the directional albedo is exactly 1. The
     // estimate is judged by its Z-score (its standard error plus the f32 tables'
     // tolerance), and a 1 % error must be detectable.
-    for m in [GlossExponent::Finite(30.0), GlossExponent::Finite(3000.0), GlossExponent::Mirror] {
+    for m in [
+        GlossExponent::Finite(30.0),
+        GlossExponent::Finite(3000.0),
+        GlossExponent::Mirror,
+    ] {
         let model = grey_model(1.0, 1.5, 0.0, m, LobeKind::Normalised);
         for theta in [0.0, 40.0, 75.0, 85.0] {
             let w = to_f32(direction(theta, 30.0));
             let (mean, se) = sampled_albedo(&model, w, true, 400_000, 7);
             let tolerance = se + 5e-4;
             let z = (mean - 1.0) / tolerance;
-            assert!(z.abs() < 4.0, "{m:?} θ {theta}: albedo {mean} ± {se} (z {z})");
+            assert!(
+                z.abs() < 4.0,
+                "{m:?} θ {theta}: albedo {mean} ± {se} (z {z})"
+            );
             let z_wrong = (mean - 1.01) / tolerance;
-            assert!(z_wrong.abs() > 4.0, "the furnace test cannot see a 1% error ({m:?}, θ {theta})");
+            assert!(
+                z_wrong.abs() > 4.0,
+                "the furnace test cannot see a 1% error ({m:?}, θ {theta})"
+            );
         }
     }
 }
@@ -295,21 +364,46 @@ fn view_side_albedo_exceeds_one_only_by_the_measured_amount() {
     // (m = 300 at 75°), 0.36 % (m = 3000 at 85°); at grazing views it falls below 1
     // as the lobe about the mirror of ωo dips under the horizon.
     for (m, bound) in [(5.0, 0.045), (30.0, 0.035), (300.0, 0.015), (3000.0, 0.005)] {
-        let model = grey_model(1.0, 1.5, 0.0, GlossExponent::Finite(m), LobeKind::Normalised);
+        let model = grey_model(
+            1.0,
+            1.5,
+            0.0,
+            GlossExponent::Finite(m),
+            LobeKind::Normalised,
+        );
         for theta in [0.0, 40.0, 60.0, 75.0, 85.0] {
-            let (mean, se) = sampled_albedo(&model, to_f32(direction(theta, 0.0)), false, 400_000, 8);
-            assert!(mean - 1.0 < bound + 4.0 * se, "m {m} θ {theta}: view-side albedo {mean} ± {se}");
+            let (mean, se) =
+                sampled_albedo(&model, to_f32(direction(theta, 0.0)), false, 400_000, 8);
+            assert!(
+                mean - 1.0 < bound + 4.0 * se,
+                "m {m} θ {theta}: view-side albedo {mean} ± {se}"
+            );
         }
     }
 }
 
 #[test]
 fn albedo_is_at_most_one_for_every_lobe_but_the_papers() {
-    for (rho, n, tau) in [(0.9, 1.5, 0.01), (1.0, 3.0, 0.0), (1.0, 1.0, 0.0), (0.5, 4.0, 2.0)] {
-        let model = grey_model(rho, n, tau, GlossExponent::Finite(100.0), LobeKind::Normalised);
+    for (rho, n, tau) in [
+        (0.9, 1.5, 0.01),
+        (1.0, 3.0, 0.0),
+        (1.0, 1.0, 0.0),
+        (0.5, 4.0, 2.0),
+    ] {
+        let model = grey_model(
+            rho,
+            n,
+            tau,
+            GlossExponent::Finite(100.0),
+            LobeKind::Normalised,
+        );
         for theta in [0.0, 60.0, 85.0] {
-            let (mean, se) = sampled_albedo(&model, to_f32(direction(theta, 0.0)), true, 100_000, 11);
-            assert!(mean - 4.0 * se <= 1.0 + 2e-4, "ρ {rho} n {n} τ {tau} θ {theta}: {mean} ± {se}");
+            let (mean, se) =
+                sampled_albedo(&model, to_f32(direction(theta, 0.0)), true, 100_000, 11);
+            assert!(
+                mean - 4.0 * se <= 1.0 + 2e-4,
+                "ρ {rho} n {n} τ {tau} θ {theta}: {mean} ± {se}"
+            );
         }
     }
     // The paper's lobe as printed is not normalised: at low m it reflects more
@@ -401,23 +495,43 @@ fn chi_square_p_value(
     let mut rng = Pcg64::seed_from_u64(seed);
     let mut weight = vec![0.0_f32; bsdf.len()];
     for _ in 0..samples {
-        let u = [rng.random::<f32>(), rng.random::<f32>(), rng.random::<f32>()];
+        let u = [
+            rng.random::<f32>(),
+            rng.random::<f32>(),
+            rng.random::<f32>(),
+        ];
         match bsdf.sample(wo, u, &mut weight) {
             Some(s) if !s.delta => {
                 let mu = f64::from(s.wi[2]).clamp(0.0, 1.0 - 1e-12);
-                let phi = f64::from(s.wi[1]).atan2(f64::from(s.wi[0])).rem_euclid(2.0 * std::f64::consts::PI);
+                let phi = f64::from(s.wi[1])
+                    .atan2(f64::from(s.wi[0]))
+                    .rem_euclid(2.0 * std::f64::consts::PI);
                 let i = ((mu * MU_BINS as f64) as usize).min(MU_BINS - 1);
-                let j = ((phi / (2.0 * std::f64::consts::PI) * PHI_BINS as f64) as usize).min(PHI_BINS - 1);
+                let j = ((phi / (2.0 * std::f64::consts::PI) * PHI_BINS as f64) as usize)
+                    .min(PHI_BINS - 1);
                 observed[i * PHI_BINS + j] += 1.0;
             }
             _ => observed[MU_BINS * PHI_BINS] += 1.0,
         }
     }
     // Expected counts: ∫ pdf dω over each bin (dω = dμ dφ), 4×4 Gauss–Legendre per bin.
-    let nodes = [-0.861_136_311_594_052_6, -0.339_981_043_584_856_3, 0.339_981_043_584_856_3, 0.861_136_311_594_052_6];
-    let weights = [0.347_854_845_137_453_9, 0.652_145_154_862_546_1, 0.652_145_154_862_546_1, 0.347_854_845_137_453_9];
+    let nodes = [
+        -0.861_136_311_594_052_6,
+        -0.339_981_043_584_856_3,
+        0.339_981_043_584_856_3,
+        0.861_136_311_594_052_6,
+    ];
+    let weights = [
+        0.347_854_845_137_453_9,
+        0.652_145_154_862_546_1,
+        0.652_145_154_862_546_1,
+        0.347_854_845_137_453_9,
+    ];
     let mut expected = vec![0.0_f64; MU_BINS * PHI_BINS + 1];
-    let (dmu, dphi) = (1.0 / MU_BINS as f64, 2.0 * std::f64::consts::PI / PHI_BINS as f64);
+    let (dmu, dphi) = (
+        1.0 / MU_BINS as f64,
+        2.0 * std::f64::consts::PI / PHI_BINS as f64,
+    );
     let mut total = 0.0;
     for i in 0..MU_BINS {
         for j in 0..PHI_BINS {
@@ -477,9 +591,27 @@ fn sampler_matches_its_density() {
 #[test]
 fn chi_square_test_rejects_a_wrong_density() {
     // Negative control: the density of a 25 % different exponent must be rejected.
-    let model = grey_model(0.6, 1.5, 0.05, GlossExponent::Finite(60.0), LobeKind::Normalised);
-    let wrong = grey_model(0.6, 1.5, 0.05, GlossExponent::Finite(75.0), LobeKind::Normalised);
+    let model = grey_model(
+        0.6,
+        1.5,
+        0.05,
+        GlossExponent::Finite(60.0),
+        LobeKind::Normalised,
+    );
+    let wrong = grey_model(
+        0.6,
+        1.5,
+        0.05,
+        GlossExponent::Finite(75.0),
+        LobeKind::Normalised,
+    );
     let wo = to_f32(direction(40.0, 0.0));
-    let p = chi_square_p_value(model.spectral(), wo, &|wi| f64::from(wrong.spectral().pdf(wo, wi)), 1_000_000, 3);
+    let p = chi_square_p_value(
+        model.spectral(),
+        wo,
+        &|wi| f64::from(wrong.spectral().pdf(wo, wi)),
+        1_000_000,
+        3,
+    );
     assert!(p < 1e-6, "χ² accepted a 25% wrong exponent: p = {p:e}");
 }

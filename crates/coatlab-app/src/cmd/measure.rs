@@ -32,7 +32,9 @@ fn measure_file(path: &PathBuf) -> anyhow::Result<(PaintDesign, Measurement)> {
 pub fn run(args: &MeasureArgs, out: &mut impl Write) -> anyhow::Result<()> {
     let (design, measurement) = measure_file(&args.design)?;
     let target = args.target.as_ref().map(measure_file).transpose()?;
-    let delta_e = target.as_ref().map(|(_, t)| delta_e_per_angle(&measurement, t));
+    let delta_e = target
+        .as_ref()
+        .map(|(_, t)| delta_e_per_angle(&measurement, t));
 
     if args.json {
         let json = serde_json::json!({
@@ -55,7 +57,10 @@ pub fn run(args: &MeasureArgs, out: &mut impl Write) -> anyhow::Result<()> {
         Some((t, _)) => format!("  dE00 to {}", t.name),
         None => String::new(),
     };
-    writeln!(out, "aspecular  detector       L*       a*       b*{header_extra}")?;
+    writeln!(
+        out,
+        "aspecular  detector       L*       a*       b*{header_extra}"
+    )?;
     for (i, a) in measurement.angles.iter().enumerate() {
         write!(
             out,
@@ -67,7 +72,10 @@ pub fn run(args: &MeasureArgs, out: &mut impl Write) -> anyhow::Result<()> {
         }
         writeln!(out)?;
     }
-    writeln!(out, "Gloss (ISO 2813 geometry; specular + body, ȳ under D65):")?;
+    writeln!(
+        out,
+        "Gloss (ISO 2813 geometry; specular + body, ȳ under D65):"
+    )?;
     for g in &measurement.gloss {
         writeln!(
             out,

@@ -57,7 +57,11 @@ fn outside_cosine_integral_scaled(n: f64, depth: f64, g: impl Fn(f64) -> f64) ->
         let mu_t = cos_refracted(mu, n);
         // 1/μ′ − 1 without cancellation near normal incidence.
         let one_minus_mu_t = (1.0 - mu) * (1.0 + mu) / (n2 * (1.0 + mu_t));
-        let exponent = if depth == 0.0 { 0.0 } else { depth * one_minus_mu_t / mu_t };
+        let exponent = if depth == 0.0 {
+            0.0
+        } else {
+            depth * one_minus_mu_t / mu_t
+        };
         g(mu) * mu * (-exponent).exp()
     };
     let mut lower = 0.0;
@@ -147,7 +151,11 @@ fn tir_bracket(x: f64) -> f64 {
 /// μ′ = 0 (n = 1 at grazing), where τ/μ′ would be 0/0.
 #[inline]
 pub fn attenuation<F: Float>(tau: F, cos_inside: F) -> F {
-    if tau == F::zero() { F::one() } else { (-tau / cos_inside).exp() }
+    if tau == F::zero() {
+        F::one()
+    } else {
+        (-tau / cos_inside).exp()
+    }
 }
 
 /// f_body of spec 4.1 in 1/sr (without the cosine factor); `c` is C(n, τ).
@@ -195,7 +203,10 @@ mod tests {
         for x in [1.0_f64, 60.0] {
             let below = tir_bracket(x * (1.0 - 1e-12));
             let above = tir_bracket(x * (1.0 + 1e-12));
-            assert!((below - above).abs() < 1e-11 * below, "x = {x}: {below} vs {above}");
+            assert!(
+                (below - above).abs() < 1e-11 * below,
+                "x = {x}: {below} vs {above}"
+            );
         }
         // Large-x limit 2/x.
         let x = 1e6;
@@ -209,7 +220,10 @@ mod tests {
             for mu in [0.05, 0.5, 1.0] {
                 let albedo = body_albedo(1.0, n, 0.0, mu);
                 let want = transmittance(mu, n);
-                assert!((albedo - want).abs() < 1e-11, "n {n} μ {mu}: {albedo} vs {want}");
+                assert!(
+                    (albedo - want).abs() < 1e-11,
+                    "n {n} μ {mu}: {albedo} vs {want}"
+                );
             }
         }
     }

@@ -39,7 +39,9 @@ pub const MAX_EXPONENT: f64 = 1e9;
 const SOURCE_APERTURE_DEG: (f64, f64) = (0.75, 2.5);
 
 /// A glossmeter geometry of ISO 2813.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, Default, serde::Serialize, serde::Deserialize,
+)]
 #[serde(try_from = "u32", into = "u32")]
 pub enum GlossGeometry {
     /// 20°: high-gloss finishes (the automotive convention).
@@ -53,7 +55,11 @@ pub enum GlossGeometry {
 
 impl GlossGeometry {
     /// All three, in order.
-    pub const ALL: [GlossGeometry; 3] = [GlossGeometry::Deg20, GlossGeometry::Deg60, GlossGeometry::Deg85];
+    pub const ALL: [GlossGeometry; 3] = [
+        GlossGeometry::Deg20,
+        GlossGeometry::Deg60,
+        GlossGeometry::Deg85,
+    ];
 
     /// Angle of incidence (and of the receptor), degrees.
     pub fn angle_deg(self) -> f64 {
@@ -182,8 +188,14 @@ impl Glossmeter {
         let mut total_weight = 0.0;
         rule.for_each_node(-half_sx, half_sx, |x, wx| {
             rule.for_each_node(-half_sy, half_sy, |y, wy| {
-                let wi = normalize(add3(source_axis, add3(scale3(source_in_plane, x), scale3(perpendicular, y))));
-                sources.push(SourceRay { wi, weight: wx * wy });
+                let wi = normalize(add3(
+                    source_axis,
+                    add3(scale3(source_in_plane, x), scale3(perpendicular, y)),
+                ));
+                sources.push(SourceRay {
+                    wi,
+                    weight: wx * wy,
+                });
                 total_weight += wx * wy;
             });
         });
@@ -215,7 +227,10 @@ impl Glossmeter {
     /// Source-averaged reflectance of a mirror of index n: what the instrument
     /// compares everything with (the black glass at n = 1.567).
     fn mirror_flux(&self, n: f64) -> f64 {
-        self.sources.iter().map(|s| s.weight * reflectance(s.wi[2], n)).sum()
+        self.sources
+            .iter()
+            .map(|s| s.weight * reflectance(s.wi[2], n))
+            .sum()
     }
 
     /// Reading of an ideal mirror coat of index n, GU: all of its reflection falls
@@ -235,7 +250,10 @@ impl Glossmeter {
     ) -> f64 {
         let along = dot3(peak, self.axis);
         let (px, py) = if along > 0.0 {
-            (dot3(peak, self.across_in_plane) / along, dot3(peak, self.across_perpendicular) / along)
+            (
+                dot3(peak, self.across_in_plane) / along,
+                dot3(peak, self.across_perpendicular) / along,
+            )
         } else {
             (0.0, 0.0)
         };
@@ -247,7 +265,13 @@ impl Glossmeter {
             for yw in ys.windows(2) {
                 rule.for_each_node(xw[0], xw[1], |x, wx| {
                     rule.for_each_node(yw[0], yw[1], |y, wy| {
-                        let v = add3(self.axis, add3(scale3(self.across_in_plane, x), scale3(self.across_perpendicular, y)));
+                        let v = add3(
+                            self.axis,
+                            add3(
+                                scale3(self.across_in_plane, x),
+                                scale3(self.across_perpendicular, y),
+                            ),
+                        );
                         let len2 = dot3(v, v);
                         let wo = scale3(v, 1.0 / len2.sqrt());
                         // Solid angle of a focal-plane element: dx dy / (1 + x² + y²)^{3/2}.
@@ -284,7 +308,11 @@ impl Glossmeter {
     /// the tabulated fractions).
     pub fn specular_reading_direct(&self, n: f64, m: f64) -> f64 {
         let flux: f64 = (0..self.sources.len())
-            .map(|i| self.sources[i].weight * reflectance(self.sources[i].wi[2], n) * self.lobe_fraction(i, m))
+            .map(|i| {
+                self.sources[i].weight
+                    * reflectance(self.sources[i].wi[2], n)
+                    * self.lobe_fraction(i, m)
+            })
             .sum();
         100.0 * flux / self.mirror_flux(BLACK_GLASS_INDEX)
     }
@@ -342,14 +370,17 @@ fn x_max() -> f64 {
 }
 
 fn fraction_table(geometry: GlossGeometry) -> &'static FractionTable {
-    static TABLES: [OnceLock<FractionTable>; 3] = [OnceLock::new(), OnceLock::new(), OnceLock::new()];
+    static TABLES: [OnceLock<FractionTable>; 3] =
+        [OnceLock::new(), OnceLock::new(), OnceLock::new()];
     TABLES[geometry.index()].get_or_init(|| {
         let meter = Glossmeter::new(geometry);
         let fractions = (0..TABLE_NODES)
             .map(|j| {
                 let x = x_max() * j as f64 / (TABLE_NODES - 1) as f64;
                 let m = x.exp_m1();
-                (0..meter.sources.len()).map(|i| meter.lobe_fraction(i, m)).collect()
+                (0..meter.sources.len())
+                    .map(|i| meter.lobe_fraction(i, m))
+                    .collect()
             })
             .collect();
         FractionTable { meter, fractions }
@@ -359,8 +390,12 @@ fn fraction_table(geometry: GlossGeometry) -> &'static FractionTable {
 impl FractionTable {
     /// Reading at x = ln(1+m) for index n: Catmull–Rom in x of the per-node readings.
     fn reading(&self, n: f64, x: f64) -> f64 {
-        let weights: Vec<f64> =
-            self.meter.sources.iter().map(|s| s.weight * reflectance(s.wi[2], n)).collect();
+        let weights: Vec<f64> = self
+            .meter
+            .sources
+            .iter()
+            .map(|s| s.weight * reflectance(s.wi[2], n))
+            .collect();
         let glass = self.meter.mirror_flux(BLACK_GLASS_INDEX);
         let node_reading = |j: usize| -> f64 {
             let f = &self.fractions[j];
@@ -381,17 +416,28 @@ impl FractionTable {
         };
         let j = j as isize;
         let (p0, p1, p2, p3) = (at(j - 1), at(j), at(j + 1), at(j + 2));
-        p1 + 0.5 * t * (p2 - p0 + t * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3 + t * (3.0 * (p1 - p2) + p3 - p0)))
+        p1 + 0.5
+            * t
+            * (p2 - p0
+                + t * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3 + t * (3.0 * (p1 - p2) + p3 - p0)))
     }
 }
 
 fn check_index(n: f64) -> Result<(), GlossError> {
-    if n.is_finite() && n >= 1.0 { Ok(()) } else { Err(GlossError::InvalidIndex(n)) }
+    if n.is_finite() && n >= 1.0 {
+        Ok(())
+    } else {
+        Err(GlossError::InvalidIndex(n))
+    }
 }
 
 /// The reading, GU, of the specular part of a coat of index n (at 587.6 nm) with
 /// the normalised lobe of exponent m, in the given geometry.
-pub fn reading_from_exponent(geometry: GlossGeometry, n: f64, m: GlossExponent) -> Result<f64, GlossError> {
+pub fn reading_from_exponent(
+    geometry: GlossGeometry,
+    n: f64,
+    m: GlossExponent,
+) -> Result<f64, GlossError> {
     check_index(n)?;
     let table = fraction_table(geometry);
     match m {
@@ -411,7 +457,11 @@ pub fn reading_from_exponent(geometry: GlossGeometry, n: f64, m: GlossExponent) 
 /// m(g): the exponent whose simulated reading is `gu` (spec 4.3). Readings at or
 /// above what m = 1e9 reads (within 1e-6 GU of the mirror's own reading) give the
 /// ideal mirror; readings below the broadest lobe's are an error.
-pub fn exponent_from_reading(geometry: GlossGeometry, n: f64, gu: f64) -> Result<GlossExponent, GlossError> {
+pub fn exponent_from_reading(
+    geometry: GlossGeometry,
+    n: f64,
+    gu: f64,
+) -> Result<GlossExponent, GlossError> {
     check_index(n)?;
     if !(gu.is_finite() && gu >= 0.0) {
         return Err(GlossError::InvalidGloss(gu));
@@ -439,7 +489,6 @@ pub fn exponent_from_reading(geometry: GlossGeometry, n: f64, gu: f64) -> Result
     }
     Ok(GlossExponent::Finite((0.5 * (lo + hi)).exp_m1()))
 }
-
 
 #[inline]
 fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -497,8 +546,12 @@ mod tests {
                 let Ok(GlossExponent::Finite(m)) = exponent_from_reading(geometry, n, gu) else {
                     panic!("{geometry} {gu} GU did not give a finite exponent");
                 };
-                let back = reading_from_exponent(geometry, n, GlossExponent::Finite(m)).unwrap_or(f64::NAN);
-                assert!((back - gu).abs() < 1e-9, "{geometry}: {gu} → m {m} → {back}");
+                let back = reading_from_exponent(geometry, n, GlossExponent::Finite(m))
+                    .unwrap_or(f64::NAN);
+                assert!(
+                    (back - gu).abs() < 1e-9,
+                    "{geometry}: {gu} → m {m} → {back}"
+                );
             }
         }
     }
@@ -509,8 +562,12 @@ mod tests {
             let meter = Glossmeter::new(geometry);
             for m in [0.0, 3.0, 100.0, 3000.0, 1e5, 1e7] {
                 let direct = meter.specular_reading_direct(1.5, m);
-                let table = reading_from_exponent(geometry, 1.5, GlossExponent::Finite(m)).unwrap_or(f64::NAN);
-                assert!((direct - table).abs() < 1e-3 * direct.max(1.0), "{geometry} m {m}: {direct} vs {table}");
+                let table = reading_from_exponent(geometry, 1.5, GlossExponent::Finite(m))
+                    .unwrap_or(f64::NAN);
+                assert!(
+                    (direct - table).abs() < 1e-3 * direct.max(1.0),
+                    "{geometry} m {m}: {direct} vs {table}"
+                );
             }
         }
     }
@@ -520,13 +577,26 @@ mod tests {
         let geometry = GlossGeometry::Deg20;
         let mut previous = -1.0;
         for m in [0.0, 1.0, 10.0, 100.0, 1e3, 1e4, 1e5, 1e6] {
-            let r = reading_from_exponent(geometry, 1.5, GlossExponent::Finite(m)).unwrap_or(f64::NAN);
+            let r =
+                reading_from_exponent(geometry, 1.5, GlossExponent::Finite(m)).unwrap_or(f64::NAN);
             assert!(r > previous, "m {m}: {r} ≤ {previous}");
             previous = r;
         }
-        assert_eq!(exponent_from_reading(geometry, 1.5, 95.0), Ok(GlossExponent::Mirror));
-        assert!(matches!(exponent_from_reading(geometry, 1.5, 1e-9), Err(GlossError::BelowRange { .. })));
-        assert!(matches!(exponent_from_reading(geometry, 0.9, 50.0), Err(GlossError::InvalidIndex(_))));
-        assert!(matches!(exponent_from_reading(geometry, 1.5, f64::NAN), Err(GlossError::InvalidGloss(_))));
+        assert_eq!(
+            exponent_from_reading(geometry, 1.5, 95.0),
+            Ok(GlossExponent::Mirror)
+        );
+        assert!(matches!(
+            exponent_from_reading(geometry, 1.5, 1e-9),
+            Err(GlossError::BelowRange { .. })
+        ));
+        assert!(matches!(
+            exponent_from_reading(geometry, 0.9, 50.0),
+            Err(GlossError::InvalidIndex(_))
+        ));
+        assert!(matches!(
+            exponent_from_reading(geometry, 1.5, f64::NAN),
+            Err(GlossError::InvalidGloss(_))
+        ));
     }
 }

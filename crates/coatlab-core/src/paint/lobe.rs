@@ -88,7 +88,11 @@ pub fn paper_lobe<F: Float>(wi: [F; 3], wo: [F; 3], m: F) -> F {
     let pi = F::from(PI).unwrap_or_else(F::one);
     let d_theta = (theta(wo) - theta(r)).abs();
     let on_pole = |w: [F; 3]| w[0] == F::zero() && w[1] == F::zero();
-    let mut d_phi = if on_pole(wo) || on_pole(r) { F::zero() } else { (phi(wo) - phi(r)).abs() };
+    let mut d_phi = if on_pole(wo) || on_pole(r) {
+        F::zero()
+    } else {
+        (phi(wo) - phi(r)).abs()
+    };
     if d_phi > pi {
         d_phi = pi + pi - d_phi;
     }
@@ -124,7 +128,11 @@ pub fn below_horizon_correction(cos_r: f64, m: f64) -> f64 {
     }
     // Integrate in v = t_k − t so the small differences near the lobe's edge are
     // exact. t^m falls below e^{-50} (relative to t_k^m) beyond v = t_k(1 − e^{−50/m}).
-    let v_max = if m > 0.0 { -sin_r * (-50.0 / m).exp_m1() } else { sin_r };
+    let v_max = if m > 0.0 {
+        -sin_r * (-50.0 / m).exp_m1()
+    } else {
+        sin_r
+    };
     let integrand = |v: f64| {
         let t = sin_r - v;
         if t <= 0.0 && m > 0.0 {
@@ -139,11 +147,19 @@ pub fn below_horizon_correction(cos_r: f64, m: f64) -> f64 {
         let h = ring_below_horizon(one_minus_c);
         // (t/t_k)^m: t_k^m is factored out so the tolerance is relative to the
         // integral itself, not to an underflowing scale.
-        let power = if m == 0.0 { 1.0 } else { (m * (-v / sin_r).ln_1p()).exp() };
+        let power = if m == 0.0 {
+            1.0
+        } else {
+            (m * (-v / sin_r).ln_1p()).exp()
+        };
         power * 2.0 * b * h
     };
     let scaled = integrate_relative(integrand, 0.0, v_max, 1e-10);
-    let scale = if m == 0.0 { 1.0 } else { (m * sin_r.ln()).exp() };
+    let scale = if m == 0.0 {
+        1.0
+    } else {
+        (m * sin_r.ln()).exp()
+    };
     scaled * scale
 }
 
@@ -189,7 +205,11 @@ impl NormalisationTable {
                 below_horizon_correction(mu_max * s * s, m)
             })
             .collect();
-        Self { exponent: m, mu_max, correction }
+        Self {
+            exponent: m,
+            mu_max,
+            correction,
+        }
     }
 
     /// The exponent the table was built for.
@@ -225,7 +245,9 @@ impl NormalisationTable {
             + 0.5
                 * frac
                 * (p2 - p0
-                    + frac * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3 + frac * (3.0 * (p1 - p2) + p3 - p0)));
+                    + frac
+                        * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3
+                            + frac * (3.0 * (p1 - p2) + p3 - p0)));
         full + interpolated.max(0.0)
     }
 }
@@ -324,7 +346,10 @@ mod tests {
             for &mu in &[0.02, 0.1, 0.5, 0.9] {
                 let got = phong_normalisation(mu, m);
                 let want = brute_force_normalisation(mu, m);
-                assert!((got - want).abs() < 1e-5 * want, "m {m} μ {mu}: {got} vs {want}");
+                assert!(
+                    (got - want).abs() < 1e-5 * want,
+                    "m {m} μ {mu}: {got} vs {want}"
+                );
             }
         }
     }
@@ -337,7 +362,10 @@ mod tests {
                 let mu = k as f64 / 200.0;
                 let exact = phong_normalisation(mu, m);
                 let got = table.eval(mu);
-                assert!((got - exact).abs() <= 5e-6 * exact, "m {m} μ {mu}: {got} vs {exact}");
+                assert!(
+                    (got - exact).abs() <= 5e-6 * exact,
+                    "m {m} μ {mu}: {got} vs {exact}"
+                );
             }
         }
     }

@@ -33,8 +33,8 @@ use super::coat::{attenuation, body_brdf, c_integral, escape_integral_scaled};
 use super::fresnel::{cos_refracted, reflectance, transmittance};
 use super::gloss::{GlossError, GlossExponent, GlossGeometry, exponent_from_reading};
 use super::lobe::{
-    LobeKind, NormalisationTable, mirror, paper_lobe, phong_lobe, phong_lobe_pdf, phong_normalisation,
-    sample_phong_lobe,
+    LobeKind, NormalisationTable, mirror, paper_lobe, phong_lobe, phong_lobe_pdf,
+    phong_normalisation, sample_phong_lobe,
 };
 use crate::spectrum::WavelengthGrid;
 
@@ -196,18 +196,33 @@ fn check_spectrum(
     range: &'static str,
 ) -> Result<(), ParamError> {
     if values.len() != grid.len() {
-        return Err(ParamError::Length { name, got: values.len(), want: grid.len() });
+        return Err(ParamError::Length {
+            name,
+            got: values.len(),
+            want: grid.len(),
+        });
     }
     for (i, &v) in values.iter().enumerate() {
         if !(v.is_finite() && valid(v)) {
-            return Err(ParamError::OutOfRange { name, value: v, wavelength_nm: grid.wavelength_nm(i), range });
+            return Err(ParamError::OutOfRange {
+                name,
+                value: v,
+                wavelength_nm: grid.wavelength_nm(i),
+                range,
+            });
         }
     }
     Ok(())
 }
 
 fn check_albedo(values: &[f64], grid: &WavelengthGrid) -> Result<(), ParamError> {
-    check_spectrum("pigment albedo ρ", values, grid, |v| (0.0..=1.0).contains(&v), "[0, 1]")
+    check_spectrum(
+        "pigment albedo ρ",
+        values,
+        grid,
+        |v| (0.0..=1.0).contains(&v),
+        "[0, 1]",
+    )
 }
 fn check_index(values: &[f64], grid: &WavelengthGrid) -> Result<(), ParamError> {
     check_spectrum("refractive index n", values, grid, |v| v >= 1.0, "[1, ∞)")
@@ -216,7 +231,11 @@ fn check_absorption(values: &[f64], grid: &WavelengthGrid) -> Result<(), ParamEr
     check_spectrum("absorption k (1/µm)", values, grid, |v| v >= 0.0, "[0, ∞)")
 }
 fn check_thickness(h: f64) -> Result<(), ParamError> {
-    if h.is_finite() && h >= 0.0 { Ok(()) } else { Err(ParamError::Thickness(h)) }
+    if h.is_finite() && h >= 0.0 {
+        Ok(())
+    } else {
+        Err(ParamError::Thickness(h))
+    }
 }
 
 fn resolve_exponent(gloss: GlossSetting, n_gloss: f64) -> Result<GlossExponent, ParamError> {
@@ -237,7 +256,9 @@ impl PaintModel {
         check_index(&params.refractive_index, &grid)?;
         check_absorption(&params.absorption_per_um, &grid)?;
         check_thickness(params.thickness_um)?;
-        if !(params.index_at_gloss_wavelength.is_finite() && params.index_at_gloss_wavelength >= 1.0) {
+        if !(params.index_at_gloss_wavelength.is_finite()
+            && params.index_at_gloss_wavelength >= 1.0)
+        {
             return Err(GlossError::InvalidIndex(params.index_at_gloss_wavelength).into());
         }
         let exponent = resolve_exponent(params.gloss, params.index_at_gloss_wavelength)?;
@@ -277,7 +298,11 @@ impl PaintModel {
 
     /// Sets n(λ) and n at 587.6 nm: coat integrals, angular tables, body factor and,
     /// when gloss is a reading, m and its normalisation.
-    pub fn set_refractive_index(&mut self, index: Vec<f64>, index_at_gloss_wavelength: f64) -> Result<(), ParamError> {
+    pub fn set_refractive_index(
+        &mut self,
+        index: Vec<f64>,
+        index_at_gloss_wavelength: f64,
+    ) -> Result<(), ParamError> {
         check_index(&index, &self.grid)?;
         let exponent = resolve_exponent(self.gloss, index_at_gloss_wavelength)?;
         self.index = index;
@@ -396,7 +421,11 @@ impl PaintModel {
             GlossExponent::Finite(m) => match self.lobe {
                 LobeKind::Normalised => SpectralLobe::Normalised {
                     m: m as f32,
-                    normalisation: self.normalisation.as_ref().map(tabulate_normalisation).unwrap_or_default(),
+                    normalisation: self
+                        .normalisation
+                        .as_ref()
+                        .map(tabulate_normalisation)
+                        .unwrap_or_default(),
                 },
                 LobeKind::Paper => SpectralLobe::Paper { m: m as f32 },
             },
@@ -412,9 +441,14 @@ impl PaintModel {
             let (mut spec, mut body) = (0.0_f64, 0.0_f64);
             for i in 0..len {
                 spec += f64::from(self.spectral.fresnel[j * stride + i]);
-                body += f64::from(self.spectral.albedo_factor[i]) * f64::from(self.spectral.through[j * stride + i]);
+                body += f64::from(self.spectral.albedo_factor[i])
+                    * f64::from(self.spectral.through[j * stride + i]);
             }
-            let p = if spec + body > 0.0 { spec / (spec + body) } else { 0.5 };
+            let p = if spec + body > 0.0 {
+                spec / (spec + body)
+            } else {
+                0.5
+            };
             // Keep both strategies alive so MIS never meets a zero density where f > 0.
             self.spectral.specular_probability[j] = p.clamp(0.05, 0.95) as f32;
         }
@@ -478,7 +512,8 @@ impl PaintModel {
     pub fn body_albedo(&self, cos_i: f64, out: &mut [f64]) {
         for (i, o) in out.iter_mut().enumerate().take(self.grid.len()) {
             let n = self.index[i];
-            let through = transmittance(cos_i, n) * attenuation(self.tau[i], cos_refracted(cos_i, n));
+            let through =
+                transmittance(cos_i, n) * attenuation(self.tau[i], cos_refracted(cos_i, n));
             *o = self.body_factor_f64(i) * through * self.escape[i];
         }
     }
@@ -513,7 +548,9 @@ impl PaintModel {
 }
 
 fn tabulate_normalisation(table: &NormalisationTable) -> Vec<f32> {
-    (0..=MU_INTERVALS).map(|j| table.eval(mu_node(j)) as f32).collect()
+    (0..=MU_INTERVALS)
+        .map(|j| table.eval(mu_node(j)) as f32)
+        .collect()
 }
 
 /// The specular lobe in the renderer's form.
@@ -735,7 +772,11 @@ impl SpectralBsdf for SpectralPaint {
                     let wi = mirror(wo);
                     self.mirror_reflectance(wo[2], weight);
                     weight.iter_mut().for_each(|w| *w /= p_spec);
-                    return Some(BsdfSample { wi, pdf: p_spec, delta: true });
+                    return Some(BsdfSample {
+                        wi,
+                        pdf: p_spec,
+                        delta: true,
+                    });
                 }
                 Some(m) => sample_phong_lobe(mirror(wo), m, [u[1], u[2]])?,
             }
@@ -749,7 +790,11 @@ impl SpectralBsdf for SpectralPaint {
         self.eval(wi, wo, weight);
         let scale = wi[2] / pdf;
         weight.iter_mut().for_each(|w| *w *= scale);
-        Some(BsdfSample { wi, pdf, delta: false })
+        Some(BsdfSample {
+            wi,
+            pdf,
+            delta: false,
+        })
     }
 }
 

@@ -27,7 +27,10 @@ use std::f64::consts::PI;
 use super::coat::body_brdf;
 use super::fresnel::reflectance;
 use super::gloss::{GlossExponent, MAX_EXPONENT};
-use super::lobe::{LobeKind, mirror, paper_lobe, phong_lobe, phong_lobe_pdf, phong_normalisation, sample_phong_lobe};
+use super::lobe::{
+    LobeKind, mirror, paper_lobe, phong_lobe, phong_lobe_pdf, phong_normalisation,
+    sample_phong_lobe,
+};
 use super::model::{BsdfSample, PaintModel, SpectralBsdf, cosine_hemisphere};
 
 /// Which parameter set a Phong model was made with.
@@ -84,8 +87,18 @@ impl PhongParams {
         let len = model.grid().len();
         let mut diffuse = vec![0.0; len];
         model.body_albedo(1.0, &mut diffuse);
-        let specular = model.refractive_index().iter().map(|&n| reflectance(1.0, n)).collect();
-        Self { variant: PhongVariant::Naive, diffuse, specular, exponent: finite_exponent(model), fit_rms: None }
+        let specular = model
+            .refractive_index()
+            .iter()
+            .map(|&n| reflectance(1.0, n))
+            .collect();
+        Self {
+            variant: PhongVariant::Naive,
+            diffuse,
+            specular,
+            exponent: finite_exponent(model),
+            fit_rms: None,
+        }
     }
 
     /// The least-squares fit to the paint BRDF (see the module documentation).
@@ -102,7 +115,12 @@ impl PhongParams {
                 .iter()
                 .map(|t| {
                     let mu = t.to_radians().cos();
-                    model.refractive_index().iter().map(|&n| reflectance(mu, n)).sum::<f64>() / len as f64
+                    model
+                        .refractive_index()
+                        .iter()
+                        .map(|&n| reflectance(mu, n))
+                        .sum::<f64>()
+                        / len as f64
                 })
                 .sum::<f64>()
                 / FIT_INCIDENCE_DEG.len() as f64;
@@ -165,7 +183,11 @@ impl PhongParams {
     pub fn spectral(&self) -> SpectralPhong {
         let mean_kd: f64 = self.diffuse.iter().sum::<f64>() / self.diffuse.len().max(1) as f64;
         let mean_ks: f64 = self.specular.iter().sum::<f64>() / self.specular.len().max(1) as f64;
-        let p = if mean_kd + mean_ks > 0.0 { mean_ks / (mean_kd + mean_ks) } else { 0.5 };
+        let p = if mean_kd + mean_ks > 0.0 {
+            mean_ks / (mean_kd + mean_ks)
+        } else {
+            0.5
+        };
         SpectralPhong {
             diffuse_over_pi: self.diffuse.iter().map(|k| (k / PI) as f32).collect(),
             specular: self.specular.iter().map(|&k| k as f32).collect(),
@@ -200,16 +222,22 @@ impl FitSamples {
             let normalisation = phong_normalisation(wi[2], paint_m);
             let mut directions = Vec::with_capacity(2 * FIT_DIRECTIONS);
             for k in 0..FIT_DIRECTIONS {
-                let u = [(k as f64 + 0.5) / FIT_DIRECTIONS as f64, radical_inverse(k as u32)];
+                let u = [
+                    (k as f64 + 0.5) / FIT_DIRECTIONS as f64,
+                    radical_inverse(k as u32),
+                ];
                 directions.push(cosine_hemisphere([u[0] as f32, u[1] as f32]).map(f64::from));
-                if let Some(w) = sample_phong_lobe(axis32, paint_m as f32, [u[0] as f32, u[1] as f32]) {
+                if let Some(w) =
+                    sample_phong_lobe(axis32, paint_m as f32, [u[0] as f32, u[1] as f32])
+                {
                     directions.push(w.map(f64::from));
                 }
             }
             for wo in directions {
                 let w32 = wo.map(|x| x as f32);
                 // Balance heuristic over both strategies (N samples each).
-                let pdf = 0.5 * (wo[2] / PI + f64::from(phong_lobe_pdf(w32, axis32, paint_m as f32)));
+                let pdf =
+                    0.5 * (wo[2] / PI + f64::from(phong_lobe_pdf(w32, axis32, paint_m as f32)));
                 if pdf.is_nan() || pdf <= 0.0 || wo[2] <= 0.0 {
                     continue;
                 }
@@ -218,7 +246,11 @@ impl FitSamples {
                     LobeKind::Normalised => phong_lobe(wi, wo, paint_m) / normalisation,
                     LobeKind::Paper => paper_lobe(wi, wo, paint_m),
                 };
-                let lobe = if matches!(model.exponent(), GlossExponent::Mirror) { 0.0 } else { lobe };
+                let lobe = if matches!(model.exponent(), GlossExponent::Mirror) {
+                    0.0
+                } else {
+                    lobe
+                };
                 for i in 0..len {
                     let n = model.refractive_index()[i];
                     let body = body_brdf(
@@ -235,7 +267,12 @@ impl FitSamples {
                 total_weight += weight;
             }
         }
-        Self { geometry, paint, len, total_weight }
+        Self {
+            geometry,
+            paint,
+            len,
+            total_weight,
+        }
     }
 
     /// For exponent m: the least-squares kd(λ) and grey ks (ks fixed at 0 when
@@ -246,7 +283,11 @@ impl FitSamples {
         let (mut w_sum, mut b1, mut b2) = (0.0, 0.0, 0.0);
         let mut y = vec![0.0; self.len];
         let mut z = vec![0.0; self.len];
-        let lobes: Vec<f64> = self.geometry.iter().map(|(wi, wo, _)| norm * phong_lobe(*wi, *wo, m)).collect();
+        let lobes: Vec<f64> = self
+            .geometry
+            .iter()
+            .map(|(wi, wo, _)| norm * phong_lobe(*wi, *wo, m))
+            .collect();
         for (s, ((_, _, w), b)) in self.geometry.iter().zip(&lobes).enumerate() {
             w_sum += w;
             b1 += w * b;
@@ -262,11 +303,18 @@ impl FitSamples {
             let denominator = l * (b2 - b1 * b1 / w_sum);
             let sum_y: f64 = y.iter().sum();
             let sum_z: f64 = z.iter().sum();
-            if denominator > 0.0 { ((sum_z - b1 / w_sum * sum_y) / denominator).max(0.0) } else { 0.0 }
+            if denominator > 0.0 {
+                ((sum_z - b1 / w_sum * sum_y) / denominator).max(0.0)
+            } else {
+                0.0
+            }
         } else {
             0.0
         };
-        let diffuse: Vec<f64> = y.iter().map(|yl| ((yl - ks * b1) / (a * w_sum)).max(0.0)).collect();
+        let diffuse: Vec<f64> = y
+            .iter()
+            .map(|yl| ((yl - ks * b1) / (a * w_sum)).max(0.0))
+            .collect();
         let mut residual = 0.0;
         for (s, ((_, _, w), b)) in self.geometry.iter().zip(&lobes).enumerate() {
             let row = &self.paint[s * self.len..(s + 1) * self.len];
@@ -306,7 +354,11 @@ impl SpectralBsdf for SpectralPhong {
         }
         let m = self.exponent;
         let lobe = (m + 2.0) / (2.0 * std::f32::consts::PI) * phong_lobe(wi, wo, m);
-        for ((o, kd), ks) in out.iter_mut().zip(&self.diffuse_over_pi).zip(&self.specular) {
+        for ((o, kd), ks) in out
+            .iter_mut()
+            .zip(&self.diffuse_over_pi)
+            .zip(&self.specular)
+        {
             *o = kd + ks * lobe;
         }
     }
@@ -335,7 +387,11 @@ impl SpectralBsdf for SpectralPhong {
         self.eval(wi, wo, weight);
         let scale = wi[2] / pdf;
         weight.iter_mut().for_each(|w| *w *= scale);
-        Some(BsdfSample { wi, pdf, delta: false })
+        Some(BsdfSample {
+            wi,
+            pdf,
+            delta: false,
+        })
     }
 }
 
@@ -347,7 +403,15 @@ mod tests {
 
     fn model(m: GlossExponent) -> PaintModel {
         let grid = WavelengthGrid::visible(8).expect("grid");
-        PaintModel::new(PaintParams::grey(grid, 0.6, 1.5, 0.001, 40.0, GlossSetting::Exponent(m))).expect("model")
+        PaintModel::new(PaintParams::grey(
+            grid,
+            0.6,
+            1.5,
+            0.001,
+            40.0,
+            GlossSetting::Exponent(m),
+        ))
+        .expect("model")
     }
 
     #[test]
@@ -366,7 +430,10 @@ mod tests {
     fn best_fit_is_closer_to_the_paint_than_naive() {
         let paint = model(GlossExponent::Finite(300.0));
         let fit = PhongParams::best_fit(&paint);
-        let naive = PhongParams { variant: PhongVariant::Naive, ..PhongParams::naive(&paint) };
+        let naive = PhongParams {
+            variant: PhongVariant::Naive,
+            ..PhongParams::naive(&paint)
+        };
         let samples = FitSamples::new(&paint);
         let cost = |p: &PhongParams| {
             let a = 1.0 / PI;
@@ -375,15 +442,25 @@ mod tests {
             for (s, (wi, wo, w)) in samples.geometry.iter().enumerate() {
                 let b = norm * phong_lobe(*wi, *wo, p.exponent);
                 for i in 0..samples.len {
-                    let r = p.diffuse[i] * a + p.specular[i] * b - samples.paint[s * samples.len + i];
+                    let r =
+                        p.diffuse[i] * a + p.specular[i] * b - samples.paint[s * samples.len + i];
                     total += w * r * r;
                 }
             }
             total
         };
-        assert!(cost(&fit) < cost(&naive), "fit {} vs naive {}", cost(&fit), cost(&naive));
+        assert!(
+            cost(&fit) < cost(&naive),
+            "fit {} vs naive {}",
+            cost(&fit),
+            cost(&naive)
+        );
         // The fitted exponent stays near the paint's (same lobe shape).
-        assert!(fit.exponent > 100.0 && fit.exponent < 1000.0, "m = {}", fit.exponent);
+        assert!(
+            fit.exponent > 100.0 && fit.exponent < 1000.0,
+            "m = {}",
+            fit.exponent
+        );
         assert!(fit.fit_rms.is_some_and(|r| r.is_finite() && r > 0.0));
     }
 
