@@ -18,7 +18,7 @@ use std::f64::consts::PI;
 use num_traits::Float;
 
 use super::fresnel::{cos_refracted, reflectance, transmittance};
-use crate::quadrature::integrate_relative;
+use crate::quadrature::integrate_relative_from;
 
 /// Relative tolerance of the adaptive quadratures; well inside the 1e-9 requirement.
 const QUADRATURE_REL_TOL: f64 = 1e-13;
@@ -72,7 +72,8 @@ fn outside_cosine_integral_scaled(n: f64, depth: f64, g: impl Fn(f64) -> f64) ->
             lower = (1.0 - sin2_outside).sqrt();
         }
     }
-    integrate_relative(integrand, lower, 1.0, QUADRATURE_REL_TOL)
+    // Two initial panels: the adaptive pass splits where the integrand needs it.
+    integrate_relative_from(integrand, lower, 1.0, QUADRATURE_REL_TOL, 2)
 }
 
 /// e^{2τ}∫₀^{a} u e^{−2τ/u} du for the critical cosine a, in closed form:

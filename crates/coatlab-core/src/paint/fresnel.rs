@@ -35,6 +35,21 @@ pub fn reflectance<F: Float>(cos_outside: F, n: F) -> F {
     (rs * rs + rp * rp) * half
 }
 
+/// R(μ) together with the refracted cosine μ′ it needs: callers that also need μ′
+/// (the attenuation through the coat) get both from one square root.
+#[inline]
+pub fn reflectance_and_cos_refracted<F: Float>(cos_outside: F, n: F) -> (F, F) {
+    let mu = clamp_unit(cos_outside);
+    let mu_t = cos_refracted(mu, n);
+    if n <= F::one() {
+        return (F::zero(), mu_t);
+    }
+    let rs = (mu - n * mu_t) / (mu + n * mu_t);
+    let rp = (n * mu - mu_t) / (n * mu + mu_t);
+    let half = F::from(0.5).unwrap_or_else(F::one);
+    ((rs * rs + rp * rp) * half, mu_t)
+}
+
 /// T(μ) = 1 − R(μ).
 #[inline]
 pub fn transmittance<F: Float>(cos_outside: F, n: F) -> F {
@@ -97,5 +112,21 @@ mod tests {
         let mu_out = 0.6;
         let mu_in = cos_refracted(mu_out, n);
         assert!((reflectance_inside(mu_in, n) - reflectance(mu_out, n)).abs() < 1e-12);
+    }
+}
+#[cfg(test)]
+mod combined_tests {
+    use super::*;
+
+    #[test]
+    fn combined_form_matches_the_separate_functions() {
+        for n in [1.0_f64, 1.0001, 1.5, 4.0] {
+            for k in 0..=100 {
+                let mu = k as f64 / 100.0;
+                let (r, mu_t) = reflectance_and_cos_refracted(mu, n);
+                assert_eq!(r, reflectance(mu, n));
+                assert_eq!(mu_t, cos_refracted(mu, n));
+            }
+        }
     }
 }

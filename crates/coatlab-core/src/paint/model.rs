@@ -7,7 +7,7 @@
 //! | coat refractive index | n(λ) | — | [1, ∞) (tested to 4) | 1.48–1.55 |
 //! | coat absorption | k(λ) | 1/µm | [0, ∞) | < 0.002 in the visible |
 //! | coat thickness | h | µm | [0, ∞) | 35–55 |
-//! | gloss | g | GU at 20°/60°/85° | see [`super::gloss`] | 80–92 at 20° |
+//! | gloss | g | GU at 20°/60°/85° | see [`super::gloss`] | 80–92 at 20° (needs n(587.6 nm) ≳ 1.52 above 82 GU) |
 //! | lobe | — | normalised / paper | — | normalised |
 //!
 //! Derived, and what each depends on:
@@ -30,7 +30,7 @@
 use std::f64::consts::PI;
 
 use super::coat::{attenuation, body_brdf, c_integral, escape_integral_scaled};
-use super::fresnel::{cos_refracted, reflectance, transmittance};
+use super::fresnel::{cos_refracted, reflectance, reflectance_and_cos_refracted, transmittance};
 use super::gloss::{GlossError, GlossExponent, GlossGeometry, exponent_from_reading};
 use super::lobe::{
     LobeKind, NormalisationTable, mirror, paper_lobe, phong_lobe, phong_lobe_pdf,
@@ -100,9 +100,6 @@ fn mu_node(j: usize) -> f64 {
 }
 /// SIMD width the spectral tables are padded to.
 pub const LANES: usize = 8;
-/// Padded lengths up to this use the vectorised evaluation (the reference grid's 81
-/// wavelengths pad to 88).
-const MAX_PADDED: usize = 96;
 
 /// Counts of derived-table rebuilds, so tests (and the app's diagnostics) can check
 /// that an edit recomputes only what it touches.
@@ -386,9 +383,10 @@ impl PaintModel {
             let mu = mu_node(j);
             for i in 0..self.grid.len() {
                 let n = self.index[i];
-                let through = transmittance(mu, n) * attenuation(self.tau[i], cos_refracted(mu, n));
+                let (r, mu_t) = reflectance_and_cos_refracted(mu, n);
+                let through = (1.0 - r) * attenuation(self.tau[i], mu_t);
                 self.spectral.through[j * stride + i] = through as f32;
-                self.spectral.fresnel[j * stride + i] = reflectance(mu, n) as f32;
+                self.spectral.fresnel[j * stride + i] = r as f32;
             }
         }
     }
@@ -723,26 +721,28 @@ impl SpectralBsdf for SpectralPaint {
         let lobe = self.lobe_value(wi, wo);
         let (ji, ti) = Self::mu_position(wi[2]);
         let (jo, to) = Self::mu_position(wo[2]);
-        let (ai0, ai1) = self.rows(&self.through, ji);
-        let (ao0, ao1) = self.rows(&self.through, jo);
-        let (ri0, ri1) = self.rows(&self.fresnel, ji);
-        let k = &self.body_factor[..];
-        let row = |i: usize| {
-            let a_i = ai0[i] + ti * (ai1[i] - ai0[i]);
-            let a_o = ao0[i] + to * (ao1[i] - ao0[i]);
-            let r_i = ri0[i] + ti * (ri1[i] - ri0[i]);
-            k[i] * a_i * a_o + r_i * lobe
-        };
-        if self.stride <= MAX_PADDED {
-            // Whole padded rows into a stack buffer: no remainder loop, so it vectorises.
-            let mut padded = [0.0_f32; MAX_PADDED];
-            for (i, p) in padded[..self.stride].iter_mut().enumerate() {
-                *p = row(i);
+        // Rows as [f32; LANES] chunks whose count is fixed once here, and no closure:
+        // the loop then has no bounds checks and vectorises in every build (a per-
+        // element closure was left out of line in some builds: 3.5x slower).
+        let n = self.stride / LANES;
+        let (through, _) = self.through.as_chunks::<LANES>();
+        let (fresnel, _) = self.fresnel.as_chunks::<LANES>();
+        let (ai0, ai1) = (&through[ji * n..][..n], &through[(ji + 1) * n..][..n]);
+        let (ao0, ao1) = (&through[jo * n..][..n], &through[(jo + 1) * n..][..n]);
+        let (ri0, ri1) = (&fresnel[ji * n..][..n], &fresnel[(ji + 1) * n..][..n]);
+        let k = &self.body_factor.as_chunks::<LANES>().0[..n];
+        let (whole, tail) = out.as_chunks_mut::<LANES>();
+        for c in 0..n {
+            let mut row = [0.0_f32; LANES];
+            for l in 0..LANES {
+                let a_i = ai0[c][l] + ti * (ai1[c][l] - ai0[c][l]);
+                let a_o = ao0[c][l] + to * (ao1[c][l] - ao0[c][l]);
+                let r_i = ri0[c][l] + ti * (ri1[c][l] - ri0[c][l]);
+                row[l] = k[c][l] * a_i * a_o + r_i * lobe;
             }
-            out.copy_from_slice(&padded[..self.len]);
-        } else {
-            for (i, o) in out.iter_mut().enumerate() {
-                *o = row(i);
+            match whole.get_mut(c) {
+                Some(o) => *o = row,
+                None => tail.copy_from_slice(&row[..tail.len()]),
             }
         }
     }
