@@ -17,5 +17,6 @@ pub mod design;
 pub mod instruments;
 pub mod paint;
 pub mod quadrature;
+pub mod scene;
 pub mod spectrum;
 pub mod units;

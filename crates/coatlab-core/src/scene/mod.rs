@@ -1,0 +1,80 @@
+//! Scenes for the car-body preview: triangle geometry in world space (metres, Y up,
+//! the car on the ground plane y = 0) and the materials it carries.
+//!
+//! Everything is flattened on load: node hierarchies and instances become one
+//! triangle list in world space, which is what the BVH and the tracer consume.
+
+/// Triangle geometry in world space, with smooth (per-vertex) normals.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TriangleMesh {
+    /// Vertex positions, metres.
+    pub positions: Vec<[f32; 3]>,
+    /// Unit vertex normals (shading normals).
+    pub normals: Vec<[f32; 3]>,
+    /// Vertex indices of each triangle, counter-clockwise seen from outside.
+    pub triangles: Vec<[u32; 3]>,
+    /// Material of each triangle: an index into [`Scene::materials`].
+    pub triangle_material: Vec<u32>,
+}
+
+impl TriangleMesh {
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// Axis-aligned bounds (min, max); `None` for an empty mesh.
+    pub fn bounds(&self) -> Option<([f32; 3], [f32; 3])> {
+        let first = *self.positions.first()?;
+        let mut lo = first;
+        let mut hi = first;
+        for p in &self.positions {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        Some((lo, hi))
+    }
+
+    /// Area of triangle `t`, square metres.
+    pub fn triangle_area(&self, t: usize) -> f32 {
+        let [a, b, c] = self.triangles[t].map(|i| self.positions[i as usize]);
+        let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+        let cross = [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ];
+        0.5 * (cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]).sqrt()
+    }
+}
+
+/// A non-paint material as the scene file gives it, rendered as a simple material.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneMaterial {
+    /// Name in the file (or a generated one for unnamed materials).
+    pub name: String,
+    /// Linear-RGB base colour (glTF `baseColorFactor`), each in [0, 1].
+    pub base_color: [f32; 3],
+    /// glTF roughness in [0, 1].
+    pub roughness: f32,
+    /// glTF metallic in [0, 1].
+    pub metallic: f32,
+    /// Total area of the triangles using it in the normalised scene, m².
+    pub area_m2: f32,
+}
+
+/// A loaded (or generated) scene.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Scene {
+    /// All geometry, world space.
+    pub mesh: TriangleMesh,
+    /// Materials referenced by `mesh.triangle_material`.
+    pub materials: Vec<SceneMaterial>,
+    /// Which materials get the designed paint.
+    pub paint_materials: Vec<u32>,
+    /// Problems that did not stop the load (ignored optional extensions, …).
+    pub warnings: Vec<String>,
+}
