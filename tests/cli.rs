@@ -4,53 +4,18 @@
 
 use std::f64::consts::PI;
 use std::fmt::Write as _;
-use std::io::Write;
-use std::process::{Command, Output, Stdio};
+
+mod common;
 
 use coatlab_core::paint::coat::body_albedo;
 use coatlab_core::paint::fresnel::reflectance;
+use common::{coatlab, stderr_of_failure, stdout};
 
 const BRDF_HEADER: &str = "n,rho,kh,theta_i_deg,theta_o_deg,dphi_deg";
-
-fn coatlab(args: &[&str], stdin: &str) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_coatlab"))
-        .args(args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("coatlab starts");
-    // Feed stdin from another thread while this one drains stdout, or a large input
-    // and output fill both pipes and deadlock. The binary may stop reading at a bad
-    // row and close its stdin early; the broken pipe is then expected, and the exit
-    // status tells the story.
-    let mut child_stdin = child.stdin.take().expect("stdin is piped");
-    let input = stdin.to_owned();
-    let feeder = std::thread::spawn(move || {
-        let _ = child_stdin.write_all(input.as_bytes());
-    });
-    let output = child.wait_with_output().expect("coatlab finishes");
-    feeder.join().expect("the stdin feeder does not panic");
-    output
-}
 
 /// cos θ for θ in degrees, exactly 0 at 90° (grazing), as the command computes it.
 fn cos_deg(theta_deg: f64) -> f64 {
     (90.0 - theta_deg).to_radians().sin()
-}
-
-fn stdout(output: &Output) -> String {
-    assert!(
-        output.status.success(),
-        "coatlab failed: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    String::from_utf8(output.stdout.clone()).expect("UTF-8 output")
-}
-
-fn stderr_of_failure(output: &Output) -> String {
-    assert!(!output.status.success(), "coatlab unexpectedly succeeded");
-    String::from_utf8(output.stderr.clone()).expect("UTF-8 stderr")
 }
 
 fn parse_rows(text: &str) -> (Vec<String>, Vec<Vec<String>>) {

@@ -1,9 +1,11 @@
 //! End-to-end tests of `coatlab color` and `coatlab delta-e`: the real binary, real
 //! pipes, reference data.
 
-use std::io::Write;
 use std::path::PathBuf;
-use std::process::{Command, Output, Stdio};
+
+mod common;
+
+use common::{coatlab, stderr_of_failure, stdout};
 
 const SHARMA_CSV: &str = include_str!(concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -13,37 +15,6 @@ const SHARMA_CSV: &str = include_str!(concat!(
 /// A smooth test spectrum at 5 nm, 380–780 nm (0.3 + 0.2 sin((λ − 380)/50), 4
 /// decimals), as printed by tools/reference_xyz.py.
 const TEST_SPECTRUM: &str = "0.3,0.32,0.3397,0.3591,0.3779,0.3959,0.4129,0.4288,0.4435,0.4567,0.4683,0.4782,0.4864,0.4927,0.4971,0.4995,0.4999,0.4983,0.4948,0.4893,0.4819,0.4726,0.4617,0.4491,0.4351,0.4197,0.4031,0.3855,0.367,0.3478,0.3282,0.3083,0.2883,0.2685,0.2489,0.2298,0.2115,0.194,0.1776,0.1624,0.1486,0.1363,0.1257,0.1168,0.1097,0.1045,0.1013,0.1,0.1008,0.1035,0.1082,0.1148,0.1233,0.1335,0.1454,0.1589,0.1737,0.1899,0.2071,0.2252,0.2441,0.2636,0.2834,0.3034,0.3233,0.343,0.3623,0.381,0.3988,0.4157,0.4314,0.4458,0.4587,0.4701,0.4797,0.4876,0.4936,0.4976,0.4997,0.4998,0.4979";
-
-fn coatlab(args: &[&str], stdin: &str) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_coatlab"))
-        .args(args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("coatlab starts");
-    child
-        .stdin
-        .take()
-        .expect("stdin is piped")
-        .write_all(stdin.as_bytes())
-        .expect("write stdin");
-    child.wait_with_output().expect("coatlab finishes")
-}
-
-fn stdout(output: &Output) -> String {
-    assert!(
-        output.status.success(),
-        "coatlab failed: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    String::from_utf8(output.stdout.clone()).expect("UTF-8 output")
-}
-
-fn stderr_of_failure(output: &Output) -> String {
-    assert!(!output.status.success(), "coatlab unexpectedly succeeded");
-    String::from_utf8(output.stderr.clone()).expect("UTF-8 stderr")
-}
 
 /// A spectra file in the system temp directory, removed when dropped.
 struct TempCsv(PathBuf);

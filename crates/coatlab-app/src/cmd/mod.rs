@@ -6,3 +6,4 @@ pub mod color;
 pub mod delta_e;
 pub mod gloss;
 pub mod measure;
+mod table;

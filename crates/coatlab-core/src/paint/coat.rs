@@ -176,12 +176,41 @@ pub fn body_brdf<F: Float>(rho: F, n: F, tau: F, c: F, cos_i: F, cos_o: F) -> F 
     numerator / (n * n * (pi - rho * c))
 }
 
+/// The coat integrals of one (n, τ): what f_body and its albedo need besides the
+/// angles and ρ. Worth keeping when many evaluations share n and τ (each costs a
+/// few microseconds).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CoatIntegrals {
+    /// C(n, τ).
+    pub c: f64,
+    /// E(n, τ) = 2π∫₀¹ T(μ) e^{−τ/μ′} μ dμ, the escape factor of the pigment's light.
+    pub escape: f64,
+}
+
+impl CoatIntegrals {
+    /// Computes C and E for a coat.
+    pub fn new(n: f64, tau: f64) -> Self {
+        Self {
+            c: c_integral(n, tau),
+            escape: escape_integral_scaled(n, tau) * (-tau).exp(),
+        }
+    }
+
+    /// Directional albedo of the body term at incidence cosine μi for these integrals.
+    pub fn body_albedo(&self, rho: f64, n: f64, tau: f64, cos_i: f64) -> f64 {
+        let through_i = transmittance(cos_i, n) * attenuation(tau, cos_refracted(cos_i, n));
+        let numerator = rho * through_i * self.escape;
+        if numerator == 0.0 {
+            // Also where π − ρC would round to 0 (huge n): no light enters.
+            return 0.0;
+        }
+        numerator / (n * n * (PI - rho * self.c))
+    }
+}
+
 /// Directional albedo of the body term at incidence cosine μi: ∫ f_body cos θo dωo.
 pub fn body_albedo(rho: f64, n: f64, tau: f64, cos_i: f64) -> f64 {
-    let c = c_integral(n, tau);
-    let through_i = transmittance(cos_i, n) * attenuation(tau, cos_refracted(cos_i, n));
-    let escape = escape_integral_scaled(n, tau) * (-tau).exp();
-    rho * through_i * escape / (n * n * (PI - rho * c))
+    CoatIntegrals::new(n, tau).body_albedo(rho, n, tau, cos_i)
 }
 
 #[cfg(test)]

@@ -783,19 +783,32 @@ impl SpectralBsdf for SpectralPaint {
         } else {
             cosine_hemisphere([u[1], u[2]])
         };
-        let pdf = self.pdf(wo, wi);
-        if pdf.is_nan() || pdf <= 0.0 {
-            return None;
-        }
-        self.eval(wi, wo, weight);
-        let scale = wi[2] / pdf;
-        weight.iter_mut().for_each(|w| *w *= scale);
-        Some(BsdfSample {
-            wi,
-            pdf,
-            delta: false,
-        })
+        weigh_sample(self, wo, wi, weight)
     }
+}
+
+/// Completes a non-delta sample of a mixture BSDF: its density, and the path weight
+/// f·cos θi/pdf per wavelength written into `weight`. `None` where the density
+/// vanishes (a direction no strategy can produce).
+#[inline]
+pub fn weigh_sample(
+    bsdf: &(impl SpectralBsdf + ?Sized),
+    wo: [f32; 3],
+    wi: [f32; 3],
+    weight: &mut [f32],
+) -> Option<BsdfSample> {
+    let pdf = bsdf.pdf(wo, wi);
+    if pdf.is_nan() || pdf <= 0.0 {
+        return None;
+    }
+    bsdf.eval(wi, wo, weight);
+    let scale = wi[2] / pdf;
+    weight.iter_mut().for_each(|w| *w *= scale);
+    Some(BsdfSample {
+        wi,
+        pdf,
+        delta: false,
+    })
 }
 
 /// Cosine-weighted direction on the upper hemisphere: density μ/π.

@@ -31,7 +31,7 @@ use super::lobe::{
     LobeKind, mirror, paper_lobe, phong_lobe, phong_lobe_pdf, phong_normalisation,
     sample_phong_lobe,
 };
-use super::model::{BsdfSample, PaintModel, SpectralBsdf, cosine_hemisphere};
+use super::model::{BsdfSample, PaintModel, SpectralBsdf, cosine_hemisphere, weigh_sample};
 
 /// Which parameter set a Phong model was made with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -380,18 +380,7 @@ impl SpectralBsdf for SpectralPhong {
         } else {
             cosine_hemisphere([u[1], u[2]])
         };
-        let pdf = self.pdf(wo, wi);
-        if pdf.is_nan() || pdf <= 0.0 {
-            return None;
-        }
-        self.eval(wi, wo, weight);
-        let scale = wi[2] / pdf;
-        weight.iter_mut().for_each(|w| *w *= scale);
-        Some(BsdfSample {
-            wi,
-            pdf,
-            delta: false,
-        })
+        weigh_sample(self, wo, wi, weight)
     }
 }
 

@@ -1,0 +1,41 @@
+//! Helpers shared by the end-to-end tests of the `coatlab` binary.
+#![allow(dead_code)] // each test crate uses its own subset
+
+use std::io::Write;
+use std::process::{Command, Output, Stdio};
+
+pub fn coatlab(args: &[&str], stdin: &str) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_coatlab"))
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("coatlab starts");
+    // Feed stdin from another thread while this one drains stdout, or a large input
+    // and output fill both pipes and deadlock. The binary may stop reading at a bad
+    // row and close its stdin early; the broken pipe is then expected, and the exit
+    // status tells the story.
+    let mut child_stdin = child.stdin.take().expect("stdin is piped");
+    let input = stdin.to_owned();
+    let feeder = std::thread::spawn(move || {
+        let _ = child_stdin.write_all(input.as_bytes());
+    });
+    let output = child.wait_with_output().expect("coatlab finishes");
+    feeder.join().expect("the stdin feeder does not panic");
+    output
+}
+
+pub fn stdout(output: &Output) -> String {
+    assert!(
+        output.status.success(),
+        "coatlab failed: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    String::from_utf8(output.stdout.clone()).expect("UTF-8 output")
+}
+
+pub fn stderr_of_failure(output: &Output) -> String {
+    assert!(!output.status.success(), "coatlab unexpectedly succeeded");
+    String::from_utf8(output.stderr.clone()).expect("UTF-8 stderr")
+}
