@@ -1,0 +1,628 @@
+//! The glTF loader on the real test models (`shared/testdata/gltf`, read in place)
+//! and on small synthetic files, good and bad, written to a temporary folder.
+
+use std::path::PathBuf;
+
+use coatlab_core::scene::Scene;
+use coatlab_core::scene::gltf_loader::{LoadOptions, SceneError, TARGET_LENGTH_M, load};
+
+const TESTDATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/testdata/gltf");
+
+/// The test-model folder, or `None` (with a notice) when it is absent outside CI.
+fn testdata() -> Option<PathBuf> {
+    let dir = PathBuf::from(TESTDATA);
+    if dir.is_dir() {
+        return Some(dir);
+    }
+    assert!(
+        std::env::var_os("CI").is_none(),
+        "CI is set but the glTF test models are missing at {}",
+        dir.display()
+    );
+    eprintln!(
+        "NOTICE: glTF test models not found at {}; test skipped",
+        dir.display()
+    );
+    None
+}
+
+fn load_model(rel: &str) -> Option<Scene> {
+    let path = testdata()?.join(rel);
+    match load(&path, &LoadOptions::default()) {
+        Ok(scene) => Some(scene),
+        Err(e) => panic!("{rel}: {e}"),
+    }
+}
+
+fn paint_names(scene: &Scene) -> Vec<&str> {
+    scene
+        .paint_materials
+        .iter()
+        .map(|&i| scene.materials[i as usize].name.as_str())
+        .collect()
+}
+
+/// Invariants every loaded scene keeps: on the ground, centred, 4.5 m long,
+/// unit normals, valid indices and materials, areas that add up.
+fn check_scene(scene: &Scene, what: &str) {
+    let mesh = &scene.mesh;
+    assert_eq!(mesh.positions.len(), mesh.normals.len(), "{what}");
+    assert_eq!(mesh.triangles.len(), mesh.triangle_material.len(), "{what}");
+    let (lo, hi) = mesh.bounds().expect("non-empty");
+    assert!(lo[1].abs() < 1e-5, "{what}: min y = {}", lo[1]);
+    let extent = (hi[0] - lo[0]).max(hi[2] - lo[2]);
+    assert!(
+        (f64::from(extent) - TARGET_LENGTH_M).abs() < 1e-4,
+        "{what}: extent {extent}"
+    );
+    assert!((lo[0] + hi[0]).abs() < 1e-4, "{what}: x not centred");
+    assert!((lo[2] + hi[2]).abs() < 1e-4, "{what}: z not centred");
+    for n in &mesh.normals {
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        assert!((len - 1.0).abs() < 1e-4, "{what}: normal length {len}");
+    }
+    let vertices = mesh.positions.len() as u32;
+    assert!(mesh.triangles.iter().flatten().all(|&i| i < vertices));
+    let materials = scene.materials.len() as u32;
+    assert!(mesh.triangle_material.iter().all(|&m| m < materials));
+    let total: f64 = (0..mesh.triangle_count())
+        .map(|t| f64::from(mesh.triangle_area(t)))
+        .sum();
+    let by_material: f64 = scene.materials.iter().map(|m| f64::from(m.area_m2)).sum();
+    assert!((total - by_material).abs() <= 1e-3 * total, "{what}: areas");
+    assert!(
+        !scene.paint_materials.is_empty(),
+        "{what}: no paint material"
+    );
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.starts_with("paint material:")),
+        "{what}: no reason given for the paint choice"
+    );
+}
+
+// ---------------------------------------------------------------------------
+// Real models
+
+#[test]
+fn cesium_milk_truck_instances_its_wheels() {
+    let Some(scene) = load_model("CesiumMilkTruck/CesiumMilkTruck.glb") else {
+        return;
+    };
+    check_scene(&scene, "CesiumMilkTruck");
+    assert_eq!(scene.mesh.triangle_count(), 3624);
+    // Yup2Zup and the hierarchy leave the truck's length along z, upright.
+    let (lo, hi) = scene.mesh.bounds().unwrap();
+    assert!(hi[2] - lo[2] > hi[0] - lo[0], "length along z");
+    assert!(
+        hi[1] - lo[1] < hi[2] - lo[2],
+        "upright, not standing on its tail"
+    );
+    assert_eq!(paint_names(&scene), ["truck"]);
+}
+
+#[test]
+fn toy_car_with_external_bin_is_scaled_up() {
+    let Some(scene) = load_model("ToyCar/ToyCar.gltf") else {
+        return;
+    };
+    check_scene(&scene, "ToyCar");
+    assert_eq!(scene.mesh.triangle_count(), 108_936);
+    assert_eq!(paint_names(&scene), ["ToyCar"]);
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.starts_with("KHR_materials_clearcoat"))
+    );
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("'ToyCar': base-colour texture not used"))
+    );
+}
+
+#[test]
+fn clear_coat_car_paint_loads_despite_its_required_extensions() {
+    let Some(scene) = load_model("ClearCoatCarPaint/ClearCoatCarPaint.glb") else {
+        return;
+    };
+    check_scene(&scene, "ClearCoatCarPaint");
+    assert_eq!(scene.mesh.triangle_count(), 3072);
+    assert_eq!(scene.paint_materials, [0]);
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.starts_with("KHR_materials_clearcoat: clear coat ignored"))
+    );
+    let m = &scene.materials[0];
+    assert!((m.base_color[0] - 0.7).abs() < 1e-6 && m.base_color[1] == 0.0);
+    assert!((m.roughness - 0.4).abs() < 1e-6 && (m.metallic - 0.3).abs() < 1e-6);
+}
+
+#[test]
+fn lamborghini_is_normalised_to_a_car_length() {
+    let Some(scene) = load_model("LamborghiniHuracanGT3/LamborghiniHuracanGT3.glb") else {
+        return;
+    };
+    check_scene(&scene, "Lamborghini");
+    assert_eq!(scene.mesh.triangle_count(), 145_917);
+    assert_eq!(scene.materials.len(), 45);
+    // No material is named like paint: the largest non-excluded area wins.
+    assert_eq!(paint_names(&scene), ["LamborghiniHuracanGT3_CarBase"]);
+
+    // The livery can be chosen by name.
+    let path = testdata()
+        .unwrap()
+        .join("LamborghiniHuracanGT3/LamborghiniHuracanGT3.glb");
+    let options = LoadOptions {
+        paint_material: Some("Material.035".into()),
+    };
+    let scene = load(&path, &options).unwrap();
+    assert_eq!(paint_names(&scene), ["Material.035"]);
+}
+
+#[test]
+fn draco_is_refused_by_name() {
+    let Some(dir) = testdata() else { return };
+    let path = dir.join("CesiumMilkTruck/glTF-Draco/CesiumMilkTruck.gltf");
+    let err = load(&path, &LoadOptions::default()).unwrap_err();
+    assert!(
+        matches!(&err, SceneError::UnsupportedExtension { extension, .. } if extension == "KHR_draco_mesh_compression")
+    );
+    let message = err.to_string();
+    assert!(message.contains("KHR_draco_mesh_compression"), "{message}");
+    assert!(message.contains("CesiumMilkTruck.gltf"), "{message}");
+}
+
+#[test]
+fn meshopt_is_refused_by_name() {
+    let Some(dir) = testdata() else { return };
+    let path = dir.join("LamborghiniHuracanGT3/LamborghiniHuracanGT3.meshopt.glb");
+    let message = load(&path, &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(message.contains("EXT_meshopt_compression"), "{message}");
+    assert!(
+        message.contains("LamborghiniHuracanGT3.meshopt.glb"),
+        "{message}"
+    );
+}
+
+#[test]
+fn truncated_real_glb_is_a_parse_error() {
+    let Some(dir) = testdata() else { return };
+    let bytes = std::fs::read(dir.join("CesiumMilkTruck/CesiumMilkTruck.glb")).unwrap();
+    let tmp = TempDir::new("truncated_real");
+    for cut in [0, 5, 12, 19, 20, 100, bytes.len() / 2, bytes.len() - 1] {
+        let path = tmp.write("cut.glb", &bytes[..cut]);
+        let err = load(&path, &LoadOptions::default()).unwrap_err();
+        assert!(matches!(err, SceneError::Parse { .. }), "cut {cut}: {err}");
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Synthetic files
+
+/// A folder under the target directory, emptied on creation.
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(name: &str) -> Self {
+        let dir = std::env::temp_dir().join(format!("coatlab-gltf-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        Self(dir)
+    }
+
+    fn write(&self, name: &str, bytes: &[u8]) -> PathBuf {
+        let path = self.0.join(name);
+        std::fs::write(&path, bytes).unwrap();
+        path
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Binary payload: `positions` (f32 vec3) then u16 `indices`, padded to 4 bytes.
+fn payload(positions: &[[f32; 3]], indices: &[u16]) -> Vec<u8> {
+    let mut bin = Vec::new();
+    for p in positions {
+        for x in p {
+            bin.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    for i in indices {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    while !bin.len().is_multiple_of(4) {
+        bin.push(0);
+    }
+    bin
+}
+
+/// glTF JSON for one mesh ("Body", material "CarPaint" and "Glass") with the
+/// given positions and indices in buffer 0; `extra` is merged into the root.
+fn gltf_json(
+    positions: &[[f32; 3]],
+    indices: &[u16],
+    buffer_uri: Option<&str>,
+    nodes: &str,
+    mode: u32,
+    extra: &str,
+) -> String {
+    let bin_len = payload(positions, indices).len();
+    let pos_len = positions.len() * 12;
+    let (lo, hi) = positions.iter().fold(
+        ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+        |(mut lo, mut hi), p| {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+            (lo, hi)
+        },
+    );
+    let minmax = if lo.iter().chain(&hi).all(|x| x.is_finite()) {
+        format!(r#","min":{lo:?},"max":{hi:?}"#)
+    } else {
+        String::new()
+    };
+    let uri = buffer_uri.map_or(String::new(), |u| format!(r#","uri":"{u}""#));
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":{nodes}}}],
+"nodes":[{{"mesh":0,"name":"n0"}},{{"mesh":0,"translation":[5,0,0]}},{{"mesh":0,"scale":[-1,1,1]}},{{"children":[0]}}],
+"meshes":[{{"name":"Body","primitives":[{{"attributes":{{"POSITION":0}},"indices":1,"material":0,"mode":{mode}}}]}}],
+"materials":[{{"name":"CarPaint","pbrMetallicRoughness":{{"baseColorFactor":[0.8,0.1,0.1,1],"roughnessFactor":0.3,"metallicFactor":0}}}},{{"name":"Glass"}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":{np},"type":"VEC3"{minmax}}},{{"bufferView":1,"componentType":5123,"count":{ni},"type":"SCALAR"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":{pos_len}}},{{"buffer":0,"byteOffset":{pos_len},"byteLength":{il}}}],
+"buffers":[{{"byteLength":{bin_len}{uri}}}]{extra}}}"#,
+        np = positions.len(),
+        ni = indices.len(),
+        il = indices.len() * 2,
+    )
+}
+
+/// A GLB container around `json` and `bin`.
+fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
+    let mut json = json.as_bytes().to_vec();
+    while !json.len().is_multiple_of(4) {
+        json.push(b' ');
+    }
+    let total = 12 + 8 + json.len() + 8 + bin.len();
+    let mut out = Vec::new();
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&(total as u32).to_le_bytes());
+    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&json);
+    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"BIN\0");
+    out.extend_from_slice(bin);
+    out
+}
+
+/// A unit right triangle in the x-y plane, facing +z.
+const TRIANGLE: [[f32; 3]; 3] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+
+fn load_glb(tmp: &TempDir, json: &str, bin: &[u8]) -> Result<Scene, SceneError> {
+    let path = tmp.write("scene.glb", &glb(json, bin));
+    load(&path, &LoadOptions::default())
+}
+
+fn geometric_normal(scene: &Scene, t: usize) -> [f32; 3] {
+    let [a, b, c] = scene.mesh.triangles[t].map(|i| scene.mesh.positions[i as usize]);
+    let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+    [
+        e1[1] * e2[2] - e1[2] * e2[1],
+        e1[2] * e2[0] - e1[0] * e2[2],
+        e1[0] * e2[1] - e1[1] * e2[0],
+    ]
+}
+
+#[test]
+fn glb_instancing_and_mirroring() {
+    let tmp = TempDir::new("instancing");
+    let bin = payload(&TRIANGLE, &[0, 1, 2]);
+    // Node 3 holds node 0; nodes 1 and 2 are further instances, 2 mirrored.
+    let json = gltf_json(&TRIANGLE, &[0, 1, 2], None, "[3,1,2]", 4, "");
+    let scene = load_glb(&tmp, &json, &bin).unwrap();
+    check_scene(&scene, "instancing");
+    assert_eq!(scene.mesh.triangle_count(), 3);
+    for t in 0..3 {
+        // Computed normals agree with the winding, also under the mirror.
+        let g = geometric_normal(&scene, t);
+        let n = scene.mesh.normals[scene.mesh.triangles[t][0] as usize];
+        assert!(g[2] > 0.0 && n[2] > 0.999, "triangle {t}: {g:?} {n:?}");
+    }
+    assert_eq!(paint_names(&scene), ["CarPaint"]);
+    assert!(
+        scene.warnings.contains(
+            &"paint material: 'CarPaint' (name matches 'paint', largest such area)".into()
+        ),
+        "{:?}",
+        scene.warnings
+    );
+    // Uniform scale: the row of instances, x from -1 to 6, becomes 4.5 m long.
+    let (lo, hi) = scene.mesh.bounds().unwrap();
+    assert!((hi[1] - lo[1] - 4.5 / 7.0).abs() < 1e-5);
+}
+
+#[test]
+fn gltf_with_external_and_data_uri_buffers() {
+    let tmp = TempDir::new("external");
+    let bin = payload(&TRIANGLE, &[0, 1, 2]);
+    tmp.write("my data.bin", &bin);
+    let json = gltf_json(&TRIANGLE, &[0, 1, 2], Some("my%20data.bin"), "[0]", 4, "");
+    let path = tmp.write("scene.gltf", json.as_bytes());
+    let scene = load(&path, &LoadOptions::default()).unwrap();
+    assert_eq!(scene.mesh.triangle_count(), 1);
+
+    let encoded = base64(&bin);
+    let uri = format!("data:application/octet-stream;base64,{encoded}");
+    let json = gltf_json(&TRIANGLE, &[0, 1, 2], Some(&uri), "[0]", 4, "");
+    let path = tmp.write("embedded.gltf", json.as_bytes());
+    let scene = load(&path, &LoadOptions::default()).unwrap();
+    assert_eq!(scene.mesh.triangle_count(), 1);
+}
+
+fn base64(bytes: &[u8]) -> String {
+    const ABC: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for chunk in bytes.chunks(3) {
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
+        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
+        for k in 0..4 {
+            if k <= chunk.len() {
+                out.push(ABC[(n >> (18 - 6 * k) & 63) as usize] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn strips_fans_and_points() {
+    let tmp = TempDir::new("modes");
+    let quad = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.0],
+    ];
+    let bin = payload(&quad, &[0, 1, 2, 3]);
+    // Strip (5): 2 triangles, both facing +z.
+    let json = gltf_json(&quad, &[0, 1, 2, 3], None, "[0]", 5, "");
+    let scene = load_glb(&tmp, &json, &bin).unwrap();
+    assert_eq!(scene.mesh.triangle_count(), 2);
+    for t in 0..2 {
+        assert!(geometric_normal(&scene, t)[2] > 0.0, "strip triangle {t}");
+    }
+    // Fan (6) over 0, 1, 3, 2: 2 triangles facing +z.
+    let bin = payload(&quad, &[0, 1, 3, 2]);
+    let json = gltf_json(&quad, &[0, 1, 3, 2], None, "[0]", 6, "");
+    let scene = load_glb(&tmp, &json, &bin).unwrap();
+    assert_eq!(scene.mesh.triangle_count(), 2);
+    for t in 0..2 {
+        assert!(geometric_normal(&scene, t)[2] > 0.0, "fan triangle {t}");
+    }
+    // Points (0) only: skipped with a warning, leaving an empty scene.
+    let json = gltf_json(&quad, &[0, 1, 2, 3], None, "[0]", 0, "");
+    let err = load_glb(&tmp, &json, &bin).unwrap_err();
+    assert!(matches!(err, SceneError::Empty { .. }), "{err}");
+}
+
+#[test]
+fn truncated_glb_is_a_parse_error() {
+    let tmp = TempDir::new("truncated");
+    let bin = payload(&TRIANGLE, &[0, 1, 2]);
+    let bytes = glb(&gltf_json(&TRIANGLE, &[0, 1, 2], None, "[0]", 4, ""), &bin);
+    for cut in [3, 12, 30, bytes.len() - 10] {
+        let path = tmp.write("cut.glb", &bytes[..cut]);
+        let err = load(&path, &LoadOptions::default()).unwrap_err();
+        assert!(matches!(err, SceneError::Parse { .. }), "cut {cut}: {err}");
+        assert!(err.to_string().contains("cut.glb"), "{err}");
+    }
+    // A header that declares a length below its own size.
+    let mut bad = bytes.clone();
+    bad[8..12].copy_from_slice(&4u32.to_le_bytes());
+    let path = tmp.write("bad.glb", &bad);
+    let err = load(&path, &LoadOptions::default()).unwrap_err();
+    assert!(matches!(err, SceneError::Parse { .. }), "{err}");
+    // Truncated JSON.
+    let path = tmp.write("cut.gltf", b"{\"asset\":{\"version\":\"2.0\"},\"sce");
+    let err = load(&path, &LoadOptions::default()).unwrap_err();
+    assert!(matches!(err, SceneError::Parse { .. }), "{err}");
+}
+
+#[test]
+fn missing_bin_is_reported_by_path() {
+    let tmp = TempDir::new("missing");
+    let json = gltf_json(&TRIANGLE, &[0, 1, 2], Some("gone.bin"), "[0]", 4, "");
+    let path = tmp.write("scene.gltf", json.as_bytes());
+    let err = load(&path, &LoadOptions::default()).unwrap_err();
+    assert!(
+        matches!(&err, SceneError::MissingBuffer { path, .. } if path.ends_with("gone.bin")),
+        "{err}"
+    );
+    let message = err.to_string();
+    assert!(message.contains("scene.gltf") && message.contains("gone.bin"));
+    // A .bin that is shorter than its byteLength.
+    tmp.write("gone.bin", &[0; 8]);
+    let err = load(&path, &LoadOptions::default()).unwrap_err();
+    assert!(matches!(err, SceneError::Parse { .. }), "{err}");
+    // Missing file itself.
+    let err = load(&tmp.0.join("nothing.glb"), &LoadOptions::default()).unwrap_err();
+    assert!(matches!(err, SceneError::Io { .. }), "{err}");
+}
+
+#[test]
+fn nan_vertex_names_the_mesh() {
+    let tmp = TempDir::new("nan");
+    let mut positions = TRIANGLE;
+    positions[1][2] = f32::NAN;
+    let bin = payload(&positions, &[0, 1, 2]);
+    let json = gltf_json(&positions, &[0, 1, 2], None, "[0]", 4, "");
+    let err = load_glb(&tmp, &json, &bin).unwrap_err();
+    assert!(
+        matches!(&err, SceneError::NonFinite { mesh, primitive: 0, .. } if mesh == "Body"),
+        "{err}"
+    );
+    // Infinite scale in a node transform.
+    let bin = payload(&TRIANGLE, &[0, 1, 2]);
+    let json = gltf_json(&TRIANGLE, &[0, 1, 2], None, "[0]", 4, "")
+        .replace(r#""name":"n0""#, r#""name":"n0","scale":[1e39,1,1]"#);
+    let err = load_glb(&tmp, &json, &bin).unwrap_err();
+    assert!(matches!(err, SceneError::NonFinite { .. }), "{err}");
+}
+
+#[test]
+fn empty_scenes_are_errors() {
+    let tmp = TempDir::new("empty");
+    let bin = payload(&TRIANGLE, &[0, 1, 2]);
+    let json = gltf_json(&TRIANGLE, &[0, 1, 2], None, "[]", 4, "");
+    let err = load_glb(&tmp, &json, &bin).unwrap_err();
+    assert!(matches!(err, SceneError::Empty { .. }), "{err}");
+    let path = tmp.write("bare.gltf", br#"{"asset":{"version":"2.0"}}"#);
+    let err = load(&path, &LoadOptions::default()).unwrap_err();
+    assert!(matches!(err, SceneError::Empty { .. }), "{err}");
+    // Degenerate: all vertices on one vertical line.
+    let line = [[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 2.0, 0.0]];
+    let bin = payload(&line, &[0, 1, 2]);
+    let json = gltf_json(&line, &[0, 1, 2], None, "[0]", 4, "");
+    let err = load_glb(&tmp, &json, &bin).unwrap_err();
+    assert!(matches!(err, SceneError::Empty { .. }), "{err}");
+}
+
+#[test]
+fn unknown_required_extension_is_refused_and_optional_warned() {
+    let tmp = TempDir::new("extensions");
+    let bin = payload(&TRIANGLE, &[0, 1, 2]);
+    let extra = r#","extensionsUsed":["EXT_fancy"],"extensionsRequired":["EXT_fancy"]"#;
+    let json = gltf_json(&TRIANGLE, &[0, 1, 2], None, "[0]", 4, extra);
+    let err = load_glb(&tmp, &json, &bin).unwrap_err();
+    assert!(
+        matches!(&err, SceneError::UnsupportedExtension { extension, .. } if extension == "EXT_fancy"),
+        "{err}"
+    );
+    assert!(err.to_string().contains("scene.glb"));
+
+    let extra = r#","extensionsUsed":["EXT_fancy","KHR_materials_sheen"]"#;
+    let json = gltf_json(&TRIANGLE, &[0, 1, 2], None, "[0]", 4, extra);
+    let scene = load_glb(&tmp, &json, &bin).unwrap();
+    assert!(scene.warnings.iter().any(|w| w.starts_with("EXT_fancy:")));
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.starts_with("KHR_materials_sheen:"))
+    );
+}
+
+#[test]
+fn bad_accessors_are_errors() {
+    let tmp = TempDir::new("accessors");
+    let bin = payload(&TRIANGLE, &[0, 1, 2]);
+    let json = gltf_json(&TRIANGLE, &[0, 1, 2], None, "[0]", 4, "");
+    let cases = [
+        // An accessor index that does not exist.
+        (r#""indices":1"#, r#""indices":99"#),
+        // More elements than the buffer view holds.
+        (r#""count":3,"type":"VEC3""#, r#""count":300,"type":"VEC3""#),
+        // Positions as scalars.
+        (r#""type":"VEC3""#, r#""type":"SCALAR""#),
+        // A view past the end of the buffer.
+        (
+            r#""byteOffset":0,"byteLength":36"#,
+            r#""byteOffset":0,"byteLength":3600"#,
+        ),
+        // Count zero.
+        (
+            r#""count":3,"type":"SCALAR""#,
+            r#""count":0,"type":"SCALAR""#,
+        ),
+    ];
+    for (k, (from, to)) in cases.iter().enumerate() {
+        let broken = json.replacen(from, to, 1);
+        assert_ne!(broken, json, "case {k} did not apply");
+        let Err(err) = load_glb(&tmp, &broken, &bin) else {
+            panic!("case {k} loaded");
+        };
+        assert!(
+            matches!(err, SceneError::BadAccessor { .. }),
+            "case {k}: {err}"
+        );
+    }
+    // Index out of range.
+    let bin = payload(&TRIANGLE, &[0, 1, 7]);
+    let err = load_glb(&tmp, &json, &bin).unwrap_err();
+    assert!(matches!(err, SceneError::BadAccessor { .. }), "{err}");
+}
+
+#[test]
+fn paint_material_override() {
+    let tmp = TempDir::new("override");
+    let bin = payload(&TRIANGLE, &[0, 1, 2]);
+    let json = gltf_json(&TRIANGLE, &[0, 1, 2], None, "[0]", 4, "");
+    let path = tmp.write("scene.glb", &glb(&json, &bin));
+    let options = LoadOptions {
+        paint_material: Some("Chassis".into()),
+    };
+    let err = load(&path, &options).unwrap_err();
+    assert!(
+        matches!(&err, SceneError::UnknownMaterial { available, .. } if available == &["CarPaint", "Glass"]),
+        "{err}"
+    );
+    assert!(err.to_string().contains("'CarPaint', 'Glass'"), "{err}");
+    let options = LoadOptions {
+        paint_material: Some("Glass".into()),
+    };
+    let scene = load(&path, &options).unwrap();
+    assert_eq!(scene.paint_materials, [1]);
+}
+
+/// Prints what each real model gives (run with `--nocapture`); checks nothing more.
+#[test]
+fn report_real_models() {
+    let Some(dir) = testdata() else { return };
+    for rel in [
+        "CesiumMilkTruck/CesiumMilkTruck.glb",
+        "CesiumMilkTruck/glTF-Draco/CesiumMilkTruck.gltf",
+        "ClearCoatCarPaint/ClearCoatCarPaint.glb",
+        "LamborghiniHuracanGT3/LamborghiniHuracanGT3.glb",
+        "LamborghiniHuracanGT3/LamborghiniHuracanGT3.meshopt.glb",
+        "ToyCar/ToyCar.gltf",
+    ] {
+        match load(&dir.join(rel), &LoadOptions::default()) {
+            Ok(scene) => {
+                let (lo, hi) = scene.mesh.bounds().unwrap();
+                println!(
+                    "{rel}: {} triangles, {} vertices, bounds {lo:?}..{hi:?}, paint {:?}",
+                    scene.mesh.triangle_count(),
+                    scene.mesh.positions.len(),
+                    paint_names(&scene)
+                );
+                for w in &scene.warnings {
+                    println!("    warning: {w}");
+                }
+            }
+            Err(e) => println!("{rel}: error: {e}"),
+        }
+    }
+}
