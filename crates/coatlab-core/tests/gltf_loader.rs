@@ -426,6 +426,30 @@ fn strips_fans_and_points() {
     let json = gltf_json(&quad, &[0, 1, 2, 3], None, "[0]", 0, "");
     let err = load_glb(&tmp, &json, &bin).unwrap_err();
     assert!(matches!(err, SceneError::Empty { .. }), "{err}");
+    assert!(err.to_string().contains("1 primitives skipped"), "{err}");
+}
+
+#[test]
+fn malformed_node_graphs_are_errors() {
+    let tmp = TempDir::new("graphs");
+    let bin = payload(&TRIANGLE, &[0, 1, 2]);
+    let json = gltf_json(&TRIANGLE, &[0, 1, 2], None, "[3]", 4, "");
+    let cases = [
+        // Node 0 under node 3 twice.
+        (r#""children":[0]"#, r#""children":[0,0]"#),
+        // A cycle: 3 -> 0 -> 3.
+        (r#""name":"n0""#, r#""name":"n0","children":[3]"#),
+        // Node 3 its own child.
+        (r#""children":[0]"#, r#""children":[3]"#),
+    ];
+    for (k, (from, to)) in cases.iter().enumerate() {
+        let broken = json.replacen(from, to, 1);
+        assert_ne!(broken, json, "case {k} did not apply");
+        let Err(err) = load_glb(&tmp, &broken, &bin) else {
+            panic!("case {k} loaded");
+        };
+        assert!(matches!(err, SceneError::Parse { .. }), "case {k}: {err}");
+    }
 }
 
 #[test]

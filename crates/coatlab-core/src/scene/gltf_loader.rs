@@ -31,6 +31,10 @@ pub const TARGET_LENGTH_M: f64 = 4.5;
 /// Deepest node hierarchy accepted; deeper ones are taken for a cycle.
 const MAX_NODE_DEPTH: usize = 256;
 
+/// Most elements of a sparse accessor with no bufferView (all zeros but the sparse
+/// ones): a guard against a tiny file asking for gigabytes.
+const MAX_SPARSE_ONLY_COUNT: u64 = 1 << 24;
+
 /// Extensions we understand well enough to ignore, even when a file requires them,
 /// with what each means for us. Anything else in `extensionsRequired` is refused.
 pub const IGNORED_EXTENSIONS: &[(&str, &str)] = &[
@@ -226,12 +230,16 @@ fn load_from_bytes(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<S
             file: file.clone(),
             details: " (it has no scenes)".into(),
         })?;
+    check_single_parents(&file, root)?;
     let mut instances = Vec::new();
     for node in scene.nodes() {
         collect_instances(&file, node, &IDENTITY, 0, &mut instances)?;
     }
     if document.animations().next().is_some() {
         warnings.push("animations ignored: the scene is shown at rest".into());
+    }
+    if document.skins().next().is_some() {
+        warnings.push("skins ignored: skinned meshes are shown in their bind pose".into());
     }
 
     let mut materials = document_materials(document, &mut warnings);
@@ -278,10 +286,13 @@ fn load_from_bytes(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<S
         }
     }
     if mesh.triangles.is_empty() {
-        return Err(SceneError::Empty {
-            file,
-            details: String::new(),
-        });
+        let skipped = warnings.iter().filter(|w| w.contains("skipped")).count();
+        let details = if skipped > 0 {
+            format!(" ({skipped} primitives skipped: not triangles or no positions)")
+        } else {
+            String::new()
+        };
+        return Err(SceneError::Empty { file, details });
     }
     compact_vertices(&mut mesh);
     normalise(&mut mesh).map_err(|details| SceneError::Empty {
@@ -670,7 +681,14 @@ impl AccessorReader<'_> {
                 let s = self.view_slice(&what, view.value(), offset, count, element_size)?;
                 decode_elements(&s, ct, components, acc.normalized)
             }
-            None if acc.sparse.is_some() => vec![0.0; count as usize * components],
+            None if acc.sparse.is_some() => {
+                if count > MAX_SPARSE_ONLY_COUNT {
+                    return Err(self.bad(format!(
+                        "{what}: sparse accessor without a bufferView has {count} elements"
+                    )));
+                }
+                vec![0.0; count as usize * components]
+            }
             None => return Err(self.bad(format!("{what}: no bufferView and not sparse"))),
         };
         if let Some(sparse) = &acc.sparse {
@@ -836,6 +854,29 @@ fn finite_unit(x: f32) -> f32 {
 
 // ---------------------------------------------------------------------------
 // Scene graph
+
+/// glTF nodes form disjoint trees: no node may have two parents. Checked so that a
+/// malformed file cannot make the traversal exponential.
+fn check_single_parents(file: &Path, root: &json::Root) -> Result<(), SceneError> {
+    let mut has_parent = vec![false; root.nodes.len()];
+    for (parent, node) in root.nodes.iter().enumerate() {
+        for child in node.children.iter().flatten() {
+            let Some(slot) = has_parent.get_mut(child.value()) else {
+                continue; // out-of-range indices are reported by validation
+            };
+            if std::mem::replace(slot, true) || child.value() == parent {
+                return Err(SceneError::Parse {
+                    file: file.to_path_buf(),
+                    details: format!(
+                        "node {} has more than one parent (or is its own child)",
+                        child.value()
+                    ),
+                });
+            }
+        }
+    }
+    Ok(())
+}
 
 /// Column-major 4x4 matrix, `m[column][row]`, as glTF stores it.
 type Mat4 = [[f64; 4]; 4];
