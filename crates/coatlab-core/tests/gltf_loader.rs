@@ -650,3 +650,42 @@ fn report_real_models() {
         }
     }
 }
+
+#[test]
+fn file_normals_follow_the_inverse_transpose_and_the_mirror() {
+    let tmp = TempDir::new("normals");
+    let bin = payload(&TRIANGLE, &[0, 1, 2]);
+    let s = std::f32::consts::FRAC_1_SQRT_2;
+    let normals = payload(&[[s, 0.0, s]; 3], &[]);
+    let uri = format!("data:application/octet-stream;base64,{}", base64(&normals));
+    let json = gltf_json(&TRIANGLE, &[0, 1, 2], None, "[0]", 4, "")
+        .replacen(r#""POSITION":0"#, r#""POSITION":0,"NORMAL":2"#, 1)
+        .replacen(
+            r#""type":"SCALAR"}]"#,
+            r#""type":"SCALAR"},{"bufferView":2,"componentType":5126,"count":3,"type":"VEC3"}]"#,
+            1,
+        )
+        .replacen(
+            "}],\n\"buffers\":[",
+            r#"},{"buffer":1,"byteLength":36}],
+"buffers":["#,
+            1,
+        )
+        // Mirror and stretch x: the normal (1, 0, 1)/√2 maps to (-0.5, 0, 1), normalised.
+        .replacen(r#""name":"n0""#, r#""name":"n0","scale":[-2,1,1]"#, 1);
+    // Buffer 1, the normals, goes last.
+    let json = format!(
+        r#"{},{{"byteLength":36,"uri":"{uri}"}}]}}"#,
+        json.strip_suffix("]}").unwrap()
+    );
+    let scene = load_glb(&tmp, &json, &bin).unwrap();
+    check_scene(&scene, "normals");
+    let expected = [-0.5 / 1.25f32.sqrt(), 0.0, 1.0 / 1.25f32.sqrt()];
+    for n in &scene.mesh.normals {
+        for k in 0..3 {
+            assert!((n[k] - expected[k]).abs() < 1e-5, "{n:?} vs {expected:?}");
+        }
+    }
+    // The flipped winding still faces the same side as the normals.
+    assert!(geometric_normal(&scene, 0)[2] > 0.0);
+}
