@@ -4,6 +4,7 @@
 //! Everything is flattened on load: node hierarchies and instances become one
 //! triangle list in world space, which is what the BVH and the tracer consume.
 
+pub mod car;
 pub mod gltf_loader;
 
 /// Triangle geometry in world space, with smooth (per-vertex) normals.

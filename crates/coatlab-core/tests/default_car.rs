@@ -1,0 +1,425 @@
+//! The default car: geometry, normals, materials, and the committed
+//! `assets/default-car.glb` against the generator.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::OnceLock;
+
+use coatlab_core::scene::Scene;
+use coatlab_core::scene::car::{self, ARCH_LIP_WIDTH_M, CarParameters};
+
+fn scene() -> &'static Scene {
+    static SCENE: OnceLock<Scene> = OnceLock::new();
+    SCENE.get_or_init(|| car::generate(&CarParameters::default()))
+}
+
+fn asset_path() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../assets/default-car.glb")
+}
+
+fn material_index(scene: &Scene, name: &str) -> u32 {
+    scene
+        .materials
+        .iter()
+        .position(|m| m.name == name)
+        .unwrap_or_else(|| panic!("no material {name}")) as u32
+}
+
+fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// Vertices of the body surface: those of paint and glass triangles.
+fn body_vertices(scene: &Scene) -> Vec<bool> {
+    let (body, glass) = (
+        material_index(scene, "body"),
+        material_index(scene, "glass"),
+    );
+    let mut is_body = vec![false; scene.mesh.positions.len()];
+    for (t, &m) in scene
+        .mesh
+        .triangles
+        .iter()
+        .zip(&scene.mesh.triangle_material)
+    {
+        if m == body || m == glass {
+            for &v in t {
+                is_body[v as usize] = true;
+            }
+        }
+    }
+    is_body
+}
+
+#[test]
+fn mesh_is_large_consistent_and_finite() {
+    let mesh = &scene().mesh;
+    assert!(
+        mesh.triangle_count() >= 50_000,
+        "{} triangles",
+        mesh.triangle_count()
+    );
+    assert_eq!(mesh.normals.len(), mesh.positions.len());
+    assert_eq!(mesh.triangle_material.len(), mesh.triangles.len());
+    let n = mesh.positions.len() as u32;
+    assert!(mesh.triangles.iter().flatten().all(|&v| v < n));
+    assert!(
+        mesh.triangle_material
+            .iter()
+            .all(|&m| (m as usize) < scene().materials.len())
+    );
+    assert!(mesh.positions.iter().flatten().all(|v| v.is_finite()));
+    for (k, normal) in mesh.normals.iter().enumerate() {
+        let length = dot(*normal, *normal).sqrt();
+        assert!(
+            (length - 1.0).abs() < 1e-5,
+            "normal {k} has length {length}"
+        );
+    }
+    let degenerate = (0..mesh.triangle_count())
+        .filter(|&t| mesh.triangle_area(t) < 1e-12)
+        .count();
+    assert!(degenerate < 10, "{degenerate} degenerate triangles");
+    assert!(scene().warnings.is_empty(), "{:?}", scene().warnings);
+}
+
+#[test]
+fn bounds_car_on_the_ground_and_centred() {
+    let p = CarParameters::default();
+    let (lo, hi) = scene().mesh.bounds().expect("non-empty");
+    assert!(lo[1].abs() < 1e-5, "lowest point y = {}", lo[1]);
+    assert!(
+        hi[1] <= p.height_m + 1e-4 && hi[1] > p.height_m - 0.01,
+        "top y = {}",
+        hi[1]
+    );
+    assert!(hi[0] <= 0.5 * p.width_m + 1e-4 && lo[0] >= -0.5 * p.width_m - 1e-4);
+    assert!(hi[0] > 0.5 * p.width_m - 0.01, "width {}", hi[0] - lo[0]);
+    assert!(hi[2] <= 0.5 * p.length_m + 1e-4 && lo[2] >= -0.5 * p.length_m - 1e-4);
+    assert!(
+        hi[2] - lo[2] > p.length_m - 0.01,
+        "length {}",
+        hi[2] - lo[2]
+    );
+    assert!((lo[0] + hi[0]).abs() < 1e-4 && (lo[2] + hi[2]).abs() < 1e-4);
+
+    // Each of the four tyres touches the ground; the body stays above it.
+    let mesh = &scene().mesh;
+    let tyre = material_index(scene(), "tyre");
+    let mut lowest = HashMap::new();
+    let mut body_lowest = f32::INFINITY;
+    for (t, &m) in mesh.triangles.iter().zip(&mesh.triangle_material) {
+        for &v in t {
+            let q = mesh.positions[v as usize];
+            if m == tyre {
+                let key = (q[0] > 0.0, q[2] > 0.0);
+                let entry = lowest.entry(key).or_insert(f32::INFINITY);
+                *entry = entry.min(q[1]);
+            } else if m == material_index(scene(), "body") {
+                body_lowest = body_lowest.min(q[1]);
+            }
+        }
+    }
+    assert_eq!(lowest.len(), 4, "{lowest:?}");
+    assert!(lowest.values().all(|y| y.abs() < 1e-5), "{lowest:?}");
+    assert!(
+        body_lowest > 0.5 * p.ground_clearance_m,
+        "body reaches y = {body_lowest}"
+    );
+}
+
+#[test]
+fn normals_face_outward() {
+    let scene = scene();
+    let mesh = &scene.mesh;
+
+    // Vertex normals agree with the winding of every triangle that uses them.
+    let mut disagreeing = 0;
+    for tri in &mesh.triangles {
+        let [a, b, c] = tri.map(|v| mesh.positions[v as usize]);
+        let face = cross(sub(b, a), sub(c, a));
+        for &v in tri {
+            if dot(face, mesh.normals[v as usize]) < 0.0 {
+                disagreeing += 1;
+            }
+        }
+    }
+    assert!(
+        disagreeing * 10_000 < 3 * mesh.triangle_count(),
+        "{disagreeing} vertex normals against their triangle's winding"
+    );
+
+    // Body: outward from the axis of its cross-section (vertices of one section share
+    // z; the axis is the section's centroid).
+    let is_body = body_vertices(scene);
+    let mut sections: HashMap<u32, ([f64; 2], usize)> = HashMap::new();
+    for (v, q) in mesh.positions.iter().enumerate() {
+        if is_body[v] {
+            let entry = sections.entry(q[2].to_bits()).or_default();
+            entry.0[0] += q[0] as f64;
+            entry.0[1] += q[1] as f64;
+            entry.1 += 1;
+        }
+    }
+    let mut checked = 0;
+    for (v, q) in mesh.positions.iter().enumerate() {
+        if !is_body[v] {
+            continue;
+        }
+        let (sum, count) = sections[&q[2].to_bits()];
+        if count < 8 {
+            continue;
+        }
+        let axis = [
+            (sum[0] / count as f64) as f32,
+            (sum[1] / count as f64) as f32,
+            q[2],
+        ];
+        let n = mesh.normals[v];
+        assert!(
+            dot(n, sub(*q, axis)) > 0.0,
+            "body normal {n:?} at {q:?} points toward the section axis {axis:?}"
+        );
+        checked += 1;
+    }
+    assert!(checked > 40_000, "{checked} body vertices checked");
+
+    // Tyres: outward from the circle through the middle of the tyre's section.
+    let p = CarParameters::default();
+    let tyre = material_index(scene, "tyre");
+    let centre_radius = p.wheel_radius_m * (1.0 + p.rim_fraction) * 0.5;
+    for (t, &m) in mesh.triangles.iter().zip(&mesh.triangle_material) {
+        if m != tyre {
+            continue;
+        }
+        for &v in t {
+            let q = mesh.positions[v as usize];
+            let axle_z = if q[2] > 0.0 {
+                p.front_axle_z()
+            } else {
+                p.rear_axle_z()
+            } as f32;
+            let x = (p.wheel_centre_x() as f32).copysign(q[0]);
+            let radial = [0.0, q[1] - p.wheel_radius_m, q[2] - axle_z];
+            let r = dot(radial, radial).sqrt();
+            let on_circle = [
+                x,
+                p.wheel_radius_m + radial[1] * centre_radius / r,
+                axle_z + radial[2] * centre_radius / r,
+            ];
+            assert!(dot(mesh.normals[v as usize], sub(q, on_circle)) > 0.0);
+        }
+    }
+}
+
+#[test]
+fn body_is_the_largest_material_and_the_paint() {
+    let scene = scene();
+    let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
+    for name in ["body", "glass", "tyre", "rim", "trim"] {
+        assert!(names.contains(&name), "{names:?}");
+    }
+    let body = material_index(scene, "body");
+    assert_eq!(scene.paint_materials, vec![body]);
+    let total: f32 = scene.materials.iter().map(|m| m.area_m2).sum();
+    let summed: f32 = (0..scene.mesh.triangle_count())
+        .map(|t| scene.mesh.triangle_area(t))
+        .sum();
+    assert!((total - summed).abs() < 1e-3 * summed);
+    for (k, m) in scene.materials.iter().enumerate() {
+        assert!(m.area_m2 > 0.0, "{} has no area", m.name);
+        if k as u32 != body {
+            assert!(
+                m.area_m2 < scene.materials[body as usize].area_m2,
+                "{} larger than the body",
+                m.name
+            );
+        }
+    }
+    // A body is most of the geometry: over 10 m² of paint, a few m² of glass.
+    assert!(scene.materials[body as usize].area_m2 > 10.0);
+    let glass = &scene.materials[material_index(scene, "glass") as usize];
+    assert!(
+        glass.area_m2 > 1.5 && glass.area_m2 < 5.0,
+        "glass {} m²",
+        glass.area_m2
+    );
+}
+
+#[test]
+fn body_is_smooth_away_from_the_arch_lips() {
+    let p = CarParameters::default();
+    let scene = scene();
+    let mesh = &scene.mesh;
+    let is_body = body_vertices(scene);
+    let arch = p.arch_radius_m() as f32;
+    let lip = ARCH_LIP_WIDTH_M as f32;
+    let near_arch_lip = |q: [f32; 3]| {
+        [p.front_axle_z(), p.rear_axle_z()].iter().any(|&z| {
+            let rho = (q[1] - p.wheel_radius_m).hypot(q[2] - z as f32);
+            rho > arch - lip - 0.03 && rho < arch + 0.03
+        })
+    };
+    let max_angle_deg = 15.0f32;
+    let mut worst = 0.0f32;
+    let mut edges = 0usize;
+    let mut rough = Vec::new();
+    for tri in &mesh.triangles {
+        for k in 0..3 {
+            let (a, b) = (tri[k] as usize, tri[(k + 1) % 3] as usize);
+            if !(is_body[a] && is_body[b]) {
+                continue;
+            }
+            let (qa, qb) = (mesh.positions[a], mesh.positions[b]);
+            if near_arch_lip(qa) || near_arch_lip(qb) {
+                continue;
+            }
+            let cos = dot(mesh.normals[a], mesh.normals[b]).clamp(-1.0, 1.0);
+            let angle = cos.acos().to_degrees();
+            if angle >= max_angle_deg {
+                rough.push(format!("{qa:?}–{qb:?}: {angle:.1}°"));
+            }
+            worst = worst.max(angle);
+            edges += 1;
+        }
+    }
+    assert!(
+        rough.is_empty(),
+        "{} edges with normals {max_angle_deg}° or more apart, e.g. {:#?}",
+        rough.len(),
+        &rough[..rough.len().min(12)]
+    );
+    assert!(edges > 100_000, "{edges} edges checked");
+    println!("largest normal step between adjacent body vertices: {worst:.2}°");
+}
+
+#[test]
+fn generation_is_deterministic() {
+    let again = car::generate(&CarParameters::default());
+    assert_eq!(&again, scene());
+}
+
+#[test]
+fn committed_glb_is_what_the_generator_writes() {
+    let written = car::to_glb(scene()).expect("writes");
+    let committed = std::fs::read(asset_path()).expect(
+        "assets/default-car.glb is missing: cargo run -p coatlab-core --example make_default_car",
+    );
+    assert!(
+        committed == written,
+        "assets/default-car.glb ({} bytes) differs from the generator's output ({} bytes): \
+         regenerate it with cargo run -p coatlab-core --example make_default_car",
+        committed.len(),
+        written.len()
+    );
+    assert!(committed.len() < 4 << 20, "{} bytes", committed.len());
+}
+
+#[test]
+fn glb_parses_back_to_the_same_mesh() {
+    let scene = scene();
+    let bytes = car::to_glb(scene).expect("writes");
+    assert_eq!(&bytes[0..4], b"glTF");
+    assert_eq!(u32::from_le_bytes(bytes[4..8].try_into().unwrap()), 2);
+    assert_eq!(
+        u32::from_le_bytes(bytes[8..12].try_into().unwrap()) as usize,
+        bytes.len()
+    );
+    let gltf = gltf::Gltf::from_slice(&bytes).expect("valid GLB");
+    let blob = gltf.blob.as_deref().expect("BIN chunk");
+    let document = &gltf.document;
+    assert_eq!(document.meshes().count(), 1);
+    let names: Vec<String> = document
+        .materials()
+        .map(|m| m.name().unwrap_or_default().to_owned())
+        .collect();
+    let expected: Vec<String> = scene.materials.iter().map(|m| m.name.clone()).collect();
+    assert_eq!(names, expected);
+
+    let mut triangles_seen = 0;
+    for primitive in document.meshes().flat_map(|m| m.primitives()) {
+        let reader = primitive.reader(|buffer| (buffer.index() == 0).then_some(blob));
+        let positions: Vec<[f32; 3]> = reader.read_positions().expect("positions").collect();
+        let normals: Vec<[f32; 3]> = reader.read_normals().expect("normals").collect();
+        assert_eq!(positions, scene.mesh.positions);
+        assert_eq!(normals, scene.mesh.normals);
+        let material = primitive.material().index().expect("material") as u32;
+        let indices: Vec<u32> = reader.read_indices().expect("indices").into_u32().collect();
+        let expected: Vec<u32> = scene
+            .mesh
+            .triangles
+            .iter()
+            .zip(&scene.mesh.triangle_material)
+            .filter(|&(_, &m)| m == material)
+            .flat_map(|(t, _)| *t)
+            .collect();
+        assert_eq!(indices, expected, "material {material}");
+        triangles_seen += indices.len() / 3;
+        let bounds = primitive.bounding_box();
+        let (lo, hi) = scene.mesh.bounds().expect("non-empty");
+        assert_eq!((bounds.min, bounds.max), (lo, hi));
+    }
+    assert_eq!(triangles_seen, scene.mesh.triangle_count());
+    let base = document
+        .materials()
+        .next()
+        .expect("body material")
+        .pbr_metallic_roughness()
+        .base_color_factor();
+    assert_eq!(&base[..3], &scene.materials[0].base_color[..]);
+}
+
+#[test]
+fn out_of_range_parameters_are_clamped_and_reported() {
+    let parameters = CarParameters {
+        length_m: 2.0,
+        width_m: f32::NAN,
+        wheelbase_m: 3.4,
+        front_overhang_m: 1.3,
+        rings: 80,
+        section_vertices: 50,
+        wheel_segments: 17,
+        ..CarParameters::default()
+    };
+    let scene = car::generate(&parameters);
+    assert!(
+        scene.warnings.iter().any(|w| w.contains("length_m")),
+        "{:?}",
+        scene.warnings
+    );
+    assert!(scene.warnings.iter().any(|w| w.contains("width_m")));
+    assert!(scene.warnings.iter().any(|w| w.contains("wheelbase")));
+    assert!(scene.mesh.positions.iter().flatten().all(|v| v.is_finite()));
+    assert!(scene.mesh.normals.iter().flatten().all(|v| v.is_finite()));
+    let (lo, hi) = scene.mesh.bounds().expect("non-empty");
+    assert!(hi[2] - lo[2] <= 3.5 + 1e-4 && lo[1].abs() < 1e-5);
+}
+
+#[test]
+fn parameter_table_matches_the_defaults() {
+    let defaults = CarParameters::default();
+    assert_eq!(car::PARAMETERS.len(), 25);
+    for spec in car::PARAMETERS {
+        assert!(
+            spec.min <= spec.default && spec.default <= spec.max,
+            "{spec:?}"
+        );
+    }
+    assert_eq!(car::PARAMETERS[0].name, "length_m");
+    assert_eq!(car::PARAMETERS[0].default, defaults.length_m as f64);
+    let (validated, warnings) = defaults.validated();
+    assert_eq!(validated, defaults);
+    assert!(warnings.is_empty(), "{warnings:?}");
+}
