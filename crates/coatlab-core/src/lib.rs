@@ -11,6 +11,7 @@
 //! - [`instruments`]: the virtual multi-angle spectrophotometer and glossmeter;
 //! - [`design`]: paint design files.
 
+pub mod accel;
 pub mod cie;
 pub mod colour;
 pub mod design;

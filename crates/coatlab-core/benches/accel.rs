@@ -1,0 +1,411 @@
+//! Benchmarks of the acceleration structure (`coatlab_core::accel`) against the
+//! targets on the 2-core machine: BVH build for 150k triangles ≤ 150 ms; ≥ 10 million
+//! incoherent rays per second over both cores.
+//!
+//! Meshes: the Lamborghini Huracán GT3 glTF (145 917 triangles, shared test data), a
+//! synthetic torus of 150 000 triangles, and the default car when
+//! `assets/default-car.glb` exists (written by `examples/make_default_car.rs`).
+//! Configurations: obvhs's 8-wide compressed BVH (`Wide8`) and its binary BVH
+//! (`Binary`), each with the `Fast` and `Medium` presets (and `Wide8`/`Fastest`).
+//!
+//! Rays, all closest-hit with `t_max = ∞`:
+//! - camera: a 960×540 pinhole camera (45° vertical field of view) looking at the
+//!   model's centre from a raised front three-quarter view, one ray per pixel, rows
+//!   handed out to rayon in chunks of 8 rows;
+//! - incoherent: 2¹⁹ bounce rays, origins at area-weighted random points on the
+//!   surface (moved off it with `offset_ray_origin`), cosine-distributed directions
+//!   about the geometric normal's front side, in chunks of 4096 rays;
+//! - shadow: the same rays as any-hit queries (`occluded`) with `t_max = 1 m`.
+//!
+//! Two ways to run it:
+//! - `ACCEL_SUMMARY=1 cargo bench -p coatlab-core --bench accel` prints the whole
+//!   comparison as a markdown table in one run (each figure the best of 5 runs) and
+//!   skips criterion; this is what docs/benchmarks.md quotes.
+//! - `cargo bench -p coatlab-core --bench accel -- --warm-up-time 1
+//!   --measurement-time 3` runs the criterion benches (build single- and
+//!   two-threaded; ray batches with throughput in rays).
+
+use std::f32::consts::PI;
+use std::hint::black_box;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use coatlab_core::accel::{Accel, BuildOptions, BuildQuality, BvhLayout, offset_ray_origin};
+use coatlab_core::scene::TriangleMesh;
+use coatlab_core::scene::gltf_loader::{LoadOptions, load};
+use criterion::{BenchmarkId, Criterion, Throughput};
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64;
+use rayon::prelude::*;
+
+const LAMBORGHINI: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../../shared/testdata/gltf/LamborghiniHuracanGT3/LamborghiniHuracanGT3.glb"
+);
+const DEFAULT_CAR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/default-car.glb");
+
+const WIDTH: usize = 960;
+const HEIGHT: usize = 540;
+const INCOHERENT_RAYS: usize = 1 << 19;
+const SHADOW_T_MAX: f32 = 1.0;
+
+const CONFIGS: [(&str, BuildOptions); 5] = [
+    (
+        "Wide8/Fastest",
+        BuildOptions {
+            layout: BvhLayout::Wide8,
+            quality: BuildQuality::Fastest,
+        },
+    ),
+    (
+        "Wide8/Fast",
+        BuildOptions {
+            layout: BvhLayout::Wide8,
+            quality: BuildQuality::Fast,
+        },
+    ),
+    (
+        "Wide8/Medium",
+        BuildOptions {
+            layout: BvhLayout::Wide8,
+            quality: BuildQuality::Medium,
+        },
+    ),
+    (
+        "Binary/Fast",
+        BuildOptions {
+            layout: BvhLayout::Binary,
+            quality: BuildQuality::Fast,
+        },
+    ),
+    (
+        "Binary/Medium",
+        BuildOptions {
+            layout: BvhLayout::Binary,
+            quality: BuildQuality::Medium,
+        },
+    ),
+];
+
+/// A torus of `rings × sides × 2` triangles, 4.5 m across, in the y = 0.6 plane.
+fn torus(rings: usize, sides: usize) -> TriangleMesh {
+    let (major, minor) = (1.8f32, 0.45f32);
+    let mut mesh = TriangleMesh::default();
+    for i in 0..rings {
+        let a = 2.0 * PI * i as f32 / rings as f32;
+        for j in 0..sides {
+            let b = 2.0 * PI * j as f32 / sides as f32;
+            let r = major + minor * b.cos();
+            mesh.positions
+                .push([r * a.cos(), 0.6 + minor * b.sin(), r * a.sin()]);
+            mesh.normals
+                .push([b.cos() * a.cos(), b.sin(), b.cos() * a.sin()]);
+        }
+    }
+    let index = |i: usize, j: usize| ((i % rings) * sides + j % sides) as u32;
+    for i in 0..rings {
+        for j in 0..sides {
+            let (p, q, r, s) = (
+                index(i, j),
+                index(i + 1, j),
+                index(i + 1, j + 1),
+                index(i, j + 1),
+            );
+            mesh.triangles.push([p, r, q]);
+            mesh.triangles.push([p, s, r]);
+        }
+    }
+    mesh.triangle_material = vec![0; mesh.triangles.len()];
+    mesh
+}
+
+fn meshes() -> Vec<(String, TriangleMesh)> {
+    let mut out = Vec::new();
+    for (name, path) in [("default car", DEFAULT_CAR), ("Lamborghini", LAMBORGHINI)] {
+        if Path::new(path).exists() {
+            match load(Path::new(path), &LoadOptions::default()) {
+                Ok(scene) => out.push((name.to_string(), scene.mesh)),
+                Err(e) => eprintln!("note: {name} not benchmarked: {e}"),
+            }
+        } else {
+            eprintln!("note: {name} not benchmarked: {path} is missing");
+        }
+    }
+    out.push(("torus".to_string(), torus(500, 150)));
+    out
+}
+
+fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+fn normalise(a: [f32; 3]) -> [f32; 3] {
+    let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    [a[0] / l, a[1] / l, a[2] / l]
+}
+
+/// Pinhole camera: eye and, per pixel, a unit direction.
+struct Camera {
+    eye: [f32; 3],
+    forward: [f32; 3],
+    right: [f32; 3],
+    up: [f32; 3],
+    tan_half: f32,
+}
+
+impl Camera {
+    /// Raised front three-quarter view of the mesh's bounds.
+    fn three_quarter(mesh: &TriangleMesh) -> Camera {
+        let (lo, hi) = mesh.bounds().expect("non-empty mesh");
+        let centre = [
+            0.5 * (lo[0] + hi[0]),
+            0.5 * (lo[1] + hi[1]),
+            0.5 * (lo[2] + hi[2]),
+        ];
+        let d = sub(hi, lo);
+        let radius = 0.5 * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let tan_half = (22.5f32).to_radians().tan();
+        let view = normalise([1.0, 0.55, 1.3]);
+        let distance = 1.05 * radius / tan_half;
+        let eye = [
+            centre[0] + distance * view[0],
+            centre[1] + distance * view[1],
+            centre[2] + distance * view[2],
+        ];
+        let forward = normalise(sub(centre, eye));
+        let right = normalise(cross(forward, [0.0, 1.0, 0.0]));
+        let up = cross(right, forward);
+        Camera {
+            eye,
+            forward,
+            right,
+            up,
+            tan_half,
+        }
+    }
+
+    fn dir(&self, x: usize, y: usize) -> [f32; 3] {
+        let aspect = WIDTH as f32 / HEIGHT as f32;
+        let sx = (2.0 * (x as f32 + 0.5) / WIDTH as f32 - 1.0) * self.tan_half * aspect;
+        let sy = (1.0 - 2.0 * (y as f32 + 0.5) / HEIGHT as f32) * self.tan_half;
+        normalise(std::array::from_fn(|k| {
+            self.forward[k] + sx * self.right[k] + sy * self.up[k]
+        }))
+    }
+}
+
+/// Bounce rays: area-weighted surface points, cosine-distributed directions.
+fn incoherent_rays(mesh: &TriangleMesh, count: usize, seed: u64) -> Vec<([f32; 3], [f32; 3])> {
+    let mut cdf = Vec::with_capacity(mesh.triangles.len());
+    let mut total = 0.0f64;
+    for t in 0..mesh.triangles.len() {
+        total += f64::from(mesh.triangle_area(t));
+        cdf.push(total);
+    }
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let mut rays = Vec::with_capacity(count);
+    while rays.len() < count {
+        let pick = rng.random::<f64>() * total;
+        let t = cdf.partition_point(|&c| c < pick).min(cdf.len() - 1);
+        let [a, b, c] = mesh.triangles[t].map(|i| mesh.positions[i as usize]);
+        let n = cross(sub(b, a), sub(c, a));
+        if n == [0.0; 3] {
+            continue;
+        }
+        let n = normalise(n);
+        let (mut u, mut v) = (rng.random::<f32>(), rng.random::<f32>());
+        if u + v > 1.0 {
+            (u, v) = (1.0 - u, 1.0 - v);
+        }
+        let p: [f32; 3] = std::array::from_fn(|k| a[k] + u * (b[k] - a[k]) + v * (c[k] - a[k]));
+        // Cosine hemisphere about n.
+        let (r1, r2) = (rng.random::<f32>(), rng.random::<f32>());
+        let (r, phi) = (r1.sqrt(), 2.0 * PI * r2);
+        let helper = if n[0].abs() > 0.9 {
+            [0.0, 1.0, 0.0]
+        } else {
+            [1.0, 0.0, 0.0]
+        };
+        let tx = normalise(cross(helper, n));
+        let ty = cross(n, tx);
+        let (lx, ly, lz) = (r * phi.cos(), r * phi.sin(), (1.0 - r1).max(0.0).sqrt());
+        let dir = normalise(std::array::from_fn(|k| lx * tx[k] + ly * ty[k] + lz * n[k]));
+        rays.push((offset_ray_origin(p, n), dir));
+    }
+    rays
+}
+
+/// Traces the camera image; returns the number of hits.
+fn trace_camera(accel: &Accel, camera: &Camera) -> usize {
+    (0..HEIGHT)
+        .into_par_iter()
+        .with_min_len(8)
+        .map(|y| {
+            (0..WIDTH)
+                .filter(|&x| {
+                    accel
+                        .closest_hit(camera.eye, camera.dir(x, y), f32::INFINITY)
+                        .is_some()
+                })
+                .count()
+        })
+        .sum()
+}
+
+fn trace_incoherent(accel: &Accel, rays: &[([f32; 3], [f32; 3])]) -> usize {
+    rays.par_chunks(4096)
+        .map(|chunk| {
+            chunk
+                .iter()
+                .filter(|(o, d)| accel.closest_hit(*o, *d, f32::INFINITY).is_some())
+                .count()
+        })
+        .sum()
+}
+
+fn trace_shadow(accel: &Accel, rays: &[([f32; 3], [f32; 3])]) -> usize {
+    rays.par_chunks(4096)
+        .map(|chunk| {
+            chunk
+                .iter()
+                .filter(|(o, d)| accel.occluded(*o, *d, SHADOW_T_MAX))
+                .count()
+        })
+        .sum()
+}
+
+fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("thread pool")
+}
+
+/// Best of `runs` wall-clock times of `f`.
+fn best_of<T>(runs: usize, mut f: impl FnMut() -> T) -> (Duration, T) {
+    let mut best = Duration::MAX;
+    let mut out = None;
+    for _ in 0..runs {
+        let start = Instant::now();
+        let r = black_box(f());
+        best = best.min(start.elapsed());
+        out = Some(r);
+    }
+    (best, out.expect("runs > 0"))
+}
+
+fn summary() {
+    let (one, two) = (pool(1), pool(2));
+    println!(
+        "| mesh | triangles | BVH | build 1 thread (ms) | build 2 threads (ms) | nodes | \
+         camera Mrays/s 1 core | camera Mrays/s 2 cores | incoherent Mrays/s 1 core | \
+         incoherent Mrays/s 2 cores | shadow Mrays/s 2 cores |"
+    );
+    println!("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |");
+    for (name, mesh) in meshes() {
+        let camera = Camera::three_quarter(&mesh);
+        let rays = incoherent_rays(&mesh, INCOHERENT_RAYS, 7);
+        let mut reference: Option<(f64, f64)> = None;
+        let mut notes = Vec::new();
+        for (label, options) in CONFIGS {
+            let (build1, _) = best_of(5, || one.install(|| Accel::build_with(&mesh, &options)));
+            let (build2, accel) = best_of(5, || two.install(|| Accel::build_with(&mesh, &options)));
+            let accel = accel.expect("build");
+            let rate = |pool: &rayon::ThreadPool, n: usize, f: &(dyn Fn() -> usize + Sync)| {
+                let (t, hits) = best_of(5, || pool.install(f));
+                (n as f64 / t.as_secs_f64() / 1e6, hits)
+            };
+            let camera_n = WIDTH * HEIGHT;
+            let (cam1, _) = rate(&one, camera_n, &|| trace_camera(&accel, &camera));
+            let (cam2, cam_hits) = rate(&two, camera_n, &|| trace_camera(&accel, &camera));
+            let (inc1, _) = rate(&one, rays.len(), &|| trace_incoherent(&accel, &rays));
+            let (inc2, inc_hits) = rate(&two, rays.len(), &|| trace_incoherent(&accel, &rays));
+            let (sh2, sh_hits) = rate(&two, rays.len(), &|| trace_shadow(&accel, &rays));
+            println!(
+                "| {name} | {} | {label} | {:.1} | {:.1} | {} | {cam1:.2} | {cam2:.2} | {inc1:.2} | \
+                 {inc2:.2} | {sh2:.2} |",
+                mesh.triangle_count(),
+                build1.as_secs_f64() * 1e3,
+                build2.as_secs_f64() * 1e3,
+                accel.bvh().node_count(),
+            );
+            if label == "Binary/Fast" {
+                reference = Some((cam2, inc2));
+            }
+            notes.push((label, cam2, inc2));
+            if label == "Wide8/Fast" {
+                eprintln!(
+                    "{name}: camera rays hitting {:.1} %, incoherent rays hitting {:.1} %, \
+                     shadow rays (t_max {SHADOW_T_MAX} m) occluded {:.1} %",
+                    100.0 * cam_hits as f64 / camera_n as f64,
+                    100.0 * inc_hits as f64 / rays.len() as f64,
+                    100.0 * sh_hits as f64 / rays.len() as f64,
+                );
+            }
+        }
+        if let Some((cam_ref, inc_ref)) = reference {
+            for (label, cam, inc) in notes {
+                eprintln!(
+                    "{name}: {label} vs Binary/Fast (2 cores): camera ×{:.2}, incoherent ×{:.2}",
+                    cam / cam_ref,
+                    inc / inc_ref
+                );
+            }
+        }
+    }
+}
+
+fn criterion_benches(c: &mut Criterion) {
+    let (one, two) = (pool(1), pool(2));
+    for (name, mesh) in meshes() {
+        let camera = Camera::three_quarter(&mesh);
+        let rays = incoherent_rays(&mesh, INCOHERENT_RAYS, 7);
+        let mut build = c.benchmark_group(format!("accel_build/{name}"));
+        build.sample_size(10);
+        for (label, options) in CONFIGS {
+            for (threads, pool) in [(1, &one), (2, &two)] {
+                build.bench_function(BenchmarkId::new(label, format!("{threads}T")), |b| {
+                    b.iter(|| pool.install(|| Accel::build_with(black_box(&mesh), &options)))
+                });
+            }
+        }
+        build.finish();
+
+        let mut trace = c.benchmark_group(format!("accel_rays/{name}"));
+        trace.sample_size(10);
+        for (label, options) in CONFIGS {
+            let accel = Accel::build_with(&mesh, &options).expect("build");
+            trace.throughput(Throughput::Elements((WIDTH * HEIGHT) as u64));
+            trace.bench_function(BenchmarkId::new("camera_2T", label), |b| {
+                b.iter(|| two.install(|| trace_camera(&accel, &camera)))
+            });
+            trace.throughput(Throughput::Elements(rays.len() as u64));
+            trace.bench_function(BenchmarkId::new("incoherent_2T", label), |b| {
+                b.iter(|| two.install(|| trace_incoherent(&accel, &rays)))
+            });
+            trace.bench_function(BenchmarkId::new("incoherent_1T", label), |b| {
+                b.iter(|| one.install(|| trace_incoherent(&accel, &rays)))
+            });
+            trace.bench_function(BenchmarkId::new("shadow_2T", label), |b| {
+                b.iter(|| two.install(|| trace_shadow(&accel, &rays)))
+            });
+        }
+        trace.finish();
+    }
+}
+
+fn main() {
+    if std::env::var_os("ACCEL_SUMMARY").is_some() {
+        summary();
+        return;
+    }
+    let mut c = Criterion::default().configure_from_args();
+    criterion_benches(&mut c);
+    c.final_summary();
+}

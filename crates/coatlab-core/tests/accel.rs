@@ -1,0 +1,482 @@
+//! The acceleration structure against brute force, its validation on real models,
+//! and degenerate input.
+
+use std::f32::consts::PI;
+use std::path::Path;
+
+use coatlab_core::accel::{
+    Accel, AccelError, BuildOptions, BuildQuality, BvhLayout, Hit, intersect_triangle,
+    offset_ray_origin,
+};
+use coatlab_core::scene::TriangleMesh;
+use coatlab_core::scene::gltf_loader::{LoadOptions, load};
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64;
+
+const LAMBORGHINI: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../../shared/testdata/gltf/LamborghiniHuracanGT3/LamborghiniHuracanGT3.glb"
+);
+
+const ALL_OPTIONS: [BuildOptions; 4] = [
+    BuildOptions {
+        layout: BvhLayout::Wide8,
+        quality: BuildQuality::Fast,
+    },
+    BuildOptions {
+        layout: BvhLayout::Wide8,
+        quality: BuildQuality::Fastest,
+    },
+    BuildOptions {
+        layout: BvhLayout::Binary,
+        quality: BuildQuality::Medium,
+    },
+    BuildOptions {
+        layout: BvhLayout::Wide8,
+        quality: BuildQuality::Slow,
+    },
+];
+
+/// The Lamborghini, or `None` (with a notice) when the shared test data is missing;
+/// under CI a missing file fails the test.
+fn lamborghini() -> Option<TriangleMesh> {
+    if !Path::new(LAMBORGHINI).exists() {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "{LAMBORGHINI} is missing (required under CI)"
+        );
+        println!("skipped: {LAMBORGHINI} is missing");
+        return None;
+    }
+    Some(
+        load(Path::new(LAMBORGHINI), &LoadOptions::default())
+            .expect("the Lamborghini loads")
+            .mesh,
+    )
+}
+
+/// A torus of `rings × sides × 2` triangles around the y axis.
+fn torus(rings: usize, sides: usize) -> TriangleMesh {
+    let (major, minor) = (1.8f32, 0.45f32);
+    let mut mesh = TriangleMesh::default();
+    for i in 0..rings {
+        let a = 2.0 * PI * i as f32 / rings as f32;
+        for j in 0..sides {
+            let b = 2.0 * PI * j as f32 / sides as f32;
+            let r = major + minor * b.cos();
+            mesh.positions
+                .push([r * a.cos(), 0.6 + minor * b.sin(), r * a.sin()]);
+        }
+    }
+    let index = |i: usize, j: usize| ((i % rings) * sides + j % sides) as u32;
+    for i in 0..rings {
+        for j in 0..sides {
+            let (p, q, r, s) = (
+                index(i, j),
+                index(i + 1, j),
+                index(i + 1, j + 1),
+                index(i, j + 1),
+            );
+            mesh.triangles.push([p, r, q]);
+            mesh.triangles.push([p, s, r]);
+        }
+    }
+    mesh
+}
+
+/// Closest hit over every triangle, with the accel's own triangle test.
+fn brute_force(mesh: &TriangleMesh, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> Option<Hit> {
+    let mut best: Option<Hit> = None;
+    for (i, tri) in mesh.triangles.iter().enumerate() {
+        let vertices = tri.map(|v| mesh.positions[v as usize]);
+        let limit = best.map_or(t_max, |h| h.t);
+        if let Some((t, barycentric)) = intersect_triangle(origin, dir, vertices, limit) {
+            best = Some(Hit {
+                t,
+                triangle: i as u32,
+                barycentric,
+            });
+        }
+    }
+    best
+}
+
+fn unit(rng: &mut Pcg64) -> [f32; 3] {
+    loop {
+        let v: [f32; 3] = std::array::from_fn(|_| 2.0 * rng.random::<f32>() - 1.0);
+        let l2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+        if l2 > 1e-4 && l2 <= 1.0 {
+            let l = l2.sqrt();
+            return v.map(|x| x / l);
+        }
+    }
+}
+
+/// Random rays for a mesh: half from outside its bounds towards random points in
+/// them (camera-like), half from points on its surface (bounce-like), some with a
+/// finite `t_max`.
+fn random_rays(mesh: &TriangleMesh, count: usize, seed: u64) -> Vec<([f32; 3], [f32; 3], f32)> {
+    let (lo, hi) = mesh.bounds().expect("non-empty");
+    let centre: [f32; 3] = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
+    let radius = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f32>().sqrt();
+    let mut rng = Pcg64::seed_from_u64(seed);
+    (0..count)
+        .map(|i| {
+            let t_max = if i % 4 == 3 {
+                0.5 * radius * rng.random::<f32>()
+            } else {
+                f32::INFINITY
+            };
+            if i % 2 == 0 {
+                let d = unit(&mut rng);
+                let origin: [f32; 3] = std::array::from_fn(|k| centre[k] + 1.5 * radius * d[k]);
+                let target: [f32; 3] =
+                    std::array::from_fn(|k| lo[k] + rng.random::<f32>() * (hi[k] - lo[k]));
+                let dir: [f32; 3] = std::array::from_fn(|k| target[k] - origin[k]);
+                let l = dir.iter().map(|x| x * x).sum::<f32>().sqrt();
+                (origin, dir.map(|x| x / l), t_max)
+            } else {
+                let t = rng.random_range(0..mesh.triangles.len());
+                let [a, b, c] = mesh.triangles[t].map(|v| mesh.positions[v as usize]);
+                let (u, v) = (rng.random::<f32>() * 0.5, rng.random::<f32>() * 0.5);
+                let p: [f32; 3] =
+                    std::array::from_fn(|k| a[k] + u * (b[k] - a[k]) + v * (c[k] - a[k]));
+                let e1: [f32; 3] = std::array::from_fn(|k| b[k] - a[k]);
+                let e2: [f32; 3] = std::array::from_fn(|k| c[k] - a[k]);
+                let n = [
+                    e1[1] * e2[2] - e1[2] * e2[1],
+                    e1[2] * e2[0] - e1[0] * e2[2],
+                    e1[0] * e2[1] - e1[1] * e2[0],
+                ];
+                let d = unit(&mut rng);
+                let side = if d.iter().zip(&n).map(|(x, y)| x * y).sum::<f32>() >= 0.0 {
+                    n
+                } else {
+                    n.map(|x| -x)
+                };
+                let l = side.iter().map(|x| x * x).sum::<f32>().sqrt();
+                let origin = if l > 0.0 {
+                    offset_ray_origin(p, side.map(|x| x / l))
+                } else {
+                    p
+                };
+                (origin, d, t_max)
+            }
+        })
+        .collect()
+}
+
+/// Closest hit and occlusion agree with brute force on every ray.
+fn check_against_brute_force(
+    mesh: &TriangleMesh,
+    accel: &Accel,
+    rays: &[([f32; 3], [f32; 3], f32)],
+) {
+    let mut hits = 0;
+    for (i, &(origin, dir, t_max)) in rays.iter().enumerate() {
+        let expected = brute_force(mesh, origin, dir, t_max);
+        let got = accel.closest_hit(origin, dir, t_max);
+        match (expected, got) {
+            (None, None) => {}
+            (Some(e), Some(g)) => {
+                hits += 1;
+                // The same test in the same order of operations: identical distances;
+                // a different triangle only on a tie (a shared edge).
+                assert_eq!(e.t, g.t, "ray {i}: {origin:?} {dir:?}: {e:?} vs {g:?}");
+                if e.triangle == g.triangle {
+                    assert_eq!(e.barycentric, g.barycentric, "ray {i}");
+                }
+            }
+            (e, g) => {
+                panic!("ray {i}: {origin:?} {dir:?} t_max {t_max}: brute force {e:?}, accel {g:?}")
+            }
+        }
+        assert_eq!(
+            accel.occluded(origin, dir, t_max),
+            got.is_some(),
+            "ray {i}: occluded disagrees with closest_hit"
+        );
+    }
+    assert!(
+        hits > rays.len() / 5,
+        "only {hits} of {} rays hit",
+        rays.len()
+    );
+}
+
+#[test]
+fn torus_agrees_with_brute_force_in_every_configuration() {
+    let mesh = torus(120, 40);
+    let rays = random_rays(&mesh, 2000, 1);
+    for options in ALL_OPTIONS {
+        let accel = Accel::build_with(&mesh, &options).expect("build");
+        accel.validate().expect("valid tree");
+        assert_eq!(accel.triangle_count(), mesh.triangle_count());
+        assert_eq!(accel.bvh().options(), options);
+        check_against_brute_force(&mesh, &accel, &rays);
+    }
+}
+
+#[test]
+fn lamborghini_agrees_with_brute_force_and_validates() {
+    let Some(mesh) = lamborghini() else { return };
+    assert_eq!(mesh.triangle_count(), 145_917);
+    let rays = random_rays(&mesh, 3000, 2);
+    for options in [ALL_OPTIONS[0], ALL_OPTIONS[2]] {
+        let accel = Accel::build_with(&mesh, &options).expect("build");
+        accel.validate().expect("valid tree");
+        let bounds = accel.bounds().expect("bounds");
+        let (lo, hi) = mesh.bounds().expect("bounds");
+        assert_eq!((bounds.min, bounds.max), (lo, hi));
+        // Only a subset against brute force for the second layout: it is slow.
+        let n = if options == ALL_OPTIONS[0] { 3000 } else { 500 };
+        check_against_brute_force(&mesh, &accel, &rays[..n]);
+    }
+}
+
+#[test]
+fn default_build_is_wide_and_fast() {
+    let mesh = torus(8, 6);
+    let accel = Accel::build(&mesh).expect("build");
+    assert_eq!(accel.bvh().options(), BuildOptions::default());
+    assert_eq!(BuildOptions::default().layout, BvhLayout::Wide8);
+}
+
+#[test]
+fn a_ray_leaving_a_surface_through_the_offset_origin_does_not_hit_it() {
+    let mesh = torus(200, 60);
+    let accel = Accel::build(&mesh).expect("build");
+    let mut rng = Pcg64::seed_from_u64(3);
+    // Bounce rays on the torus's outer equator point outwards and must escape.
+    for _ in 0..2000 {
+        let origin_dir = accel.closest_hit(
+            [0.0, 0.6, 0.0],
+            {
+                let a = 2.0 * PI * rng.random::<f32>();
+                [a.cos(), 0.0, a.sin()]
+            },
+            f32::INFINITY,
+        );
+        let hit = origin_dir.expect("from the hole, a horizontal ray hits the inner wall");
+        let tri = mesh.triangles[hit.triangle as usize].map(|v| mesh.positions[v as usize]);
+        let [u, v] = hit.barycentric;
+        let p: [f32; 3] = std::array::from_fn(|k| {
+            tri[0][k] + u * (tri[1][k] - tri[0][k]) + v * (tri[2][k] - tri[0][k])
+        });
+        // The inner wall faces the hole: its normal points towards the axis.
+        let n_len = (p[0] * p[0] + p[2] * p[2]).sqrt();
+        let n = [-p[0] / n_len, 0.0, -p[2] / n_len];
+        let back = accel.closest_hit(offset_ray_origin(p, n), n, f32::INFINITY);
+        let hit_back = back.expect("across the hole, the opposite wall");
+        assert!(
+            hit_back.t > 1.0,
+            "self-intersection or a leak: first {hit:?}, then {hit_back:?}"
+        );
+    }
+}
+
+#[test]
+fn empty_mesh_gives_an_empty_accel_whose_queries_miss() {
+    let accel = Accel::build(&TriangleMesh::default()).expect("empty is fine");
+    accel.validate().expect("valid");
+    assert_eq!(accel.triangle_count(), 0);
+    assert_eq!(accel.bounds(), None);
+    assert_eq!(
+        accel.closest_hit([0.0; 3], [0.0, 0.0, 1.0], f32::INFINITY),
+        None
+    );
+    assert!(!accel.occluded([0.0; 3], [0.0, 0.0, 1.0], f32::INFINITY));
+}
+
+#[test]
+fn single_triangle() {
+    let mesh = TriangleMesh {
+        positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        triangles: vec![[0, 1, 2]],
+        ..Default::default()
+    };
+    for options in ALL_OPTIONS {
+        let accel = Accel::build_with(&mesh, &options).expect("build");
+        accel.validate().expect("valid");
+        let hit = accel
+            .closest_hit([0.25, 0.25, 1.0], [0.0, 0.0, -1.0], f32::INFINITY)
+            .expect("hit");
+        assert_eq!(hit.triangle, 0);
+        assert!((hit.t - 1.0).abs() < 1e-6);
+        assert!((hit.barycentric[0] - 0.25).abs() < 1e-6);
+        assert!((hit.barycentric[1] - 0.25).abs() < 1e-6);
+        // t_max is exclusive, and so is t = 0.
+        assert!(!accel.occluded([0.25, 0.25, 1.0], [0.0, 0.0, -1.0], 1.0));
+        assert!(accel.occluded([0.25, 0.25, 1.0], [0.0, 0.0, -1.0], 1.0001));
+        assert!(!accel.occluded([0.25, 0.25, 0.0], [0.0, 0.0, -1.0], 1.0));
+        // Both sides hit (no culling); a miss beside it.
+        assert!(accel.occluded([0.25, 0.25, -1.0], [0.0, 0.0, 1.0], 2.0));
+        assert!(!accel.occluded([0.75, 0.75, 1.0], [0.0, 0.0, -1.0], 2.0));
+        // Unusable rays hit nothing rather than panic.
+        for (o, d, t) in [
+            ([f32::NAN, 0.0, 1.0], [0.0, 0.0, -1.0], 2.0),
+            ([0.25, 0.25, 1.0], [0.0, 0.0, 0.0], 2.0),
+            ([0.25, 0.25, 1.0], [0.0, f32::INFINITY, -1.0], 2.0),
+            ([0.25, 0.25, 1.0], [0.0, 0.0, -1.0], f32::NAN),
+            ([0.25, 0.25, 1.0], [0.0, 0.0, -1.0], -1.0),
+        ] {
+            assert_eq!(accel.closest_hit(o, d, t), None);
+            assert!(!accel.occluded(o, d, t));
+        }
+    }
+}
+
+#[test]
+fn zero_area_triangles_are_skipped_and_never_hit() {
+    // A real triangle, a collapsed one (all three vertices equal), a sliver (collinear),
+    // and many duplicates of the collapsed one in one spot.
+    let mut mesh = TriangleMesh {
+        positions: vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.5, 0.5, 0.5],
+            [0.0, 0.0, 0.5],
+            [1.0, 1.0, 0.5],
+        ],
+        triangles: vec![[0, 1, 2], [3, 3, 3], [4, 3, 5]],
+        ..Default::default()
+    };
+    mesh.triangles.extend(std::iter::repeat_n([3, 3, 3], 500));
+    for options in ALL_OPTIONS {
+        let accel = Accel::build_with(&mesh, &options).expect("build");
+        accel.validate().expect("valid");
+        assert_eq!(accel.triangle_count(), 1);
+        assert_eq!(accel.skipped_degenerate(), 502);
+        // Straight through the degenerate ones onto the real triangle.
+        let hit = accel
+            .closest_hit([0.5, 0.5, 1.0], [0.0, 0.0, -1.0], f32::INFINITY)
+            .expect("hit");
+        assert_eq!(hit.triangle, 0);
+        assert_eq!(hit.t, 1.0);
+        let hit = accel
+            .closest_hit([0.25, 0.25, 1.0], [0.0, 0.0, -1.0], f32::INFINITY)
+            .expect("hit");
+        assert_eq!(hit.triangle, 0);
+    }
+    // All degenerate.
+    let only = TriangleMesh {
+        positions: vec![[1.0, 2.0, 3.0]],
+        triangles: vec![[0, 0, 0]; 64],
+        ..Default::default()
+    };
+    let accel = Accel::build(&only).expect("build");
+    accel.validate().expect("valid");
+    assert_eq!(accel.triangle_count(), 0);
+    assert!(!accel.occluded([1.0, 2.0, 0.0], [0.0, 0.0, 1.0], f32::INFINITY));
+}
+
+#[test]
+fn many_coincident_triangles_still_trace_correctly() {
+    // 2000 copies of one real triangle at one place (duplicated CAD geometry) plus a
+    // torus: PLOC cannot separate the copies, so the tree is deep there; a `Wide8`
+    // request may come back `Binary` (see the module documentation), never wrong.
+    let mut mesh = torus(40, 12);
+    let base = mesh.positions.len() as u32;
+    mesh.positions
+        .extend([[0.0, 0.0, 0.0], [0.3, 0.0, 0.0], [0.0, 0.3, 0.0]]);
+    mesh.triangles
+        .extend(std::iter::repeat_n([base, base + 1, base + 2], 2000));
+    let rays = random_rays(&mesh, 600, 5);
+    for options in ALL_OPTIONS {
+        let accel = Accel::build_with(&mesh, &options).expect("build");
+        accel.validate().expect("valid");
+        assert_eq!(accel.triangle_count(), mesh.triangle_count());
+        check_against_brute_force(&mesh, &accel, &rays);
+        let hit = accel
+            .closest_hit([0.1, 0.1, 1.0], [0.0, 0.0, -1.0], f32::INFINITY)
+            .expect("hit");
+        assert!(hit.triangle >= 960, "{hit:?}");
+        assert_eq!(hit.t, 1.0);
+    }
+}
+
+#[test]
+fn non_finite_vertices_are_refused_naming_the_triangle() {
+    let mut mesh = torus(10, 8);
+    let bad_vertex = mesh.triangles[37][1];
+    mesh.positions[bad_vertex as usize][2] = f32::NAN;
+    let err = Accel::build(&mesh).expect_err("NaN refused");
+    let first_user = mesh
+        .triangles
+        .iter()
+        .position(|t| t.contains(&bad_vertex))
+        .expect("used");
+    match &err {
+        AccelError::NonFiniteVertex {
+            triangle, vertex, ..
+        } => {
+            assert_eq!(*triangle, first_user);
+            assert_eq!(*vertex, bad_vertex);
+        }
+        other => panic!("unexpected error {other:?}"),
+    }
+    let message = err.to_string();
+    assert!(
+        message.contains(&format!("triangle {first_user} ")) && message.contains("non-finite"),
+        "{message}"
+    );
+
+    mesh.positions[bad_vertex as usize][2] = f32::INFINITY;
+    assert!(matches!(
+        Accel::build(&mesh),
+        Err(AccelError::NonFiniteVertex { .. })
+    ));
+
+    let out_of_range = TriangleMesh {
+        positions: vec![[0.0; 3]; 3],
+        triangles: vec![[0, 1, 2], [0, 1, 3]],
+        ..Default::default()
+    };
+    let err = Accel::build(&out_of_range).expect_err("index refused");
+    assert!(
+        err.to_string().contains("triangle 1 refers to vertex 3"),
+        "{err}"
+    );
+}
+
+#[test]
+fn huge_coordinates_build_validate_and_trace() {
+    // The torus moved 10⁶ m away (f32 spacing there is 0.0625 m): scaled to stay
+    // resolvable, 2 km across.
+    let mut mesh = torus(60, 20);
+    for p in &mut mesh.positions {
+        *p = [p[0] * 500.0 + 1e6, p[1] * 500.0 - 1e6, p[2] * 500.0 + 1e6];
+    }
+    let rays = random_rays(&mesh, 1000, 4);
+    for options in ALL_OPTIONS {
+        let accel = Accel::build_with(&mesh, &options).expect("build");
+        accel.validate().expect("valid");
+        check_against_brute_force(&mesh, &accel, &rays);
+    }
+    // And a mesh spanning ±10⁶ m with a 1 m triangle at the origin.
+    let spread = TriangleMesh {
+        positions: vec![
+            [-1e6, 0.0, -1e6],
+            [1e6, 0.0, -1e6],
+            [0.0, 0.0, 1e6],
+            [0.0, 1.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 1.0],
+        ],
+        triangles: vec![[0, 2, 1], [3, 5, 4]],
+        ..Default::default()
+    };
+    for options in ALL_OPTIONS {
+        let accel = Accel::build_with(&spread, &options).expect("build");
+        accel.validate().expect("valid");
+        let hit = accel
+            .closest_hit([0.2, 5.0, 0.2], [0.0, -1.0, 0.0], f32::INFINITY)
+            .expect("hit");
+        assert_eq!((hit.triangle, hit.t), (1, 4.0));
+        let hit = accel
+            .closest_hit([5e5, 5.0, 0.0], [0.0, -1.0, 0.0], f32::INFINITY)
+            .expect("hit");
+        assert_eq!((hit.triangle, hit.t), (0, 5.0));
+    }
+}
