@@ -3,8 +3,8 @@
 //! incoherent rays per second over both cores.
 //!
 //! Meshes: the Lamborghini Huracán GT3 glTF (145 917 triangles, shared test data), a
-//! synthetic torus of 150 000 triangles, and the default car when
-//! `assets/default-car.glb` exists (written by `examples/make_default_car.rs`).
+//! synthetic torus of 150 000 triangles, and the default car
+//! (`scene::car::generate(&CarParameters::default())`).
 //! Configurations: obvhs's 8-wide compressed BVH (`Wide8`) and its binary BVH
 //! (`Binary`), each with the `Fast` and `Medium` presets (and `Wide8`/`Fastest`).
 //!
@@ -32,6 +32,7 @@ use std::time::{Duration, Instant};
 
 use coatlab_core::accel::{Accel, BuildOptions, BuildQuality, BvhLayout, offset_ray_origin};
 use coatlab_core::scene::TriangleMesh;
+use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
 use criterion::{BenchmarkId, Criterion, Throughput};
 use rand::{RngExt, SeedableRng};
@@ -42,7 +43,6 @@ const LAMBORGHINI: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/../../../shared/testdata/gltf/LamborghiniHuracanGT3/LamborghiniHuracanGT3.glb"
 );
-const DEFAULT_CAR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/default-car.glb");
 
 const WIDTH: usize = 960;
 const HEIGHT: usize = 540;
@@ -120,16 +120,17 @@ fn torus(rings: usize, sides: usize) -> TriangleMesh {
 }
 
 fn meshes() -> Vec<(String, TriangleMesh)> {
-    let mut out = Vec::new();
-    for (name, path) in [("default car", DEFAULT_CAR), ("Lamborghini", LAMBORGHINI)] {
-        if Path::new(path).exists() {
-            match load(Path::new(path), &LoadOptions::default()) {
-                Ok(scene) => out.push((name.to_string(), scene.mesh)),
-                Err(e) => eprintln!("note: {name} not benchmarked: {e}"),
-            }
-        } else {
-            eprintln!("note: {name} not benchmarked: {path} is missing");
+    let mut out = vec![(
+        "default car".to_string(),
+        generate(&CarParameters::default()).mesh,
+    )];
+    if Path::new(LAMBORGHINI).exists() {
+        match load(Path::new(LAMBORGHINI), &LoadOptions::default()) {
+            Ok(scene) => out.push(("Lamborghini".to_string(), scene.mesh)),
+            Err(e) => eprintln!("note: Lamborghini not benchmarked: {e}"),
         }
+    } else {
+        eprintln!("note: Lamborghini not benchmarked: {LAMBORGHINI} is missing");
     }
     out.push(("torus".to_string(), torus(500, 150)));
     out
