@@ -9,27 +9,13 @@ mod common;
 
 use coatlab_core::paint::coat::body_albedo;
 use coatlab_core::paint::fresnel::reflectance;
-use common::{coatlab, stderr_of_failure, stdout};
+use common::{coatlab, parse_rows, stderr_of_failure, stdout};
 
 const BRDF_HEADER: &str = "n,rho,kh,theta_i_deg,theta_o_deg,dphi_deg";
 
 /// cos θ for θ in degrees, exactly 0 at 90° (grazing), as the command computes it.
 fn cos_deg(theta_deg: f64) -> f64 {
     (90.0 - theta_deg).to_radians().sin()
-}
-
-fn parse_rows(text: &str) -> (Vec<String>, Vec<Vec<String>>) {
-    let mut lines = text.lines();
-    let header = lines
-        .next()
-        .expect("header")
-        .split(',')
-        .map(str::to_owned)
-        .collect();
-    let rows = lines
-        .map(|l| l.split(',').map(str::to_owned).collect())
-        .collect();
-    (header, rows)
 }
 
 // ---------------------------------------------------------------------------------

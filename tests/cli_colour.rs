@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 mod common;
 
-use common::{coatlab, stderr_of_failure, stdout};
+use common::{coatlab, parse_rows, stderr_of_failure, stdout};
 
 const SHARMA_CSV: &str = include_str!(concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -35,20 +35,6 @@ impl Drop for TempCsv {
     fn drop(&mut self) {
         let _ = std::fs::remove_file(&self.0);
     }
-}
-
-fn parse_rows(text: &str) -> (Vec<String>, Vec<Vec<String>>) {
-    let mut lines = text.lines();
-    let header = lines
-        .next()
-        .expect("header")
-        .split(',')
-        .map(str::to_owned)
-        .collect();
-    let rows = lines
-        .map(|l| l.split(',').map(str::to_owned).collect())
-        .collect();
-    (header, rows)
 }
 
 // ---------------------------------------------------------------------------------

@@ -39,3 +39,18 @@ pub fn stderr_of_failure(output: &Output) -> String {
     assert!(!output.status.success(), "coatlab unexpectedly succeeded");
     String::from_utf8(output.stderr.clone()).expect("UTF-8 stderr")
 }
+
+/// A CSV text split into its header and rows (no quoting: the commands write none).
+pub fn parse_rows(text: &str) -> (Vec<String>, Vec<Vec<String>>) {
+    let mut lines = text.lines();
+    let header = lines
+        .next()
+        .expect("header")
+        .split(',')
+        .map(str::to_owned)
+        .collect();
+    let rows = lines
+        .map(|l| l.split(',').map(str::to_owned).collect())
+        .collect();
+    (header, rows)
+}
