@@ -18,6 +18,7 @@ pub mod design;
 pub mod instruments;
 pub mod paint;
 pub mod quadrature;
+pub mod render;
 pub mod scene;
 pub mod spectrum;
 pub mod units;

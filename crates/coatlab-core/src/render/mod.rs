@@ -1,0 +1,13 @@
+//! The spectral progressive ray tracer behind the car preview.
+//!
+//! Every path carries all wavelengths of one [`crate::spectrum::WavelengthGrid`]: the
+//! paint's path geometry does not depend on wavelength, so there is no colour noise,
+//! only luminance noise. Radiance values are spectral radiance in relative units
+//! (W·sr⁻¹·m⁻²·nm⁻¹ up to one scale factor per environment); the film turns them into
+//! CIE XYZ.
+//!
+//! Frames: world space is metres, Y up, the car on the ground plane y = 0 (see
+//! [`crate::scene`]). Directions are unit `[f32; 3]`.
+//!
+//! - [`environment`]: what lights the scene (studio, booth, outdoor, image maps);
+//! - [`camera`] and [`film`]: rays from pixels, and accumulation into an image.
