@@ -11,3 +11,6 @@
 //!
 //! - [`environment`]: what lights the scene (studio, booth, outdoor, image maps);
 //! - [`camera`] and [`film`]: rays from pixels, and accumulation into an image.
+
+pub mod geometry;
+pub mod sampler;

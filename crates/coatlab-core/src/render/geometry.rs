@@ -1,0 +1,268 @@
+//! The scene as the tracer sees it: the triangle mesh in its BVH, the analytic
+//! floor plane y = 0 of the lighting setup, and the local shading frame at a hit.
+
+use crate::accel::{Accel, AccelError, offset_ray_origin};
+use crate::scene::TriangleMesh;
+
+/// What a ray hit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfaceHit {
+    /// Distance along the (unit) ray direction, m.
+    pub t: f32,
+    /// The hit point, world space.
+    pub position: [f32; 3],
+    /// Unit geometric normal, on the side the ray came from.
+    pub geometric_normal: [f32; 3],
+    /// Unit shading normal (interpolated), on the same side as the geometric one.
+    pub shading_normal: [f32; 3],
+    /// What was hit.
+    pub surface: Surface,
+}
+
+/// The kind of surface hit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Surface {
+    /// A mesh triangle with this material index (into the scene's materials).
+    Mesh {
+        /// Material index.
+        material: u32,
+    },
+    /// The floor plane y = 0.
+    Floor,
+}
+
+/// The tracer's geometry.
+#[derive(Debug, Clone)]
+pub struct RenderGeometry {
+    mesh: TriangleMesh,
+    accel: Accel,
+    floor: bool,
+}
+
+impl RenderGeometry {
+    /// Builds the acceleration structure; `floor` adds the plane y = 0 (seen from
+    /// above only: it is the ground the car stands on).
+    pub fn new(mesh: TriangleMesh, floor: bool) -> Result<Self, AccelError> {
+        let accel = Accel::build(&mesh)?;
+        Ok(Self { mesh, accel, floor })
+    }
+
+    /// The mesh.
+    pub fn mesh(&self) -> &TriangleMesh {
+        &self.mesh
+    }
+
+    /// Whether the floor plane is part of the scene.
+    pub fn has_floor(&self) -> bool {
+        self.floor
+    }
+
+    /// The closest hit along a ray with unit direction, up to `t_max`.
+    pub fn intersect(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> Option<SurfaceHit> {
+        let mut best: Option<SurfaceHit> = None;
+        let mut limit = t_max;
+        if self.floor && dir[1] < 0.0 && origin[1] > 0.0 {
+            let t = -origin[1] / dir[1];
+            if t > 0.0 && t < limit {
+                limit = t;
+                let position = [origin[0] + t * dir[0], 0.0, origin[2] + t * dir[2]];
+                best = Some(SurfaceHit {
+                    t,
+                    position,
+                    geometric_normal: [0.0, 1.0, 0.0],
+                    shading_normal: [0.0, 1.0, 0.0],
+                    surface: Surface::Floor,
+                });
+            }
+        }
+        if let Some(hit) = self.accel.closest_hit(origin, dir, limit) {
+            let tri = self.mesh.triangles[hit.triangle as usize];
+            let [a, b, c] = tri.map(|i| self.mesh.positions[i as usize]);
+            let e1 = sub(b, a);
+            let e2 = sub(c, a);
+            let mut ng = normalize(cross(e1, e2));
+            let [u, v] = hit.barycentric;
+            let w = 1.0 - u - v;
+            let [na, nb, nc] = tri.map(|i| self.mesh.normals[i as usize]);
+            let mut ns = normalize([
+                w * na[0] + u * nb[0] + v * nc[0],
+                w * na[1] + u * nb[1] + v * nc[1],
+                w * na[2] + u * nb[2] + v * nc[2],
+            ]);
+            // Face the ray: the film and the tracer treat surfaces as two-sided.
+            if dot(ng, dir) > 0.0 {
+                ng = neg(ng);
+            }
+            if dot(ns, ng) < 0.0 {
+                ns = neg(ns);
+            }
+            if !ns.iter().all(|x| x.is_finite()) {
+                ns = ng;
+            }
+            best = Some(SurfaceHit {
+                t: hit.t,
+                position: [
+                    origin[0] + hit.t * dir[0],
+                    origin[1] + hit.t * dir[1],
+                    origin[2] + hit.t * dir[2],
+                ],
+                geometric_normal: ng,
+                shading_normal: ns,
+                surface: Surface::Mesh {
+                    material: self.mesh.triangle_material[hit.triangle as usize],
+                },
+            });
+        }
+        best
+    }
+
+    /// Whether anything blocks the segment from `origin` along unit `dir` up to `t_max`.
+    pub fn occluded(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
+        if self.floor && dir[1] < 0.0 && origin[1] > 0.0 && -origin[1] / dir[1] < t_max {
+            return true;
+        }
+        self.accel.occluded(origin, dir, t_max)
+    }
+
+    /// A ray origin just off the surface of `hit`, on the side `dir` leaves toward.
+    pub fn spawn_origin(hit: &SurfaceHit, dir: [f32; 3]) -> [f32; 3] {
+        let n = if dot(dir, hit.geometric_normal) >= 0.0 {
+            hit.geometric_normal
+        } else {
+            neg(hit.geometric_normal)
+        };
+        offset_ray_origin(hit.position, n)
+    }
+}
+
+/// An orthonormal frame with z along a unit normal: world ↔ local shading space.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame {
+    /// Local x axis in world space.
+    pub tangent: [f32; 3],
+    /// Local y axis in world space.
+    pub bitangent: [f32; 3],
+    /// Local z axis (the normal) in world space.
+    pub normal: [f32; 3],
+}
+
+impl Frame {
+    /// The frame about a unit normal (Duff et al. 2017).
+    pub fn from_normal(n: [f32; 3]) -> Self {
+        let (tangent, bitangent) = crate::paint::lobe::orthonormal_basis(n);
+        Self {
+            tangent,
+            bitangent,
+            normal: n,
+        }
+    }
+
+    /// World direction → local.
+    #[inline]
+    pub fn to_local(&self, w: [f32; 3]) -> [f32; 3] {
+        [
+            dot(w, self.tangent),
+            dot(w, self.bitangent),
+            dot(w, self.normal),
+        ]
+    }
+
+    /// Local direction → world.
+    #[inline]
+    pub fn to_world(&self, l: [f32; 3]) -> [f32; 3] {
+        std::array::from_fn(|k| {
+            l[0] * self.tangent[k] + l[1] * self.bitangent[k] + l[2] * self.normal[k]
+        })
+    }
+}
+
+#[inline]
+fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+#[inline]
+fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+#[inline]
+pub(crate) fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+#[inline]
+fn neg(a: [f32; 3]) -> [f32; 3] {
+    [-a[0], -a[1], -a[2]]
+}
+#[inline]
+fn normalize(a: [f32; 3]) -> [f32; 3] {
+    let l = dot(a, a).sqrt();
+    [a[0] / l, a[1] / l, a[2] / l]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::car::{CarParameters, generate};
+
+    #[test]
+    fn frames_round_trip_and_are_orthonormal() {
+        for n in [
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, -1.0],
+            normalize([0.3, -0.5, 0.8]),
+        ] {
+            let f = Frame::from_normal(n);
+            let w = normalize([0.2, 0.7, -0.4]);
+            let back = f.to_world(f.to_local(w));
+            for k in 0..3 {
+                assert!((back[k] - w[k]).abs() < 1e-6);
+            }
+            assert!(
+                dot(f.tangent, f.normal).abs() < 1e-6 && dot(f.bitangent, f.normal).abs() < 1e-6
+            );
+            assert!((f.to_local(n)[2] - 1.0).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn rays_hit_the_car_and_the_floor_and_shadows_fall_under_the_car() {
+        let scene = generate(&CarParameters::default());
+        let geometry = RenderGeometry::new(scene.mesh, true).expect("the default car builds");
+        // Straight down onto the roof: the car, not the floor.
+        let hit = geometry
+            .intersect([0.0, 5.0, 0.0], [0.0, -1.0, 0.0], f32::INFINITY)
+            .expect("a hit");
+        assert!(matches!(hit.surface, Surface::Mesh { .. }));
+        assert!(
+            hit.position[1] > 1.0 && hit.shading_normal[1] > 0.5,
+            "{hit:?}"
+        );
+        // Beside the car: the floor.
+        let hit = geometry
+            .intersect([5.0, 5.0, 0.0], [0.0, -1.0, 0.0], f32::INFINITY)
+            .expect("a hit");
+        assert_eq!(hit.surface, Surface::Floor);
+        assert!(hit.position[1].abs() < 1e-6);
+        // Under the car the sky is blocked: the contact shadow.
+        let under = [0.0, 0.0, 0.0];
+        let origin = RenderGeometry::spawn_origin(
+            &SurfaceHit {
+                position: under,
+                ..hit
+            },
+            [0.0, 1.0, 0.0],
+        );
+        assert!(geometry.occluded(origin, [0.0, 1.0, 0.0], f32::INFINITY));
+        let beside = RenderGeometry::spawn_origin(&hit, [0.0, 1.0, 0.0]);
+        assert!(!geometry.occluded(beside, [0.0, 1.0, 0.0], f32::INFINITY));
+        // Rays from below never hit the floor.
+        assert!(
+            geometry
+                .intersect([5.0, -1.0, 0.0], [0.0, 1.0, 0.0], f32::INFINITY)
+                .is_none()
+        );
+    }
+}
