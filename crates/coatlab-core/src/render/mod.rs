@@ -14,3 +14,5 @@
 
 pub mod geometry;
 pub mod sampler;
+
+pub mod camera;
