@@ -16,3 +16,4 @@ pub mod geometry;
 pub mod sampler;
 
 pub mod camera;
+pub mod film;

@@ -1,0 +1,786 @@
+//! The film: per-pixel accumulation of spectral radiance samples as CIE XYZ, noise
+//! estimates, and the display pipeline of spec section 6 (XYZ → linear sRGB →
+//! exposure → tone mapping → sRGB encoding), with PNG and OpenEXR output.
+//!
+//! # Tristimulus scale
+//! Samples are spectral radiance on the film's [`WavelengthGrid`], read (like every
+//! spectrum in Coatlab) as the piecewise-linear function through its samples. X, Y,
+//! Z are ∫ L(λ) x̄(λ) dλ (CIE 1931 2°, the display observer) divided by ∫ ȳ(λ) dλ over
+//! 380–780 nm, so a constant radiance of 1 has Y = 1 exactly, on any grid: the scale
+//! the display pipeline expects (white at Y = 1). The weights are those of
+//! [`crate::cie::Colorimeter`] without an illuminant: per grid sample the integral,
+//! on the 5 nm CIE table, of the sample's hat (linear-interpolation) basis function
+//! times the colour-matching function.
+//!
+//! # Accumulation and tiles
+//! Per pixel the film keeps Σ X, Σ Y, Σ Z, Σ X², Σ Y², Σ Z² and the sample count in
+//! f64 (56 bytes a pixel, 52 MB at 1280×720), so the sum-of-squares variance does not
+//! cancel catastrophically in low-noise pixels after thousands of samples.
+//! [`Film::add_sample`] costs three dot products over the grid (in f32, 8 lanes) and
+//! seven additions. Parallel rendering takes [`Film::tiles`], fills each tile on its
+//! own thread with image pixel coordinates, and [`Film::merge`]s them back in a fixed
+//! order: a pixel receives its samples in the same order as in a serial render, so
+//! the result is bit-for-bit deterministic.
+//!
+//! # Tone mapping
+//! See [`ToneMapping`]: extended Reinhard on luminance, which keeps the chromaticity
+//! of every pixel, or a plain clip for colorimetric checks.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, OnceLock};
+
+use thiserror::Error;
+
+use crate::cie::Observer;
+use crate::colour::{Xyz, linear_srgb_from_xyz, srgb_white};
+use crate::spectrum::WavelengthGrid;
+
+/// The CIE table step the weights are integrated at (nm).
+const TABLE_STEP_NM: f64 = 5.0;
+/// The CIE tables' range (nm); the colour-matching functions are zero outside it.
+const TABLE_FIRST_NM: f64 = 360.0;
+const TABLE_LAST_NM: f64 = 830.0;
+/// The range always integrated (spec section 6), widened to the grid's own span.
+const INTEGRATION_START_NM: f64 = 380.0;
+const INTEGRATION_END_NM: f64 = 780.0;
+/// [`Film::auto_exposure`]'s key: the log-average luminance is mapped to this
+/// (Reinhard et al. 2002, "Photographic tone reproduction", middle grey).
+pub const AUTO_EXPOSURE_KEY: f64 = 0.18;
+/// Entries of the sRGB encoding table: 2¹⁶ over [0, 1], fine enough that the
+/// steepest part of the curve (slope 12.92 near black, 3295 code values per unit)
+/// moves by at most 0.03 code values within an entry.
+const ENCODE_LUT_LEN: usize = 1 << 16;
+
+/// What went wrong writing an image; each names the file.
+#[derive(Debug, Error)]
+pub enum FilmError {
+    #[error("writing {}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("encoding PNG {}: {source}", path.display())]
+    Png {
+        path: PathBuf,
+        #[source]
+        source: png::EncodingError,
+    },
+    #[error("{}: cannot write a {width}×{height} image (needs at least 1×1)", path.display())]
+    EmptyImage {
+        path: PathBuf,
+        width: u32,
+        height: u32,
+    },
+}
+
+/// How linear sRGB is compressed into the displayable [0, 1].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ToneMapping {
+    /// None: values above 1 (and below 0) are clipped per channel. For colorimetric
+    /// checks, where a white of Y = 1 must show as 255.
+    Clip,
+    /// Extended Reinhard on luminance (Reinhard et al. 2002, eq. 4):
+    /// L' = L (1 + L / L_white²) / (1 + L), and the linear RGB scaled by L' / L, so
+    /// every pixel keeps its chromaticity; a colour still above 1 in some channel
+    /// after that is scaled down until its largest channel is 1 (hue kept, the
+    /// colour darkens rather than shifting).
+    ///
+    /// Why this one: a paint designer judges hue and chroma. Per-channel filmic
+    /// curves (e.g. Narkowicz's ACES fit) compress each channel separately, which
+    /// turns a bright saturated red toward orange and washes highlights out to white
+    /// — attractive in a photograph, misleading for a paint colour. Here only
+    /// lightness is compressed, and luminance `white_luminance` maps to 1.
+    ReinhardLuminance { white_luminance: f32 },
+}
+
+impl Default for ToneMapping {
+    /// Reinhard on luminance with the white at 4 (two stops above a diffuse white
+    /// at Y = 1, room for specular highlights).
+    fn default() -> Self {
+        ToneMapping::ReinhardLuminance {
+            white_luminance: 4.0,
+        }
+    }
+}
+
+/// How [`Film::to_display`] turns XYZ into pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DisplaySettings {
+    /// Exposure in stops: XYZ is scaled by 2^stops before tone mapping.
+    pub exposure_stops: f32,
+    /// `Some(white)`: show the scene as adapted to `white` (its XYZ at any scale,
+    /// e.g. [`crate::cie::Colorimeter::white`] of the scene's illuminant), mapping it
+    /// to the sRGB white by Bradford; `None`: show the colours as they are, relative
+    /// to the sRGB (D65) white.
+    pub adapt_white: Option<Xyz>,
+    /// The tone mapping after exposure.
+    pub tone_mapping: ToneMapping,
+}
+
+/// Per-grid-sample XYZ weights, shared by a film and its tiles.
+#[derive(Debug)]
+struct Weights {
+    grid: WavelengthGrid,
+    x: Vec<f32>,
+    y: Vec<f32>,
+    z: Vec<f32>,
+}
+
+impl Weights {
+    /// Emission weights on `grid` (see the module docs), scaled so a constant
+    /// radiance of 1 has Y = 1.
+    ///
+    /// Mirrors the hat-basis integration of [`crate::cie::Colorimeter::new`] with the
+    /// illuminant left out: each 5 nm table row's x̄, ȳ, z̄ splits between the two grid
+    /// samples around it, the end samples' hats extended as constants.
+    fn new(grid: WavelengthGrid) -> Self {
+        let observer = Observer::Cie1931TwoDegree;
+        let n = grid.len();
+        let (mut x, mut y, mut z) = (vec![0.0f64; n], vec![0.0f64; n], vec![0.0f64; n]);
+        let first_nm = INTEGRATION_START_NM
+            .min(grid.start_nm())
+            .max(TABLE_FIRST_NM);
+        let last_nm = INTEGRATION_END_NM.max(grid.end_nm()).min(TABLE_LAST_NM);
+        let rows = ((TABLE_LAST_NM - TABLE_FIRST_NM) / TABLE_STEP_NM).round() as usize + 1;
+        let mut y_norm = 0.0;
+        for row in 0..rows {
+            let wavelength_nm = TABLE_FIRST_NM + row as f64 * TABLE_STEP_NM;
+            if wavelength_nm < first_nm || wavelength_nm > last_nm {
+                continue;
+            }
+            let [xb, yb, zb] = observer.cmf_at_nm(wavelength_nm).map(|v| v * TABLE_STEP_NM);
+            if (INTEGRATION_START_NM..=INTEGRATION_END_NM).contains(&wavelength_nm) {
+                y_norm += yb;
+            }
+            let position = (wavelength_nm - grid.start_nm()) / grid.step_nm();
+            let (i, t) = if position <= 0.0 {
+                (0, 0.0)
+            } else if position >= (n - 1) as f64 {
+                (n - 1, 0.0)
+            } else {
+                let i = position.floor() as usize;
+                (i, position - i as f64)
+            };
+            for (index, share) in [(i, 1.0 - t), (i + 1, t)] {
+                if share != 0.0 {
+                    x[index] += xb * share;
+                    y[index] += yb * share;
+                    z[index] += zb * share;
+                }
+            }
+        }
+        let scale = |w: Vec<f64>| w.into_iter().map(|v| (v / y_norm) as f32).collect();
+        Self {
+            grid,
+            x: scale(x),
+            y: scale(y),
+            z: scale(z),
+        }
+    }
+
+    /// X, Y, Z of `radiance`: three dot products, 8 lanes wide.
+    #[inline]
+    fn xyz(&self, radiance: &[f32]) -> [f32; 3] {
+        assert_eq!(
+            radiance.len(),
+            self.x.len(),
+            "radiance has {} samples but the film's grid has {}",
+            radiance.len(),
+            self.x.len()
+        );
+        const LANES: usize = 8;
+        let (mut ax, mut ay, mut az) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
+        let split = radiance.len() / LANES * LANES;
+        let chunks = radiance[..split]
+            .chunks_exact(LANES)
+            .zip(self.x[..split].chunks_exact(LANES))
+            .zip(self.y[..split].chunks_exact(LANES))
+            .zip(self.z[..split].chunks_exact(LANES));
+        for (((r, wx), wy), wz) in chunks {
+            for k in 0..LANES {
+                ax[k] += wx[k] * r[k];
+                ay[k] += wy[k] * r[k];
+                az[k] += wz[k] * r[k];
+            }
+        }
+        let (mut sx, mut sy, mut sz) = (ax.iter().sum(), ay.iter().sum(), az.iter().sum());
+        for (((r, wx), wy), wz) in radiance[split..]
+            .iter()
+            .zip(&self.x[split..])
+            .zip(&self.y[split..])
+            .zip(&self.z[split..])
+        {
+            sx += wx * r;
+            sy += wy * r;
+            sz += wz * r;
+        }
+        [sx, sy, sz]
+    }
+}
+
+/// One pixel's running sums.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct PixelSums {
+    sum: [f64; 3],
+    sum_sq: [f64; 3],
+    count: u64,
+}
+
+/// An accumulation buffer: a whole image, or a tile of one (see the module docs).
+///
+/// Pixel coordinates are always those of the whole image (x right, y down), also
+/// for a tile, which covers `origin .. origin + size`.
+#[derive(Debug, Clone)]
+pub struct Film {
+    weights: Arc<Weights>,
+    image_width: u32,
+    image_height: u32,
+    origin: [u32; 2],
+    width: u32,
+    height: u32,
+    pixels: Vec<PixelSums>,
+    rejected: u64,
+}
+
+impl Film {
+    /// An empty film of `width` × `height` pixels for radiance on `grid`.
+    pub fn new(width: u32, height: u32, grid: WavelengthGrid) -> Self {
+        Self {
+            weights: Arc::new(Weights::new(grid)),
+            image_width: width,
+            image_height: height,
+            origin: [0, 0],
+            width,
+            height,
+            pixels: vec![PixelSums::default(); width as usize * height as usize],
+            rejected: 0,
+        }
+    }
+
+    /// An empty tile covering `x0 .. x0 + width`, `y0 .. y0 + height` of this film's
+    /// image (clipped to it), sharing its grid and weights.
+    pub fn tile(&self, x0: u32, y0: u32, width: u32, height: u32) -> Film {
+        let x0 = x0.min(self.image_width);
+        let y0 = y0.min(self.image_height);
+        let width = width.min(self.image_width - x0);
+        let height = height.min(self.image_height - y0);
+        Film {
+            weights: Arc::clone(&self.weights),
+            image_width: self.image_width,
+            image_height: self.image_height,
+            origin: [x0, y0],
+            width,
+            height,
+            pixels: vec![PixelSums::default(); width as usize * height as usize],
+            rejected: 0,
+        }
+    }
+
+    /// Empty tiles of `size` × `size` pixels (smaller at the right and bottom edges)
+    /// covering this film's region, row by row. A size of 0 is taken as 1.
+    pub fn tiles(&self, size: u32) -> Vec<Film> {
+        let size = size.max(1);
+        let mut tiles = Vec::new();
+        for y0 in (self.origin[1]..self.origin[1] + self.height).step_by(size as usize) {
+            for x0 in (self.origin[0]..self.origin[0] + self.width).step_by(size as usize) {
+                let w = size.min(self.origin[0] + self.width - x0);
+                let h = size.min(self.origin[1] + self.height - y0);
+                tiles.push(self.tile(x0, y0, w, h));
+            }
+        }
+        tiles
+    }
+
+    /// Adds `other`'s sums (a tile of this film, or another pass over the same
+    /// region) into this film.
+    ///
+    /// # Panics
+    /// If `other` is for a different grid or image size, or covers pixels outside
+    /// this film's region (programming errors).
+    pub fn merge(&mut self, other: &Film) {
+        assert!(
+            self.weights.grid == other.weights.grid,
+            "merging films on different wavelength grids"
+        );
+        assert!(
+            (self.image_width, self.image_height) == (other.image_width, other.image_height),
+            "merging films of different image sizes"
+        );
+        let inside = other.origin[0] >= self.origin[0]
+            && other.origin[1] >= self.origin[1]
+            && other.origin[0] + other.width <= self.origin[0] + self.width
+            && other.origin[1] + other.height <= self.origin[1] + self.height;
+        assert!(
+            inside,
+            "merging a film that is not inside this one's region"
+        );
+        for row in 0..other.height as usize {
+            let start = self.index(other.origin[0], other.origin[1] + row as u32);
+            let source = &other.pixels[row * other.width as usize..][..other.width as usize];
+            for (to, from) in self.pixels[start..][..source.len()].iter_mut().zip(source) {
+                for k in 0..3 {
+                    to.sum[k] += from.sum[k];
+                    to.sum_sq[k] += from.sum_sq[k];
+                }
+                to.count += from.count;
+            }
+        }
+        self.rejected += other.rejected;
+    }
+
+    /// Accumulates one sample of spectral radiance (on the film's grid) at pixel
+    /// (`x`, `y`) of the image. A sample whose XYZ is not finite counts as a sample
+    /// of zero and in [`Self::rejected_samples`], so one NaN cannot blacken a pixel
+    /// for good.
+    ///
+    /// # Panics
+    /// If `radiance` has the wrong length or the pixel is outside this film's region.
+    #[inline]
+    pub fn add_sample(&mut self, x: u32, y: u32, radiance: &[f32]) {
+        let mut xyz = self.weights.xyz(radiance);
+        if !xyz.iter().all(|v| v.is_finite()) {
+            self.rejected += 1;
+            xyz = [0.0; 3];
+        }
+        let index = self.index(x, y);
+        let pixel = &mut self.pixels[index];
+        for (k, &v) in xyz.iter().enumerate() {
+            let v = f64::from(v);
+            pixel.sum[k] += v;
+            pixel.sum_sq[k] += v * v;
+        }
+        pixel.count += 1;
+    }
+
+    /// The XYZ (white at Y = 1) of `radiance`, as [`Self::add_sample`] would add it.
+    pub fn xyz_of(&self, radiance: &[f32]) -> Xyz {
+        let [x, y, z] = self.weights.xyz(radiance).map(f64::from);
+        Xyz::new(x, y, z)
+    }
+
+    /// Mean XYZ of pixel (`x`, `y`); zero before any sample.
+    pub fn mean_xyz(&self, x: u32, y: u32) -> Xyz {
+        let p = &self.pixels[self.index(x, y)];
+        if p.count == 0 {
+            return Xyz::new(0.0, 0.0, 0.0);
+        }
+        let n = p.count as f64;
+        Xyz::new(p.sum[0] / n, p.sum[1] / n, p.sum[2] / n)
+    }
+
+    /// Estimated variance of [`Self::mean_xyz`] per component: the unbiased sample
+    /// variance over n. Infinite below 2 samples (no estimate: sample more).
+    pub fn variance_of_mean_xyz(&self, x: u32, y: u32) -> [f64; 3] {
+        let p = &self.pixels[self.index(x, y)];
+        if p.count < 2 {
+            return [f64::INFINITY; 3];
+        }
+        let n = p.count as f64;
+        std::array::from_fn(|k| {
+            let variance = (p.sum_sq[k] - p.sum[k] * p.sum[k] / n) / (n - 1.0);
+            variance.max(0.0) / n
+        })
+    }
+
+    /// Number of samples at pixel (`x`, `y`).
+    pub fn sample_count(&self, x: u32, y: u32) -> u64 {
+        self.pixels[self.index(x, y)].count
+    }
+
+    /// The smallest per-pixel sample count (the progressive pass count when every
+    /// pixel gets one sample a pass); 0 for an empty film.
+    pub fn samples_per_pixel(&self) -> u64 {
+        self.pixels.iter().map(|p| p.count).min().unwrap_or(0)
+    }
+
+    /// Samples that had a non-finite XYZ and were counted as zero.
+    pub fn rejected_samples(&self) -> u64 {
+        self.rejected
+    }
+
+    /// Forgets every sample (a parameter changed: restart accumulation).
+    pub fn clear(&mut self) {
+        self.pixels.fill(PixelSums::default());
+        self.rejected = 0;
+    }
+
+    /// The wavelength grid radiance samples must be on.
+    pub fn grid(&self) -> &WavelengthGrid {
+        &self.weights.grid
+    }
+
+    /// Width of this film's region, pixels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height of this film's region, pixels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// Top-left pixel of this film's region in the image ((0, 0) unless a tile).
+    pub fn origin(&self) -> [u32; 2] {
+        self.origin
+    }
+
+    /// Mean linear sRGB (D65 white, Y = 1 → (1, 1, 1)) of pixel (`x`, `y`), shown
+    /// as it is: no adaptation, exposure or tone mapping, not clamped. What
+    /// [`Self::write_exr`] stores.
+    pub fn mean_linear_srgb(&self, x: u32, y: u32) -> [f32; 3] {
+        let m = display_matrix(None, 0.0);
+        let xyz = self.mean_xyz(x, y);
+        mul(&m, [xyz.x as f32, xyz.y as f32, xyz.z as f32])
+    }
+
+    /// The exposure (stops) that brings the log-average luminance of the sampled
+    /// pixels, exp(mean ln(δ + Y)) with δ = 10⁻⁶, to [`AUTO_EXPOSURE_KEY`]
+    /// (Reinhard et al. 2002). 0 before any sample.
+    pub fn auto_exposure(&self) -> f32 {
+        let (mut log_sum, mut count) = (0.0f64, 0usize);
+        for p in self.pixels.iter().filter(|p| p.count > 0) {
+            let luminance = (p.sum[1] / p.count as f64).max(0.0);
+            log_sum += (1e-6 + luminance).ln();
+            count += 1;
+        }
+        if count == 0 {
+            return 0.0;
+        }
+        let log_average = (log_sum / count as f64).exp();
+        (AUTO_EXPOSURE_KEY / log_average).log2() as f32
+    }
+
+    /// The displayable image of this film's region: RGBA8 (alpha 255), row-major
+    /// from the top-left, sRGB-encoded. Pixels without samples are black.
+    pub fn to_display(&self, settings: &DisplaySettings) -> Vec<[u8; 4]> {
+        let m = display_matrix(settings.adapt_white, settings.exposure_stops);
+        let lut = encode_lut();
+        self.pixels
+            .iter()
+            .map(|p| {
+                if p.count == 0 {
+                    return [0, 0, 0, 255];
+                }
+                let n = p.count as f64;
+                let xyz = p.sum.map(|s| (s / n) as f32);
+                let rgb = tone_map(mul(&m, xyz), settings.tone_mapping);
+                let [r, g, b] = rgb.map(|v| encode(lut, v));
+                [r, g, b, 255]
+            })
+            .collect()
+    }
+
+    /// Writes [`Self::to_display`] as an 8-bit sRGB PNG (with an sRGB chunk),
+    /// atomically (a temporary file in the same folder, then a rename).
+    pub fn write_png(&self, path: &Path, settings: &DisplaySettings) -> Result<(), FilmError> {
+        self.check_not_empty(path)?;
+        let rgb: Vec<u8> = self
+            .to_display(settings)
+            .into_iter()
+            .flat_map(|[r, g, b, _]| [r, g, b])
+            .collect();
+        let png_error = |source| FilmError::Png {
+            path: path.to_owned(),
+            source,
+        };
+        // Encoded in memory, so a failure cannot leave half a file behind.
+        let mut encoded = Vec::new();
+        let mut encoder = png::Encoder::new(&mut encoded, self.width, self.height);
+        encoder.set_color(png::ColorType::Rgb);
+        encoder.set_depth(png::BitDepth::Eight);
+        encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+        let mut writer = encoder.write_header().map_err(png_error)?;
+        writer.write_image_data(&rgb).map_err(png_error)?;
+        writer.finish().map_err(png_error)?;
+        write_atomically(path, |mut file| {
+            file.write_all(&encoded).map_err(|source| FilmError::Io {
+                path: path.to_owned(),
+                source,
+            })
+        })
+    }
+
+    /// Writes the mean linear sRGB ([`Self::mean_linear_srgb`]: D65 white, Y = 1 →
+    /// (1, 1, 1), unadapted, no exposure or tone mapping, unclamped, so
+    /// out-of-gamut colours keep their negative components) as a single-part
+    /// scanline OpenEXR file with FLOAT R, G, B channels, no compression, and
+    /// the sRGB `chromaticities`; atomically.
+    ///
+    /// Linear sRGB rather than XYZ: it is the convention EXR viewers assume, and XYZ
+    /// is one matrix away for analysis (or [`Self::mean_xyz`] in code).
+    ///
+    /// The writer is our own (about 80 lines, no dependency): uncompressed
+    /// scanline EXR is a fixed header and raw little-endian floats, and the `exr`
+    /// crate would add six crates (half, lebe, miniz_oxide, zune-inflate, …) to the
+    /// core library for it. The tests read our files back with `exr`
+    /// (a dev-dependency).
+    pub fn write_exr(&self, path: &Path) -> Result<(), FilmError> {
+        self.check_not_empty(path)?;
+        let (width, height) = (self.width as usize, self.height as usize);
+        let m = display_matrix(None, 0.0);
+        let mut header = Vec::new();
+        header.extend_from_slice(&20000630i32.to_le_bytes());
+        header.extend_from_slice(&2i32.to_le_bytes()); // version 2, single-part scanline
+        let mut channels = Vec::new();
+        // Channels sorted by name, as the format requires.
+        for name in ["B", "G", "R"] {
+            channels.extend_from_slice(name.as_bytes());
+            channels.push(0);
+            channels.extend_from_slice(&2i32.to_le_bytes()); // FLOAT
+            channels.extend_from_slice(&[0, 0, 0, 0]); // pLinear, reserved
+            channels.extend_from_slice(&1i32.to_le_bytes()); // x sampling
+            channels.extend_from_slice(&1i32.to_le_bytes()); // y sampling
+        }
+        channels.push(0);
+        let window: Vec<u8> = [0, 0, width as i32 - 1, height as i32 - 1]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let floats =
+            |values: &[f32]| -> Vec<u8> { values.iter().flat_map(|v| v.to_le_bytes()).collect() };
+        let attributes: [(&str, &str, Vec<u8>); 9] = [
+            ("channels", "chlist", channels),
+            (
+                "chromaticities",
+                "chromaticities",
+                floats(&[0.64, 0.33, 0.30, 0.60, 0.15, 0.06, 0.3127, 0.3290]),
+            ),
+            ("compression", "compression", vec![0]), // NO_COMPRESSION
+            ("dataWindow", "box2i", window.clone()),
+            ("displayWindow", "box2i", window),
+            ("lineOrder", "lineOrder", vec![0]), // INCREASING_Y
+            ("pixelAspectRatio", "float", floats(&[1.0])),
+            ("screenWindowCenter", "v2f", floats(&[0.0, 0.0])),
+            ("screenWindowWidth", "float", floats(&[1.0])),
+        ];
+        for (name, kind, value) in &attributes {
+            header.extend_from_slice(name.as_bytes());
+            header.push(0);
+            header.extend_from_slice(kind.as_bytes());
+            header.push(0);
+            header.extend_from_slice(&(value.len() as i32).to_le_bytes());
+            header.extend_from_slice(value);
+        }
+        header.push(0);
+        // One scanline per block: y, byte count, then each channel's row.
+        let line_bytes = 3 * 4 * width;
+        let block_bytes = 8 + line_bytes;
+        let first_block = header.len() + 8 * height;
+        write_atomically(path, |file| {
+            let io_error = |source| FilmError::Io {
+                path: path.to_owned(),
+                source,
+            };
+            let mut out = BufWriter::new(file);
+            out.write_all(&header).map_err(io_error)?;
+            for y in 0..height {
+                let offset = (first_block + y * block_bytes) as u64;
+                out.write_all(&offset.to_le_bytes()).map_err(io_error)?;
+            }
+            let mut line = Vec::with_capacity(block_bytes);
+            for y in 0..height {
+                line.clear();
+                line.extend_from_slice(&(y as i32).to_le_bytes());
+                line.extend_from_slice(&(line_bytes as i32).to_le_bytes());
+                let row = &self.pixels[y * width..][..width];
+                let rgb: Vec<[f32; 3]> = row
+                    .iter()
+                    .map(|p| {
+                        let n = p.count.max(1) as f64;
+                        mul(&m, p.sum.map(|s| (s / n) as f32))
+                    })
+                    .collect();
+                for channel in [2, 1, 0] {
+                    for v in &rgb {
+                        line.extend_from_slice(&v[channel].to_le_bytes());
+                    }
+                }
+                out.write_all(&line).map_err(io_error)?;
+            }
+            out.flush().map_err(io_error)
+        })
+    }
+
+    fn check_not_empty(&self, path: &Path) -> Result<(), FilmError> {
+        if self.width == 0 || self.height == 0 {
+            return Err(FilmError::EmptyImage {
+                path: path.to_owned(),
+                width: self.width,
+                height: self.height,
+            });
+        }
+        Ok(())
+    }
+
+    #[inline]
+    fn index(&self, x: u32, y: u32) -> usize {
+        let (dx, dy) = (
+            x.wrapping_sub(self.origin[0]),
+            y.wrapping_sub(self.origin[1]),
+        );
+        assert!(
+            dx < self.width && dy < self.height,
+            "pixel ({x}, {y}) is outside the film region {:?} + {}×{}",
+            self.origin,
+            self.width,
+            self.height
+        );
+        dy as usize * self.width as usize + dx as usize
+    }
+}
+
+type Mat3f = [[f32; 3]; 3];
+
+#[inline]
+fn mul(m: &Mat3f, v: [f32; 3]) -> [f32; 3] {
+    [0, 1, 2].map(|r| m[r][0] * v[0] + m[r][1] * v[1] + m[r][2] * v[2])
+}
+
+/// XYZ (white at Y = 1) → exposed linear sRGB, the adaptation of
+/// [`crate::colour::linear_srgb_from_xyz`] included: that function is linear in the
+/// colour, so its images of the unit vectors are the matrix's columns.
+fn display_matrix(adapt_white: Option<Xyz>, exposure_stops: f32) -> Mat3f {
+    let srgb = srgb_white();
+    let white = match adapt_white {
+        Some(w) if w.y > 0.0 && w.x.is_finite() && w.y.is_finite() && w.z.is_finite() => w,
+        _ => srgb,
+    };
+    // The film's white is at Y = 1.
+    let white = Xyz::new(white.x / white.y, 1.0, white.z / white.y);
+    let scale = 2f64.powf(f64::from(exposure_stops));
+    let columns = [
+        Xyz::new(1.0, 0.0, 0.0),
+        Xyz::new(0.0, 1.0, 0.0),
+        Xyz::new(0.0, 0.0, 1.0),
+    ]
+    .map(|e| linear_srgb_from_xyz(e, white));
+    let column = |c: usize| {
+        let rgb = columns[c];
+        [rgb.red, rgb.green, rgb.blue]
+    };
+    [0, 1, 2].map(|r| [0, 1, 2].map(|c| (column(c)[r] * scale) as f32))
+}
+
+/// Linear sRGB luminance coefficients (the Y row of the sRGB matrix).
+const LUMINANCE: [f32; 3] = [0.2126, 0.7152, 0.0722];
+
+#[inline]
+fn tone_map(rgb: [f32; 3], tone_mapping: ToneMapping) -> [f32; 3] {
+    match tone_mapping {
+        ToneMapping::Clip => rgb,
+        ToneMapping::ReinhardLuminance { white_luminance } => {
+            let luminance = LUMINANCE[0] * rgb[0] + LUMINANCE[1] * rgb[1] + LUMINANCE[2] * rgb[2];
+            // Also catches NaN.
+            if luminance.is_nan() || luminance <= 0.0 {
+                return [0.0; 3];
+            }
+            let inv_white_sq = 1.0 / (white_luminance * white_luminance);
+            let mapped = luminance * (1.0 + luminance * inv_white_sq) / (1.0 + luminance);
+            let scaled = rgb.map(|v| v * (mapped / luminance));
+            let max = scaled[0].max(scaled[1]).max(scaled[2]);
+            if max > 1.0 {
+                scaled.map(|v| v / max)
+            } else {
+                scaled
+            }
+        }
+    }
+}
+
+/// The sRGB encoding table: entry i holds the 8-bit code of linear i / (len − 1).
+fn encode_lut() -> &'static [u8] {
+    static LUT: OnceLock<Vec<u8>> = OnceLock::new();
+    LUT.get_or_init(|| {
+        (0..ENCODE_LUT_LEN)
+            .map(|i| {
+                let v = i as f64 / (ENCODE_LUT_LEN - 1) as f64;
+                let encoded = if v <= 0.003_130_8 {
+                    12.92 * v
+                } else {
+                    1.055 * v.powf(1.0 / 2.4) - 0.055
+                };
+                (encoded * 255.0).round().clamp(0.0, 255.0) as u8
+            })
+            .collect()
+    })
+}
+
+/// The 8-bit sRGB code of a linear value, clamped to [0, 1] (NaN → 0).
+#[inline]
+fn encode(lut: &[u8], linear: f32) -> u8 {
+    let position = (linear.clamp(0.0, 1.0) * (ENCODE_LUT_LEN - 1) as f32).round();
+    // `as` maps NaN to 0.
+    lut[position as usize]
+}
+
+/// Runs `write` on a temporary file beside `path`, then renames it over `path`; the
+/// temporary file is removed if anything fails.
+fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(File) -> Result<(), FilmError>,
+) -> Result<(), FilmError> {
+    let io_error = |source| FilmError::Io {
+        path: path.to_owned(),
+        source,
+    };
+    let name = path.file_name().ok_or_else(|| {
+        io_error(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a file name",
+        ))
+    })?;
+    let mut temp_name = std::ffi::OsString::from(".");
+    temp_name.push(name);
+    temp_name.push(format!(".{}.tmp", std::process::id()));
+    let temp = path.with_file_name(temp_name);
+    let result = File::create(&temp)
+        .map_err(io_error)
+        .and_then(|file| {
+            write(file.try_clone().map_err(io_error)?)?;
+            file.sync_all().map_err(io_error)
+        })
+        .and_then(|()| std::fs::rename(&temp, path).map_err(io_error));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&temp);
+    }
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::colour::srgb_from_linear;
+    use palette::LinSrgb;
+
+    #[test]
+    fn encode_lut_matches_the_srgb_curve() {
+        let lut = encode_lut();
+        for i in 0..=20_000 {
+            let v = i as f32 / 20_000.0;
+            let exact = srgb_from_linear(LinSrgb::new(f64::from(v), 0.0, 0.0)).red * 255.0;
+            let code = f64::from(encode(lut, v));
+            assert!((code - exact).abs() <= 0.53, "{v}: {code} vs {exact}");
+        }
+        assert_eq!(encode(lut, f32::NAN), 0);
+        assert_eq!(encode(lut, -1.0), 0);
+        assert_eq!(encode(lut, 7.0), 255);
+    }
+
+    #[test]
+    fn reinhard_keeps_chromaticity_and_maps_white_to_one() {
+        let tm = ToneMapping::ReinhardLuminance {
+            white_luminance: 4.0,
+        };
+        let out = tone_map([4.0; 3], tm);
+        assert!(out.iter().all(|v| (v - 1.0).abs() < 1e-6));
+        let rgb = [0.5, 0.2, 0.1];
+        let out = tone_map(rgb, tm);
+        assert!((out[0] / out[1] - 2.5).abs() < 1e-5 && (out[1] / out[2] - 2.0).abs() < 1e-5);
+        // A bright saturated colour is scaled down to a largest channel of 1.
+        let out = tone_map([30.0, 1.0, 0.5], tm);
+        assert!((out[0] - 1.0).abs() < 1e-6 && (out[0] / out[1] - 30.0).abs() < 1e-3);
+    }
+}
