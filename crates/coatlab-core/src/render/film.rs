@@ -14,7 +14,7 @@
 //!
 //! # Accumulation and tiles
 //! Per pixel the film keeps Σ X, Σ Y, Σ Z, Σ X², Σ Y², Σ Z² and the sample count in
-//! f64 (56 bytes a pixel, 52 MB at 1280×720), so the sum-of-squares variance does not
+//! 64-bit numbers (56 bytes a pixel, 52 MB at 1280×720), so the sum-of-squares variance does not
 //! cancel catastrophically in low-noise pixels after thousands of samples.
 //! [`Film::add_sample`] costs three dot products over the grid (in f32, 8 lanes) and
 //! seven additions. Parallel rendering takes [`Film::tiles`], fills each tile on its
@@ -221,11 +221,12 @@ impl Weights {
     }
 }
 
-/// One pixel's running sums.
+/// One pixel's running sums: what the display reads (32 bytes). The sums of
+/// squares live in a parallel array, so [`Film::to_display`] streams 32 instead of
+/// 56 bytes a pixel (it is memory-bound: 29 MB at 1280×720).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 struct PixelSums {
     sum: [f64; 3],
-    sum_sq: [f64; 3],
     count: u64,
 }
 
@@ -242,6 +243,8 @@ pub struct Film {
     width: u32,
     height: u32,
     pixels: Vec<PixelSums>,
+    /// Σ X², Σ Y², Σ Z² per pixel, parallel to `pixels`.
+    squares: Vec<[f64; 3]>,
     rejected: u64,
 }
 
@@ -256,6 +259,7 @@ impl Film {
             width,
             height,
             pixels: vec![PixelSums::default(); width as usize * height as usize],
+            squares: vec![[0.0; 3]; width as usize * height as usize],
             rejected: 0,
         }
     }
@@ -275,6 +279,7 @@ impl Film {
             width,
             height,
             pixels: vec![PixelSums::default(); width as usize * height as usize],
+            squares: vec![[0.0; 3]; width as usize * height as usize],
             rejected: 0,
         }
     }
@@ -323,9 +328,14 @@ impl Film {
             for (to, from) in self.pixels[start..][..source.len()].iter_mut().zip(source) {
                 for k in 0..3 {
                     to.sum[k] += from.sum[k];
-                    to.sum_sq[k] += from.sum_sq[k];
                 }
                 to.count += from.count;
+            }
+            let source = &other.squares[row * other.width as usize..][..other.width as usize];
+            for (to, from) in self.squares[start..][..source.len()].iter_mut().zip(source) {
+                for k in 0..3 {
+                    to[k] += from[k];
+                }
             }
         }
         self.rejected += other.rejected;
@@ -347,10 +357,11 @@ impl Film {
         }
         let index = self.index(x, y);
         let pixel = &mut self.pixels[index];
+        let squares = &mut self.squares[index];
         for (k, &v) in xyz.iter().enumerate() {
             let v = f64::from(v);
             pixel.sum[k] += v;
-            pixel.sum_sq[k] += v * v;
+            squares[k] += v * v;
         }
         pixel.count += 1;
     }
@@ -374,13 +385,14 @@ impl Film {
     /// Estimated variance of [`Self::mean_xyz`] per component: the unbiased sample
     /// variance over n. Infinite below 2 samples (no estimate: sample more).
     pub fn variance_of_mean_xyz(&self, x: u32, y: u32) -> [f64; 3] {
-        let p = &self.pixels[self.index(x, y)];
+        let index = self.index(x, y);
+        let (p, squares) = (&self.pixels[index], &self.squares[index]);
         if p.count < 2 {
             return [f64::INFINITY; 3];
         }
         let n = p.count as f64;
         std::array::from_fn(|k| {
-            let variance = (p.sum_sq[k] - p.sum[k] * p.sum[k] / n) / (n - 1.0);
+            let variance = (squares[k] - p.sum[k] * p.sum[k] / n) / (n - 1.0);
             variance.max(0.0) / n
         })
     }
@@ -404,6 +416,7 @@ impl Film {
     /// Forgets every sample (a parameter changed: restart accumulation).
     pub fn clear(&mut self) {
         self.pixels.fill(PixelSums::default());
+        self.squares.fill([0.0; 3]);
         self.rejected = 0;
     }
 
@@ -464,8 +477,8 @@ impl Film {
                 if p.count == 0 {
                     return [0, 0, 0, 255];
                 }
-                let n = p.count as f64;
-                let xyz = p.sum.map(|s| (s / n) as f32);
+                let inv_n = 1.0 / p.count as f64;
+                let xyz = p.sum.map(|s| (s * inv_n) as f32);
                 let rgb = tone_map(mul(&m, xyz), settings.tone_mapping);
                 let [r, g, b] = rgb.map(|v| encode(lut, v));
                 [r, g, b, 255]
@@ -673,16 +686,17 @@ fn tone_map(rgb: [f32; 3], tone_mapping: ToneMapping) -> [f32; 3] {
         ToneMapping::Clip => rgb,
         ToneMapping::ReinhardLuminance { white_luminance } => {
             let luminance = LUMINANCE[0] * rgb[0] + LUMINANCE[1] * rgb[1] + LUMINANCE[2] * rgb[2];
-            // Also catches NaN.
             if luminance.is_nan() || luminance <= 0.0 {
                 return [0.0; 3];
             }
             let inv_white_sq = 1.0 / (white_luminance * white_luminance);
-            let mapped = luminance * (1.0 + luminance * inv_white_sq) / (1.0 + luminance);
-            let scaled = rgb.map(|v| v * (mapped / luminance));
+            // L' / L = (1 + L / L_white²) / (1 + L).
+            let ratio = (1.0 + luminance * inv_white_sq) / (1.0 + luminance);
+            let scaled = rgb.map(|v| v * ratio);
             let max = scaled[0].max(scaled[1]).max(scaled[2]);
             if max > 1.0 {
-                scaled.map(|v| v / max)
+                let inv_max = 1.0 / max;
+                scaled.map(|v| v * inv_max)
             } else {
                 scaled
             }
@@ -711,8 +725,9 @@ fn encode_lut() -> &'static [u8] {
 /// The 8-bit sRGB code of a linear value, clamped to [0, 1] (NaN → 0).
 #[inline]
 fn encode(lut: &[u8], linear: f32) -> u8 {
-    let position = (linear.clamp(0.0, 1.0) * (ENCODE_LUT_LEN - 1) as f32).round();
-    // `as` maps NaN to 0.
+    // Round half up by truncation (cheaper than `round`, a libm call); `as` maps NaN
+    // to 0.
+    let position = linear.clamp(0.0, 1.0) * (ENCODE_LUT_LEN - 1) as f32 + 0.5;
     lut[position as usize]
 }
 
