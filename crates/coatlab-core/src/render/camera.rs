@@ -131,6 +131,12 @@ impl Camera {
     /// axis. Solved exactly: a corner at lateral offset a and depth offset b from the
     /// centre stays inside when a / (d + b) ≤ fill · tan(half fov) in that axis.
     ///
+    /// Because the view looks at the box centre, perspective makes the image of the
+    /// box lopsided (the near corners project further out): a 4.5 × 1.4 × 1.9 m car
+    /// at 1280×720 spans x 15–75 %, y 27–93 % of the image (its near bottom corner
+    /// at the 85 % limit). Centring the projected box instead would pan off the
+    /// box centre.
+    ///
     /// A degenerate box (a point) is treated as a 1 mm cube; zero sizes give 1×1.
     pub fn framing(bounds: ([f32; 3], [f32; 3]), width: u32, height: u32) -> Camera {
         let (lo, hi) = (Vec3::from(bounds.0), Vec3::from(bounds.1));
