@@ -16,4 +16,5 @@ pub mod geometry;
 pub mod sampler;
 
 pub mod camera;
+pub mod environment;
 pub mod film;

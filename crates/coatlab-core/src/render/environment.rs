@@ -1,0 +1,1389 @@
+//! What lights the scene: a distant environment of spectral radiance over the sphere
+//! of directions, with importance sampling, plus the floor plane y = 0 of the
+//! lighting setup. The physics and the choices behind every number are in
+//! `docs/lighting.md`.
+//!
+//! | Setup | Emitters (sampled by power) | Background map | Floor ρ |
+//! |---|---|---|---|
+//! | [`Environment::studio`] (default) | key (overhead-front), fill, rim softboxes, CIE daylight 5500 K | grey cyclorama, brighter toward the horizon | 0.25 |
+//! | [`Environment::booth`] | overhead diffuser, 40° half-angle, the chosen illuminant | grey walls (ρ 0.2, view factor 0.5) | 0.20 |
+//! | [`Environment::outdoor`] | sun: 0.53° disc at 45° elevation, CIE daylight 5500 K | CIE clear sky, CIE daylight 10000 K | 0.15 |
+//! | [`Environment::from_image`] | — | the user's equirectangular map, RGB upsampled | 0.25 |
+//!
+//! Conventions: `radiance(dir)` is the radiance *arriving from* `dir`, i.e. seen by a
+//! ray travelling along `dir` (a ray going up, +Y, sees the overhead light). Azimuth
+//! is φ = atan2(x, z), from +Z (the car's front) toward +X; elevation is above the
+//! floor. An equirectangular image has its top row at the zenith and its centre
+//! column toward +Z; seen from inside it is not mirrored: a viewer facing +Z with Y
+//! up has −X on their right, and so the image's right half (column u = 0.5 − φ/2π).
+//!
+//! The distant-light approximation: softboxes, cyclorama, booth walls and diffuser
+//! are regions of the sphere at infinity rather than geometry. A studio is large
+//! against a car and the paint's look comes from what its reflection sees, which the
+//! direction alone decides at that distance; in return sampling is exact and cheap
+//! (no visibility of emitters among themselves, a closed-form pdf). The floor is
+//! real geometry (the tracer intersects y = 0) so the car casts a contact shadow.
+//!
+//! Normalisation: every environment is scaled so a white Lambertian facing up, lit
+//! by the upper hemisphere, has luminance 1 ([`Environment::luminance`] of its
+//! exitant radiance), i.e. horizontal illuminance E = π. The floor therefore has
+//! luminance ρ in the open, and one film exposure suits every setup.
+
+use std::f64::consts::PI;
+use std::path::Path;
+
+use palette::LinSrgb;
+use thiserror::Error;
+
+use crate::cie::{Colorimeter, Illuminant, Observer, daylight_spd};
+use crate::colour::xyz_from_linear_srgb;
+use crate::spectrum::WavelengthGrid;
+
+/// Correlated colour temperature of the studio softboxes (photographic flash).
+pub const STUDIO_CCT_K: f64 = 5500.0;
+/// Correlated colour temperature of the direct sun.
+pub const SUN_CCT_K: f64 = 5500.0;
+/// Correlated colour temperature of the clear blue sky.
+pub const SKY_CCT_K: f64 = 10000.0;
+/// Angular radius of the sun's disc (degrees).
+pub const SUN_HALF_ANGLE_DEG: f64 = 0.265;
+/// Elevation of the sun above the horizon (degrees).
+pub const SUN_ELEVATION_DEG: f64 = 45.0;
+/// Azimuth of the sun, from +Z toward +X (degrees): front-left of the car.
+pub const SUN_AZIMUTH_DEG: f64 = 30.0;
+/// Fraction of the horizontal illuminance that comes from the sky (clear day, sun
+/// at 45°: about 15 klx diffuse against 65 klx direct).
+pub const SKY_ILLUMINANCE_FRACTION: f64 = 0.2;
+/// Half-angle of the booth's overhead diffuser (degrees).
+pub const BOOTH_DIFFUSER_HALF_ANGLE_DEG: f64 = 40.0;
+/// Reflectance of the booth's mid-grey walls (Munsell N5 is about 0.2).
+pub const BOOTH_WALL_REFLECTANCE: f64 = 0.2;
+/// Fraction of the diffuser's radiance a wall receives and re-emits per unit
+/// reflectance (its view factor toward the ceiling).
+pub const BOOTH_WALL_VIEW_FACTOR: f64 = 0.5;
+/// Floor reflectances (flat grey).
+pub const STUDIO_FLOOR_REFLECTANCE: f32 = 0.25;
+/// Booth floor: the same grey as the walls.
+pub const BOOTH_FLOOR_REFLECTANCE: f32 = 0.2;
+/// Outdoor ground: concrete and asphalt.
+pub const OUTDOOR_FLOOR_REFLECTANCE: f32 = 0.15;
+/// Floor under an image map: neutral grey, for the contact shadow.
+pub const IMAGE_FLOOR_REFLECTANCE: f32 = 0.25;
+/// Image maps wider than this are box-filtered down by an integer factor first.
+pub const IMAGE_MAX_WIDTH: usize = 2048;
+/// Sampling weight of the map below the horizon relative to its power: the floor
+/// hides it whenever the floor is present, so samples there are mostly wasted; it
+/// stays positive so an environment without floor is still sampled everywhere.
+const GROUND_SAMPLING_WEIGHT: f64 = 0.1;
+/// Each texel's sampling weight is (luminance + this × its largest spectral value)
+/// × solid angle: the second term keeps texels whose light lies outside ȳ (deep red
+/// or violet) sampled.
+const MAX_VALUE_SAMPLING_WEIGHT: f64 = 0.05;
+
+/// What went wrong reading an environment map.
+#[derive(Debug, Error)]
+pub enum EnvironmentError {
+    /// The file could not be read.
+    #[error("{path}: cannot read the environment map: {source}")]
+    Io {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The header is not that of a Radiance RGBE (.hdr) picture we can read.
+    #[error("{path}: not a readable Radiance .hdr file: {reason}")]
+    BadHeader { path: String, reason: String },
+    /// The pixel data stop early.
+    #[error(
+        "{path}: truncated: the pixel data end in scanline {row} of {height} (the header promises {width}×{height} pixels)"
+    )]
+    Truncated {
+        path: String,
+        row: usize,
+        width: usize,
+        height: usize,
+    },
+    /// Run-length data that do not decode to a scanline.
+    #[error("{path}: corrupt run-length data in scanline {row}: {reason}")]
+    CorruptScanline {
+        path: String,
+        row: usize,
+        reason: &'static str,
+    },
+    /// OpenEXR is refused (see `docs/lighting.md`).
+    #[error(
+        "{path}: OpenEXR environment maps are not supported (the exr crate would add a decoder stack to every build); convert the map to Radiance .hdr (e.g. `oiiotool in.exr -o out.hdr`)"
+    )]
+    ExrNotSupported { path: String },
+    /// Neither .hdr nor .exr.
+    #[error("{path}: unknown environment map format (expected a Radiance .hdr file)")]
+    UnknownFormat { path: String },
+    /// An image whose pixel buffer does not fit its size, or holds NaN or infinity.
+    #[error("{name}: {reason}")]
+    InvalidImage { name: String, reason: String },
+    /// The map sends no light onto the floor, so it cannot be normalised.
+    #[error(
+        "{name}: the upper half of the map is black, so it lights nothing and cannot be normalised"
+    )]
+    NoLight { name: String },
+}
+
+/// A direction sampled from an environment.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EnvSample {
+    /// Unit direction toward the light (a ray travelling along it sees the light).
+    pub dir: [f32; 3],
+    /// Probability density of `dir` per unit solid angle (sr⁻¹), > 0.
+    pub pdf: f32,
+}
+
+/// The floor plane y = 0 that belongs to a lighting setup: Lambertian, with this
+/// reflectance on the environment's wavelength grid.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Floor {
+    /// Diffuse reflectance per wavelength sample, in [0, 1].
+    pub reflectance: Vec<f32>,
+}
+
+/// Which setup an [`Environment`] models.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EnvironmentKind {
+    /// Photo studio: softboxes, cyclorama.
+    Studio,
+    /// Paint light booth under this illuminant.
+    Booth(Illuminant),
+    /// Sun and clear sky.
+    Outdoor,
+    /// A user's equirectangular image.
+    Image,
+}
+
+/// Spectral radiance over the sphere of directions, with importance sampling, and
+/// the floor of the setup. See the module documentation.
+#[derive(Debug, Clone)]
+pub struct Environment {
+    kind: EnvironmentKind,
+    grid: WavelengthGrid,
+    luminance_weights: Vec<f32>,
+    patches: Vec<Patch>,
+    map: RadianceMap,
+    /// Selection of a component: the patches in order, then the map.
+    components: Distribution1D,
+    floor: Option<Floor>,
+    sun_dir: Option<[f32; 3]>,
+}
+
+impl Environment {
+    /// The default photo studio: three large softboxes (key overhead-front, fill at
+    /// the side, rim behind) of CIE daylight 5500 K on a grey cyclorama, grey floor
+    /// ρ = 0.25.
+    pub fn studio(grid: &WavelengthGrid) -> Self {
+        let spectrum = daylight_on_grid(STUDIO_CCT_K, grid);
+        let (width, height) = (1, 64);
+        let mut b = Builder::new(grid, vec![spectrum], width, height);
+        // Cyclorama lit by the softboxes: brighter at the sweep, darker overhead.
+        for row in 0..height / 2 {
+            let y = 0.5 * (b.row_cos[row] + b.row_cos[row + 1]);
+            b.coeffs[row] = (0.06 - 0.04 * y) as f32;
+        }
+        let deg = f64::to_radians;
+        let rect = |az0: f64, az1: f64, el0: f64, el1: f64| Shape::LatLong {
+            azimuth: [deg(az0), deg(az1)],
+            y: [deg(el0).sin(), deg(el1).sin()],
+        };
+        b.patches.push((rect(-60.0, 60.0, 50.0, 80.0), 0, 1.0));
+        b.patches.push((rect(75.0, 115.0, 5.0, 35.0), 0, 0.4));
+        b.patches.push((rect(-165.0, -125.0, 10.0, 40.0), 0, 0.7));
+        b.finish(EnvironmentKind::Studio, STUDIO_FLOOR_REFLECTANCE, true)
+            .expect("the studio has light")
+    }
+
+    /// A paint light booth: an overhead diffuser emitting `illuminant`, mid-grey
+    /// walls (ρ = 0.2) lit by it as a dim uniform background, grey floor ρ = 0.2.
+    pub fn booth(illuminant: Illuminant, grid: &WavelengthGrid) -> Self {
+        let spectrum: Vec<f32> = illuminant
+            .spd(grid)
+            .values()
+            .iter()
+            .map(|&v| (v / 100.0) as f32)
+            .collect();
+        let (width, height) = (1, 64);
+        let mut b = Builder::new(grid, vec![spectrum], width, height);
+        for row in 0..height / 2 {
+            b.coeffs[row] = (BOOTH_WALL_REFLECTANCE * BOOTH_WALL_VIEW_FACTOR) as f32;
+        }
+        let cap = Shape::LatLong {
+            azimuth: [-PI, PI],
+            y: [BOOTH_DIFFUSER_HALF_ANGLE_DEG.to_radians().cos(), 1.0],
+        };
+        b.patches.push((cap, 0, 1.0));
+        b.finish(
+            EnvironmentKind::Booth(illuminant),
+            BOOTH_FLOOR_REFLECTANCE,
+            true,
+        )
+        .expect("the booth has light")
+    }
+
+    /// Sun and clear sky: the sun a 0.53° disc at 45° elevation (CIE daylight
+    /// 5500 K), the sky the CIE clear-sky luminance distribution in CIE daylight
+    /// 10000 K, the sky giving 20 % of the horizontal illuminance; ground ρ = 0.15.
+    pub fn outdoor(grid: &WavelengthGrid) -> Self {
+        let sky = daylight_on_grid(SKY_CCT_K, grid);
+        let sun = daylight_on_grid(SUN_CCT_K, grid);
+        let (width, height) = (256, 128);
+        let sun_axis = direction_from_azimuth_elevation(
+            SUN_AZIMUTH_DEG.to_radians(),
+            SUN_ELEVATION_DEG.to_radians(),
+        );
+        let mut b = Builder::new(grid, vec![sky, sun], width, height);
+        let zenith_sun = (90.0 - SUN_ELEVATION_DEG).to_radians();
+        for row in 0..height / 2 {
+            let y = 0.5 * (b.row_cos[row] + b.row_cos[row + 1]);
+            for col in 0..width {
+                let azimuth = azimuth_of_column(col as f64 + 0.5, width);
+                let dir = direction_from_azimuth_y(azimuth, y);
+                let cos_gamma = dot(dir, sun_axis).clamp(-1.0, 1.0);
+                b.coeffs[(row * width + col) * 2] =
+                    cie_clear_sky(y.acos(), cos_gamma.acos(), zenith_sun) as f32;
+            }
+        }
+        // The sun's radiance, for its share of the horizontal illuminance.
+        let sky_illuminance = b.channel_irradiance()[0] * b.channel_luminance[0];
+        let sun_shape = Shape::cap(sun_axis, SUN_HALF_ANGLE_DEG.to_radians());
+        let sun_illuminance_per_unit = sun_shape.cosine_integral() * b.channel_luminance[1];
+        let sun_coefficient = sky_illuminance * (1.0 - SKY_ILLUMINANCE_FRACTION)
+            / SKY_ILLUMINANCE_FRACTION
+            / sun_illuminance_per_unit;
+        b.patches.push((sun_shape, 1, sun_coefficient));
+        let mut env = b
+            .finish(EnvironmentKind::Outdoor, OUTDOOR_FLOOR_REFLECTANCE, true)
+            .expect("the sky has light");
+        env.sun_dir = Some(sun_axis.map(|v| v as f32));
+        env
+    }
+
+    /// An equirectangular environment map from a file: Radiance `.hdr` (RGBE, flat
+    /// or run-length encoded scanlines). `.exr` is refused with
+    /// [`EnvironmentError::ExrNotSupported`]. Linear sRGB (Rec. 709) primaries are
+    /// assumed; see [`Environment::from_rgb_image`].
+    pub fn from_image(path: &Path, grid: &WavelengthGrid) -> Result<Self, EnvironmentError> {
+        let name = path.display().to_string();
+        let extension = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        match extension.as_deref() {
+            Some("hdr") | Some("pic") | Some("rgbe") => {
+                let image = read_hdr(path)?;
+                Self::from_rgb_image(&image, &name, grid)
+            }
+            Some("exr") => Err(EnvironmentError::ExrNotSupported { path: name }),
+            _ => Err(EnvironmentError::UnknownFormat { path: name }),
+        }
+    }
+
+    /// An environment from an equirectangular linear-sRGB image (top row at the
+    /// zenith, centre column toward +Z). Each texel's RGB (negatives clamped to 0)
+    /// becomes a spectrum by [`RgbUpsampler::emission`]; radiance is constant over
+    /// a texel, which is sampled in proportion to luminance × solid angle. Maps wider
+    /// than [`IMAGE_MAX_WIDTH`] are box-filtered down. `name` is used in errors.
+    pub fn from_rgb_image(
+        image: &RgbImage,
+        name: &str,
+        grid: &WavelengthGrid,
+    ) -> Result<Self, EnvironmentError> {
+        let factor = image.width.div_ceil(IMAGE_MAX_WIDTH).max(1);
+        let image = if factor > 1 {
+            image.box_downsample(factor)
+        } else {
+            image.clone()
+        };
+        let upsampler = RgbUpsampler::new(grid);
+        let channels = upsampler.emission_bases.to_vec();
+        let mut b = Builder::new(grid, channels, image.width, image.height);
+        for (coeffs, rgb) in b.coeffs.chunks_exact_mut(3).zip(&image.pixels) {
+            for (c, v) in coeffs.iter_mut().zip(rgb) {
+                *c = v.max(0.0);
+            }
+        }
+        b.finish(EnvironmentKind::Image, IMAGE_FLOOR_REFLECTANCE, false)
+            .ok_or_else(|| EnvironmentError::NoLight {
+                name: name.to_owned(),
+            })
+    }
+
+    /// Which setup this is.
+    pub fn kind(&self) -> EnvironmentKind {
+        self.kind
+    }
+
+    /// The wavelength grid of all spectra here.
+    pub fn grid(&self) -> &WavelengthGrid {
+        &self.grid
+    }
+
+    /// The floor plane y = 0 of the setup, if any.
+    pub fn floor(&self) -> Option<&Floor> {
+        self.floor.as_ref()
+    }
+
+    /// The same lighting with another floor, or none.
+    pub fn with_floor(mut self, floor: Option<Floor>) -> Self {
+        self.floor = floor;
+        self
+    }
+
+    /// The unit direction toward the sun's centre, outdoors.
+    pub fn sun_direction(&self) -> Option<[f32; 3]> {
+        self.sun_dir
+    }
+
+    /// The luminance of a spectral radiance on the grid: Σ wᵢ Lᵢ with wᵢ the CIE 1931
+    /// ȳ integrated against sample i's linear-interpolation hat, normalised so
+    /// Σ wᵢ = 1 (a flat spectrum of 1 has luminance 1).
+    pub fn luminance(&self, values: &[f32]) -> f32 {
+        dot_f32(&self.luminance_weights, values)
+    }
+
+    /// Spectral radiance arriving from `dir` (a ray travelling along `dir` sees it),
+    /// written to `out` (one value per grid sample).
+    ///
+    /// # Panics
+    /// If `out.len()` differs from the grid's length.
+    pub fn radiance(&self, dir: [f32; 3], out: &mut [f32]) {
+        assert_eq!(out.len(), self.grid.len(), "radiance buffer length");
+        out.fill(0.0);
+        let Some(d) = normalised(dir) else { return };
+        self.map.add_radiance(d, out);
+        for patch in &self.patches {
+            if patch.shape.contains(d) {
+                for (o, r) in out.iter_mut().zip(&patch.radiance) {
+                    *o += r;
+                }
+            }
+        }
+    }
+
+    /// Density (per unit solid angle) with which [`Self::sample`] returns `dir`.
+    pub fn pdf(&self, dir: [f32; 3]) -> f32 {
+        let Some(d) = normalised(dir) else {
+            return 0.0;
+        };
+        self.pdf_f64(d) as f32
+    }
+
+    /// A direction toward the light for the two uniform numbers `u` in [0, 1)²:
+    /// emitters chosen in proportion to their power, then a point uniform in solid
+    /// angle on them, or a texel of the background map by luminance × solid angle.
+    /// `out` receives the radiance from the direction. `None` if the sample
+    /// carries no density (never for the setups here).
+    ///
+    /// # Panics
+    /// If `out.len()` differs from the grid's length.
+    pub fn sample(&self, u: [f32; 2], out: &mut [f32]) -> Option<EnvSample> {
+        let (component, u0) = self.components.sample(f64::from(u[0]));
+        let u1 = f64::from(u[1]).clamp(0.0, ONE_BELOW);
+        let d = if component < self.patches.len() {
+            self.patches[component].shape.sample([u0, u1])
+        } else {
+            self.map.sample([u0, u1])?
+        };
+        let dir = d.map(|v| v as f32);
+        let pdf = self.pdf(dir);
+        if !(pdf > 0.0 && pdf.is_finite()) {
+            return None;
+        }
+        self.radiance(dir, out);
+        Some(EnvSample { dir, pdf })
+    }
+
+    fn pdf_f64(&self, d: [f64; 3]) -> f64 {
+        let mut pdf = self.components.probability(self.patches.len()) * self.map.pdf(d);
+        for (k, patch) in self.patches.iter().enumerate() {
+            if patch.shape.contains(d) {
+                pdf += self.components.probability(k) / patch.solid_angle;
+            }
+        }
+        pdf
+    }
+}
+
+/// A linear-sRGB picture, row-major, top row first.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RgbImage {
+    width: usize,
+    height: usize,
+    pixels: Vec<[f32; 3]>,
+}
+
+impl RgbImage {
+    /// An image from its pixels; errors unless there are `width × height ≥ 1` of
+    /// them, all finite.
+    pub fn new(
+        width: usize,
+        height: usize,
+        pixels: Vec<[f32; 3]>,
+    ) -> Result<Self, EnvironmentError> {
+        let invalid = |reason: String| EnvironmentError::InvalidImage {
+            name: "RGB image".to_owned(),
+            reason,
+        };
+        if width == 0 || height == 0 || width.checked_mul(height) != Some(pixels.len()) {
+            return Err(invalid(format!(
+                "{} pixels do not make a {width}×{height} image",
+                pixels.len()
+            )));
+        }
+        if let Some(i) = pixels.iter().position(|p| p.iter().any(|v| !v.is_finite())) {
+            return Err(invalid(format!(
+                "pixel {i} ({:?}) is not finite",
+                pixels[i]
+            )));
+        }
+        Ok(Self {
+            width,
+            height,
+            pixels,
+        })
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// The pixels, row-major, top row first.
+    pub fn pixels(&self) -> &[[f32; 3]] {
+        &self.pixels
+    }
+
+    fn box_downsample(&self, factor: usize) -> Self {
+        let width = self.width.div_ceil(factor);
+        let height = self.height.div_ceil(factor);
+        let mut pixels = vec![[0.0f32; 3]; width * height];
+        let mut counts = vec![0u32; width * height];
+        for row in 0..self.height {
+            for col in 0..self.width {
+                let target = (row / factor) * width + col / factor;
+                let p = self.pixels[row * self.width + col];
+                for c in 0..3 {
+                    pixels[target][c] += p[c];
+                }
+                counts[target] += 1;
+            }
+        }
+        for (p, &n) in pixels.iter_mut().zip(&counts) {
+            *p = p.map(|v| v / n as f32);
+        }
+        Self {
+            width,
+            height,
+            pixels,
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------
+// RGB → spectrum
+
+/// Jakob–Hanika sigmoid-polynomial coefficients (c₂, c₁, c₀ of
+/// S(c₂t² + c₁t + c₀), t = (λ − 580 nm)/200 nm, S(x) = ½ + x/(2√(1 + x²))) of the
+/// three basis reflectances. Fitted (Levenberg–Marquardt, small-norm regularised)
+/// so that D65 × basis has the chromaticity of the sRGB red, green and blue
+/// primaries to 1e-7 on the CIE 1931 5 nm tables.
+const RGB_BASIS_COEFFICIENTS: [[f64; 3]; 3] = [
+    [1.142_769_691_3, 7.983_866_553_7, -2.311_511_750_4],
+    [-18.365_490_086_7, -7.171_585_280_9, -0.031_022_685_0],
+    [4.075_349_363_2, -7.349_887_171_9, -4.413_129_056_6],
+];
+
+/// Linear sRGB to smooth, non-negative spectra: a fixed linear combination of three
+/// smooth basis spectra, one per primary, so the map is linear (an RGB image's
+/// spectra are three coefficients per texel) and an RGB triple round-trips.
+///
+/// Basis i is the sigmoid polynomial of [`RGB_BASIS_COEFFICIENTS`] scaled so that,
+/// as a reflectance under D65 (CIE 1931, on this grid's colorimetry), its XYZ is
+/// exactly that of sRGB primary i; chromaticity holds to the fit. Negative RGB
+/// components are clamped to 0, so the spectra are never negative.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RgbUpsampler {
+    reflectance_bases: [Vec<f32>; 3],
+    emission_bases: [Vec<f32>; 3],
+}
+
+impl RgbUpsampler {
+    /// The bases on `grid`.
+    pub fn new(grid: &WavelengthGrid) -> Self {
+        let colorimeter = Colorimeter::new(Illuminant::D65, Observer::Cie1931TwoDegree, grid);
+        let unit = [
+            LinSrgb::new(1.0, 0.0, 0.0),
+            LinSrgb::new(0.0, 1.0, 0.0),
+            LinSrgb::new(0.0, 0.0, 1.0),
+        ];
+        let reflectance_bases: [Vec<f64>; 3] = std::array::from_fn(|i| {
+            let target = xyz_from_linear_srgb(unit[i]);
+            let coefficients = refit_basis(&colorimeter, RGB_BASIS_COEFFICIENTS[i], target);
+            let raw = sigmoid_polynomial(grid, coefficients);
+            let scale = target.y / colorimeter.xyz(&raw).y;
+            raw.into_iter().map(|v| v * scale).collect()
+        });
+        // Emission: D65 × reflectance, scaled so RGB (1, 1, 1) has luminance 1.
+        let d65 = Illuminant::D65.spd(grid);
+        let weights = luminance_weights(grid);
+        let white: Vec<f64> = (0..grid.len())
+            .map(|k| d65.values()[k] * reflectance_bases.iter().map(|b| b[k]).sum::<f64>())
+            .collect();
+        let white_luminance: f64 = white
+            .iter()
+            .zip(&weights)
+            .map(|(v, &w)| v * f64::from(w))
+            .sum();
+        let emission_bases = std::array::from_fn(|i| {
+            reflectance_bases[i]
+                .iter()
+                .zip(d65.values())
+                .map(|(r, s)| (r * s / white_luminance) as f32)
+                .collect()
+        });
+        Self {
+            reflectance_bases: reflectance_bases.map(|b| b.into_iter().map(|v| v as f32).collect()),
+            emission_bases,
+        }
+    }
+
+    /// A reflectance whose colour under D65 is `rgb` (linear sRGB, white (1, 1, 1)).
+    ///
+    /// # Panics
+    /// If `out.len()` differs from the grid's length.
+    pub fn reflectance(&self, rgb: LinSrgb<f32>, out: &mut [f32]) {
+        combine(&self.reflectance_bases, rgb, out);
+    }
+
+    /// An emission (radiance) spectrum whose colour is `rgb`: D65 × the
+    /// reflectance, scaled so (1, 1, 1) has [`Environment::luminance`] 1.
+    ///
+    /// # Panics
+    /// If `out.len()` differs from the grid's length.
+    pub fn emission(&self, rgb: LinSrgb<f32>, out: &mut [f32]) {
+        combine(&self.emission_bases, rgb, out);
+    }
+}
+
+fn combine(bases: &[Vec<f32>; 3], rgb: LinSrgb<f32>, out: &mut [f32]) {
+    assert_eq!(out.len(), bases[0].len(), "spectrum buffer length");
+    let c = [rgb.red, rgb.green, rgb.blue].map(|v| v.max(0.0));
+    for (k, o) in out.iter_mut().enumerate() {
+        *o = c[0] * bases[0][k] + c[1] * bases[1][k] + c[2] * bases[2][k];
+    }
+}
+
+fn sigmoid_polynomial(grid: &WavelengthGrid, [c2, c1, c0]: [f64; 3]) -> Vec<f64> {
+    grid.wavelengths_nm()
+        .map(|l| {
+            let t = (l - 580.0) / 200.0;
+            sigmoid(c2 * t * t + c1 * t + c0)
+        })
+        .collect()
+}
+
+/// The sigmoid-polynomial coefficients nearest `start` whose spectrum has the
+/// chromaticity of `target` under this grid's colorimetry: minimum-norm
+/// Gauss–Newton steps on the two chromaticity equations, halved until they help.
+/// On the 5 nm grid `start` already fits; coarse grids, which read a spectrum as
+/// piecewise linear between fewer samples, move it a little. Where a grid is too
+/// coarse to reach the target the best coefficients found are kept.
+fn refit_basis(colorimeter: &Colorimeter, start: [f64; 3], target: crate::colour::Xyz) -> [f64; 3] {
+    let grid = *colorimeter.grid();
+    let chromaticity = |xyz: crate::colour::Xyz| {
+        let sum = xyz.x + xyz.y + xyz.z;
+        [xyz.x / sum, xyz.y / sum]
+    };
+    let goal = chromaticity(target);
+    let residual = |c: [f64; 3]| {
+        let xy = chromaticity(colorimeter.xyz(&sigmoid_polynomial(&grid, c)));
+        [xy[0] - goal[0], xy[1] - goal[1]]
+    };
+    let norm = |r: [f64; 2]| r[0].hypot(r[1]);
+    let mut c = start;
+    let mut r = residual(c);
+    for _ in 0..30 {
+        if norm(r) < 1e-10 {
+            break;
+        }
+        // Jacobian (2×3) by forward differences.
+        let jacobian: [[f64; 2]; 3] = std::array::from_fn(|k| {
+            let mut shifted = c;
+            let h = 1e-6 * c[k].abs().max(1.0);
+            shifted[k] += h;
+            let rs = residual(shifted);
+            [(rs[0] - r[0]) / h, (rs[1] - r[1]) / h]
+        });
+        // Δc = −Jᵀ (J Jᵀ)⁻¹ r.
+        let mut jjt = [[0.0; 2]; 2];
+        for col in &jacobian {
+            for a in 0..2 {
+                for b in 0..2 {
+                    jjt[a][b] += col[a] * col[b];
+                }
+            }
+        }
+        let det = jjt[0][0] * jjt[1][1] - jjt[0][1] * jjt[1][0];
+        if det.abs() < 1e-300 {
+            break;
+        }
+        let lambda = [
+            (jjt[1][1] * r[0] - jjt[0][1] * r[1]) / det,
+            (jjt[0][0] * r[1] - jjt[1][0] * r[0]) / det,
+        ];
+        let step: [f64; 3] =
+            std::array::from_fn(|k| -(jacobian[k][0] * lambda[0] + jacobian[k][1] * lambda[1]));
+        let mut scale = 1.0;
+        let mut improved = false;
+        for _ in 0..20 {
+            let trial = std::array::from_fn(|k| c[k] + scale * step[k]);
+            let rt = residual(trial);
+            if norm(rt) < norm(r) {
+                c = trial;
+                r = rt;
+                improved = true;
+                break;
+            }
+            scale *= 0.5;
+        }
+        if !improved {
+            break;
+        }
+    }
+    c
+}
+
+fn sigmoid(x: f64) -> f64 {
+    0.5 + x / (2.0 * (1.0 + x * x).sqrt())
+}
+
+// ---------------------------------------------------------------------------
+// Radiance .hdr (RGBE)
+
+/// Reads a Radiance RGBE picture (`#?RADIANCE` header, `FORMAT=32-bit_rle_rgbe`,
+/// resolution `-Y h +X w` or `+Y h +X w`, flat, old-style or new-style run-length
+/// encoded scanlines). Pixel value = (mantissa + ½)·2^(exponent − 136), as Radiance
+/// decodes it; EXPOSURE lines are ignored (environments are normalised anyway).
+pub fn read_hdr(path: &Path) -> Result<RgbImage, EnvironmentError> {
+    let name = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|source| EnvironmentError::Io {
+        path: name.clone(),
+        source,
+    })?;
+    decode_hdr(&bytes, &name)
+}
+
+/// [`read_hdr`] on bytes in memory; `name` is used in errors.
+pub fn decode_hdr(bytes: &[u8], name: &str) -> Result<RgbImage, EnvironmentError> {
+    let bad = |reason: &str| EnvironmentError::BadHeader {
+        path: name.to_owned(),
+        reason: reason.to_owned(),
+    };
+    let mut pos = 0;
+    let next_line = |pos: &mut usize| -> Option<&[u8]> {
+        let rest = bytes.get(*pos..)?;
+        let end = rest.iter().position(|&b| b == b'\n')?;
+        *pos += end + 1;
+        Some(&rest[..end])
+    };
+    let first = next_line(&mut pos).ok_or_else(|| bad("no header line"))?;
+    if !first.starts_with(b"#?") {
+        return Err(bad(
+            "the first line does not start with \"#?\" (e.g. #?RADIANCE)",
+        ));
+    }
+    loop {
+        let line = next_line(&mut pos).ok_or_else(|| bad("the header never ends"))?;
+        if line.is_empty() {
+            break;
+        }
+        if let Some(format) = line.strip_prefix(b"FORMAT=") {
+            let format = String::from_utf8_lossy(format);
+            if format.trim() != "32-bit_rle_rgbe" {
+                return Err(bad(&format!(
+                    "pixel format {} (only 32-bit_rle_rgbe is supported)",
+                    format.trim()
+                )));
+            }
+        }
+    }
+    let resolution = next_line(&mut pos).ok_or_else(|| bad("no resolution line"))?;
+    let resolution = String::from_utf8_lossy(resolution);
+    let fields: Vec<&str> = resolution.split_whitespace().collect();
+    let (flip, height, width) = match fields.as_slice() {
+        [y, h, "+X", w] if *y == "-Y" || *y == "+Y" => {
+            let parse = |s: &str| s.parse::<usize>().ok().filter(|&n| n > 0);
+            match (parse(h), parse(w)) {
+                (Some(h), Some(w)) => (*y == "+Y", h, w),
+                _ => return Err(bad(&format!("bad resolution line {resolution:?}"))),
+            }
+        }
+        _ => {
+            return Err(bad(&format!(
+                "resolution line {resolution:?} (only \"-Y h +X w\" and \"+Y h +X w\" are supported)"
+            )));
+        }
+    };
+    if width.checked_mul(height).is_none_or(|n| n > 1 << 28) {
+        return Err(bad(&format!(
+            "image of {width}×{height} pixels is too large"
+        )));
+    }
+    let mut data = ScanlineReader {
+        bytes,
+        pos,
+        name,
+        width,
+        height,
+    };
+    let mut pixels = vec![[0.0f32; 3]; width * height];
+    let mut scanline = vec![[0u8; 4]; width];
+    for row in 0..height {
+        data.read_scanline(row, &mut scanline)?;
+        let target = if flip { height - 1 - row } else { row };
+        for (p, rgbe) in pixels[target * width..(target + 1) * width]
+            .iter_mut()
+            .zip(&scanline)
+        {
+            *p = rgbe_to_float(*rgbe);
+        }
+    }
+    Ok(RgbImage {
+        width,
+        height,
+        pixels,
+    })
+}
+
+fn rgbe_to_float([r, g, b, e]: [u8; 4]) -> [f32; 3] {
+    if e == 0 {
+        return [0.0; 3];
+    }
+    let f = 2f32.powi(i32::from(e) - 136);
+    [r, g, b].map(|m| (f32::from(m) + 0.5) * f)
+}
+
+struct ScanlineReader<'a> {
+    bytes: &'a [u8],
+    pos: usize,
+    name: &'a str,
+    width: usize,
+    height: usize,
+}
+
+impl ScanlineReader<'_> {
+    fn byte(&mut self, row: usize) -> Result<u8, EnvironmentError> {
+        let b = self
+            .bytes
+            .get(self.pos)
+            .copied()
+            .ok_or_else(|| EnvironmentError::Truncated {
+                path: self.name.to_owned(),
+                row,
+                width: self.width,
+                height: self.height,
+            })?;
+        self.pos += 1;
+        Ok(b)
+    }
+
+    fn corrupt(&self, row: usize, reason: &'static str) -> EnvironmentError {
+        EnvironmentError::CorruptScanline {
+            path: self.name.to_owned(),
+            row,
+            reason,
+        }
+    }
+
+    fn read_scanline(&mut self, row: usize, out: &mut [[u8; 4]]) -> Result<(), EnvironmentError> {
+        let width = out.len();
+        let first = [
+            self.byte(row)?,
+            self.byte(row)?,
+            self.byte(row)?,
+            self.byte(row)?,
+        ];
+        let new_rle =
+            (8..=0x7fff).contains(&width) && first[0] == 2 && first[1] == 2 && first[2] & 0x80 == 0;
+        if new_rle {
+            if (usize::from(first[2]) << 8 | usize::from(first[3])) != width {
+                return Err(self.corrupt(row, "the scanline length differs from the image width"));
+            }
+            // Four channel runs: count > 128 repeats one byte, else literal bytes.
+            for channel in 0..4 {
+                let mut x = 0;
+                while x < width {
+                    let count = usize::from(self.byte(row)?);
+                    if count > 128 {
+                        let run = count - 128;
+                        if x + run > width {
+                            return Err(self.corrupt(row, "a run overflows the scanline"));
+                        }
+                        let value = self.byte(row)?;
+                        for p in &mut out[x..x + run] {
+                            p[channel] = value;
+                        }
+                        x += run;
+                    } else {
+                        if count == 0 || x + count > width {
+                            return Err(self.corrupt(row, "a literal span is empty or too long"));
+                        }
+                        for p in &mut out[x..x + count] {
+                            p[channel] = self.byte(row)?;
+                        }
+                        x += count;
+                    }
+                }
+            }
+            return Ok(());
+        }
+        // Flat pixels, with old-style runs: (1, 1, 1, n) repeats the previous pixel
+        // n << shift times, shift growing by 8 for consecutive run markers.
+        let mut x = 0;
+        let mut shift = 0u32;
+        let mut pixel = first;
+        loop {
+            if pixel[0] == 1 && pixel[1] == 1 && pixel[2] == 1 {
+                if x == 0 {
+                    return Err(self.corrupt(row, "a run marker with no pixel before it"));
+                }
+                let run = usize::from(pixel[3])
+                    .checked_shl(shift)
+                    .filter(|&r| shift < 24 && x + r <= width)
+                    .ok_or_else(|| self.corrupt(row, "an old-style run overflows the scanline"))?;
+                let previous = out[x - 1];
+                out[x..x + run].fill(previous);
+                x += run;
+                shift += 8;
+            } else {
+                out[x] = pixel;
+                x += 1;
+                shift = 0;
+            }
+            if x == width {
+                return Ok(());
+            }
+            pixel = [
+                self.byte(row)?,
+                self.byte(row)?,
+                self.byte(row)?,
+                self.byte(row)?,
+            ];
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Building blocks
+
+/// Largest f64 below 1.
+const ONE_BELOW: f64 = 1.0 - f64::EPSILON / 2.0;
+
+/// A region of the sphere with constant radiance.
+#[derive(Debug, Clone)]
+enum Shape {
+    /// Azimuth in [a₀, a₁] (radians, from +Z toward +X, within [−π, π]) and
+    /// y = sin(elevation) in [y₀, y₁]: uniform in (azimuth, y) is uniform in solid
+    /// angle, so sampling is exact. A full azimuth range makes a cap about +Y.
+    LatLong { azimuth: [f64; 2], y: [f64; 2] },
+    /// A cone of directions about `axis`; `one_minus_cos` = 1 − cos(half-angle)
+    /// (kept apart for precision with the sun's tiny disc).
+    Cap {
+        axis: [f64; 3],
+        tangent: [f64; 3],
+        bitangent: [f64; 3],
+        one_minus_cos: f64,
+    },
+}
+
+impl Shape {
+    fn cap(axis: [f64; 3], half_angle: f64) -> Self {
+        let helper = if axis[1].abs() < 0.9 {
+            [0.0, 1.0, 0.0]
+        } else {
+            [1.0, 0.0, 0.0]
+        };
+        let tangent = normalise(cross(helper, axis));
+        let bitangent = cross(axis, tangent);
+        Shape::Cap {
+            axis,
+            tangent,
+            bitangent,
+            one_minus_cos: 2.0 * (0.5 * half_angle).sin().powi(2),
+        }
+    }
+
+    fn solid_angle(&self) -> f64 {
+        match self {
+            Shape::LatLong { azimuth, y } => (azimuth[1] - azimuth[0]) * (y[1] - y[0]),
+            Shape::Cap { one_minus_cos, .. } => 2.0 * PI * one_minus_cos,
+        }
+    }
+
+    /// ∫ max(y, 0) dω over the region: horizontal irradiance per unit radiance
+    /// (exact for a cap entirely above the horizon).
+    fn cosine_integral(&self) -> f64 {
+        match self {
+            Shape::LatLong { azimuth, y } => {
+                let (y0, y1) = (y[0].max(0.0), y[1].max(0.0));
+                (azimuth[1] - azimuth[0]) * 0.5 * (y1 * y1 - y0 * y0)
+            }
+            Shape::Cap {
+                axis,
+                one_minus_cos,
+                ..
+            } => {
+                // π sin²α times the axis's cosine.
+                let sin2 = one_minus_cos * (2.0 - one_minus_cos);
+                PI * sin2 * axis[1].max(0.0)
+            }
+        }
+    }
+
+    fn contains(&self, d: [f64; 3]) -> bool {
+        match self {
+            Shape::LatLong { azimuth, y } => {
+                (y[0]..=y[1]).contains(&d[1])
+                    && (azimuth[0]..=azimuth[1]).contains(&d[0].atan2(d[2]))
+            }
+            Shape::Cap {
+                axis,
+                one_minus_cos,
+                ..
+            } => 1.0 - dot(d, *axis) <= *one_minus_cos,
+        }
+    }
+
+    fn sample(&self, u: [f64; 2]) -> [f64; 3] {
+        match self {
+            Shape::LatLong { azimuth, y } => {
+                let a = azimuth[0] + u[0] * (azimuth[1] - azimuth[0]);
+                let y = y[0] + u[1] * (y[1] - y[0]);
+                direction_from_azimuth_y(a, y)
+            }
+            Shape::Cap {
+                axis,
+                tangent,
+                bitangent,
+                one_minus_cos,
+            } => {
+                let one_minus = u[0] * one_minus_cos;
+                let cos_t = 1.0 - one_minus;
+                let sin_t = (one_minus * (2.0 - one_minus)).max(0.0).sqrt();
+                let phi = 2.0 * PI * u[1];
+                let (s, c) = phi.sin_cos();
+                std::array::from_fn(|k| {
+                    sin_t * (c * tangent[k] + s * bitangent[k]) + cos_t * axis[k]
+                })
+            }
+        }
+    }
+}
+
+/// An emitter: a region with its radiance.
+#[derive(Debug, Clone)]
+struct Patch {
+    shape: Shape,
+    solid_angle: f64,
+    radiance: Vec<f32>,
+}
+
+/// Piecewise-constant spectral radiance over an equirectangular grid of texels
+/// (rows equal in polar angle θ, columns in azimuth), each texel a combination of a
+/// few channel spectra. Sampled by texel (weight ∝ luminance × solid angle), then
+/// uniformly in (azimuth, cos θ) inside it, so the pdf is constant per texel.
+#[derive(Debug, Clone)]
+struct RadianceMap {
+    width: usize,
+    height: usize,
+    /// cos θ at the row boundaries, from 1 (zenith) to −1.
+    row_cos: Vec<f64>,
+    channels: Vec<Vec<f32>>,
+    /// Per texel, one coefficient per channel.
+    coeffs: Vec<f32>,
+    rows: Distribution1D,
+    columns: Vec<Distribution1D>,
+    /// Sum of all texel weights.
+    total_weight: f64,
+}
+
+impl RadianceMap {
+    fn texel(&self, d: [f64; 3]) -> (usize, usize) {
+        let theta = d[1].clamp(-1.0, 1.0).acos();
+        let row = ((theta / PI * self.height as f64) as usize).min(self.height - 1);
+        let u = 0.5 - d[0].atan2(d[2]) / (2.0 * PI);
+        let col = ((u * self.width as f64) as usize).min(self.width - 1);
+        (row, col)
+    }
+
+    fn texel_solid_angle(&self, row: usize) -> f64 {
+        2.0 * PI / self.width as f64 * (self.row_cos[row] - self.row_cos[row + 1])
+    }
+
+    fn add_radiance(&self, d: [f64; 3], out: &mut [f32]) {
+        let (row, col) = self.texel(d);
+        let n = self.channels.len();
+        let coeffs = &self.coeffs[(row * self.width + col) * n..][..n];
+        for (channel, &c) in self.channels.iter().zip(coeffs) {
+            if c != 0.0 {
+                for (o, s) in out.iter_mut().zip(channel) {
+                    *o += c * s;
+                }
+            }
+        }
+    }
+
+    fn pdf(&self, d: [f64; 3]) -> f64 {
+        if self.total_weight <= 0.0 {
+            return 0.0;
+        }
+        let (row, col) = self.texel(d);
+        self.rows.probability(row) * self.columns[row].probability(col)
+            / self.texel_solid_angle(row)
+    }
+
+    fn sample(&self, u: [f64; 2]) -> Option<[f64; 3]> {
+        if self.total_weight <= 0.0 {
+            return None;
+        }
+        let (row, v) = self.rows.sample(u[0]);
+        let (col, w) = self.columns[row].sample(u[1]);
+        let y = self.row_cos[row] + v * (self.row_cos[row + 1] - self.row_cos[row]);
+        let azimuth = azimuth_of_column(col as f64 + w, self.width);
+        Some(direction_from_azimuth_y(azimuth, y))
+    }
+}
+
+/// A discrete distribution with continuous inversion: `sample(u)` gives the index
+/// and where u fell within its share, in [0, 1).
+#[derive(Debug, Clone)]
+struct Distribution1D {
+    /// cdf[i] = sum of the first i weights; cdf[n] = total.
+    cdf: Vec<f64>,
+}
+
+impl Distribution1D {
+    fn new(weights: &[f64]) -> Self {
+        let mut cdf = Vec::with_capacity(weights.len() + 1);
+        let mut sum = 0.0;
+        cdf.push(0.0);
+        for &w in weights {
+            sum += w.max(0.0);
+            cdf.push(sum);
+        }
+        Self { cdf }
+    }
+
+    fn total(&self) -> f64 {
+        self.cdf[self.cdf.len() - 1]
+    }
+
+    fn probability(&self, i: usize) -> f64 {
+        let total = self.total();
+        if total > 0.0 {
+            (self.cdf[i + 1] - self.cdf[i]) / total
+        } else {
+            0.0
+        }
+    }
+
+    fn sample(&self, u: f64) -> (usize, f64) {
+        let n = self.cdf.len() - 1;
+        let target = u.clamp(0.0, ONE_BELOW) * self.total();
+        let mut i = (self.cdf.partition_point(|&c| c <= target).max(1) - 1).min(n - 1);
+        // Never land on an empty bin (possible only at the very top).
+        while i > 0 && self.cdf[i + 1] <= self.cdf[i] {
+            i -= 1;
+        }
+        let width = self.cdf[i + 1] - self.cdf[i];
+        let frac = if width > 0.0 {
+            ((target - self.cdf[i]) / width).clamp(0.0, ONE_BELOW)
+        } else {
+            0.5
+        };
+        (i, frac)
+    }
+}
+
+/// Assembles an environment in arbitrary units, then normalises it.
+struct Builder {
+    grid: WavelengthGrid,
+    channels: Vec<Vec<f32>>,
+    channel_luminance: Vec<f64>,
+    luminance_weights: Vec<f32>,
+    width: usize,
+    height: usize,
+    row_cos: Vec<f64>,
+    coeffs: Vec<f32>,
+    /// (shape, channel, coefficient).
+    patches: Vec<(Shape, usize, f64)>,
+}
+
+impl Builder {
+    fn new(grid: &WavelengthGrid, channels: Vec<Vec<f32>>, width: usize, height: usize) -> Self {
+        let luminance_weights = luminance_weights(grid);
+        let channel_luminance = channels
+            .iter()
+            .map(|c| f64::from(dot_f32(&luminance_weights, c)))
+            .collect();
+        // The horizon exactly 0 (cos(π/2) rounds to 6e-17), so no row sits above it
+        // by rounding.
+        let row_cos = (0..=height)
+            .map(|r| {
+                if 2 * r == height {
+                    0.0
+                } else {
+                    (PI * r as f64 / height as f64).cos()
+                }
+            })
+            .collect();
+        let coeffs = vec![0.0; width * height * channels.len()];
+        Self {
+            grid: *grid,
+            channels,
+            channel_luminance,
+            luminance_weights,
+            width,
+            height,
+            row_cos,
+            coeffs,
+            patches: Vec::new(),
+        }
+    }
+
+    /// Horizontal irradiance from the upper hemisphere, per channel (coefficient
+    /// units).
+    fn channel_irradiance(&self) -> Vec<f64> {
+        let n = self.channels.len();
+        let mut e = vec![0.0; n];
+        for row in 0..self.height {
+            let (y0, y1) = (self.row_cos[row + 1].max(0.0), self.row_cos[row].max(0.0));
+            let cos_integral = 2.0 * PI / self.width as f64 * 0.5 * (y1 * y1 - y0 * y0);
+            if cos_integral <= 0.0 {
+                continue;
+            }
+            for col in 0..self.width {
+                let texel = row * self.width + col;
+                for (c, e) in e.iter_mut().enumerate() {
+                    *e += f64::from(self.coeffs[texel * n + c]) * cos_integral;
+                }
+            }
+        }
+        for (shape, channel, coefficient) in &self.patches {
+            e[*channel] += coefficient * shape.cosine_integral();
+        }
+        e
+    }
+
+    /// Normalises to horizontal illuminance π, fills the rows wholly below the
+    /// horizon with the floor's radiance when `fill_ground`, and builds the
+    /// sampling tables. `None` if the upper hemisphere is black.
+    fn finish(
+        mut self,
+        kind: EnvironmentKind,
+        floor_reflectance: f32,
+        fill_ground: bool,
+    ) -> Option<Environment> {
+        let n = self.channels.len();
+        let irradiance = self.channel_irradiance();
+        let illuminance: f64 = irradiance
+            .iter()
+            .zip(&self.channel_luminance)
+            .map(|(e, l)| e * l)
+            .sum();
+        if !(illuminance > 0.0 && illuminance.is_finite()) {
+            return None;
+        }
+        let scale = PI / illuminance;
+        for c in &mut self.coeffs {
+            *c = (f64::from(*c) * scale) as f32;
+        }
+        if fill_ground {
+            // A Lambertian floor of reflectance ρ under irradiance E has radiance ρE/π.
+            let ground: Vec<f32> = irradiance
+                .iter()
+                .map(|e| (f64::from(floor_reflectance) * e * scale / PI) as f32)
+                .collect();
+            for row in (0..self.height).filter(|&r| self.row_cos[r] <= 0.0) {
+                for col in 0..self.width {
+                    let texel = row * self.width + col;
+                    self.coeffs[texel * n..(texel + 1) * n].copy_from_slice(&ground);
+                }
+            }
+        }
+        // Texel weights: (luminance + a little of the peak) × solid angle.
+        let mut row_weights = vec![0.0; self.height];
+        let mut columns = Vec::with_capacity(self.height);
+        let mut texel_spectrum = vec![0.0f32; self.grid.len()];
+        for (row, row_weight) in row_weights.iter_mut().enumerate() {
+            let solid_angle =
+                2.0 * PI / self.width as f64 * (self.row_cos[row] - self.row_cos[row + 1]);
+            let ground = if self.row_cos[row] <= 0.0 {
+                GROUND_SAMPLING_WEIGHT
+            } else {
+                1.0
+            };
+            let weights: Vec<f64> = (0..self.width)
+                .map(|col| {
+                    let texel = row * self.width + col;
+                    texel_spectrum.fill(0.0);
+                    for (channel, &c) in self.channels.iter().zip(&self.coeffs[texel * n..]) {
+                        for (o, s) in texel_spectrum.iter_mut().zip(channel) {
+                            *o += c * s;
+                        }
+                    }
+                    let luminance = f64::from(dot_f32(&self.luminance_weights, &texel_spectrum));
+                    let peak = texel_spectrum.iter().fold(0.0f32, |a, &b| a.max(b));
+                    (luminance.max(0.0) + MAX_VALUE_SAMPLING_WEIGHT * f64::from(peak))
+                        * solid_angle
+                        * ground
+                })
+                .collect();
+            let distribution = Distribution1D::new(&weights);
+            *row_weight = distribution.total();
+            columns.push(distribution);
+        }
+        let rows = Distribution1D::new(&row_weights);
+        let total_weight = rows.total();
+        let map = RadianceMap {
+            width: self.width,
+            height: self.height,
+            row_cos: self.row_cos,
+            channels: self.channels,
+            coeffs: self.coeffs,
+            rows,
+            columns,
+            total_weight,
+        };
+        // Emitters by power: luminance (plus a little of the peak) × solid angle.
+        let mut component_weights = Vec::with_capacity(self.patches.len() + 1);
+        let mut patches = Vec::with_capacity(self.patches.len());
+        for (shape, channel, coefficient) in self.patches {
+            let radiance: Vec<f32> = map.channels[channel]
+                .iter()
+                .map(|&s| (f64::from(s) * coefficient * scale) as f32)
+                .collect();
+            let luminance = f64::from(dot_f32(&self.luminance_weights, &radiance));
+            let peak = radiance.iter().fold(0.0f32, |a, &b| a.max(b));
+            let solid_angle = shape.solid_angle();
+            component_weights
+                .push((luminance + MAX_VALUE_SAMPLING_WEIGHT * f64::from(peak)) * solid_angle);
+            patches.push(Patch {
+                shape,
+                solid_angle,
+                radiance,
+            });
+        }
+        component_weights.push(total_weight);
+        Some(Environment {
+            kind,
+            grid: self.grid,
+            luminance_weights: self.luminance_weights,
+            patches,
+            map,
+            components: Distribution1D::new(&component_weights),
+            floor: Some(Floor {
+                reflectance: vec![floor_reflectance; self.grid.len()],
+            }),
+            sun_dir: None,
+        })
+    }
+}
+
+/// The CIE (1973) clear-sky relative luminance of a sky element at zenith angle
+/// `zenith` and angle `gamma` from the sun, the sun at zenith angle `zenith_sun`:
+/// (0.91 + 10e^(−3γ) + 0.45cos²γ)(1 − e^(−0.32/cos Z)), relative to the zenith's.
+fn cie_clear_sky(zenith: f64, gamma: f64, zenith_sun: f64) -> f64 {
+    let indicatrix = |g: f64| 0.91 + 10.0 * (-3.0 * g).exp() + 0.45 * g.cos().powi(2);
+    let gradation = |z: f64| 1.0 - (-0.32 / z.cos().max(1e-6)).exp();
+    indicatrix(gamma) * gradation(zenith) / (indicatrix(zenith_sun) * gradation(0.0))
+}
+
+/// Luminance weights on `grid`: CIE 1931 ȳ at 1 nm over 380–780 nm (or the grid's
+/// span if wider), split between the two grid samples around each wavelength
+/// (linear-interpolation hats, the end hats extended), normalised to sum 1.
+pub fn luminance_weights(grid: &WavelengthGrid) -> Vec<f32> {
+    let n = grid.len();
+    let mut w = vec![0.0f64; n];
+    let first = 380.0f64.min(grid.start_nm()).floor() as i32;
+    let last = 780.0f64.max(grid.end_nm()).ceil() as i32;
+    for nm in first..=last {
+        let l = f64::from(nm);
+        let y = Observer::Cie1931TwoDegree.cmf_at_nm(l)[1];
+        let position = (l - grid.start_nm()) / grid.step_nm();
+        if n == 1 || position <= 0.0 {
+            w[0] += y;
+        } else if position >= (n - 1) as f64 {
+            w[n - 1] += y;
+        } else {
+            let i = position.floor() as usize;
+            let t = position - i as f64;
+            w[i] += y * (1.0 - t);
+            w[i + 1] += y * t;
+        }
+    }
+    let sum: f64 = w.iter().sum();
+    w.into_iter().map(|v| (v / sum) as f32).collect()
+}
+
+fn daylight_on_grid(cct_k: f64, grid: &WavelengthGrid) -> Vec<f32> {
+    daylight_spd(cct_k)
+        .expect("the CCT constants are in the CIE daylight range")
+        .to_grid(grid)
+        .values()
+        .iter()
+        .map(|&v| (v / 100.0) as f32)
+        .collect()
+}
+
+fn azimuth_of_column(column: f64, width: usize) -> f64 {
+    (0.5 - column / width as f64) * 2.0 * PI
+}
+
+fn direction_from_azimuth_y(azimuth: f64, y: f64) -> [f64; 3] {
+    let y = y.clamp(-1.0, 1.0);
+    let r = (1.0 - y * y).max(0.0).sqrt();
+    let (s, c) = azimuth.sin_cos();
+    [r * s, y, r * c]
+}
+
+fn direction_from_azimuth_elevation(azimuth: f64, elevation: f64) -> [f64; 3] {
+    direction_from_azimuth_y(azimuth, elevation.sin())
+}
+
+fn normalised(d: [f32; 3]) -> Option<[f64; 3]> {
+    let d = d.map(f64::from);
+    let len = dot(d, d).sqrt();
+    (len > 0.0 && len.is_finite()).then(|| d.map(|v| v / len))
+}
+
+fn normalise(d: [f64; 3]) -> [f64; 3] {
+    let len = dot(d, d).sqrt();
+    d.map(|v| v / len)
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn dot_f32(a: &[f32], b: &[f32]) -> f32 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
