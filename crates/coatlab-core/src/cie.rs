@@ -318,35 +318,9 @@ pub struct Colorimeter {
 impl Colorimeter {
     /// Precomputes the weights for `grid`.
     pub fn new(illuminant: Illuminant, observer: Observer, grid: &WavelengthGrid) -> Self {
-        let n = grid.len();
-        let (mut x, mut y, mut z) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        let first_nm = COLORIMETER_START_NM.min(grid.start_nm());
-        let last_nm = COLORIMETER_END_NM.max(grid.end_nm());
-        for wavelength_nm in table_wavelengths_nm() {
-            if wavelength_nm < first_nm || wavelength_nm > last_nm {
-                continue;
-            }
-            let s = illuminant.spd_at_nm(wavelength_nm) * TABLE_STEP_NM;
-            let [xb, yb, zb] = observer.cmf_at_nm(wavelength_nm);
-            // Hat basis with clamped ends: the row's weight splits between the two
-            // grid samples around it.
-            let position = (wavelength_nm - grid.start_nm()) / grid.step_nm();
-            let (i, t) = if position <= 0.0 {
-                (0, 0.0)
-            } else if position >= (n - 1) as f64 {
-                (n - 1, 0.0)
-            } else {
-                let i = position.floor() as usize;
-                (i, position - i as f64)
-            };
-            for (index, share) in [(i, 1.0 - t), (i + 1, t)] {
-                if share != 0.0 {
-                    x[index] += s * xb * share;
-                    y[index] += s * yb * share;
-                    z[index] += s * zb * share;
-                }
-            }
-        }
+        let [x, y, z] = hat_weighted_cmfs(observer, grid, |wavelength_nm| {
+            illuminant.spd_at_nm(wavelength_nm)
+        });
         let weights = TristimulusWeights::from_unscaled(x, y, z)
             .expect("every CIE illuminant has luminance in 380–780 nm");
         Self {
@@ -485,6 +459,48 @@ struct Tables {
     daylight_basis: [Series; 3],
     first_nm: f64,
     row_count: usize,
+}
+
+/// For each sample of `grid`, the integrals over the 5 nm table of
+/// weighting(λ)·x̄(λ), ·ȳ(λ), ·z̄(λ) times the sample's linear-interpolation (hat)
+/// basis function, the end samples' hats extended as constants; over 380–780 nm,
+/// widened to the grid's span if it reaches further. A spectrum reconstructed by
+/// linear interpolation between the grid's samples therefore integrates exactly
+/// against the tables, on any grid. Unscaled: Δλ = 5 nm is included.
+pub fn hat_weighted_cmfs(
+    observer: Observer,
+    grid: &WavelengthGrid,
+    weighting: impl Fn(f64) -> f64,
+) -> [Vec<f64>; 3] {
+    let n = grid.len();
+    let (mut x, mut y, mut z) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let first_nm = COLORIMETER_START_NM.min(grid.start_nm());
+    let last_nm = COLORIMETER_END_NM.max(grid.end_nm());
+    for wavelength_nm in table_wavelengths_nm() {
+        if wavelength_nm < first_nm || wavelength_nm > last_nm {
+            continue;
+        }
+        let s = weighting(wavelength_nm) * TABLE_STEP_NM;
+        let [xb, yb, zb] = observer.cmf_at_nm(wavelength_nm);
+        // The row's weight splits between the two grid samples around it.
+        let position = (wavelength_nm - grid.start_nm()) / grid.step_nm();
+        let (i, t) = if position <= 0.0 {
+            (0, 0.0)
+        } else if position >= (n - 1) as f64 {
+            (n - 1, 0.0)
+        } else {
+            let i = position.floor() as usize;
+            (i, position - i as f64)
+        };
+        for (index, share) in [(i, 1.0 - t), (i + 1, t)] {
+            if share != 0.0 {
+                x[index] += s * xb * share;
+                y[index] += s * yb * share;
+                z[index] += s * zb * share;
+            }
+        }
+    }
+    [x, y, z]
 }
 
 fn table_wavelengths_nm() -> impl Iterator<Item = f64> {

@@ -33,18 +33,10 @@ use std::sync::{Arc, OnceLock};
 
 use thiserror::Error;
 
-use crate::cie::Observer;
+use crate::cie::{Observer, hat_weighted_cmfs};
 use crate::colour::{Xyz, linear_srgb_from_xyz, srgb_white};
 use crate::spectrum::WavelengthGrid;
 
-/// The CIE table step the weights are integrated at (nm).
-const TABLE_STEP_NM: f64 = 5.0;
-/// The CIE tables' range (nm); the colour-matching functions are zero outside it.
-const TABLE_FIRST_NM: f64 = 360.0;
-const TABLE_LAST_NM: f64 = 830.0;
-/// The range always integrated (spec section 6), widened to the grid's own span.
-const INTEGRATION_START_NM: f64 = 380.0;
-const INTEGRATION_END_NM: f64 = 780.0;
 /// [`Film::auto_exposure`]'s key: the log-average luminance is mapped to this
 /// (Reinhard et al. 2002, "Photographic tone reproduction", middle grey).
 pub const AUTO_EXPOSURE_KEY: f64 = 0.18;
@@ -138,40 +130,12 @@ impl Weights {
     /// samples around it, the end samples' hats extended as constants.
     fn new(grid: WavelengthGrid) -> Self {
         let observer = Observer::Cie1931TwoDegree;
-        let n = grid.len();
-        let (mut x, mut y, mut z) = (vec![0.0f64; n], vec![0.0f64; n], vec![0.0f64; n]);
-        let first_nm = INTEGRATION_START_NM
-            .min(grid.start_nm())
-            .max(TABLE_FIRST_NM);
-        let last_nm = INTEGRATION_END_NM.max(grid.end_nm()).min(TABLE_LAST_NM);
-        let rows = ((TABLE_LAST_NM - TABLE_FIRST_NM) / TABLE_STEP_NM).round() as usize + 1;
-        let mut y_norm = 0.0;
-        for row in 0..rows {
-            let wavelength_nm = TABLE_FIRST_NM + row as f64 * TABLE_STEP_NM;
-            if wavelength_nm < first_nm || wavelength_nm > last_nm {
-                continue;
-            }
-            let [xb, yb, zb] = observer.cmf_at_nm(wavelength_nm).map(|v| v * TABLE_STEP_NM);
-            if (INTEGRATION_START_NM..=INTEGRATION_END_NM).contains(&wavelength_nm) {
-                y_norm += yb;
-            }
-            let position = (wavelength_nm - grid.start_nm()) / grid.step_nm();
-            let (i, t) = if position <= 0.0 {
-                (0, 0.0)
-            } else if position >= (n - 1) as f64 {
-                (n - 1, 0.0)
-            } else {
-                let i = position.floor() as usize;
-                (i, position - i as f64)
-            };
-            for (index, share) in [(i, 1.0 - t), (i + 1, t)] {
-                if share != 0.0 {
-                    x[index] += xb * share;
-                    y[index] += yb * share;
-                    z[index] += zb * share;
-                }
-            }
-        }
+        let [x, y, z] = hat_weighted_cmfs(observer, &grid, |_| 1.0);
+        // ∫ȳ over 380–780 nm: every table row's hat shares sum to 1, so the ȳ
+        // weights of the reference grid add up to it.
+        let y_norm: f64 = hat_weighted_cmfs(observer, &WavelengthGrid::reference(), |_| 1.0)[1]
+            .iter()
+            .sum();
         let scale = |w: Vec<f64>| w.into_iter().map(|v| (v / y_norm) as f32).collect();
         Self {
             grid,
