@@ -494,13 +494,15 @@ impl RgbImage {
 
 /// Jakob–Hanika sigmoid-polynomial coefficients (c₂, c₁, c₀ of
 /// S(c₂t² + c₁t + c₀), t = (λ − 580 nm)/200 nm, S(x) = ½ + x/(2√(1 + x²))) of the
-/// three basis reflectances. Fitted (Levenberg–Marquardt, small-norm regularised)
-/// so that D65 × basis has the chromaticity of the sRGB red, green and blue
-/// primaries to 1e-7 on the CIE 1931 5 nm tables.
+/// three basis reflectances. Fitted jointly offline (Levenberg–Marquardt on the
+/// CIE 1931 5 nm tables) so that D65 × basis has the chromaticity of the sRGB red,
+/// green and blue primaries (to 5e-6) while the three, scaled to the primaries'
+/// luminances, sum to nearly 1 (0.77–1.44, mostly 0.9–1.15): white light stays
+/// close to D65. Each grid refits them exactly ([`refit_basis`]).
 const RGB_BASIS_COEFFICIENTS: [[f64; 3]; 3] = [
-    [1.142_769_691_3, 7.983_866_553_7, -2.311_511_750_4],
-    [-18.365_490_086_7, -7.171_585_280_9, -0.031_022_685_0],
-    [4.075_349_363_2, -7.349_887_171_9, -4.413_129_056_6],
+    [15.278_909_716_9, 14.156_045_384_5, -1.396_364_337_8],
+    [-28.213_178_528_6, -11.369_104_624_1, 0.601_796_464_1],
+    [6.353_649_784_7, -6.196_147_115_2, -4.317_131_247_5],
 ];
 
 /// Linear sRGB to smooth, non-negative spectra: a fixed linear combination of three
