@@ -301,6 +301,26 @@ fn image_environment_samples_match_its_pdf() {
 }
 
 #[test]
+fn wide_images_are_box_filtered_and_keep_their_light() {
+    // 4100 px wide: filtered by 3 to 1367 px; a column of light stays lit.
+    let (w, h) = (4100usize, 6usize);
+    let pixels = (0..w * h)
+        .map(|i| {
+            let (row, col) = (i / w, i % w);
+            let v = if row < 3 && col % 1000 < 90 {
+                50.0
+            } else {
+                0.2
+            };
+            [v, v, v]
+        })
+        .collect();
+    let image = RgbImage::new(w, h, pixels).expect("valid image");
+    let env = Environment::from_rgb_image(&image, "wide", &grid()).expect("lit");
+    check_environment(&env, "wide image");
+}
+
+#[test]
 fn a_black_sky_cannot_be_normalised() {
     let pixels = (0..8 * 4)
         .map(|i| if i < 16 { [0.0; 3] } else { [1.0; 3] })
