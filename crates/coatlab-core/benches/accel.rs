@@ -87,37 +87,9 @@ const CONFIGS: [(&str, BuildOptions); 5] = [
     ),
 ];
 
-/// A torus of `rings × sides × 2` triangles, 4.5 m across, in the y = 0.6 plane.
-fn torus(rings: usize, sides: usize) -> TriangleMesh {
-    let (major, minor) = (1.8f32, 0.45f32);
-    let mut mesh = TriangleMesh::default();
-    for i in 0..rings {
-        let a = 2.0 * PI * i as f32 / rings as f32;
-        for j in 0..sides {
-            let b = 2.0 * PI * j as f32 / sides as f32;
-            let r = major + minor * b.cos();
-            mesh.positions
-                .push([r * a.cos(), 0.6 + minor * b.sin(), r * a.sin()]);
-            mesh.normals
-                .push([b.cos() * a.cos(), b.sin(), b.cos() * a.sin()]);
-        }
-    }
-    let index = |i: usize, j: usize| ((i % rings) * sides + j % sides) as u32;
-    for i in 0..rings {
-        for j in 0..sides {
-            let (p, q, r, s) = (
-                index(i, j),
-                index(i + 1, j),
-                index(i + 1, j + 1),
-                index(i, j + 1),
-            );
-            mesh.triangles.push([p, r, q]);
-            mesh.triangles.push([p, s, r]);
-        }
-    }
-    mesh.triangle_material = vec![0; mesh.triangles.len()];
-    mesh
-}
+#[path = "../tests/support/torus.rs"]
+mod support_torus;
+use support_torus::torus;
 
 fn meshes() -> Vec<(String, TriangleMesh)> {
     let mut out = vec![(

@@ -55,34 +55,9 @@ fn lamborghini() -> Option<TriangleMesh> {
     )
 }
 
-/// A torus of `rings × sides × 2` triangles around the y axis.
-fn torus(rings: usize, sides: usize) -> TriangleMesh {
-    let (major, minor) = (1.8f32, 0.45f32);
-    let mut mesh = TriangleMesh::default();
-    for i in 0..rings {
-        let a = 2.0 * PI * i as f32 / rings as f32;
-        for j in 0..sides {
-            let b = 2.0 * PI * j as f32 / sides as f32;
-            let r = major + minor * b.cos();
-            mesh.positions
-                .push([r * a.cos(), 0.6 + minor * b.sin(), r * a.sin()]);
-        }
-    }
-    let index = |i: usize, j: usize| ((i % rings) * sides + j % sides) as u32;
-    for i in 0..rings {
-        for j in 0..sides {
-            let (p, q, r, s) = (
-                index(i, j),
-                index(i + 1, j),
-                index(i + 1, j + 1),
-                index(i, j + 1),
-            );
-            mesh.triangles.push([p, r, q]);
-            mesh.triangles.push([p, s, r]);
-        }
-    }
-    mesh
-}
+#[path = "support/torus.rs"]
+mod support_torus;
+use support_torus::torus;
 
 /// Closest hit over every triangle, with the accel's own triangle test.
 fn brute_force(mesh: &TriangleMesh, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> Option<Hit> {
