@@ -12,20 +12,24 @@
 //!   [`Accel::closest_hit`] (shading rays, picking) and [`Accel::occluded`] (any hit,
 //!   for shadow rays).
 //!
-//! The default is obvhs's compressed 8-wide BVH (`CwBvh`) built with its `fast_build`
-//! preset; `docs/benchmarks.md` ("Acceleration structure") has the measurements
-//! behind that choice against its binary `Bvh2` and the other presets.
+//! Layouts ([`BvhLayout`]): the default, `Simd8`, is our own CPU-first 8-wide BVH
+//! (binned-SAH build, f32 child boxes tested 8 at a time, leaves of triangle packs
+//! tested 4 at a time, ordered traversal and a separate any-hit traversal; see
+//! `accel/wide.rs`); obvhs's compressed 8-wide `CwBvh` (`Wide8`) and binary `Bvh2`
+//! (`Binary`) are kept for comparison. `docs/benchmarks.md` ("Acceleration
+//! structure") has the measurements behind the choice.
 //!
 //! # Rays and the epsilon policy
 //!
 //! A ray is `origin + t · dir` for `t` in the open interval `(0, t_max)`; `t` is in
 //! units of `|dir|` (metres for a unit `dir`). `dir` need not be normalised but must be
 //! finite and non-zero; a ray with a non-finite origin or direction, or `t_max` that is
-//! not positive (NaN included), hits nothing. The triangle test is Möller–Trumbore in
-//! The triangle test is the watertight one of Woop, Benthin and Wald ("Watertight
+//! not positive (NaN included), hits nothing. The triangle test is the watertight one of Woop, Benthin and Wald ("Watertight
 //! Ray/Triangle Intersection", JCGT 2013) in f32, without backface culling: the
 //! vertices are moved into a frame where the ray is the +z axis and the three 2-D
-//! edge functions decide inside/outside, recomputed in f64 when one is exactly zero.
+//! edge functions decide inside/outside, recomputed in f64 when one is exactly zero
+//! (`accel/triangle.rs`; the `Simd8` leaves run the same operations 4 lanes at a
+//! time, bit for bit).
 //! A ray through an edge or vertex shared by two triangles hits at least one of
 //! them. Möller–Trumbore was tried first and is not good enough here: a ray 1.4·10⁻⁶
 //! (barycentric) inside a torus's triangle 1.35 m away missed both triangles of the
@@ -52,11 +56,16 @@
 //! obvhs's 8-wide traversal has a fixed stack of 32 entries and silently loses nodes
 //! beyond it, so a `Wide8` tree of depth 32 or more (many coincident triangles) is
 //! rebuilt as `Binary`, whose stack grows; [`Bvh::options`] then reports `Binary`.
+//! The `Simd8` tree splits at the median where the SAH cannot separate primitives,
+//! so its depth stays logarithmic, and its stack spills to the heap if ever needed.
+
+mod triangle;
+mod wide;
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::time::Duration;
 
-use glam::{Mat3A, Vec3A};
+use glam::Vec3A;
 use obvhs::{
     BvhBuildParams,
     aabb::Aabb,
@@ -67,6 +76,8 @@ use obvhs::{
 };
 
 use crate::scene::TriangleMesh;
+use triangle::{ShearedRay, TrianglePack};
+use wide::{BoxRay, PACK, WideBvh, pack_count};
 
 pub use obvhs::ray::Ray;
 
@@ -110,6 +121,11 @@ impl Bounds {
 /// Tree layout.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BvhLayout {
+    /// Our own 8-wide BVH (`accel/wide.rs`): binned-SAH binary build collapsed to 8
+    /// children per 224-byte node, f32 child boxes tested 8 at a time, leaves of up to
+    /// 8 triangles stored as packs of 4 for the watertight test; ordered closest-hit
+    /// and separate any-hit traversal. The `quality` sets the SAH bins per axis.
+    Simd8,
     /// obvhs's compressed wide BVH: 8 children per 80-byte node, child boxes quantised
     /// to 8 bits, traversed 4 boxes at a time with SIMD; up to 3 triangles per leaf.
     Wide8,
@@ -118,17 +134,23 @@ pub enum BvhLayout {
     Binary,
 }
 
-/// Build quality: obvhs's presets. Slower builds give trees that traverse faster.
+/// Build quality. Slower builds give trees that traverse faster. For the obvhs
+/// layouts these are obvhs's presets; for `Simd8` the number of SAH bins per axis
+/// (8, 16, 32, 64).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BuildQuality {
-    /// PLOC with the smallest search radius, no reinsertion, one primitive per leaf.
+    /// obvhs: PLOC with the smallest search radius, no reinsertion, one primitive per
+    /// leaf. `Simd8`: 8 bins.
     Fastest,
-    /// PLOC search radius "low", 2 % reinsertion: the interactive default.
+    /// obvhs: PLOC search radius "low", 2 % reinsertion. `Simd8`: 16 bins. The
+    /// interactive default.
     Fast,
-    /// PLOC search radius "medium", 5 % reinsertion ("about Embree's build time").
+    /// obvhs: PLOC search radius "medium", 5 % reinsertion ("about Embree's build
+    /// time"). `Simd8`: 32 bins.
     Medium,
-    /// PLOC search radius "high", 20 % reinsertion, 128-bit Morton codes (spatial
-    /// pre-splits of the preset are not used: the builder sees boxes, not triangles).
+    /// obvhs: PLOC search radius "high", 20 % reinsertion, 128-bit Morton codes
+    /// (spatial pre-splits of the preset are not used: the builder sees boxes, not
+    /// triangles). `Simd8`: 64 bins.
     Slow,
 }
 
@@ -141,6 +163,15 @@ impl BuildQuality {
             BuildQuality::Slow => BvhBuildParams::slow_build(),
         }
     }
+
+    fn sah_bins(self) -> usize {
+        match self {
+            BuildQuality::Fastest => 8,
+            BuildQuality::Fast => 16,
+            BuildQuality::Medium => 32,
+            BuildQuality::Slow => 64,
+        }
+    }
 }
 
 /// How to build a [`Bvh`]. The build runs on rayon's current thread pool.
@@ -151,10 +182,10 @@ pub struct BuildOptions {
 }
 
 impl Default for BuildOptions {
-    /// `Wide8` with `Fast`: see docs/benchmarks.md, "Acceleration structure".
+    /// `Simd8` with `Fast`: see docs/benchmarks.md, "Acceleration structure".
     fn default() -> Self {
         BuildOptions {
-            layout: BvhLayout::Wide8,
+            layout: BvhLayout::Simd8,
             quality: BuildQuality::Fast,
         }
     }
@@ -188,6 +219,7 @@ enum Tree {
     Empty,
     Wide(CwBvh),
     Binary(Bvh2),
+    Simd8(WideBvh),
 }
 
 /// A bounding volume hierarchy over boxes; see the module documentation.
@@ -236,12 +268,19 @@ impl Bvh {
                 bounds: None,
             });
         }
+        if options.layout == BvhLayout::Simd8 {
+            return Ok(Bvh {
+                tree: Tree::Simd8(WideBvh::build(boxes, options.quality.sah_bins())),
+                options: *options,
+                bounds,
+            });
+        }
         let aabbs: Vec<Aabb> = boxes.iter().map(|b| b.to_aabb()).collect();
         let params = options.quality.params();
         let mut core_time = Duration::ZERO;
         let wide = match options.layout {
             BvhLayout::Wide8 => build_wide(&aabbs, &params),
-            BvhLayout::Binary => None,
+            BvhLayout::Binary | BvhLayout::Simd8 => None,
         };
         let (tree, layout) = match wide {
             Some(wide) => (Tree::Wide(wide), BvhLayout::Wide8),
@@ -276,6 +315,7 @@ impl Bvh {
             Tree::Empty => 0,
             Tree::Wide(t) => t.nodes.len(),
             Tree::Binary(t) => t.nodes.len(),
+            Tree::Simd8(t) => t.node_count(),
         }
     }
 
@@ -295,6 +335,7 @@ impl Bvh {
             Tree::Empty => &[],
             Tree::Wide(t) => &t.primitive_indices,
             Tree::Binary(t) => &t.primitive_indices,
+            Tree::Simd8(t) => t.order(),
         }
     }
 
@@ -312,6 +353,7 @@ impl Bvh {
             Tree::Empty => false,
             Tree::Wide(t) => t.ray_traverse(ray, &mut hit, intersect),
             Tree::Binary(t) => t.ray_traverse(ray, &mut hit, intersect),
+            Tree::Simd8(t) => return simd8_closest(t, ray, intersect),
         };
         found.then_some((hit.primitive_id as usize, hit.t))
     }
@@ -324,6 +366,7 @@ impl Bvh {
             Tree::Empty => false,
             Tree::Wide(t) => !t.ray_traverse_miss(ray, intersect),
             Tree::Binary(t) => !t.ray_traverse_miss(ray, intersect),
+            Tree::Simd8(t) => simd8_any(t, ray, intersect),
         }
     }
 
@@ -362,6 +405,9 @@ impl Bvh {
                 }
             }
         }
+        if let Tree::Simd8(t) = &self.tree {
+            return t.validate(boxes, self.bounds);
+        }
         let aabbs: Vec<Aabb> = boxes.iter().map(|b| b.to_aabb()).collect();
         // obvhs's validation asserts; turn a failed assertion into an error.
         let checked = catch_unwind(AssertUnwindSafe(|| match &self.tree {
@@ -372,6 +418,7 @@ impl Bvh {
             Tree::Binary(t) => {
                 t.validate(&aabbs, false, false);
             }
+            Tree::Simd8(_) => {}
         }));
         checked.map_err(|payload| {
             let message = payload
@@ -382,6 +429,41 @@ impl Bvh {
             format!("obvhs validation failed: {message}")
         })
     }
+}
+
+/// [`Bvh::closest`] on the `Simd8` tree, one slot at a time.
+fn simd8_closest<F: FnMut(&Ray, usize) -> f32>(
+    tree: &WideBvh,
+    mut ray: Ray,
+    mut intersect: F,
+) -> Option<(usize, f32)> {
+    let box_ray = BoxRay::new(ray.origin.into(), ray.direction.into());
+    let mut best = None;
+    tree.closest(&box_ray, ray.tmax, |first, count, t_max| {
+        ray.tmax = t_max;
+        for slots in &tree.pack_slots()[first..first + pack_count(count)] {
+            for &slot in slots.iter().filter(|&&s| s != u32::MAX) {
+                let t = intersect(&ray, slot as usize);
+                if t < ray.tmax {
+                    ray.tmax = t;
+                    best = Some((slot as usize, t));
+                }
+            }
+        }
+        ray.tmax
+    });
+    best
+}
+
+/// [`Bvh::any`] on the `Simd8` tree, one slot at a time.
+fn simd8_any<F: FnMut(&Ray, usize) -> f32>(tree: &WideBvh, ray: Ray, mut intersect: F) -> bool {
+    let box_ray = BoxRay::new(ray.origin.into(), ray.direction.into());
+    tree.any(&box_ray, ray.tmax, |first, count| {
+        tree.pack_slots()[first..first + pack_count(count)]
+            .iter()
+            .flatten()
+            .any(|&slot| slot != u32::MAX && intersect(&ray, slot as usize) < ray.tmax)
+    })
 }
 
 /// Depth limit of obvhs's 8-wide traversal stack (`TRAVERSAL_STACK_SIZE`, private).
@@ -436,15 +518,18 @@ pub struct Hit {
 #[derive(Debug, Clone)]
 pub struct Accel {
     bvh: Bvh,
-    /// Triangle vertices in slot order.
+    /// Triangle vertices in slot order (the obvhs layouts; empty for `Simd8`).
     triangles: Vec<[Vec3A; 3]>,
+    /// The triangles in the packs of the `Simd8` leaves, lane ids being indices into
+    /// `mesh.triangles` (empty for the obvhs layouts).
+    packs: Vec<TrianglePack<PACK>>,
     /// Index into `mesh.triangles` of each slot.
     mesh_triangle: Vec<u32>,
     /// Zero-area triangles left out.
     skipped_degenerate: usize,
 }
 
-/// One triangle's box, for the builder and obvhs's validation.
+/// One triangle's box, for the builder and the validation.
 fn triangle_bounds(t: &[Vec3A; 3]) -> Bounds {
     Bounds {
         min: t[0].min(t[1]).min(t[2]).into(),
@@ -491,9 +576,34 @@ impl Accel {
         let boxes: Vec<Bounds> = triangles.iter().map(triangle_bounds).collect();
         let bvh = Bvh::build(&boxes, options)?;
         let order = bvh.primitive_order();
+        let mesh_triangle: Vec<u32> = order.iter().map(|&i| kept[i as usize]).collect();
+        let (slot_triangles, packs) = match &bvh.tree {
+            Tree::Simd8(tree) => {
+                let packs = tree
+                    .pack_slots()
+                    .iter()
+                    .map(|slots| {
+                        let mut pack = TrianglePack::empty();
+                        for (lane, &slot) in slots.iter().enumerate() {
+                            if slot != u32::MAX {
+                                let i = order[slot as usize] as usize;
+                                pack.set(lane, triangles[i].map(Into::into), kept[i]);
+                            }
+                        }
+                        pack
+                    })
+                    .collect();
+                (Vec::new(), packs)
+            }
+            _ => (
+                order.iter().map(|&i| triangles[i as usize]).collect(),
+                Vec::new(),
+            ),
+        };
         Ok(Accel {
-            triangles: order.iter().map(|&i| triangles[i as usize]).collect(),
-            mesh_triangle: order.iter().map(|&i| kept[i as usize]).collect(),
+            triangles: slot_triangles,
+            packs,
+            mesh_triangle,
             skipped_degenerate: mesh.triangles.len() - kept.len(),
             bvh,
         })
@@ -506,7 +616,7 @@ impl Accel {
 
     /// Number of triangles in the tree.
     pub fn triangle_count(&self) -> usize {
-        self.triangles.len()
+        self.mesh_triangle.len()
     }
 
     /// Number of the mesh's zero-area triangles left out of the tree.
@@ -523,17 +633,40 @@ impl Accel {
     /// module documentation for the epsilon policy. For shading rays and picking.
     #[inline]
     pub fn closest_hit(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> Option<Hit> {
-        let ray = make_ray(origin, dir, t_max)?;
-        let sheared = ShearedRay::new(ray.origin, ray.direction);
-        let (slot, t) = self.bvh.closest(ray, |ray, slot| {
-            sheared.intersect(&self.triangles[slot], ray.tmax).0
+        if !usable_ray(origin, dir, t_max) {
+            return None;
+        }
+        let sheared = ShearedRay::new(origin, dir);
+        if let Tree::Simd8(tree) = &self.bvh.tree {
+            let box_ray = BoxRay::new(origin, dir);
+            let mut best = None;
+            tree.closest(&box_ray, t_max, |first, count, mut t_max| {
+                for p in first..first + pack_count(count) {
+                    if let Some(hit) = sheared.intersect_pack(&self.packs[p], t_max) {
+                        t_max = hit.t;
+                        best = Some((p, hit));
+                    }
+                }
+                t_max
+            });
+            return best.map(|(p, hit)| Hit {
+                t: hit.t,
+                triangle: self.packs[p].id[hit.lane],
+                barycentric: hit.barycentric,
+            });
+        }
+        let ray = Ray::new(origin.into(), dir.into(), 0.0, t_max);
+        let (slot, _) = self.bvh.closest(ray, |ray, slot| {
+            sheared
+                .intersect_pack(&single(&self.triangles[slot]), ray.tmax)
+                .map_or(f32::INFINITY, |hit| hit.t)
         })?;
         // Barycentrics only for the winner.
-        let (_, u, v) = sheared.intersect(&self.triangles[slot], ray.tmax);
+        let hit = sheared.intersect_pack(&single(&self.triangles[slot]), t_max)?;
         Some(Hit {
-            t,
+            t: hit.t,
             triangle: self.mesh_triangle[slot],
-            barycentric: [u, v],
+            barycentric: hit.barycentric,
         })
     }
 
@@ -541,26 +674,80 @@ impl Accel {
     /// query for shadow rays. Agrees with `closest_hit(..).is_some()`.
     #[inline]
     pub fn occluded(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
-        let Some(ray) = make_ray(origin, dir, t_max) else {
+        if !usable_ray(origin, dir, t_max) {
             return false;
-        };
-        let sheared = ShearedRay::new(ray.origin, ray.direction);
+        }
+        let sheared = ShearedRay::new(origin, dir);
+        if let Tree::Simd8(tree) = &self.bvh.tree {
+            let box_ray = BoxRay::new(origin, dir);
+            return tree.any(&box_ray, t_max, |first, count| {
+                self.packs[first..first + pack_count(count)]
+                    .iter()
+                    .any(|pack| sheared.any_in_pack(pack, t_max))
+            });
+        }
+        let ray = Ray::new(origin.into(), dir.into(), 0.0, t_max);
         self.bvh.any(ray, |ray, slot| {
-            sheared.intersect(&self.triangles[slot], ray.tmax).0
+            sheared
+                .intersect_pack(&single(&self.triangles[slot]), ray.tmax)
+                .map_or(f32::INFINITY, |hit| hit.t)
         })
     }
 
-    /// Checks the tree ([`Bvh::validate`]) against the triangles' boxes.
+    /// Checks the tree ([`Bvh::validate`]) against the triangles' boxes, and, for
+    /// `Simd8`, that the packs hold the slots' triangles.
     pub fn validate(&self) -> Result<(), String> {
-        // Back from slot order to mesh order, as the tree was built.
         let order = self.bvh.primitive_order();
-        if order.len() != self.triangles.len() {
+        if order.len() != self.mesh_triangle.len() {
             return Err(format!(
                 "{} triangles but {} slots",
-                self.triangles.len(),
+                self.mesh_triangle.len(),
                 order.len()
             ));
         }
+        // Each slot's triangle, from the packs or the slot-order copy.
+        let mut slot_triangles: Vec<Option<[Vec3A; 3]>> = vec![None; order.len()];
+        match &self.bvh.tree {
+            Tree::Simd8(tree) => {
+                if tree.pack_slots().len() != self.packs.len() {
+                    return Err(format!(
+                        "{} packs but the tree lays out {}",
+                        self.packs.len(),
+                        tree.pack_slots().len()
+                    ));
+                }
+                for (p, (pack, slots)) in self.packs.iter().zip(tree.pack_slots()).enumerate() {
+                    for (lane, &slot) in slots.iter().enumerate() {
+                        if slot == u32::MAX {
+                            continue;
+                        }
+                        let Some(entry) = slot_triangles.get_mut(slot as usize) else {
+                            return Err(format!("pack {p} lane {lane}: slot {slot} out of range"));
+                        };
+                        if pack.id[lane] != self.mesh_triangle[slot as usize] {
+                            return Err(format!(
+                                "pack {p} lane {lane} holds triangle {}, slot {slot} is {}",
+                                pack.id[lane], self.mesh_triangle[slot as usize]
+                            ));
+                        }
+                        *entry = Some(pack.get(lane).map(Vec3A::from));
+                    }
+                }
+            }
+            _ => {
+                if self.triangles.len() != order.len() {
+                    return Err(format!(
+                        "{} triangles but {} slots",
+                        self.triangles.len(),
+                        order.len()
+                    ));
+                }
+                for (entry, t) in slot_triangles.iter_mut().zip(&self.triangles) {
+                    *entry = Some(*t);
+                }
+            }
+        }
+        // Back from slot order to mesh order, as the tree was built.
         let mut boxes = vec![
             Bounds {
                 min: [0.0; 3],
@@ -572,92 +759,26 @@ impl Accel {
             let b = boxes
                 .get_mut(index as usize)
                 .ok_or_else(|| format!("slot {slot} refers to triangle {index}, out of range"))?;
-            *b = triangle_bounds(&self.triangles[slot]);
+            let t = slot_triangles[slot].ok_or_else(|| format!("slot {slot} is in no pack"))?;
+            *b = triangle_bounds(&t);
         }
         self.bvh.validate(&boxes)
     }
 }
 
-/// The obvhs ray for a query, or `None` for a ray that can hit nothing.
-#[inline]
-fn make_ray(origin: [f32; 3], dir: [f32; 3], t_max: f32) -> Option<Ray> {
-    let origin = Vec3A::from(origin);
-    let dir = Vec3A::from(dir);
-    // `t_max > 0` is false for NaN.
-    let usable_t_max = t_max > 0.0;
-    if !usable_t_max || !origin.is_finite() || !dir.is_finite() || dir == Vec3A::ZERO {
-        return None;
-    }
-    Some(Ray::new(origin, dir, 0.0, t_max))
+/// Whether a query can hit anything: finite origin and direction, a non-zero
+/// direction and a positive `t_max` (`t_max > 0` is false for NaN).
+#[inline(always)]
+fn usable_ray(origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
+    t_max > 0.0 && origin.iter().chain(&dir).all(|x| x.is_finite()) && dir.iter().any(|&x| x != 0.0)
 }
 
-/// A ray prepared for the watertight test: `to_ray_space` maps `v − origin` to a frame
-/// in which the ray runs along +z with `z = t` (permuted so the largest direction
-/// component is z, then sheared).
-struct ShearedRay {
-    origin: Vec3A,
-    to_ray_space: Mat3A,
-}
-
-impl ShearedRay {
-    #[inline(always)]
-    fn new(origin: Vec3A, dir: Vec3A) -> ShearedRay {
-        let kz = dir.abs().max_position();
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        // Keep the winding (the sign of the edge functions) independent of the axis.
-        if dir[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
-        let (sx, sy, sz) = (dir[kx] / dir[kz], dir[ky] / dir[kz], 1.0 / dir[kz]);
-        // Rows: x' = v[kx] − sx·v[kz], y' = v[ky] − sy·v[kz], z' = sz·v[kz]. The zero
-        // entries add exact zeros, so each coordinate rounds as the paper's does.
-        let mut rows = [[0.0f32; 3]; 3];
-        rows[0][kx] = 1.0;
-        rows[0][kz] = -sx;
-        rows[1][ky] = 1.0;
-        rows[1][kz] = -sy;
-        rows[2][kz] = sz;
-        ShearedRay {
-            origin,
-            to_ray_space: Mat3A::from_cols_array_2d(&rows).transpose(),
-        }
-    }
-
-    /// `(t, u, v)` with `t` in `(0, t_max)`, or `t = ∞` for a miss; zero-area
-    /// triangles and NaN never hit.
-    #[inline(always)]
-    fn intersect(&self, tri: &[Vec3A; 3], t_max: f32) -> (f32, f32, f32) {
-        const MISS: (f32, f32, f32) = (f32::INFINITY, 0.0, 0.0);
-        let a = self.to_ray_space * (tri[0] - self.origin);
-        let b = self.to_ray_space * (tri[1] - self.origin);
-        let c = self.to_ray_space * (tri[2] - self.origin);
-        // Edge functions: twice the signed areas seen along the ray.
-        let mut u = c.x * b.y - c.y * b.x;
-        let mut v = a.x * c.y - a.y * c.x;
-        let mut w = b.x * a.y - b.y * a.x;
-        if u == 0.0 || v == 0.0 || w == 0.0 {
-            let f = |p: f32, q: f32, r: f32, s: f32| {
-                (f64::from(p) * f64::from(q) - f64::from(r) * f64::from(s)) as f32
-            };
-            u = f(c.x, b.y, c.y, b.x);
-            v = f(a.x, c.y, a.y, c.x);
-            w = f(b.x, a.y, b.y, a.x);
-        }
-        let negative = u < 0.0 || v < 0.0 || w < 0.0;
-        let positive = u > 0.0 || v > 0.0 || w > 0.0;
-        let det = u + v + w;
-        if (negative && positive) || det == 0.0 {
-            return MISS;
-        }
-        let inv_det = 1.0 / det;
-        let t = (u * a.z + v * b.z + w * c.z) * inv_det;
-        // Written so that NaN fails.
-        if t > 0.0 && t < t_max {
-            (t, v * inv_det, w * inv_det)
-        } else {
-            MISS
-        }
+/// A pack of one triangle.
+#[inline(always)]
+fn single(t: &[Vec3A; 3]) -> TrianglePack<1> {
+    TrianglePack {
+        v: std::array::from_fn(|j| std::array::from_fn(|k| [t[j][k]])),
+        id: [0],
     }
 }
 
@@ -670,9 +791,14 @@ pub fn intersect_triangle(
     vertices: [[f32; 3]; 3],
     t_max: f32,
 ) -> Option<(f32, [f32; 2])> {
-    let tri = vertices.map(Vec3A::from);
-    let (t, u, v) = ShearedRay::new(origin.into(), dir.into()).intersect(&tri, t_max);
-    (t < f32::INFINITY).then_some((t, [u, v]))
+    if !usable_ray(origin, dir, t_max) {
+        return None;
+    }
+    let mut pack = TrianglePack::<1>::empty();
+    pack.set(0, vertices, 0);
+    ShearedRay::new(origin, dir)
+        .intersect_pack(&pack, t_max)
+        .map(|hit| (hit.t, hit.barycentric))
 }
 
 /// Moves a surface point `p` off its surface along the geometric normal `n` (either

@@ -18,14 +18,14 @@ const LAMBORGHINI: &str = concat!(
     "/../../../shared/testdata/gltf/LamborghiniHuracanGT3/LamborghiniHuracanGT3.glb"
 );
 
-const ALL_OPTIONS: [BuildOptions; 4] = [
+const ALL_OPTIONS: [BuildOptions; 6] = [
     BuildOptions {
-        layout: BvhLayout::Wide8,
+        layout: BvhLayout::Simd8,
         quality: BuildQuality::Fast,
     },
     BuildOptions {
         layout: BvhLayout::Wide8,
-        quality: BuildQuality::Fastest,
+        quality: BuildQuality::Fast,
     },
     BuildOptions {
         layout: BvhLayout::Binary,
@@ -33,7 +33,15 @@ const ALL_OPTIONS: [BuildOptions; 4] = [
     },
     BuildOptions {
         layout: BvhLayout::Wide8,
+        quality: BuildQuality::Fastest,
+    },
+    BuildOptions {
+        layout: BvhLayout::Wide8,
         quality: BuildQuality::Slow,
+    },
+    BuildOptions {
+        layout: BvhLayout::Simd8,
+        quality: BuildQuality::Fastest,
     },
 ];
 
@@ -197,24 +205,164 @@ fn lamborghini_agrees_with_brute_force_and_validates() {
     let Some(mesh) = lamborghini() else { return };
     assert_eq!(mesh.triangle_count(), 145_917);
     let rays = random_rays(&mesh, 3000, 2);
-    for options in [ALL_OPTIONS[0], ALL_OPTIONS[2]] {
+    for options in [ALL_OPTIONS[0], ALL_OPTIONS[1]] {
         let accel = Accel::build_with(&mesh, &options).expect("build");
         accel.validate().expect("valid tree");
         let bounds = accel.bounds().expect("bounds");
         let (lo, hi) = mesh.bounds().expect("bounds");
         assert_eq!((bounds.min, bounds.max), (lo, hi));
-        // Only a subset against brute force for the second layout: it is slow.
+        // Only a subset against brute force for the obvhs layout: brute force is slow.
         let n = if options == ALL_OPTIONS[0] { 3000 } else { 500 };
         check_against_brute_force(&mesh, &accel, &rays[..n]);
     }
 }
 
 #[test]
-fn default_build_is_wide_and_fast() {
+fn default_build_is_simd8_and_fast() {
     let mesh = torus(8, 6);
     let accel = Accel::build(&mesh).expect("build");
     assert_eq!(accel.bvh().options(), BuildOptions::default());
-    assert_eq!(BuildOptions::default().layout, BvhLayout::Wide8);
+    assert_eq!(
+        BuildOptions::default(),
+        BuildOptions {
+            layout: BvhLayout::Simd8,
+            quality: BuildQuality::Fast
+        }
+    );
+}
+
+/// Any hit over every triangle, with the accel's own triangle test.
+fn brute_force_any(mesh: &TriangleMesh, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
+    mesh.triangles.iter().any(|tri| {
+        let vertices = tri.map(|v| mesh.positions[v as usize]);
+        intersect_triangle(origin, dir, vertices, t_max).is_some()
+    })
+}
+
+/// The tracer's bounce rays: area-weighted points on the surface, moved off it with
+/// `offset_ray_origin`, cosine-distributed about the front side of the geometric
+/// normal (as the benchmark's incoherent rays), a quarter with a finite `t_max`; with
+/// `both_sides`, every other ray leaves through the back (into a closed surface, so
+/// that it hits).
+fn bounce_rays(
+    mesh: &TriangleMesh,
+    count: usize,
+    seed: u64,
+    both_sides: bool,
+) -> Vec<([f32; 3], [f32; 3], f32)> {
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let total: f64 = (0..mesh.triangles.len())
+        .map(|t| f64::from(mesh.triangle_area(t)))
+        .sum();
+    let mut cdf = Vec::with_capacity(mesh.triangles.len());
+    let mut acc = 0.0;
+    for t in 0..mesh.triangles.len() {
+        acc += f64::from(mesh.triangle_area(t));
+        cdf.push(acc);
+    }
+    let mut rays = Vec::with_capacity(count);
+    while rays.len() < count {
+        let t = cdf
+            .partition_point(|&c| c < rng.random::<f64>() * total)
+            .min(cdf.len() - 1);
+        let [a, b, c] = mesh.triangles[t].map(|v| mesh.positions[v as usize]);
+        let e1: [f32; 3] = std::array::from_fn(|k| b[k] - a[k]);
+        let e2: [f32; 3] = std::array::from_fn(|k| c[k] - a[k]);
+        let n = [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ];
+        let l = n.iter().map(|x| x * x).sum::<f32>().sqrt();
+        if l == 0.0 || !l.is_finite() {
+            continue;
+        }
+        let side = if both_sides && rays.len() % 2 == 1 {
+            -1.0
+        } else {
+            1.0
+        };
+        let n = n.map(|x| side * x / l);
+        let (mut u, mut v) = (rng.random::<f32>(), rng.random::<f32>());
+        if u + v > 1.0 {
+            (u, v) = (1.0 - u, 1.0 - v);
+        }
+        let p: [f32; 3] = std::array::from_fn(|k| a[k] + u * e1[k] + v * e2[k]);
+        // Cosine-distributed: a uniform unit vector added to the normal.
+        let s = unit(&mut rng);
+        let d: [f32; 3] = std::array::from_fn(|k| n[k] + s[k]);
+        let dl = d.iter().map(|x| x * x).sum::<f32>().sqrt();
+        if dl <= 1e-6 || dl.is_nan() {
+            continue;
+        }
+        let t_max = if rays.len() % 4 == 3 {
+            0.5 * rng.random::<f32>()
+        } else {
+            f32::INFINITY
+        };
+        rays.push((offset_ray_origin(p, n), d.map(|x| x / dl), t_max));
+    }
+    rays
+}
+
+#[test]
+fn default_car_agrees_with_brute_force_on_camera_and_bounce_rays() {
+    let mesh = coatlab_core::scene::car::generate(&Default::default()).mesh;
+    let accel = Accel::build(&mesh).expect("build");
+    accel.validate().expect("valid tree");
+    let mut rays = random_rays(&mesh, 600, 11);
+    rays.extend(bounce_rays(&mesh, 1200, 12, false));
+    check_against_brute_force(&mesh, &accel, &rays);
+    // Any hit against brute force directly (not only against closest_hit).
+    for &(origin, dir, t_max) in &rays {
+        assert_eq!(
+            accel.occluded(origin, dir, t_max),
+            brute_force_any(&mesh, origin, dir, t_max),
+            "{origin:?} {dir:?} {t_max}"
+        );
+    }
+}
+
+#[test]
+fn torus_bounce_and_shadow_rays_agree_with_brute_force() {
+    let mesh = torus(150, 50);
+    let accel = Accel::build(&mesh).expect("build");
+    accel.validate().expect("valid tree");
+    let rays = bounce_rays(&mesh, 3000, 13, true);
+    check_against_brute_force(&mesh, &accel, &rays);
+    for &(origin, dir, _) in &rays {
+        for t_max in [0.05, 0.5, 3.0] {
+            assert_eq!(
+                accel.occluded(origin, dir, t_max),
+                brute_force_any(&mesh, origin, dir, t_max),
+                "{origin:?} {dir:?} {t_max}"
+            );
+        }
+    }
+}
+
+#[test]
+fn the_box_level_queries_agree_with_the_triangle_layer_in_every_layout() {
+    // `Bvh::closest`/`Bvh::any` with a per-primitive closure (as picking would use
+    // them) find the same hits as `Accel`'s own, packed path.
+    let mesh = torus(60, 20);
+    let rays = random_rays(&mesh, 800, 14);
+    for options in ALL_OPTIONS {
+        let accel = Accel::build_with(&mesh, &options).expect("build");
+        let order = accel.bvh().primitive_order();
+        let intersect = |ray: &coatlab_core::accel::Ray, slot: usize| {
+            let tri = mesh.triangles[order[slot] as usize].map(|v| mesh.positions[v as usize]);
+            intersect_triangle(ray.origin.into(), ray.direction.into(), tri, ray.tmax)
+                .map_or(f32::INFINITY, |(t, _)| t)
+        };
+        for &(origin, dir, t_max) in &rays {
+            let ray = coatlab_core::accel::Ray::new(origin.into(), dir.into(), 0.0, t_max);
+            let got = accel.bvh().closest(ray, intersect).map(|(_, t)| t);
+            let expected = accel.closest_hit(origin, dir, t_max).map(|h| h.t);
+            assert_eq!(got, expected, "{options:?}: {origin:?} {dir:?}");
+            assert_eq!(accel.bvh().any(ray, intersect), expected.is_some());
+        }
+    }
 }
 
 #[test]

@@ -1,0 +1,761 @@
+//! Our own CPU-first 8-wide BVH (the `Simd8` layout).
+//!
+//! - **Build**: a top-down binned-SAH binary tree over the primitives' boxes (centroid
+//!   bins on all three axes in one pass; the cost counts primitives in leaf blocks of
+//!   [`PACK`], as the triangle test works on blocks), then collapsed into 8-wide nodes
+//!   by repeatedly opening the child with the largest surface area. Where the SAH
+//!   finds no split (all centroids in one bin) or the tree gets deep, the primitives
+//!   are split at the median, so the depth stays logarithmic even for thousands of
+//!   coincident triangles.
+//! - **Nodes**: the 8 children's boxes as plain f32 planes, structure of arrays
+//!   (`bounds[plane][child]`, 224 bytes a node): one ray is tested against all 8 boxes
+//!   with the same straight-line code per child, which LLVM vectorises to AVX under
+//!   `target-cpu=x86-64-v3` (and to SSE2 otherwise) without `unsafe`.
+//! - **Leaves**: up to [`MAX_LEAF`] primitives, stored by the geometry layer as
+//!   blocks ("packs") of [`PACK`] lanes; a leaf's child reference holds its first pack
+//!   and its primitive count, so a leaf is reached without an indirection.
+//!   [`WideBvh::pack_slots`] says which slot (primitive in leaf order) each lane holds.
+//! - **Traversal**: closest hit in front-to-back order (hit children sorted by entry
+//!   distance, the farther ones pushed with their distance so that they are skipped
+//!   once a closer hit is known); any hit without sorting, stopping at the first hit.
+//!
+//! # Robustness
+//!
+//! The slab test computes `(plane − origin) · (1/dir)` (a subtraction, then a
+//! product: no fused `plane · (1/dir) − origin/dir`, whose cancellation error grows
+//! with the distance of the origin from the world origin), and widens the exit
+//! distance by a few ulps as Ize does ("Robust BVH Ray Traversal", JCGT 2013), so a
+//! box is never missed by a ray that hits a primitive inside it. Zero direction
+//! components are replaced by ±`f32::MIN_POSITIVE`, so no `0 · ∞` NaN arises. Empty
+//! child slots have the box `[+∞, −∞]`, which no ray enters.
+
+use super::Bounds;
+
+pub(super) use super::triangle::PACK;
+
+/// Children per node.
+pub(super) const WIDTH: usize = 8;
+/// Most primitives in one leaf (two packs).
+pub(super) const MAX_LEAF: usize = 2 * PACK;
+
+/// Child reference: an inner node's index, or, with [`LEAF_BIT`] set, a leaf's first
+/// pack (low [`COUNT_SHIFT`] bits) and primitive count (the bits above, up to
+/// [`MAX_LEAF`]). An empty child slot is a leaf of count 0.
+const LEAF_BIT: u32 = 1 << 31;
+const COUNT_SHIFT: u32 = 27;
+const INDEX_MASK: u32 = (1 << COUNT_SHIFT) - 1;
+const EMPTY: u32 = LEAF_BIT;
+
+/// Binary-tree depth from which splits are at the median (bounds the final depth by
+/// this plus log₂ of the primitive count).
+const MEDIAN_DEPTH: usize = 40;
+
+/// The exit distance of a slab test is multiplied by this: 1 + 2γ₃ of Ize's paper
+/// (≈ 1 + 3.6·10⁻⁷) rounded up to 1 + 2⁻²⁰.
+const EXIT_WIDEN: f32 = 1.0 + 1.0 / 1_048_576.0;
+/// The current closest distance, compared with a box's entry distance, is widened by
+/// this: the triangle test's distance has its own rounding error, and a box whose
+/// entry distance lies a few ulps beyond an equally distant hit must still be entered
+/// (ties on shared edges).
+const TMAX_WIDEN: f32 = 1.0 + 1.0 / 65_536.0;
+
+/// An 8-wide node: `bounds[2·axis]` are the children's minima along `axis`,
+/// `bounds[2·axis + 1]` their maxima.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(C, align(32))]
+pub(super) struct Node {
+    bounds: [[f32; WIDTH]; 6],
+    child: [u32; WIDTH],
+}
+
+impl Node {
+    fn empty() -> Node {
+        let mut bounds = [[f32::INFINITY; WIDTH]; 6];
+        for axis in 0..3 {
+            bounds[2 * axis + 1] = [f32::NEG_INFINITY; WIDTH];
+        }
+        Node {
+            bounds,
+            child: [EMPTY; WIDTH],
+        }
+    }
+
+    fn set_bounds(&mut self, i: usize, b: &Bounds) {
+        for axis in 0..3 {
+            self.bounds[2 * axis][i] = b.min[axis];
+            self.bounds[2 * axis + 1][i] = b.max[axis];
+        }
+    }
+
+    fn child_bounds(&self, i: usize) -> Bounds {
+        Bounds {
+            min: std::array::from_fn(|axis| self.bounds[2 * axis][i]),
+            max: std::array::from_fn(|axis| self.bounds[2 * axis + 1][i]),
+        }
+    }
+}
+
+/// A leaf's first pack and primitive count, from a child reference with [`LEAF_BIT`].
+#[inline(always)]
+fn leaf_parts(child: u32) -> (usize, usize) {
+    (
+        (child & INDEX_MASK) as usize,
+        ((child & !LEAF_BIT) >> COUNT_SHIFT) as usize,
+    )
+}
+
+/// Number of packs of a leaf of `count` primitives.
+#[inline(always)]
+pub(super) fn pack_count(count: usize) -> usize {
+    count.div_ceil(PACK)
+}
+
+/// The 8-wide tree: nodes (the root at 0), slot order, and the pack layout of the
+/// leaves. Empty when built from no boxes.
+#[derive(Debug, Clone)]
+pub(super) struct WideBvh {
+    nodes: Vec<Node>,
+    /// The caller's primitive index for each slot.
+    order: Vec<u32>,
+    /// For each pack, the slot in each lane; `u32::MAX` for an unused lane.
+    pack_slots: Vec<[u32; PACK]>,
+}
+
+/// A ray prepared for the slab tests.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct BoxRay {
+    origin: [f32; 3],
+    inv_dir: [f32; 3],
+    /// Per axis, the index in [`Node::bounds`] of the plane the ray enters by
+    /// (the minimum for a positive direction) and of the one it leaves by.
+    near: [usize; 3],
+    far: [usize; 3],
+}
+
+impl BoxRay {
+    /// For a finite origin and a finite, non-zero direction.
+    #[inline(always)]
+    pub fn new(origin: [f32; 3], dir: [f32; 3]) -> BoxRay {
+        let inv_dir = dir.map(|d| {
+            // ±0 and subnormals would give ±∞ and then 0 · ∞ = NaN for a plane
+            // through the origin; 1/MIN_POSITIVE is finite.
+            let d = if d.abs() < f32::MIN_POSITIVE {
+                f32::MIN_POSITIVE.copysign(d)
+            } else {
+                d
+            };
+            1.0 / d
+        });
+        let near: [usize; 3] = std::array::from_fn(|k| 2 * k + usize::from(inv_dir[k] < 0.0));
+        BoxRay {
+            origin,
+            inv_dir,
+            near,
+            far: near.map(|n| n ^ 1),
+        }
+    }
+
+    /// The children hit within `[0, t_max]` (bit i for child i) and each one's
+    /// entry distance.
+    #[inline(always)]
+    fn hit_children(&self, node: &Node, t_max: f32) -> (u32, [f32; WIDTH]) {
+        let b = &node.bounds;
+        let (bnx, bny, bnz) = (&b[self.near[0]], &b[self.near[1]], &b[self.near[2]]);
+        let (bfx, bfy, bfz) = (&b[self.far[0]], &b[self.far[1]], &b[self.far[2]]);
+        let [ox, oy, oz] = self.origin;
+        let [rx, ry, rz] = self.inv_dir;
+        let mut entry = [0.0f32; WIDTH];
+        let mut hit = [false; WIDTH];
+        for i in 0..WIDTH {
+            let tnx = (bnx[i] - ox) * rx;
+            let tny = (bny[i] - oy) * ry;
+            let tnz = (bnz[i] - oz) * rz;
+            let tfx = (bfx[i] - ox) * rx;
+            let tfy = (bfy[i] - oy) * ry;
+            let tfz = (bfz[i] - oz) * rz;
+            // `if` rather than f32::max/min: plain max/min instructions (no NaN
+            // arises here, see the module documentation).
+            let tn = max(max(tnx, tny), max(tnz, 0.0));
+            let tf = min(min(tfx, tfy), tfz) * EXIT_WIDEN;
+            entry[i] = tn;
+            hit[i] = tn <= min(tf, t_max);
+        }
+        let mut mask = 0;
+        for (i, &h) in hit.iter().enumerate() {
+            mask |= u32::from(h) << i;
+        }
+        (mask, entry)
+    }
+}
+
+#[inline(always)]
+fn max(a: f32, b: f32) -> f32 {
+    if a > b { a } else { b }
+}
+
+#[inline(always)]
+fn min(a: f32, b: f32) -> f32 {
+    if a < b { a } else { b }
+}
+
+/// Traversal stack: a fixed array with a heap overflow that a tree of ordinary depth
+/// never touches (the fixed part needs no allocation per ray; the overflow keeps
+/// pathological trees correct).
+struct Stack {
+    items: [(u32, f32); 64],
+    len: usize,
+    overflow: Vec<(u32, f32)>,
+}
+
+impl Stack {
+    #[inline(always)]
+    fn new() -> Stack {
+        Stack {
+            items: [(0, 0.0); 64],
+            len: 0,
+            overflow: Vec::new(),
+        }
+    }
+
+    #[inline(always)]
+    fn push(&mut self, child: u32, entry: f32) {
+        if let Some(slot) = self.items.get_mut(self.len) {
+            *slot = (child, entry);
+        } else {
+            self.overflow.push((child, entry));
+        }
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<(u32, f32)> {
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        match self.items.get(self.len) {
+            Some(&item) => Some(item),
+            None => self.overflow.pop(),
+        }
+    }
+}
+
+impl WideBvh {
+    /// Number of nodes.
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// The caller's primitive index for each slot.
+    pub fn order(&self) -> &[u32] {
+        &self.order
+    }
+
+    /// The slot in each lane of each pack (`u32::MAX`: unused lane).
+    pub fn pack_slots(&self) -> &[[u32; PACK]] {
+        &self.pack_slots
+    }
+
+    /// Closest hit: `leaf(first_pack, primitive_count, t_max)` intersects a leaf's
+    /// packs and returns the new `t_max` (smaller when it found a closer hit).
+    #[inline(always)]
+    pub fn closest(
+        &self,
+        ray: &BoxRay,
+        mut t_max: f32,
+        mut leaf: impl FnMut(usize, usize, f32) -> f32,
+    ) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let mut stack = Stack::new();
+        let mut current = 0u32;
+        loop {
+            if current & LEAF_BIT != 0 {
+                let (first, count) = leaf_parts(current);
+                t_max = leaf(first, count, t_max);
+            } else {
+                let node = &self.nodes[current as usize];
+                let (mut mask, entry) = ray.hit_children(node, t_max * TMAX_WIDEN);
+                if mask != 0 {
+                    // Hit children, sorted by decreasing entry distance (insertion
+                    // sort: rarely more than three).
+                    let mut hits = [(0u32, 0.0f32); WIDTH];
+                    let mut n = 0;
+                    while mask != 0 {
+                        let i = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        let item = (node.child[i], entry[i]);
+                        let mut j = n;
+                        while j > 0 && hits[j - 1].1 < item.1 {
+                            hits[j] = hits[j - 1];
+                            j -= 1;
+                        }
+                        hits[j] = item;
+                        n += 1;
+                    }
+                    for &(child, t) in &hits[..n - 1] {
+                        stack.push(child, t);
+                    }
+                    current = hits[n - 1].0;
+                    continue;
+                }
+            }
+            // Next: the nearest pending child not already beyond the closest hit.
+            loop {
+                let Some((child, entry)) = stack.pop() else {
+                    return;
+                };
+                if entry <= t_max * TMAX_WIDEN {
+                    current = child;
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Any hit: `leaf(first_pack, primitive_count)` says whether a leaf holds a hit;
+    /// stops at the first.
+    #[inline(always)]
+    pub fn any(
+        &self,
+        ray: &BoxRay,
+        t_max: f32,
+        mut leaf: impl FnMut(usize, usize) -> bool,
+    ) -> bool {
+        if self.nodes.is_empty() {
+            return false;
+        }
+        let t_box = t_max * TMAX_WIDEN;
+        let mut stack = Stack::new();
+        let mut current = 0u32;
+        loop {
+            if current & LEAF_BIT != 0 {
+                let (first, count) = leaf_parts(current);
+                if leaf(first, count) {
+                    return true;
+                }
+            } else {
+                let node = &self.nodes[current as usize];
+                let (mut mask, _) = ray.hit_children(node, t_box);
+                if mask != 0 {
+                    // Leaves first: they may end the query before another node is
+                    // loaded.
+                    let i = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    current = node.child[i];
+                    while mask != 0 {
+                        let i = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        stack.push(node.child[i], 0.0);
+                    }
+                    continue;
+                }
+            }
+            match stack.pop() {
+                Some((child, _)) => current = child,
+                None => return false,
+            }
+        }
+    }
+
+    /// Builds the tree over `boxes` (finite; checked by the caller) with `bins` SAH
+    /// bins per axis.
+    pub fn build(boxes: &[Bounds], bins: usize) -> WideBvh {
+        if boxes.is_empty() {
+            return WideBvh {
+                nodes: Vec::new(),
+                order: Vec::new(),
+                pack_slots: Vec::new(),
+            };
+        }
+        let mut builder = BinaryBuilder {
+            boxes,
+            centroids: boxes
+                .iter()
+                .map(|b| std::array::from_fn(|k| b.min[k] + b.max[k]))
+                .collect(),
+            order: (0..boxes.len() as u32).collect(),
+            nodes: Vec::with_capacity(2 * boxes.len() / PACK + 1),
+            bins: bins.clamp(2, 256),
+        };
+        builder.build(0, boxes.len(), 0);
+        let mut wide = WideBvh {
+            nodes: Vec::with_capacity(builder.nodes.len() / 4 + 1),
+            order: Vec::new(),
+            pack_slots: Vec::with_capacity(boxes.len() / 2),
+        };
+        let root = &builder.nodes[0];
+        if let BinKind::Leaf { .. } = root.kind {
+            // A single leaf: a root node with one child.
+            let mut node = Node::empty();
+            node.set_bounds(0, &root.bounds);
+            node.child[0] = wide.leaf_child(&builder.nodes, 0);
+            wide.nodes.push(node);
+        } else {
+            wide.collapse(&builder.nodes, 0);
+        }
+        wide.order = builder.order;
+        wide
+    }
+
+    /// Emits the wide node for binary inner node `b` (and, recursively, its subtree);
+    /// returns its index.
+    fn collapse(&mut self, bin: &[BinNode], b: usize) -> u32 {
+        let index = self.nodes.len();
+        self.nodes.push(Node::empty());
+        // Open the largest inner child until there are 8 children or only leaves.
+        let mut kids = [0usize; WIDTH];
+        let mut n = 0;
+        if let BinKind::Inner { left, right } = bin[b].kind {
+            kids[0] = left;
+            kids[1] = right;
+            n = 2;
+        }
+        while n < WIDTH {
+            let mut largest: Option<(usize, f32)> = None;
+            for (i, &k) in kids[..n].iter().enumerate() {
+                if let BinKind::Inner { .. } = bin[k].kind {
+                    let area = bin[k].bounds.half_area();
+                    if largest.is_none_or(|(_, a)| area > a) {
+                        largest = Some((i, area));
+                    }
+                }
+            }
+            let Some((i, _)) = largest else { break };
+            if let BinKind::Inner { left, right } = bin[kids[i]].kind {
+                kids[i] = left;
+                kids[n] = right;
+                n += 1;
+            }
+        }
+        let mut node = Node::empty();
+        for (i, &k) in kids[..n].iter().enumerate() {
+            node.set_bounds(i, &bin[k].bounds);
+            node.child[i] = match bin[k].kind {
+                BinKind::Leaf { .. } => self.leaf_child(bin, k),
+                BinKind::Inner { .. } => self.collapse(bin, k),
+            };
+        }
+        self.nodes[index] = node;
+        index as u32
+    }
+
+    /// Allocates the packs of binary leaf `b`; returns its child reference.
+    fn leaf_child(&mut self, bin: &[BinNode], b: usize) -> u32 {
+        let BinKind::Leaf { first, count } = bin[b].kind else {
+            unreachable!("leaf_child is called on leaves");
+        };
+        let first_pack = self.pack_slots.len();
+        for start in (first..first + count).step_by(PACK) {
+            self.pack_slots.push(std::array::from_fn(|lane| {
+                let slot = start + lane;
+                if slot < first + count {
+                    slot as u32
+                } else {
+                    u32::MAX
+                }
+            }));
+        }
+        LEAF_BIT | ((count as u32) << COUNT_SHIFT) | first_pack as u32
+    }
+
+    /// Checks the structure against the boxes it was built from: every node reached
+    /// once, every child box inside its parent's, every primitive's box inside its
+    /// leaf's, the slots a permutation, the packs covering each slot once with unused
+    /// lanes only at the end of a leaf, and empty child slots unreachable.
+    pub fn validate(&self, boxes: &[Bounds], bounds: Option<Bounds>) -> Result<(), String> {
+        if self.nodes.is_empty() {
+            return match (boxes.is_empty(), self.pack_slots.is_empty()) {
+                (true, true) => Ok(()),
+                _ => Err("no nodes, but primitives or packs".into()),
+            };
+        }
+        let Some(bounds) = bounds else {
+            return Err("nodes, but no bounds".into());
+        };
+        if self.pack_slots.len() > INDEX_MASK as usize {
+            return Err(format!(
+                "{} packs: too many to address",
+                self.pack_slots.len()
+            ));
+        }
+        let mut node_seen = vec![false; self.nodes.len()];
+        let mut slot_seen = vec![false; self.order.len()];
+        let mut pack_seen = vec![false; self.pack_slots.len()];
+        let mut pending = vec![(0usize, bounds, 0usize)];
+        let mut deepest = 0;
+        while let Some((index, parent, depth)) = pending.pop() {
+            deepest = deepest.max(depth);
+            match node_seen.get_mut(index) {
+                None => return Err(format!("node {index} out of range")),
+                Some(true) => return Err(format!("node {index} reached twice")),
+                Some(seen) => *seen = true,
+            }
+            let node = &self.nodes[index];
+            for i in 0..WIDTH {
+                let child = node.child[i];
+                let b = node.child_bounds(i);
+                if child == EMPTY {
+                    if b.min.iter().any(|&x| x != f32::INFINITY)
+                        || b.max.iter().any(|&x| x != f32::NEG_INFINITY)
+                    {
+                        return Err(format!("node {index}: empty child {i} has box {b:?}"));
+                    }
+                    continue;
+                }
+                if !b.is_finite() || !parent.contains(&b) {
+                    return Err(format!(
+                        "node {index}: child {i}'s box {b:?} is not inside {parent:?}"
+                    ));
+                }
+                if child & LEAF_BIT == 0 {
+                    pending.push((child as usize, b, depth + 1));
+                    continue;
+                }
+                let (first, count) = leaf_parts(child);
+                if count == 0 || count > MAX_LEAF {
+                    return Err(format!("node {index}: leaf of {count} primitives"));
+                }
+                let packs = pack_count(count);
+                let Some(lanes) = self.pack_slots.get(first..first + packs) else {
+                    return Err(format!("node {index}: packs {first}+{packs} out of range"));
+                };
+                for (p, lane_slots) in lanes.iter().enumerate() {
+                    if std::mem::replace(&mut pack_seen[first + p], true) {
+                        return Err(format!("pack {} in two leaves", first + p));
+                    }
+                    for (lane, &slot) in lane_slots.iter().enumerate() {
+                        let used = p * PACK + lane < count;
+                        if !used {
+                            if slot != u32::MAX {
+                                return Err(format!(
+                                    "pack {}: lane {lane} past the leaf",
+                                    first + p
+                                ));
+                            }
+                            continue;
+                        }
+                        let Some(seen) = slot_seen.get_mut(slot as usize) else {
+                            return Err(format!("pack {}: slot {slot} out of range", first + p));
+                        };
+                        if std::mem::replace(seen, true) {
+                            return Err(format!("slot {slot} in two leaves"));
+                        }
+                        let prim = self.order[slot as usize] as usize;
+                        match boxes.get(prim) {
+                            Some(pb) if b.contains(pb) => {}
+                            Some(pb) => {
+                                return Err(format!(
+                                    "primitive {prim}'s box {pb:?} is outside its leaf's {b:?}"
+                                ));
+                            }
+                            None => {
+                                return Err(format!("slot {slot}: primitive {prim} out of range"));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        if let Some(i) = node_seen.iter().position(|s| !s) {
+            return Err(format!("node {i} is unreachable"));
+        }
+        if let Some(i) = slot_seen.iter().position(|s| !s) {
+            return Err(format!("slot {i} is in no leaf"));
+        }
+        if let Some(i) = pack_seen.iter().position(|s| !s) {
+            return Err(format!("pack {i} is in no leaf"));
+        }
+        // Not a correctness limit (the traversal stack spills to the heap), but a
+        // deep tree means the median fallback failed to bound it.
+        let limit = MEDIAN_DEPTH + 2 + usize::BITS as usize;
+        if deepest > limit {
+            return Err(format!("depth {deepest} exceeds {limit}"));
+        }
+        Ok(())
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+enum BinKind {
+    Leaf { first: usize, count: usize },
+    Inner { left: usize, right: usize },
+}
+
+#[derive(Debug, Clone, Copy)]
+struct BinNode {
+    bounds: Bounds,
+    kind: BinKind,
+}
+
+impl Bounds {
+    fn empty() -> Bounds {
+        Bounds {
+            min: [f32::INFINITY; 3],
+            max: [f32::NEG_INFINITY; 3],
+        }
+    }
+
+    #[inline(always)]
+    fn grow(&mut self, other: &Bounds) {
+        for k in 0..3 {
+            self.min[k] = self.min[k].min(other.min[k]);
+            self.max[k] = self.max[k].max(other.max[k]);
+        }
+    }
+
+    /// Half the surface area (the SAH only compares areas); 0 for an empty box.
+    fn half_area(&self) -> f32 {
+        let d: [f32; 3] = std::array::from_fn(|k| (self.max[k] - self.min[k]).max(0.0));
+        d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
+    }
+}
+
+/// Top-down binned-SAH builder of the binary tree; `order` is partitioned in place so
+/// that each node's primitives are contiguous.
+struct BinaryBuilder<'a> {
+    boxes: &'a [Bounds],
+    /// Twice each box's centre (the factor of 2 changes no decision).
+    centroids: Vec<[f32; 3]>,
+    order: Vec<u32>,
+    nodes: Vec<BinNode>,
+    bins: usize,
+}
+
+/// Relative cost of one node visit against one pack test, for the SAH.
+const TRAVERSAL_COST: f32 = 1.0;
+
+impl BinaryBuilder<'_> {
+    /// Builds the subtree over `order[first..first + count]`; returns its node index.
+    fn build(&mut self, first: usize, count: usize, depth: usize) -> usize {
+        let index = self.nodes.len();
+        let range = first..first + count;
+        let mut bounds = Bounds::empty();
+        let mut centres = Bounds::empty();
+        for &p in &self.order[range.clone()] {
+            bounds.grow(&self.boxes[p as usize]);
+            let c = self.centroids[p as usize];
+            centres.grow(&Bounds { min: c, max: c });
+        }
+        self.nodes.push(BinNode {
+            bounds,
+            kind: BinKind::Leaf { first, count },
+        });
+        if count <= 1 {
+            return index;
+        }
+        let split = if depth < MEDIAN_DEPTH {
+            self.sah_split(first, count, &bounds, &centres)
+        } else {
+            None
+        };
+        let mid = match split {
+            Some(Some(mid)) => mid,
+            // The SAH prefers a leaf.
+            Some(None) => return index,
+            None if count <= MAX_LEAF => return index,
+            None => self.median_split(first, count, &centres),
+        };
+        let left = self.build(first, mid - first, depth + 1);
+        let right = self.build(mid, first + count - mid, depth + 1);
+        self.nodes[index].kind = BinKind::Inner { left, right };
+        index
+    }
+
+    /// The best SAH split, partitioning `order` accordingly: `Some(Some(mid))` (the
+    /// right child starts at `mid`), `Some(None)` when a leaf is cheaper (only for at
+    /// most [`MAX_LEAF`] primitives), `None` when the centroids fall into one bin.
+    fn sah_split(
+        &mut self,
+        first: usize,
+        count: usize,
+        bounds: &Bounds,
+        centres: &Bounds,
+    ) -> Option<Option<usize>> {
+        let bins = self.bins;
+        let range = first..first + count;
+        let extent: [f32; 3] = std::array::from_fn(|k| centres.max[k] - centres.min[k]);
+        // Bin index of centroid coordinate x on axis k; scale 0 on a flat axis.
+        let scale: [f32; 3] = std::array::from_fn(|k| {
+            if extent[k] > 0.0 {
+                bins as f32 * (1.0 - 1e-6) / extent[k]
+            } else {
+                0.0
+            }
+        });
+        let bin_of = |x: f32, k: usize| (((x - centres.min[k]) * scale[k]) as usize).min(bins - 1);
+        let mut bin_bounds = vec![[Bounds::empty(); 3]; bins];
+        let mut bin_count = vec![[0usize; 3]; bins];
+        for &p in &self.order[range.clone()] {
+            let c = self.centroids[p as usize];
+            let b = &self.boxes[p as usize];
+            for k in 0..3 {
+                let i = bin_of(c[k], k);
+                bin_bounds[i][k].grow(b);
+                bin_count[i][k] += 1;
+            }
+        }
+        // Sweep from the right: area × blocks of the right part for each split.
+        let blocks = |n: usize| n.div_ceil(PACK) as f32;
+        let mut best: Option<(f32, usize, usize)> = None;
+        let mut right_cost = vec![0.0f32; bins];
+        for k in 0..3 {
+            if scale[k] == 0.0 {
+                continue;
+            }
+            let (mut acc, mut n) = (Bounds::empty(), 0);
+            for i in (1..bins).rev() {
+                acc.grow(&bin_bounds[i][k]);
+                n += bin_count[i][k];
+                right_cost[i] = acc.half_area() * blocks(n);
+            }
+            let (mut acc, mut n) = (Bounds::empty(), 0);
+            for i in 0..bins - 1 {
+                acc.grow(&bin_bounds[i][k]);
+                n += bin_count[i][k];
+                if n == 0 || n == count {
+                    continue;
+                }
+                let cost = acc.half_area() * blocks(n) + right_cost[i + 1];
+                if best.is_none_or(|(c, _, _)| cost < c) {
+                    best = Some((cost, k, i + 1));
+                }
+            }
+        }
+        let (cost, axis, split_bin) = best?;
+        let area = bounds.half_area();
+        let split_cost = TRAVERSAL_COST * area + cost;
+        let leaf_cost = area * blocks(count);
+        if count <= MAX_LEAF && leaf_cost <= split_cost {
+            return Some(None);
+        }
+        // Partition: left the centroids in bins below `split_bin`.
+        let slice = &mut self.order[range];
+        let (mut i, mut j) = (0, slice.len());
+        while i < j {
+            if bin_of(self.centroids[slice[i] as usize][axis], axis) < split_bin {
+                i += 1;
+            } else {
+                j -= 1;
+                slice.swap(i, j);
+            }
+        }
+        Some(Some(first + i))
+    }
+
+    /// Splits at the median centroid along the widest centroid axis; returns the start
+    /// of the right half.
+    fn median_split(&mut self, first: usize, count: usize, centres: &Bounds) -> usize {
+        let extent: [f32; 3] = std::array::from_fn(|k| centres.max[k] - centres.min[k]);
+        let axis = (0..3)
+            .max_by(|&a, &b| extent[a].total_cmp(&extent[b]))
+            .unwrap_or(0);
+        let half = count / 2;
+        let centroids = &self.centroids;
+        self.order[first..first + count].select_nth_unstable_by(half, |&a, &b| {
+            centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
+        });
+        first + half
+    }
+}
