@@ -6,4 +6,5 @@ pub mod color;
 pub mod delta_e;
 pub mod gloss;
 pub mod measure;
+pub mod render;
 mod table;

@@ -156,6 +156,8 @@ pub enum EnvironmentKind {
     Outdoor,
     /// A user's equirectangular image.
     Image,
+    /// The same radiance from every direction, no floor: the white furnace.
+    Uniform,
 }
 
 /// Spectral radiance over the sphere of directions, with importance sampling, and
@@ -261,6 +263,21 @@ impl Environment {
             .expect("the sky has light");
         env.sun_dir = Some(sun_axis.map(|v| v as f32));
         env
+    }
+
+    /// The white furnace: a flat spectrum of radiance 1 arriving from every
+    /// direction, and no floor. An object that neither absorbs nor emits is
+    /// invisible in it; anything else shows its directional albedo. For tests and
+    /// for checking a design's energy balance.
+    pub fn uniform(grid: &WavelengthGrid) -> Self {
+        let flat = vec![1.0f32; grid.len()];
+        let (width, height) = (1, 2);
+        let mut b = Builder::new(grid, vec![flat], width, height);
+        b.coeffs.fill(1.0);
+        let env = b
+            .finish(EnvironmentKind::Uniform, 0.0, false)
+            .expect("a uniform sky has light");
+        env.with_floor(None)
     }
 
     /// An equirectangular environment map from a file: Radiance `.hdr` (RGBE, flat

@@ -34,8 +34,11 @@ use std::sync::{Arc, OnceLock};
 use thiserror::Error;
 
 use crate::cie::{Observer, hat_weighted_cmfs};
-use crate::colour::{Xyz, linear_srgb_from_xyz, srgb_white};
+use crate::colour::{
+    Lab, Xyz, ciede2000, lab_from_xyz, linear_srgb_from_xyz, srgb_white, xyz_from_linear_srgb,
+};
 use crate::spectrum::WavelengthGrid;
+use palette::LinSrgb;
 
 /// [`Film::auto_exposure`]'s key: the log-average luminance is mapped to this
 /// (Reinhard et al. 2002, "Photographic tone reproduction", middle grey).
@@ -450,6 +453,66 @@ impl Film {
             .collect()
     }
 
+    /// CIELAB (D65 white, display white L* = 100) of the colour pixel (`x`, `y`) is
+    /// shown in by [`Self::to_display`] before 8-bit quantisation: what a viewer
+    /// sees, and what the error of a render is measured on.
+    pub fn display_lab(&self, x: u32, y: u32, settings: &DisplaySettings) -> Lab {
+        let m = display_matrix(settings.adapt_white, settings.exposure_stops);
+        let xyz = self.mean_xyz(x, y);
+        display_lab_of(&m, settings.tone_mapping, xyz)
+    }
+
+    /// How far the displayed picture may still be from the converged one: per
+    /// pixel, the CIEDE2000 between the displayed colour of the mean and that of
+    /// the mean moved by one standard error in X, Y and Z (the error a further
+    /// sample average would most likely remove), over every `stride`-th pixel in
+    /// both directions that has at least two samples. `None` before that.
+    pub fn noise_estimate(&self, settings: &DisplaySettings, stride: u32) -> Option<NoiseEstimate> {
+        let m = display_matrix(settings.adapt_white, settings.exposure_stops);
+        let stride = stride.max(1) as usize;
+        let mut errors = Vec::new();
+        for y in (0..self.height as usize).step_by(stride) {
+            for x in (0..self.width as usize).step_by(stride) {
+                let index = y * self.width as usize + x;
+                let (p, squares) = (&self.pixels[index], &self.squares[index]);
+                if p.count < 2 {
+                    continue;
+                }
+                let n = p.count as f64;
+                let mean = p.sum.map(|s| s / n);
+                let error = std::array::from_fn::<f64, 3, _>(|k| {
+                    let variance = (squares[k] - p.sum[k] * mean[k]) / (n - 1.0);
+                    (variance.max(0.0) / n).sqrt()
+                });
+                let a = display_lab_of(
+                    &m,
+                    settings.tone_mapping,
+                    Xyz::new(mean[0], mean[1], mean[2]),
+                );
+                let b = display_lab_of(
+                    &m,
+                    settings.tone_mapping,
+                    Xyz::new(mean[0] + error[0], mean[1] + error[1], mean[2] + error[2]),
+                );
+                let delta = ciede2000(a, b);
+                if delta.is_finite() {
+                    errors.push(delta);
+                }
+            }
+        }
+        if errors.is_empty() {
+            return None;
+        }
+        errors.sort_by(f64::total_cmp);
+        let mean = errors.iter().sum::<f64>() / errors.len() as f64;
+        let p95 = errors[((errors.len() - 1) as f64 * 0.95).round() as usize];
+        Some(NoiseEstimate {
+            mean_delta_e: mean,
+            p95_delta_e: p95,
+            pixels: errors.len(),
+        })
+    }
+
     /// Writes [`Self::to_display`] as an 8-bit sRGB PNG (with an sRGB chunk),
     /// atomically (a temporary file in the same folder, then a rename).
     pub fn write_png(&self, path: &Path, settings: &DisplaySettings) -> Result<(), FilmError> {
@@ -666,6 +729,28 @@ fn tone_map(rgb: [f32; 3], tone_mapping: ToneMapping) -> [f32; 3] {
             }
         }
     }
+}
+
+/// CIELAB of the displayed colour of `xyz` (display white L* = 100).
+fn display_lab_of(m: &Mat3f, tone_mapping: ToneMapping, xyz: Xyz) -> Lab {
+    let rgb = tone_map(
+        mul(m, [xyz.x as f32, xyz.y as f32, xyz.z as f32]),
+        tone_mapping,
+    )
+    .map(|v| f64::from(v.clamp(0.0, 1.0)));
+    let shown = xyz_from_linear_srgb(LinSrgb::new(rgb[0], rgb[1], rgb[2]));
+    lab_from_xyz(shown, srgb_white())
+}
+
+/// The noise left in a progressive render, as CIEDE2000 of the displayed colours.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NoiseEstimate {
+    /// Mean over the pixels looked at.
+    pub mean_delta_e: f64,
+    /// 95th percentile over them.
+    pub p95_delta_e: f64,
+    /// How many pixels were looked at.
+    pub pixels: usize,
 }
 
 /// The sRGB encoding table: entry i holds the 8-bit code of linear i / (len − 1).

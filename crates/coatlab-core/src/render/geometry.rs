@@ -59,9 +59,22 @@ impl RenderGeometry {
 
     /// The closest hit along a ray with unit direction, up to `t_max`.
     pub fn intersect(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> Option<SurfaceHit> {
+        self.intersect_with_floor(origin, dir, t_max, self.floor)
+    }
+
+    /// [`Self::intersect`] with the floor plane included or not, whatever the
+    /// geometry was built with: one BVH serves lighting setups with and without a
+    /// floor.
+    pub fn intersect_with_floor(
+        &self,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        t_max: f32,
+        floor: bool,
+    ) -> Option<SurfaceHit> {
         let mut best: Option<SurfaceHit> = None;
         let mut limit = t_max;
-        if self.floor && dir[1] < 0.0 && origin[1] > 0.0 {
+        if floor && dir[1] < 0.0 && origin[1] > 0.0 {
             let t = -origin[1] / dir[1];
             if t > 0.0 && t < limit {
                 limit = t;
@@ -118,7 +131,18 @@ impl RenderGeometry {
 
     /// Whether anything blocks the segment from `origin` along unit `dir` up to `t_max`.
     pub fn occluded(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
-        if self.floor && dir[1] < 0.0 && origin[1] > 0.0 && -origin[1] / dir[1] < t_max {
+        self.occluded_with_floor(origin, dir, t_max, self.floor)
+    }
+
+    /// [`Self::occluded`] with the floor plane included or not.
+    pub fn occluded_with_floor(
+        &self,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        t_max: f32,
+        floor: bool,
+    ) -> bool {
+        if floor && dir[1] < 0.0 && origin[1] > 0.0 && -origin[1] / dir[1] < t_max {
             return true;
         }
         self.accel.occluded(origin, dir, t_max)

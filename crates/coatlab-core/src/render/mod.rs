@@ -10,7 +10,10 @@
 //! [`crate::scene`]). Directions are unit `[f32; 3]`.
 //!
 //! - [`environment`]: what lights the scene (studio, booth, outdoor, image maps);
-//! - [`camera`] and [`film`]: rays from pixels, and accumulation into an image.
+//! - [`camera`] and [`film`]: rays from pixels, and accumulation into an image;
+//! - [`material`]: the design as paint or Phong, and the scene's simple materials;
+//! - [`integrator`]: the path tracer;
+//! - [`progressive`]: passes over tiles on all cores, restarts, noise estimates.
 
 pub mod geometry;
 pub mod sampler;
@@ -18,3 +21,6 @@ pub mod sampler;
 pub mod camera;
 pub mod environment;
 pub mod film;
+pub mod integrator;
+pub mod material;
+pub mod progressive;

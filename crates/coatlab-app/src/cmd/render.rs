@@ -1,0 +1,333 @@
+//! `coatlab render`: a headless render of a paint design on a car, to PNG (for
+//! viewing) or OpenEXR (linear values, for analysis).
+
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, bail};
+use coatlab_core::cie::Illuminant;
+use coatlab_core::design::{PaintDesign, presets};
+use coatlab_core::paint::phong::PhongVariant;
+use coatlab_core::render::environment::Environment;
+use coatlab_core::render::film::DisplaySettings;
+use coatlab_core::render::material::{Shading, ShadingModel};
+use coatlab_core::render::progressive::{
+    PassStats, ProgressiveRender, RenderScene, RenderSettings,
+};
+use coatlab_core::scene::Scene;
+use coatlab_core::scene::car::{CarParameters, generate};
+use coatlab_core::scene::gltf_loader::{LoadOptions, load};
+use coatlab_core::spectrum::WavelengthGrid;
+
+/// Wavelengths per path unless `--wavelengths` says otherwise.
+pub const DEFAULT_WAVELENGTHS: usize = 32;
+/// Samples per pixel unless `--spp` or `--seconds` says otherwise.
+pub const DEFAULT_SPP: u32 = 64;
+
+#[derive(clap::Args, Debug)]
+pub struct RenderArgs {
+    /// Paint design file (TOML); the built-in signal red when left out.
+    #[arg(long)]
+    pub design: Option<PathBuf>,
+    /// glTF scene (.glb or .gltf); the built-in car when left out.
+    #[arg(long)]
+    pub scene: Option<PathBuf>,
+    /// Paint the material with exactly this name instead of the automatic choice.
+    #[arg(long)]
+    pub paint_material: Option<String>,
+    /// Lighting: studio, booth-d65, booth-a, booth-f11, outdoor, or the path of a
+    /// Radiance .hdr environment map.
+    #[arg(long, default_value = "studio")]
+    pub environment: String,
+    /// How the design is rendered: paint, phong-naive or phong-fit.
+    #[arg(long, default_value = "paint", value_parser = parse_model)]
+    pub model: ShadingModel,
+    /// Samples per pixel.
+    #[arg(long, conflicts_with = "seconds")]
+    pub spp: Option<u32>,
+    /// Render for this many seconds instead of a sample count (at least one pass).
+    #[arg(long)]
+    pub seconds: Option<f64>,
+    /// Image size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "960x540", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Wavelengths carried by every path (1–401; 81 is the 5 nm reference grid).
+    #[arg(long, default_value_t = DEFAULT_WAVELENGTHS)]
+    pub wavelengths: usize,
+    /// Seed of the random numbers: the same seed gives the same image.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Exposure in stops (the lighting setups are normalised so 0 suits them all).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub exposure: f32,
+    /// Output: .png (sRGB, tone mapped) or .exr (linear sRGB, half floats).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+fn parse_model(text: &str) -> Result<ShadingModel, String> {
+    match text {
+        "paint" => Ok(ShadingModel::Paint),
+        "phong-naive" => Ok(ShadingModel::Phong(PhongVariant::Naive)),
+        "phong-fit" => Ok(ShadingModel::Phong(PhongVariant::BestFit)),
+        other => Err(format!(
+            "unknown model '{other}': use paint, phong-naive or phong-fit"
+        )),
+    }
+}
+
+fn parse_size(text: &str) -> Result<(u32, u32), String> {
+    let message = || format!("'{text}' is not a size: use WIDTHxHEIGHT, e.g. 960x540");
+    let (w, h) = text.split_once(['x', 'X', '×']).ok_or_else(message)?;
+    let w: u32 = w.trim().parse().map_err(|_| message())?;
+    let h: u32 = h.trim().parse().map_err(|_| message())?;
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(format!(
+            "size {w}x{h}: width and height must be 1 to 16384 pixels"
+        ));
+    }
+    Ok((w, h))
+}
+
+/// The lighting setup named on the command line.
+pub fn environment(name: &str, grid: &WavelengthGrid) -> anyhow::Result<Environment> {
+    Ok(match name {
+        "studio" => Environment::studio(grid),
+        "booth-d65" => Environment::booth(Illuminant::D65, grid),
+        "booth-a" => Environment::booth(Illuminant::A, grid),
+        "booth-f11" => Environment::booth(Illuminant::F11, grid),
+        "outdoor" => Environment::outdoor(grid),
+        path => {
+            let path = Path::new(path);
+            if !path.exists() {
+                bail!(
+                    "--environment '{}': not a lighting setup (studio, booth-d65, booth-a, \
+                     booth-f11, outdoor) and no such file",
+                    path.display()
+                );
+            }
+            Environment::from_image(path, grid)?
+        }
+    })
+}
+
+/// The scene: a glTF file, or the built-in car.
+pub fn scene(path: Option<&Path>, paint_material: Option<&str>) -> anyhow::Result<Scene> {
+    match path {
+        Some(path) => Ok(load(
+            path,
+            &LoadOptions {
+                paint_material: paint_material.map(str::to_owned),
+            },
+        )?),
+        None => {
+            let mut scene = generate(&CarParameters::default());
+            if let Some(name) = paint_material {
+                let index = scene
+                    .materials
+                    .iter()
+                    .position(|m| m.name == name)
+                    .with_context(|| {
+                        let names: Vec<&str> =
+                            scene.materials.iter().map(|m| m.name.as_str()).collect();
+                        format!(
+                            "--paint-material '{name}': the built-in car has no such material \
+                             (it has {})",
+                            names.join(", ")
+                        )
+                    })?;
+                scene.paint_materials = vec![index as u32];
+            }
+            Ok(scene)
+        }
+    }
+}
+
+pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
+    let extension = args
+        .out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    if !matches!(extension.as_deref(), Some("png") | Some("exr")) {
+        bail!(
+            "--out {}: the output must end in .png or .exr",
+            args.out.display()
+        );
+    }
+    if let Some(seconds) = args.seconds
+        && !(seconds > 0.0 && seconds.is_finite())
+    {
+        bail!("--seconds {seconds}: must be a positive number of seconds");
+    }
+    let spp = args.spp.unwrap_or(DEFAULT_SPP);
+    if spp == 0 {
+        bail!("--spp 0: at least one sample per pixel is needed");
+    }
+    let grid = WavelengthGrid::visible(args.wavelengths)
+        .with_context(|| format!("--wavelengths {}", args.wavelengths))?;
+
+    let design = match &args.design {
+        Some(path) => PaintDesign::load(path)?,
+        None => {
+            presets::all()
+                .into_iter()
+                .next()
+                .context("no built-in preset")?
+                .design
+        }
+    };
+    let model = design.model(grid).context("cannot build the paint model")?;
+    let environment = environment(&args.environment, &grid)?;
+    let scene = scene(args.scene.as_deref(), args.paint_material.as_deref())?;
+    for warning in &scene.warnings {
+        eprintln!("coatlab: warning: {warning}");
+    }
+    let shading = Shading::new(&model, args.model, &scene.materials, &scene.paint_materials);
+    let render_scene = RenderScene::new(scene).context("cannot prepare the scene")?;
+    let (width, height) = args.size;
+    let camera = render_scene.default_camera(width, height);
+    let mut render = ProgressiveRender::new(
+        Arc::new(render_scene),
+        Arc::new(environment),
+        Arc::new(shading),
+        camera,
+        RenderSettings {
+            seed: args.seed,
+            ..RenderSettings::default()
+        },
+    )?;
+
+    let mut progress = Progress::new(args.seconds.map(Duration::from_secs_f64), spp);
+    let start = Instant::now();
+    let mut totals = PassStats::default();
+    loop {
+        let done = render.samples_per_pixel();
+        let batch = match args.seconds {
+            Some(_) => 1,
+            None => (spp - done).min(4),
+        };
+        let pass = render.render_pass(batch);
+        totals.samples += pass.samples;
+        totals.rays += pass.rays;
+        let elapsed = start.elapsed();
+        progress.update(render.samples_per_pixel(), elapsed);
+        let finished = match args.seconds {
+            Some(s) => elapsed.as_secs_f64() >= s,
+            None => render.samples_per_pixel() >= spp,
+        };
+        if finished {
+            break;
+        }
+    }
+    totals.seconds = start.elapsed().as_secs_f64();
+    progress.finish();
+
+    let display = DisplaySettings {
+        exposure_stops: args.exposure,
+        ..DisplaySettings::default()
+    };
+    match extension.as_deref() {
+        Some("exr") => render.film().write_exr(&args.out)?,
+        _ => render.film().write_png(&args.out, &display)?,
+    }
+    let rejected = render.film().rejected_samples();
+    if rejected > 0 {
+        eprintln!("coatlab: warning: {rejected} samples were not finite and counted as black");
+    }
+    let noise = render
+        .noise_estimate(&display)
+        .map(|n| format!(", noise left ΔE00 {:.2} mean", n.mean_delta_e))
+        .unwrap_or_default();
+    writeln!(
+        out,
+        "wrote {} ({width}x{height}, {} spp, {} wavelengths, {}{noise}) in {:.1} s: \
+         {:.3} M samples/s, {:.2} M rays/s",
+        args.out.display(),
+        render.samples_per_pixel(),
+        grid.len(),
+        args.model.label(),
+        totals.seconds,
+        totals.samples_per_second() / 1e6,
+        totals.rays_per_second() / 1e6,
+    )?;
+    Ok(())
+}
+
+/// A progress bar on standard error: redrawn in place on a terminal, a line per
+/// tenth otherwise (logs stay readable).
+struct Progress {
+    limit: Option<Duration>,
+    spp: u32,
+    terminal: bool,
+    last_tenth: u32,
+}
+
+impl Progress {
+    fn new(limit: Option<Duration>, spp: u32) -> Self {
+        Self {
+            limit,
+            spp,
+            terminal: std::io::stderr().is_terminal(),
+            last_tenth: 0,
+        }
+    }
+
+    fn update(&mut self, done: u32, elapsed: Duration) {
+        let fraction = match self.limit {
+            Some(limit) => elapsed.as_secs_f64() / limit.as_secs_f64(),
+            None => f64::from(done) / f64::from(self.spp),
+        }
+        .clamp(0.0, 1.0);
+        let width = 30;
+        let filled = (fraction * width as f64).round() as usize;
+        let bar = format!(
+            "[{}{}] {:3.0}%  {done} spp  {:.1} s",
+            "#".repeat(filled),
+            " ".repeat(width - filled),
+            fraction * 100.0,
+            elapsed.as_secs_f64()
+        );
+        if self.terminal {
+            eprint!("\r{bar}");
+        } else {
+            let tenth = (fraction * 10.0).floor() as u32;
+            if tenth > self.last_tenth {
+                self.last_tenth = tenth;
+                eprintln!("{bar}");
+            }
+        }
+    }
+
+    fn finish(&self) {
+        if self.terminal {
+            eprintln!();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_parse_and_bad_ones_say_why() {
+        assert_eq!(parse_size("960x540"), Ok((960, 540)));
+        assert_eq!(parse_size("64X32"), Ok((64, 32)));
+        assert!(parse_size("960").unwrap_err().contains("WIDTHxHEIGHT"));
+        assert!(parse_size("0x10").unwrap_err().contains("1 to 16384"));
+        assert!(parse_size("ax10").is_err());
+    }
+
+    #[test]
+    fn models_parse() {
+        assert_eq!(parse_model("paint"), Ok(ShadingModel::Paint));
+        assert_eq!(
+            parse_model("phong-fit"),
+            Ok(ShadingModel::Phong(PhongVariant::BestFit))
+        );
+        assert!(parse_model("lambert").unwrap_err().contains("phong-naive"));
+    }
+}

@@ -1,0 +1,429 @@
+//! What the tracer shades with: the designed paint (as the paint model or as one of
+//! the two Phong translations the paper compares it with), simple materials for the
+//! rest of the scene, and the floor.
+//!
+//! # Simple materials
+//! Parts that are not painted keep the glTF metallic-roughness description they came
+//! with, reduced to what a preview needs: a Lambertian base under a glossy lobe,
+//!
+//! f = (1 − F₀(λ)) · a(λ)/π + F₀(λ) · (m + 2)/(2π) · cos^m α,
+//!
+//! with α the angle between ωi and the mirror direction of ωo, and
+//!
+//! | name | unit | range | from glTF |
+//! |---|---|---|---|
+//! | a(λ), diffuse albedo | 1 | [0, 1] | (1 − metallic) × base colour, upsampled |
+//! | F₀(λ), specular colour | 1 | [0, 1] | 0.04 (dielectric) mixed to the base colour by metallic |
+//! | m, lobe exponent | 1 | [0, [`MAX_SIMPLE_EXPONENT`]] | 2/α² − 2 with α = roughness² (the Blinn–Phong equivalent of GGX's α) |
+//!
+//! Base colours are turned into smooth reflectance spectra by
+//! [`RgbUpsampler::reflectance`]. The lobe is normalised at normal incidence, so it
+//! never creates energy; it loses a little at grazing angles (no below-horizon
+//! correction) — acceptable for tyres, trim and glass in a paint preview, and the
+//! reason these materials are not used for anything measured.
+
+use std::sync::Arc;
+
+use palette::LinSrgb;
+
+use crate::paint::lobe::{mirror, phong_lobe, phong_lobe_pdf, sample_phong_lobe};
+use crate::paint::model::{
+    BsdfSample, PaintModel, SpectralBsdf, SpectralPaint, cosine_hemisphere, weigh_sample,
+};
+use crate::paint::phong::{PhongParams, PhongVariant, SpectralPhong};
+use crate::render::environment::RgbUpsampler;
+use crate::scene::SceneMaterial;
+use crate::spectrum::WavelengthGrid;
+
+/// Sharpest lobe a simple material gets (roughness 0 would otherwise give an
+/// infinite exponent); at 10⁵ the lobe is 0.3° wide, a mirror for a preview.
+pub const MAX_SIMPLE_EXPONENT: f32 = 1e5;
+/// F₀ of a dielectric: glTF's fixed 4 % (n = 1.5).
+const DIELECTRIC_F0: f32 = 0.04;
+
+/// Which model renders the designed paint.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ShadingModel {
+    /// The paint model of `docs/paint-model.md`.
+    #[default]
+    Paint,
+    /// Phong with the parameters of [`PhongVariant`].
+    Phong(PhongVariant),
+}
+
+impl ShadingModel {
+    /// The label the UI and the CLI show.
+    pub fn label(self) -> &'static str {
+        match self {
+            ShadingModel::Paint => "Paint model",
+            ShadingModel::Phong(variant) => variant.label(),
+        }
+    }
+}
+
+/// The designed paint in the form the tracer evaluates.
+#[derive(Debug, Clone)]
+pub enum DesignBsdf {
+    /// The paint model's single-precision tables.
+    Paint(SpectralPaint),
+    /// A Phong translation of the design.
+    Phong(SpectralPhong),
+}
+
+impl SpectralBsdf for DesignBsdf {
+    fn len(&self) -> usize {
+        match self {
+            DesignBsdf::Paint(b) => b.len(),
+            DesignBsdf::Phong(b) => b.len(),
+        }
+    }
+
+    #[inline]
+    fn eval(&self, wi: [f32; 3], wo: [f32; 3], out: &mut [f32]) {
+        match self {
+            DesignBsdf::Paint(b) => b.eval(wi, wo, out),
+            DesignBsdf::Phong(b) => b.eval(wi, wo, out),
+        }
+    }
+
+    #[inline]
+    fn pdf(&self, wo: [f32; 3], wi: [f32; 3]) -> f32 {
+        match self {
+            DesignBsdf::Paint(b) => b.pdf(wo, wi),
+            DesignBsdf::Phong(b) => b.pdf(wo, wi),
+        }
+    }
+
+    #[inline]
+    fn sample(&self, wo: [f32; 3], u: [f32; 3], weight: &mut [f32]) -> Option<BsdfSample> {
+        match self {
+            DesignBsdf::Paint(b) => b.sample(wo, u, weight),
+            DesignBsdf::Phong(b) => b.sample(wo, u, weight),
+        }
+    }
+}
+
+/// A non-paint material (see the module documentation).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimpleMaterial {
+    /// (1 − F₀) a / π per wavelength.
+    diffuse_over_pi: Vec<f32>,
+    /// F₀ per wavelength.
+    specular: Vec<f32>,
+    exponent: f32,
+    /// Probability of sampling the lobe rather than the cosine hemisphere.
+    specular_probability: f32,
+}
+
+impl SimpleMaterial {
+    /// A Lambertian reflector with reflectance `albedo` per wavelength.
+    pub fn lambertian(albedo: &[f32]) -> Self {
+        Self::new(albedo, &vec![0.0; albedo.len()], 1.0)
+    }
+
+    /// The material of a glTF metallic-roughness description on `grid`.
+    pub fn from_scene_material(
+        material: &SceneMaterial,
+        upsampler: &RgbUpsampler,
+        grid: &WavelengthGrid,
+    ) -> Self {
+        let [r, g, b] = material.base_color.map(|c| c.clamp(0.0, 1.0));
+        let mut base = vec![0.0; grid.len()];
+        upsampler.reflectance(LinSrgb::new(r, g, b), &mut base);
+        let metallic = material.metallic.clamp(0.0, 1.0);
+        let albedo: Vec<f32> = base
+            .iter()
+            .map(|&c| ((1.0 - metallic) * c).clamp(0.0, 1.0))
+            .collect();
+        let specular: Vec<f32> = base
+            .iter()
+            .map(|&c| (DIELECTRIC_F0 + metallic * (c - DIELECTRIC_F0)).clamp(0.0, 1.0))
+            .collect();
+        let alpha = material.roughness.clamp(0.0, 1.0).powi(2);
+        let exponent = if alpha > 0.0 {
+            (2.0 / (alpha * alpha) - 2.0).clamp(0.0, MAX_SIMPLE_EXPONENT)
+        } else {
+            MAX_SIMPLE_EXPONENT
+        };
+        Self::new(&albedo, &specular, exponent)
+    }
+
+    /// From diffuse albedo a(λ), specular colour F₀(λ) and lobe exponent m.
+    pub fn new(albedo: &[f32], specular: &[f32], exponent: f32) -> Self {
+        let diffuse_over_pi: Vec<f32> = albedo
+            .iter()
+            .zip(specular)
+            .map(|(&a, &f0)| (1.0 - f0) * a * std::f32::consts::FRAC_1_PI)
+            .collect();
+        let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len().max(1) as f32;
+        let diffuse_mean = mean(&diffuse_over_pi) * std::f32::consts::PI;
+        let specular_mean = mean(specular);
+        // Sample each part by its share of the reflected energy, but never starve a
+        // part that is present (its variance would explode).
+        let specular_probability = if specular_mean <= 0.0 {
+            0.0
+        } else if diffuse_mean <= 0.0 {
+            1.0
+        } else {
+            (specular_mean / (specular_mean + diffuse_mean)).clamp(0.1, 0.9)
+        };
+        Self {
+            diffuse_over_pi,
+            specular: specular.to_vec(),
+            exponent: exponent.clamp(0.0, MAX_SIMPLE_EXPONENT),
+            specular_probability,
+        }
+    }
+}
+
+impl SpectralBsdf for SimpleMaterial {
+    fn len(&self) -> usize {
+        self.specular.len()
+    }
+
+    fn eval(&self, wi: [f32; 3], wo: [f32; 3], out: &mut [f32]) {
+        if wi[2] <= 0.0 || wo[2] <= 0.0 {
+            out.fill(0.0);
+            return;
+        }
+        let lobe = if self.specular_probability > 0.0 {
+            let m = self.exponent;
+            (m + 2.0) / (2.0 * std::f32::consts::PI) * phong_lobe(wi, wo, m)
+        } else {
+            0.0
+        };
+        for ((o, kd), ks) in out
+            .iter_mut()
+            .zip(&self.diffuse_over_pi)
+            .zip(&self.specular)
+        {
+            *o = kd + ks * lobe;
+        }
+    }
+
+    fn pdf(&self, wo: [f32; 3], wi: [f32; 3]) -> f32 {
+        if wi[2] <= 0.0 || wo[2] <= 0.0 {
+            return 0.0;
+        }
+        let p = self.specular_probability;
+        let lobe = if p > 0.0 {
+            p * phong_lobe_pdf(wo, wi, self.exponent)
+        } else {
+            0.0
+        };
+        lobe + (1.0 - p) * wi[2] * std::f32::consts::FRAC_1_PI
+    }
+
+    fn sample(&self, wo: [f32; 3], u: [f32; 3], weight: &mut [f32]) -> Option<BsdfSample> {
+        if wo[2] <= 0.0 {
+            return None;
+        }
+        let wi = if u[0] < self.specular_probability {
+            sample_phong_lobe(mirror(wo), self.exponent, [u[1], u[2]])?
+        } else {
+            cosine_hemisphere([u[1], u[2]])
+        };
+        weigh_sample(self, wo, wi, weight)
+    }
+}
+
+/// Everything the tracer needs to shade one scene with one design: the design's
+/// BSDF, a simple material per scene material, which of them carry the paint, and
+/// the floor. Built when the design, the model or the scene changes; the geometry
+/// and its BVH are not touched.
+#[derive(Debug, Clone)]
+pub struct Shading {
+    grid: WavelengthGrid,
+    model: ShadingModel,
+    design: DesignBsdf,
+    simple: Vec<SimpleMaterial>,
+    painted: Vec<bool>,
+}
+
+impl Shading {
+    /// The shading of a scene whose materials are `materials`, of which
+    /// `paint_materials` (indices) carry the design `paint`, rendered with `model`.
+    pub fn new(
+        paint: &PaintModel,
+        model: ShadingModel,
+        materials: &[SceneMaterial],
+        paint_materials: &[u32],
+    ) -> Self {
+        let grid = paint.grid();
+        let design = match model {
+            ShadingModel::Paint => DesignBsdf::Paint(paint.spectral().clone()),
+            ShadingModel::Phong(PhongVariant::Naive) => {
+                DesignBsdf::Phong(PhongParams::naive(paint).spectral())
+            }
+            ShadingModel::Phong(PhongVariant::BestFit) => {
+                DesignBsdf::Phong(PhongParams::best_fit(paint).spectral())
+            }
+        };
+        let upsampler = RgbUpsampler::new(grid);
+        let simple = materials
+            .iter()
+            .map(|m| SimpleMaterial::from_scene_material(m, &upsampler, grid))
+            .collect();
+        let mut painted = vec![false; materials.len()];
+        for &index in paint_materials {
+            if let Some(p) = painted.get_mut(index as usize) {
+                *p = true;
+            }
+        }
+        Self {
+            grid: *grid,
+            model,
+            design,
+            simple,
+            painted,
+        }
+    }
+
+    /// The wavelength grid of every spectrum here.
+    pub fn grid(&self) -> &WavelengthGrid {
+        &self.grid
+    }
+
+    /// The model the design is rendered with.
+    pub fn model(&self) -> ShadingModel {
+        self.model
+    }
+
+    /// The design's BSDF.
+    pub fn design(&self) -> &DesignBsdf {
+        &self.design
+    }
+
+    /// Number of wavelengths.
+    pub fn len(&self) -> usize {
+        self.design.len()
+    }
+
+    /// Whether there are no wavelengths.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The BSDF of scene material `material`; an index the scene does not have
+    /// (which the loader never produces) shades as the paint.
+    #[inline]
+    pub fn material(&self, material: u32) -> &dyn SpectralBsdf {
+        let index = material as usize;
+        match self.painted.get(index) {
+            Some(false) => &self.simple[index],
+            _ => &self.design,
+        }
+    }
+}
+
+/// Shared handle, as the progressive renderer keeps it.
+pub type SharedShading = Arc<Shading>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid() -> WavelengthGrid {
+        WavelengthGrid::visible(16).expect("grid")
+    }
+
+    fn directional_albedo(material: &SimpleMaterial, wo: [f32; 3]) -> f32 {
+        // Importance-sampled estimate of ∫ f cos θi dωi at the first wavelength.
+        let mut weight = vec![0.0; material.len()];
+        let n = 200_000;
+        let mut sum = 0.0f64;
+        for i in 0..n {
+            let u = [
+                (i as f32 + 0.5) / n as f32,
+                ((i as u64 * 7919) % n as u64) as f32 / n as f32,
+                ((i as u64 * 104_729) % n as u64) as f32 / n as f32,
+            ];
+            if material.sample(wo, u, &mut weight).is_some() {
+                sum += f64::from(weight[0]);
+            }
+        }
+        (sum / f64::from(n)) as f32
+    }
+
+    #[test]
+    fn a_lambertian_reflects_its_albedo_and_samples_by_cosine() {
+        let m = SimpleMaterial::lambertian(&[0.5; 4]);
+        let mut out = [0.0; 4];
+        m.eval([0.0, 0.6, 0.8], [0.0, 0.0, 1.0], &mut out);
+        assert!((out[0] - 0.5 / std::f32::consts::PI).abs() < 1e-7);
+        assert!(
+            (m.pdf([0.0, 0.0, 1.0], [0.0, 0.6, 0.8]) - 0.8 / std::f32::consts::PI).abs() < 1e-6
+        );
+        let albedo = directional_albedo(&m, [0.0, 0.0, 1.0]);
+        assert!((albedo - 0.5).abs() < 1e-3, "{albedo}");
+    }
+
+    #[test]
+    fn simple_materials_never_reflect_more_than_they_receive() {
+        let upsampler = RgbUpsampler::new(&grid());
+        for (roughness, metallic) in [(0.0, 0.0), (0.3, 0.0), (0.3, 1.0), (1.0, 0.5), (0.05, 1.0)] {
+            let scene_material = SceneMaterial {
+                name: "test".into(),
+                base_color: [1.0, 1.0, 1.0],
+                roughness,
+                metallic,
+                area_m2: 1.0,
+            };
+            let m = SimpleMaterial::from_scene_material(&scene_material, &upsampler, &grid());
+            for mu in [1.0f32, 0.5, 0.1] {
+                let wo = [(1.0 - mu * mu).sqrt(), 0.0, mu];
+                let albedo = directional_albedo(&m, wo);
+                assert!(
+                    albedo <= 1.0 + 5e-3,
+                    "roughness {roughness} metallic {metallic} mu {mu}: albedo {albedo}"
+                );
+                assert!(albedo > 0.3, "white material too dark: {albedo}");
+            }
+        }
+    }
+
+    #[test]
+    fn sampled_directions_have_the_density_pdf_reports() {
+        // Histogram test over cos θ bins: the sampler and pdf() agree.
+        let m = SimpleMaterial::new(&[0.4; 2], &[0.3; 2], 40.0);
+        let wo = [0.6, 0.0, 0.8];
+        let bins = 32;
+        let n = 400_000u32;
+        let mut counts = vec![0u32; bins];
+        let mut weight = [0.0; 2];
+        let mut state = 0x1234_5678_u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            ((state >> 40) as f32) / 16_777_216.0
+        };
+        for _ in 0..n {
+            let u = [next(), next(), next()];
+            if let Some(s) = m.sample(wo, u, &mut weight) {
+                let bin = ((s.wi[2] * bins as f32) as usize).min(bins - 1);
+                counts[bin] += 1;
+            }
+        }
+        // Expected mass per bin by quadrature of pdf over (cos θ, φ).
+        for (bin, &count) in counts.iter().enumerate() {
+            let (mut mass, steps_mu, steps_phi) = (0.0f64, 64, 512);
+            for i in 0..steps_mu {
+                let mu = (bin as f64 + (i as f64 + 0.5) / steps_mu as f64) / bins as f64;
+                let s = (1.0 - mu * mu).sqrt();
+                for j in 0..steps_phi {
+                    let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / steps_phi as f64;
+                    let wi = [(s * phi.cos()) as f32, (s * phi.sin()) as f32, mu as f32];
+                    mass += f64::from(m.pdf(wo, wi));
+                }
+            }
+            mass *= 2.0 * std::f64::consts::PI / (steps_phi as f64 * steps_mu as f64 * bins as f64);
+            let expected = mass * f64::from(n);
+            let z = (f64::from(count) - expected) / expected.max(1.0).sqrt();
+            assert!(
+                z.abs() < 5.0,
+                "bin {bin}: {count} against {expected:.1} (Z = {z:.1})"
+            );
+        }
+    }
+}
