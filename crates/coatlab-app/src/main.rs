@@ -1,4 +1,5 @@
-//! `coatlab`: the command line (and, in a later issue, the designer's GUI).
+//! `coatlab`: the designer's GUI when started without a subcommand, else the
+//! command line.
 //!
 //! The CLI's command names and CSV column names are an interface that scripts depend
 //! on; keep them exactly as documented in the README.
@@ -17,8 +18,12 @@ use clap::{Parser, Subcommand};
     about = "Spectral colour design for gloss solid automotive paints"
 )]
 struct Cli {
+    /// Without a subcommand: open the designer's window (on DESIGN, if given).
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
+    /// A design file to open in the window.
+    #[arg(value_name = "DESIGN")]
+    design: Option<std::path::PathBuf>,
 }
 
 #[derive(Subcommand, Debug)]
@@ -38,9 +43,12 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    let Some(command) = &cli.command else {
+        return run_gui(cli.design);
+    };
     let stdin = io::stdin().lock();
     let mut stdout = BufWriter::new(io::stdout().lock());
-    let result = match &cli.command {
+    let result = match command {
         Command::Brdf => cmd::brdf::run(stdin, &mut stdout),
         Command::Color(args) => cmd::color::run(args, &mut stdout),
         Command::DeltaE => cmd::delta_e::run(stdin, &mut stdout),
@@ -54,6 +62,20 @@ fn main() -> ExitCode {
         Err(err) if is_broken_pipe(&err) => ExitCode::SUCCESS,
         Err(err) => {
             drop(stdout);
+            eprintln!("coatlab: {err:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run_gui(design: Option<std::path::PathBuf>) -> ExitCode {
+    let options = coatlab_app::gui::AppOptions {
+        storage: coatlab_app::gui::storage::Storage::from_environment(),
+        open: design,
+    };
+    match coatlab_app::gui::run(options) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
             eprintln!("coatlab: {err:#}");
             ExitCode::FAILURE
         }

@@ -1,0 +1,752 @@
+//! The designer's window: the document (design, file, history), the panels, the
+//! menus and shortcuts, files in and out, and drag and drop.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use coatlab_core::design::PaintDesign;
+use coatlab_core::design::presets::{self, Preset};
+use coatlab_core::spectrum::{ValueBounds, read_spectra_csv};
+use egui::{Color32, RichText, Ui};
+
+use super::analysis::Analysis;
+use super::export;
+use super::file_browser::{FileBrowser, FilePurpose};
+use super::history::History;
+use super::instruments_panel::{InstrumentsRequest, instruments_ui};
+use super::paint_panel::{PanelRequest, paint_controls_ui};
+use super::plots::{PlotSettings, plots_ui};
+use super::storage::{Recovery, Storage};
+
+/// How often an unsaved design is autosaved.
+const AUTOSAVE_INTERVAL: Duration = Duration::from_secs(5);
+
+/// How the app starts.
+#[derive(Debug, Clone, Default)]
+pub struct AppOptions {
+    /// Where recent files and the autosave live.
+    pub storage: Storage,
+    /// A design file to open at start.
+    pub open: Option<PathBuf>,
+}
+
+/// The tabs of the central area.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Tab {
+    #[default]
+    Plots,
+    Instruments,
+}
+
+/// A message in the notice bar.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Notice {
+    pub is_error: bool,
+    pub text: String,
+}
+
+/// The key the current analysis was computed for.
+#[derive(Debug, Clone, PartialEq)]
+struct AnalysisKey {
+    design: PaintDesign,
+    target: Option<PaintDesign>,
+    phong: coatlab_core::paint::phong::PhongVariant,
+}
+
+/// The whole application state.
+pub struct CoatlabApp {
+    design: PaintDesign,
+    path: Option<PathBuf>,
+    /// The design as last saved or opened, to tell unsaved changes.
+    saved: PaintDesign,
+    history: History,
+    presets: Vec<Preset>,
+    target: Option<PaintDesign>,
+    analysis: Option<Analysis>,
+    analysis_error: Option<String>,
+    analysis_key: Option<AnalysisKey>,
+    plot_settings: PlotSettings,
+    tab: Tab,
+    browser: FileBrowser,
+    notices: Vec<Notice>,
+    storage: Storage,
+    recent: Vec<PathBuf>,
+    recovery: Option<Recovery>,
+    last_autosave: Instant,
+    autosaved: Option<PaintDesign>,
+    window_title: String,
+}
+
+impl CoatlabApp {
+    /// The app on the default design (the signal red preset), or on `options.open`.
+    pub fn new(options: AppOptions) -> Self {
+        let presets = presets::all();
+        let design = presets
+            .iter()
+            .find(|p| p.slug == "signal-red")
+            .or_else(|| presets.first())
+            .map(|p| p.design.clone())
+            .unwrap_or_else(unreachable_default);
+        let mut notices = Vec::new();
+        let recovery = match options.storage.recovery() {
+            Ok(r) => r,
+            Err(e) => {
+                notices.push(Notice {
+                    is_error: true,
+                    text: format!("{e:#}"),
+                });
+                None
+            }
+        };
+        let mut app = Self {
+            saved: design.clone(),
+            history: History::new(design.clone()),
+            design,
+            path: None,
+            presets,
+            target: None,
+            analysis: None,
+            analysis_error: None,
+            analysis_key: None,
+            plot_settings: PlotSettings::default(),
+            tab: Tab::default(),
+            browser: FileBrowser::default(),
+            notices,
+            recent: options.storage.recent_files(),
+            storage: options.storage,
+            recovery,
+            last_autosave: Instant::now(),
+            autosaved: None,
+            window_title: String::new(),
+        };
+        if let Some(path) = options.open {
+            app.open_design(&path);
+        }
+        app
+    }
+
+    /// The design being edited.
+    pub fn design(&self) -> &PaintDesign {
+        &self.design
+    }
+
+    /// Replaces the design as an undoable edit (what every control ends up doing).
+    pub fn set_design(&mut self, design: PaintDesign) {
+        self.history.commit(&self.design);
+        self.design = design;
+        self.history.commit(&self.design);
+    }
+
+    /// The file the design belongs to.
+    pub fn path(&self) -> Option<&Path> {
+        self.path.as_deref()
+    }
+
+    /// Whether the design differs from its file.
+    pub fn is_dirty(&self) -> bool {
+        self.design != self.saved
+    }
+
+    /// Messages shown in the notice bar, oldest first.
+    pub fn notices(&self) -> &[Notice] {
+        &self.notices
+    }
+
+    /// The current analysis, if the design is valid.
+    pub fn analysis(&self) -> Option<&Analysis> {
+        self.analysis.as_ref()
+    }
+
+    /// Selects a tab.
+    pub fn set_tab(&mut self, tab: Tab) {
+        self.tab = tab;
+    }
+
+    /// The target design of the ΔE00 column.
+    pub fn target(&self) -> Option<&PaintDesign> {
+        self.target.as_ref()
+    }
+
+    /// Recent files, newest first.
+    pub fn recent_files(&self) -> &[PathBuf] {
+        &self.recent
+    }
+
+    /// The autosave offered for recovery, if any.
+    pub fn pending_recovery(&self) -> Option<&Recovery> {
+        self.recovery.as_ref()
+    }
+
+    fn error(&mut self, text: impl Into<String>) {
+        self.notices.push(Notice {
+            is_error: true,
+            text: text.into(),
+        });
+    }
+
+    fn info(&mut self, text: impl Into<String>) {
+        self.notices.push(Notice {
+            is_error: false,
+            text: text.into(),
+        });
+    }
+
+    /// Opens a design file. On failure the error is shown and the current design is
+    /// left exactly as it was.
+    pub fn open_design(&mut self, path: &Path) {
+        match PaintDesign::load(path) {
+            Ok(design) => {
+                self.set_design(design.clone());
+                self.saved = design;
+                self.path = Some(path.to_owned());
+                self.remember(path);
+                self.info(format!("Opened {}", path.display()));
+            }
+            Err(e) => self.error(format!("Could not open the design: {e}")),
+        }
+    }
+
+    /// Saves to `path` (atomically) and makes it the design's file.
+    pub fn save_design_as(&mut self, path: &Path) {
+        match self.design.save(path) {
+            Ok(()) => {
+                self.saved = self.design.clone();
+                self.path = Some(path.to_owned());
+                self.storage.clear_autosave();
+                self.autosaved = None;
+                self.remember(path);
+                self.info(format!("Saved {}", path.display()));
+            }
+            Err(e) => self.error(format!("Could not save: {e}")),
+        }
+    }
+
+    fn save(&mut self) {
+        match self.path.clone() {
+            Some(p) => self.save_design_as(&p),
+            None => self.open_browser(FilePurpose::SaveDesign),
+        }
+    }
+
+    fn remember(&mut self, path: &Path) {
+        match self.storage.add_recent(path) {
+            Ok(list) => self.recent = list,
+            Err(e) => self.error(format!("{e:#}")),
+        }
+    }
+
+    /// Imports ρ(λ) from a spectral CSV (the first sample column). The design is
+    /// changed only if the result is a valid design.
+    pub fn import_albedo_csv(&mut self, path: &Path) {
+        let result = std::fs::File::open(path)
+            .map_err(|e| format!("cannot read {}: {e}", path.display()))
+            .and_then(|f| {
+                read_spectra_csv(f, &path.display().to_string(), ValueBounds::UNIT)
+                    .map_err(|e| e.to_string())
+            });
+        let csv = match result {
+            Ok(csv) => csv,
+            Err(e) => return self.error(format!("Could not import ρ(λ): {e}")),
+        };
+        let Some((column, _)) = csv.samples.first() else {
+            return self.error(format!(
+                "Could not import ρ(λ): {} has no sample column",
+                path.display()
+            ));
+        };
+        let column = column.clone();
+        let mut design = self.design.clone();
+        design.albedo = csv.tabulated(0);
+        match design.validate() {
+            Ok(()) => {
+                self.set_design(design);
+                let others = csv.samples.len() - 1;
+                let note = if others > 0 {
+                    format!(" ({others} further column(s) ignored)")
+                } else {
+                    String::new()
+                };
+                self.info(format!(
+                    "Imported ρ(λ) from column \"{column}\" of {}{note}",
+                    path.display()
+                ));
+            }
+            Err(e) => self.error(format!(
+                "Could not import ρ(λ) from {}: {e}",
+                path.display()
+            )),
+        }
+    }
+
+    /// Uses a design file as the target.
+    pub fn open_target(&mut self, path: &Path) {
+        match PaintDesign::load(path) {
+            Ok(d) => self.target = Some(d),
+            Err(e) => self.error(format!("Could not open the target: {e}")),
+        }
+    }
+
+    /// Undoes the last edit.
+    pub fn undo(&mut self) {
+        if let Some(d) = self.history.undo(&self.design) {
+            self.design = d;
+        }
+    }
+
+    /// Redoes the last undone edit.
+    pub fn redo(&mut self) {
+        if let Some(d) = self.history.redo(&self.design) {
+            self.design = d;
+        }
+    }
+
+    fn open_browser(&mut self, purpose: FilePurpose) {
+        let dir = self
+            .path
+            .as_ref()
+            .and_then(|p| p.parent().map(Path::to_owned))
+            .or_else(|| std::env::current_dir().ok())
+            .unwrap_or_else(|| PathBuf::from("/"));
+        let name = match purpose {
+            FilePurpose::SaveDesign => self
+                .path
+                .as_ref()
+                .and_then(|p| p.file_name())
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_else(|| format!("{}.toml", slug(&self.design.name))),
+            FilePurpose::ExportMeasurement => format!("{}-readings.csv", slug(&self.design.name)),
+            FilePurpose::ExportPreviewImage => format!("{}.png", slug(&self.design.name)),
+            _ => String::new(),
+        };
+        self.browser.open(purpose, &dir, &name);
+    }
+
+    fn file_chosen(&mut self, purpose: FilePurpose, path: PathBuf) {
+        match purpose {
+            FilePurpose::OpenDesign => self.open_design(&path),
+            FilePurpose::SaveDesign => self.save_design_as(&path),
+            FilePurpose::ImportAlbedoCsv => self.import_albedo_csv(&path),
+            FilePurpose::TargetDesign => self.open_target(&path),
+            FilePurpose::ExportMeasurement => self.export_measurement(&path),
+            FilePurpose::ExportPreviewImage => {
+                self.error("The preview is not running; nothing to export.")
+            }
+        }
+    }
+
+    /// Writes the readings as CSV or JSON (by extension).
+    pub fn export_measurement(&mut self, path: &Path) {
+        let Some(analysis) = &self.analysis else {
+            return self.error("The design is invalid; there are no readings to export.");
+        };
+        match export::write_measurement(path, analysis, &self.design.name, self.path.as_deref()) {
+            Ok(()) => self.info(format!("Exported readings to {}", path.display())),
+            Err(e) => self.error(format!("{e:#}")),
+        }
+    }
+
+    /// A file dropped on the window: a design opens, a CSV becomes ρ(λ).
+    pub fn file_dropped(&mut self, path: &Path) {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            Some("toml") => self.open_design(path),
+            Some("csv") => self.import_albedo_csv(path),
+            _ => self.error(format!(
+                "{}: not a design (.toml) or a spectral CSV (.csv)",
+                path.display()
+            )),
+        }
+    }
+
+    /// Recomputes the analysis if the design, the target or the Phong variant changed.
+    pub fn update_analysis(&mut self) {
+        let key = AnalysisKey {
+            design: self.design.clone(),
+            target: self.target.clone(),
+            phong: self.plot_settings.phong,
+        };
+        if self.analysis_key.as_ref() == Some(&key) {
+            return;
+        }
+        match Analysis::compute(&key.design, key.target.as_ref(), key.phong) {
+            Ok(a) => {
+                self.analysis = Some(a);
+                self.analysis_error = None;
+            }
+            Err(e) => {
+                // Keep showing the last valid analysis is misleading next to an
+                // invalid design: show none, and the reason.
+                self.analysis = None;
+                self.analysis_error = Some(e);
+            }
+        }
+        self.analysis_key = Some(key);
+    }
+
+    fn autosave(&mut self) {
+        if self.last_autosave.elapsed() < AUTOSAVE_INTERVAL {
+            return;
+        }
+        self.last_autosave = Instant::now();
+        if !self.is_dirty()
+            || self.autosaved.as_ref() == Some(&self.design)
+            || self.design.validate().is_err()
+        {
+            return;
+        }
+        match self.storage.autosave(&self.design, self.path.as_deref()) {
+            Ok(()) => self.autosaved = Some(self.design.clone()),
+            Err(e) => self.error(format!("Autosave failed: {e:#}")),
+        }
+    }
+
+    /// Called when the window closes: a clean exit with everything saved leaves no
+    /// autosave; unsaved changes are autosaved once more and offered next time.
+    pub fn shutdown(&mut self) {
+        if self.is_dirty() && self.design.validate().is_ok() {
+            if let Err(e) = self.storage.autosave(&self.design, self.path.as_deref()) {
+                eprintln!("coatlab: autosave on exit failed: {e:#}");
+            }
+        } else if !self.is_dirty() {
+            self.storage.clear_autosave();
+        }
+    }
+
+    fn shortcuts(&mut self, ctx: &egui::Context) {
+        use egui::{Key, KeyboardShortcut, Modifiers};
+        // A focused text field has its own undo; leave the keys to it.
+        if ctx.egui_wants_keyboard_input() {
+            return;
+        }
+        let redo_z = KeyboardShortcut::new(Modifiers::COMMAND | Modifiers::SHIFT, Key::Z);
+        let redo_y = KeyboardShortcut::new(Modifiers::COMMAND, Key::Y);
+        let undo = KeyboardShortcut::new(Modifiers::COMMAND, Key::Z);
+        let save = KeyboardShortcut::new(Modifiers::COMMAND, Key::S);
+        let open = KeyboardShortcut::new(Modifiers::COMMAND, Key::O);
+        // The more specific shortcut first: Ctrl+Shift+Z also matches Ctrl+Z's keys.
+        if ctx.input_mut(|i| i.consume_shortcut(&redo_z) || i.consume_shortcut(&redo_y)) {
+            self.redo();
+        }
+        if ctx.input_mut(|i| i.consume_shortcut(&undo)) {
+            self.undo();
+        }
+        if ctx.input_mut(|i| i.consume_shortcut(&save)) {
+            self.save();
+        }
+        if ctx.input_mut(|i| i.consume_shortcut(&open)) {
+            self.open_browser(FilePurpose::OpenDesign);
+        }
+    }
+
+    /// Draws the whole window into `ui` (the eframe entry point and the tests' harness
+    /// both call this).
+    pub fn show(&mut self, ui: &mut Ui) {
+        let ctx = ui.ctx().clone();
+        self.shortcuts(&ctx);
+        let dropped: Vec<PathBuf> = ctx.input(|i| {
+            i.raw
+                .dropped_files
+                .iter()
+                .map(|f| f.path().to_owned())
+                .collect()
+        });
+        for path in dropped {
+            self.file_dropped(&path);
+        }
+
+        egui::Panel::top("menu").show(ui, |ui| self.menu_ui(ui));
+        egui::Panel::bottom("notices").show(ui, |ui| self.notices_ui(ui));
+        egui::Panel::left("paint")
+            .resizable(true)
+            .default_size(400.0)
+            .show(ui, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| {
+                    let requests = paint_controls_ui(ui, &mut self.design, &self.presets);
+                    for r in requests {
+                        match r {
+                            PanelRequest::ImportAlbedoCsv => {
+                                self.open_browser(FilePurpose::ImportAlbedoCsv)
+                            }
+                            PanelRequest::LoadPreset(i) => {
+                                if let Some(p) = self.presets.get(i) {
+                                    let d = p.design.clone();
+                                    self.set_design(d);
+                                }
+                            }
+                        }
+                    }
+                });
+            });
+        self.update_analysis();
+        egui::CentralPanel::default().show(ui, |ui| {
+            self.recovery_ui(ui);
+            ui.horizontal(|ui| {
+                ui.selectable_value(&mut self.tab, Tab::Plots, "Plots");
+                ui.selectable_value(&mut self.tab, Tab::Instruments, "Instruments");
+            });
+            ui.separator();
+            if let Some(e) = &self.analysis_error {
+                ui.label(
+                    RichText::new(format!(
+                        "No plots or readings until the design is valid: {e}"
+                    ))
+                    .color(ui.visuals().error_fg_color),
+                );
+            }
+            match self.tab {
+                Tab::Plots => plots_ui(ui, &mut self.plot_settings, self.analysis.as_ref()),
+                Tab::Instruments => {
+                    let target_name = self.target.as_ref().map(|t| t.name.clone());
+                    let requests = instruments_ui(
+                        ui,
+                        self.analysis.as_ref(),
+                        target_name.as_deref(),
+                        &self.presets,
+                    );
+                    for r in requests {
+                        match r {
+                            InstrumentsRequest::TargetPreset(i) => {
+                                self.target = self.presets.get(i).map(|p| p.design.clone());
+                            }
+                            InstrumentsRequest::TargetFile => {
+                                self.open_browser(FilePurpose::TargetDesign)
+                            }
+                            InstrumentsRequest::ClearTarget => self.target = None,
+                            InstrumentsRequest::Export => {
+                                self.open_browser(FilePurpose::ExportMeasurement)
+                            }
+                        }
+                    }
+                }
+            }
+        });
+
+        if let Some((purpose, path)) = self.browser.show(&ctx) {
+            self.file_chosen(purpose, path);
+        }
+        drop_overlay(&ctx);
+
+        // One undo step per gesture: commit once no button is held and no text field
+        // is being typed in.
+        let gesture_over = !ctx.input(|i| i.pointer.any_down()) && !ctx.egui_wants_keyboard_input();
+        if gesture_over {
+            self.history.commit(&self.design);
+        }
+        self.autosave();
+        let title = format!(
+            "Coatlab — {}{}",
+            self.design.name,
+            if self.is_dirty() { " •" } else { "" }
+        );
+        // Only on change: a viewport command requests another frame.
+        if title != self.window_title {
+            ctx.send_viewport_cmd(egui::ViewportCommand::Title(title.clone()));
+            self.window_title = title;
+        }
+    }
+
+    fn menu_ui(&mut self, ui: &mut Ui) {
+        egui::MenuBar::new().ui(ui, |ui| {
+            ui.menu_button("File", |ui| {
+                if ui.button("Open design…  (Ctrl+O)").clicked() {
+                    self.open_browser(FilePurpose::OpenDesign);
+                }
+                if ui.button("Save  (Ctrl+S)").clicked() {
+                    self.save();
+                }
+                if ui.button("Save as…").clicked() {
+                    self.open_browser(FilePurpose::SaveDesign);
+                }
+                ui.menu_button("Open recent", |ui| {
+                    if self.recent.is_empty() {
+                        ui.label("(none)");
+                    }
+                    for p in self.recent.clone() {
+                        if ui.button(p.display().to_string()).clicked() {
+                            self.open_design(&p);
+                        }
+                    }
+                });
+                ui.separator();
+                if ui.button("Import ρ(λ) from CSV…").clicked() {
+                    self.open_browser(FilePurpose::ImportAlbedoCsv);
+                }
+                if ui.button("Export readings (CSV, JSON)…").clicked() {
+                    self.open_browser(FilePurpose::ExportMeasurement);
+                }
+                ui.separator();
+                if ui.button("Quit").clicked() {
+                    ui.ctx().send_viewport_cmd(egui::ViewportCommand::Close);
+                }
+            });
+            ui.menu_button("Edit", |ui| {
+                if ui
+                    .add_enabled(
+                        self.history.can_undo(&self.design),
+                        egui::Button::new("Undo  (Ctrl+Z)"),
+                    )
+                    .clicked()
+                {
+                    self.undo();
+                }
+                if ui
+                    .add_enabled(
+                        self.history.can_redo(&self.design),
+                        egui::Button::new("Redo  (Ctrl+Shift+Z)"),
+                    )
+                    .clicked()
+                {
+                    self.redo();
+                }
+            });
+            ui.separator();
+            let file = self
+                .path
+                .as_ref()
+                .map(|p| p.display().to_string())
+                .unwrap_or_else(|| "not saved yet".into());
+            ui.label(
+                RichText::new(format!(
+                    "{} — {file}{}",
+                    self.design.name,
+                    if self.is_dirty() { " (modified)" } else { "" }
+                ))
+                .weak(),
+            );
+        });
+    }
+
+    fn notices_ui(&mut self, ui: &mut Ui) {
+        let mut dismiss = None;
+        // The last three: older ones are history, the newest matter.
+        let start = self.notices.len().saturating_sub(3);
+        for (i, n) in self.notices.iter().enumerate().skip(start) {
+            ui.horizontal(|ui| {
+                if ui.small_button("x").on_hover_text("Dismiss").clicked() {
+                    dismiss = Some(i);
+                }
+                let colour = if n.is_error {
+                    ui.visuals().error_fg_color
+                } else {
+                    ui.visuals().text_color()
+                };
+                ui.label(RichText::new(&n.text).color(colour));
+            });
+        }
+        if self.notices.is_empty() {
+            ui.label(
+                RichText::new("Drop a design (.toml) or a spectral CSV on the window to open it.")
+                    .weak(),
+            );
+        }
+        if let Some(i) = dismiss {
+            self.notices.remove(i);
+        }
+    }
+
+    fn recovery_ui(&mut self, ui: &mut Ui) {
+        let Some(r) = &self.recovery else { return };
+        let when = r
+            .saved_at
+            .and_then(|t| t.elapsed().ok())
+            .map(|d| format!("{} min ago", d.as_secs() / 60))
+            .unwrap_or_else(|| "earlier".into());
+        let of = r
+            .path
+            .as_ref()
+            .map(|p| format!(" of {}", p.display()))
+            .unwrap_or_default();
+        let mut choice = None;
+        egui::Frame::group(ui.style())
+            .fill(Color32::from_rgb(60, 50, 20))
+            .show(ui, |ui| {
+                ui.horizontal_wrapped(|ui| {
+                    ui.label(format!(
+                    "Unsaved changes to \"{}\"{of} from the last session were autosaved ({when}).",
+                    r.design.name
+                ));
+                    if ui.button("Recover").clicked() {
+                        choice = Some(true);
+                    }
+                    if ui.button("Discard").clicked() {
+                        choice = Some(false);
+                    }
+                });
+            });
+        match choice {
+            Some(true) => self.recover(),
+            Some(false) => {
+                self.recovery = None;
+                self.storage.clear_autosave();
+            }
+            None => {}
+        }
+    }
+
+    /// Takes the autosaved design (undoable), with its file if it had one.
+    pub fn recover(&mut self) {
+        if let Some(r) = self.recovery.take() {
+            self.path = r.path.clone();
+            // What is on disk (if anything) is what counts as saved.
+            self.saved = r
+                .path
+                .as_ref()
+                .and_then(|p| PaintDesign::load(p).ok())
+                .unwrap_or_else(|| self.design.clone());
+            self.set_design(r.design);
+            self.info("Recovered the autosaved design.");
+        }
+    }
+}
+
+fn drop_overlay(ctx: &egui::Context) {
+    if ctx.input(|i| i.raw.hovered_files.is_empty()) {
+        return;
+    }
+    let screen = ctx.content_rect();
+    let painter = ctx.layer_painter(egui::LayerId::new(
+        egui::Order::Foreground,
+        egui::Id::unique("drop"),
+    ));
+    painter.rect_filled(screen, 0.0, Color32::from_black_alpha(160));
+    painter.text(
+        screen.center(),
+        egui::Align2::CENTER_CENTER,
+        "Drop a design (.toml) or a spectral CSV",
+        egui::FontId::proportional(24.0),
+        Color32::WHITE,
+    );
+}
+
+fn slug(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .map(|c| {
+            if c.is_alphanumeric() {
+                c.to_ascii_lowercase()
+            } else {
+                '-'
+            }
+        })
+        .collect();
+    let s = s.trim_matches('-').to_owned();
+    if s.is_empty() { "design".into() } else { s }
+}
+
+fn unreachable_default() -> PaintDesign {
+    // presets::all() is never empty; this keeps the app free of a panic path anyway.
+    presets::all().swap_remove(0).design
+}
+
+impl eframe::App for CoatlabApp {
+    fn ui(&mut self, ui: &mut Ui, _frame: &mut eframe::Frame) {
+        self.show(ui);
+    }
+
+    fn on_exit(&mut self) {
+        self.shutdown();
+    }
+}

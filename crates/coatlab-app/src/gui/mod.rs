@@ -1,0 +1,46 @@
+//! The designer's GUI (eframe with the wgpu back-end).
+//!
+//! | module | what |
+//! | --- | --- |
+//! | [`app`] | the window: menus, panels, shortcuts, files, undo/redo, drag and drop |
+//! | [`paint_panel`] | the paint controls |
+//! | [`curve_editor`] | ρ(λ) and k(λ) as curves with draggable control points |
+//! | [`plots`] | figures 3–6, spectra, instrument reflectance (egui_plot) |
+//! | [`instruments_panel`] | multi-angle table, gloss, ΔE00 to a target, swatches |
+//! | [`analysis`] | the physics the plots and instruments show, computed on change |
+//! | [`history`] | undo/redo by design snapshots |
+//! | [`storage`] | recent files, autosave and crash recovery |
+//! | [`file_browser`] | the in-app open/save browser (why not a native dialog: there) |
+//! | [`export`] | readings as CSV and JSON |
+
+pub mod analysis;
+pub mod app;
+pub mod curve_editor;
+pub mod export;
+pub mod file_browser;
+pub mod history;
+pub mod instruments_panel;
+pub mod paint_panel;
+pub mod plots;
+pub mod storage;
+
+pub use app::{AppOptions, CoatlabApp};
+
+/// Opens the window and runs the designer until it is closed.
+pub fn run(options: AppOptions) -> anyhow::Result<()> {
+    let native = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default()
+            .with_title("Coatlab")
+            .with_inner_size([1500.0, 940.0])
+            .with_min_inner_size([900.0, 600.0])
+            .with_drag_and_drop(true),
+        renderer: eframe::Renderer::Wgpu,
+        ..Default::default()
+    };
+    eframe::run_native(
+        "Coatlab",
+        native,
+        Box::new(move |_cc| Ok(Box::new(CoatlabApp::new(options)))),
+    )
+    .map_err(|e| anyhow::anyhow!("cannot open the Coatlab window: {e}"))
+}

@@ -1,0 +1,137 @@
+//! Smoke test of the real `coatlab` binary: started without a subcommand under a
+//! virtual X server (Xvfb), it must open its window and keep running; a screenshot
+//! of the screen goes to `target/gui-smoke/screenshot.png` for a person to look at,
+//! and must show the designer (not a blank screen).
+//!
+//! Needs `Xvfb` and ImageMagick's `import` (the README's and CI's apt packages).
+//! Without them the test says so and passes, unless `COATLAB_REQUIRE_GUI_SMOKE=1`
+//! (set by CI), where missing tools are a failure.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Kills and reaps the child when dropped, so a failing assertion leaves nothing behind.
+struct Reaped(Child);
+
+impl Drop for Reaped {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn have(tool: &str) -> bool {
+    Command::new("sh")
+        .args(["-c", &format!("command -v {tool}")])
+        .stdout(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+fn out_dir() -> PathBuf {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/gui-smoke");
+    std::fs::create_dir_all(&dir).expect("create target/gui-smoke");
+    dir
+}
+
+/// Counts distinct colours in a PNG read through ImageMagick (no image crate needed).
+fn distinct_colours(png: &Path) -> usize {
+    let out = Command::new("identify")
+        .args(["-format", "%k"])
+        .arg(png)
+        .output()
+        .expect("run identify");
+    String::from_utf8_lossy(&out.stdout)
+        .trim()
+        .parse()
+        .unwrap_or(0)
+}
+
+#[test]
+fn the_binary_opens_its_window_under_xvfb() {
+    if !(have("Xvfb") && have("import") && have("identify")) {
+        assert!(
+            std::env::var_os("COATLAB_REQUIRE_GUI_SMOKE").is_none(),
+            "COATLAB_REQUIRE_GUI_SMOKE is set but Xvfb or ImageMagick is missing"
+        );
+        eprintln!("skipped: Xvfb and ImageMagick are not installed (see README)");
+        return;
+    }
+    let dir = out_dir();
+    let runtime = dir.join("runtime");
+    let state = dir.join("state");
+    let _ = std::fs::remove_dir_all(&state);
+    std::fs::create_dir_all(&runtime).expect("runtime dir");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let _ = std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700));
+    }
+    // A display number of our own, so parallel runs do not meet.
+    let display = format!(":{}", 200 + std::process::id() % 500);
+    let xvfb = Reaped(
+        Command::new("Xvfb")
+            .args([
+                display.as_str(),
+                "-screen",
+                "0",
+                "1600x1000x24",
+                "-nolisten",
+                "tcp",
+            ])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start Xvfb"),
+    );
+    let socket = PathBuf::from(format!("/tmp/.X11-unix/X{}", &display[1..]));
+    let start = Instant::now();
+    while !socket.exists() && start.elapsed() < Duration::from_secs(10) {
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    assert!(socket.exists(), "Xvfb did not start on {display}");
+
+    let log = std::fs::File::create(dir.join("coatlab.log")).expect("log file");
+    let mut app = Reaped(
+        Command::new(env!("CARGO_BIN_EXE_coatlab"))
+            .env("DISPLAY", &display)
+            .env("XDG_RUNTIME_DIR", &runtime)
+            .env("COATLAB_STATE_DIR", &state)
+            .env_remove("WAYLAND_DISPLAY")
+            .stdout(log.try_clone().expect("log"))
+            .stderr(log)
+            .spawn()
+            .expect("start coatlab"),
+    );
+    // A debug build on the software rasteriser needs a few seconds for the first frames.
+    std::thread::sleep(Duration::from_secs(10));
+    let log_text = || std::fs::read_to_string(dir.join("coatlab.log")).unwrap_or_default();
+    assert!(
+        app.0.try_wait().expect("poll coatlab").is_none(),
+        "coatlab exited early:\n{}",
+        log_text()
+    );
+    let shot = dir.join("screenshot.png");
+    let status = Command::new("import")
+        .args(["-display", display.as_str(), "-window", "root"])
+        .arg(&shot)
+        .status()
+        .expect("run import");
+    assert!(status.success(), "import failed");
+    // A blank or single-colour screen means no window was drawn; the designer's plots
+    // and text give thousands of colours.
+    let colours = distinct_colours(&shot);
+    assert!(
+        colours > 200,
+        "the screen looks blank ({colours} colours): {}",
+        shot.display()
+    );
+    assert!(
+        app.0.try_wait().expect("poll coatlab").is_none(),
+        "coatlab exited:\n{}",
+        log_text()
+    );
+    drop(app);
+    drop(xvfb);
+}
