@@ -1,0 +1,610 @@
+//! The path tracer, tested statistically: never by exact pixel values of Monte Carlo
+//! output, always against a prediction with its noise (Z-tests), except where the
+//! spec demands bit-for-bit equality (the same seed on any number of threads).
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use coatlab_core::design::presets;
+use coatlab_core::paint::fresnel::reflectance;
+use coatlab_core::paint::gloss::GlossExponent;
+use coatlab_core::paint::model::{GlossSetting, PaintModel, PaintParams};
+use coatlab_core::paint::phong::PhongVariant;
+use coatlab_core::render::camera::Camera;
+use coatlab_core::render::environment::Environment;
+use coatlab_core::render::film::Film;
+use coatlab_core::render::integrator::IntegratorSettings;
+use coatlab_core::render::material::{Shading, ShadingModel};
+use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
+use coatlab_core::scene::car::{CarParameters, generate};
+use coatlab_core::scene::gltf_loader::{LoadOptions, load};
+use coatlab_core::scene::{Scene, SceneMaterial, TriangleMesh};
+use coatlab_core::spectrum::WavelengthGrid;
+
+#[path = "support/render_reference.rs"]
+mod render_reference;
+use render_reference::{REFERENCE_FILE, REFERENCE_SEED, Reference, reference_render};
+
+const TESTDATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/testdata/gltf");
+
+/// A unit sphere at (0, 1, 0) with smooth normals, `rings` × 2·`rings` quads.
+fn sphere(rings: u32) -> Scene {
+    let mut mesh = TriangleMesh::default();
+    let segments = 2 * rings;
+    for i in 0..=rings {
+        let theta = std::f32::consts::PI * i as f32 / rings as f32;
+        for j in 0..segments {
+            let phi = 2.0 * std::f32::consts::PI * j as f32 / segments as f32;
+            let n = [
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            ];
+            mesh.positions.push([n[0], n[1] + 1.0, n[2]]);
+            mesh.normals.push(n);
+        }
+    }
+    for i in 0..rings {
+        for j in 0..segments {
+            let a = i * segments + j;
+            let b = i * segments + (j + 1) % segments;
+            let (c, d) = (a + segments, b + segments);
+            mesh.triangles.push([a, c, b]);
+            mesh.triangles.push([b, c, d]);
+        }
+    }
+    mesh.triangle_material = vec![0; mesh.triangles.len()];
+    Scene {
+        mesh,
+        materials: vec![SceneMaterial {
+            name: "paint".into(),
+            base_color: [0.5; 3],
+            roughness: 0.5,
+            metallic: 0.0,
+            area_m2: 4.0 * std::f32::consts::PI,
+        }],
+        paint_materials: vec![0],
+        warnings: Vec::new(),
+    }
+}
+
+const SPHERE_CAMERA_DISTANCE: f32 = 6.0;
+
+fn sphere_camera(size: u32) -> Camera {
+    Camera::new(
+        [0.0, 1.0, SPHERE_CAMERA_DISTANCE],
+        [0.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+        22.0,
+        size,
+        size,
+    )
+    .expect("camera")
+}
+
+/// The cosine between the sphere's normal and the direction to the camera where the
+/// ray through continuous pixel (`px`, `py`) hits the unit sphere; `None` on a miss.
+fn sphere_view_cosine(camera: &Camera, px: f32, py: f32) -> Option<f64> {
+    let (o, d) = camera.ray(px, py);
+    let oc = [o[0] as f64, o[1] as f64 - 1.0, o[2] as f64];
+    let d = d.map(f64::from);
+    let b = oc[0] * d[0] + oc[1] * d[1] + oc[2] * d[2];
+    let c = oc[0] * oc[0] + oc[1] * oc[1] + oc[2] * oc[2] - 1.0;
+    let disc = b * b - c;
+    if disc < 0.0 {
+        return None;
+    }
+    let t = -b - disc.sqrt();
+    let p = [oc[0] + t * d[0], oc[1] + t * d[1], oc[2] + t * d[2]];
+    Some(-(p[0] * d[0] + p[1] * d[1] + p[2] * d[2]))
+}
+
+/// Per pixel: the mean of `predict(μo)` over a 4×4 grid in the pixel, or `None`
+/// where any of those rays misses the sphere or sees it more grazing than `min_mu`.
+fn predicted_image(
+    camera: &Camera,
+    min_mu: f64,
+    predict: impl Fn(f64) -> f64,
+) -> Vec<Option<(f64, f64)>> {
+    let (w, h) = (camera.width(), camera.height());
+    let mut out = Vec::with_capacity((w * h) as usize);
+    for y in 0..h {
+        for x in 0..w {
+            let mut sum = 0.0;
+            let mut mu_sum = 0.0;
+            let mut ok = true;
+            for sy in 0..4 {
+                for sx in 0..4 {
+                    let px = x as f32 + (sx as f32 + 0.5) / 4.0;
+                    let py = y as f32 + (sy as f32 + 0.5) / 4.0;
+                    match sphere_view_cosine(camera, px, py) {
+                        Some(mu) if mu >= min_mu => {
+                            sum += predict(mu);
+                            mu_sum += mu;
+                        }
+                        _ => ok = false,
+                    }
+                }
+            }
+            out.push(ok.then_some((sum / 16.0, mu_sum / 16.0)));
+        }
+    }
+    out
+}
+
+fn render(
+    scene: Scene,
+    environment: Environment,
+    model: &PaintModel,
+    which: ShadingModel,
+    camera: Camera,
+    settings: RenderSettings,
+    spp: u32,
+) -> Film {
+    let shading = Shading::new(model, which, &scene.materials, &scene.paint_materials);
+    let scene = RenderScene::new(scene).expect("scene");
+    let mut render = ProgressiveRender::new(
+        Arc::new(scene),
+        Arc::new(environment),
+        Arc::new(shading),
+        camera,
+        settings,
+    )
+    .expect("render");
+    while render.samples_per_pixel() < spp {
+        render.render_pass(8.min(spp - render.samples_per_pixel()));
+    }
+    render.film().clone()
+}
+
+fn grey_model(grid: WavelengthGrid, gloss: GlossExponent) -> PaintModel {
+    PaintModel::new(PaintParams::grey(
+        grid,
+        0.5,
+        1.5,
+        0.01,
+        40.0,
+        GlossSetting::Exponent(gloss),
+    ))
+    .expect("model")
+}
+
+/// Image-space white furnace: a painted sphere with a mirror-gloss coat under a
+/// uniform white sky shows, in every pixel, the directional albedo the model
+/// predicts for that view: body albedo(μo) + R(μo). Every pixel's Z-score is small,
+/// and the mean relative error over the sphere is below 0.2 %.
+#[test]
+fn furnace_sphere_renders_the_models_directional_albedo() {
+    let grid = WavelengthGrid::visible(4).expect("grid");
+    let model = grey_model(grid, GlossExponent::Mirror);
+    let camera = sphere_camera(48);
+    let film = render(
+        sphere(96),
+        Environment::uniform(&grid),
+        &model,
+        ShadingModel::Paint,
+        camera.clone(),
+        RenderSettings::default(),
+        256,
+    );
+    let predicted = predicted_image(&camera, 0.2, |mu| {
+        let mut body = vec![0.0; grid.len()];
+        model.body_albedo(mu, &mut body);
+        body[0] + reflectance(mu, 1.5)
+    });
+    let (mut worst_z, mut pixels) = (0.0f64, 0);
+    let (mut difference_sum, mut expected_sum, mut variance_sum) = (0.0, 0.0, 0.0);
+    for y in 0..48 {
+        for x in 0..48 {
+            let Some((expected, _)) = predicted[(y * 48 + x) as usize] else {
+                continue;
+            };
+            let mean = film.mean_xyz(x, y).y;
+            let var = film.variance_of_mean_xyz(x, y)[1];
+            // The renderer's f32 tables are within 1e-3 of the model here.
+            let z = (mean - expected) / (var + (1e-3 * expected).powi(2)).sqrt();
+            worst_z = worst_z.max(z.abs());
+            difference_sum += mean - expected;
+            expected_sum += expected;
+            variance_sum += var;
+            pixels += 1;
+        }
+    }
+    assert!(pixels > 600, "only {pixels} pixels on the sphere");
+    // Over the whole sphere: the relative error of the total and its standard error.
+    let relative = difference_sum / expected_sum;
+    let standard_error = variance_sum.sqrt() / expected_sum;
+    println!(
+        "furnace: {pixels} pixels, worst |Z| {worst_z:.2}, relative error of the total \
+         {relative:.2e} ± {standard_error:.1e}"
+    );
+    assert!(worst_z < 5.0, "worst |Z| = {worst_z}");
+    // 4 standard errors plus the f32 tables' 1e-3.
+    assert!(
+        relative.abs() < 4.0 * standard_error + 1e-3,
+        "relative error of the total {relative} ± {standard_error}"
+    );
+}
+
+/// The same seed gives the same image bit for bit on one thread and on several.
+#[test]
+fn a_seed_gives_the_same_image_on_any_number_of_threads() {
+    let grid = WavelengthGrid::visible(8).expect("grid");
+    let model = grey_model(grid, GlossExponent::Finite(300.0));
+    let scene = generate(&CarParameters::default());
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool");
+        pool.install(|| {
+            let camera = Camera::framing(scene.mesh.bounds().expect("bounds"), 40, 24);
+            render(
+                scene.clone(),
+                Environment::studio(&grid),
+                &model,
+                ShadingModel::Paint,
+                camera,
+                RenderSettings {
+                    seed: 11,
+                    tile_size: 8,
+                    ..RenderSettings::default()
+                },
+                4,
+            )
+        })
+    };
+    let (one, three) = (run(1), run(3));
+    for y in 0..24 {
+        for x in 0..40 {
+            assert_eq!(one.mean_xyz(x, y), three.mean_xyz(x, y), "pixel {x},{y}");
+            assert_eq!(
+                one.variance_of_mean_xyz(x, y),
+                three.variance_of_mean_xyz(x, y)
+            );
+        }
+    }
+}
+
+/// Z-scores of luminance between two renders (or a render and a stored reference).
+fn z_scores(
+    a: &dyn Fn(u32, u32) -> (f64, f64),
+    b: &dyn Fn(u32, u32) -> (f64, f64),
+    w: u32,
+    h: u32,
+) -> ZScores {
+    let (mut worst, mut outliers, mut sum, mut count) = (0.0f64, 0usize, 0.0, 0usize);
+    let (mut total_difference, mut total_variance) = (0.0, 0.0);
+    for y in 0..h {
+        for x in 0..w {
+            let (ma, va) = a(x, y);
+            let (mb, vb) = b(x, y);
+            let var = va + vb;
+            if var <= 0.0 {
+                // Both saw only the background: no noise, so they must agree exactly
+                // (up to float summation); anything else is an outlier.
+                let agree = (ma - mb).abs() <= 1e-6 * ma.abs().max(1.0);
+                outliers += usize::from(!agree);
+                count += 1;
+                continue;
+            }
+            let z = (ma - mb) / var.sqrt();
+            total_difference += ma - mb;
+            total_variance += var;
+            worst = worst.max(z.abs());
+            outliers += usize::from(z.abs() > 4.0);
+            sum += z;
+            count += 1;
+        }
+    }
+    ZScores {
+        worst,
+        outlier_fraction: outliers as f64 / count.max(1) as f64,
+        mean: sum / count.max(1) as f64,
+        total: total_difference / total_variance.max(f64::MIN_POSITIVE).sqrt(),
+    }
+}
+
+/// Per-pixel Z-scores of luminance between two images.
+struct ZScores {
+    /// Largest |Z|.
+    worst: f64,
+    /// Share of pixels with |Z| > 4 (or, without noise, any difference).
+    outlier_fraction: f64,
+    /// Mean Z.
+    mean: f64,
+    /// Z of the image total: Σ difference / √Σ variance, the test for a bias.
+    total: f64,
+}
+
+fn luminance_of(film: &Film) -> impl Fn(u32, u32) -> (f64, f64) + '_ {
+    |x, y| (film.mean_xyz(x, y).y, film.variance_of_mean_xyz(x, y)[1])
+}
+
+/// Two seeds estimate the same image: per-pixel differences are within their noise.
+#[test]
+fn two_seeds_agree_within_their_noise() {
+    let grid = WavelengthGrid::visible(8).expect("grid");
+    let model = grey_model(grid, GlossExponent::Finite(300.0));
+    let scene = generate(&CarParameters::default());
+    let camera = Camera::framing(scene.mesh.bounds().expect("bounds"), 64, 36);
+    let film = |seed| {
+        render(
+            scene.clone(),
+            Environment::studio(&grid),
+            &model,
+            ShadingModel::Paint,
+            camera.clone(),
+            RenderSettings {
+                seed,
+                ..RenderSettings::default()
+            },
+            64,
+        )
+    };
+    let (a, b) = (film(1), film(2));
+    let z = z_scores(&luminance_of(&a), &luminance_of(&b), 64, 36);
+    let (worst, outliers, mean_z, total_z) = (z.worst, z.outlier_fraction, z.mean, z.total);
+    println!(
+        "two seeds: worst |Z| {worst:.2}, |Z| > 4 in {:.3} %, mean Z {mean_z:.3}, total Z {total_z:.2}",
+        outliers * 100.0
+    );
+    assert!(
+        outliers < 0.005,
+        "{:.2} % of pixels beyond 4σ",
+        outliers * 100.0
+    );
+    assert!(mean_z.abs() < 0.1, "mean Z {mean_z}");
+    assert!(total_z.abs() < 4.0, "total Z {total_z}");
+}
+
+/// A render against the stored converged reference (mean and variance images,
+/// `tests/data/render_reference.csv`, rebuilt by
+/// `cargo test -p coatlab-core --test render -- --ignored write_render_reference`):
+/// no pixel is off by more than its noise, and a 3 % brighter image is caught.
+#[test]
+fn a_render_matches_the_stored_reference() {
+    let reference = Reference::read(&PathBuf::from(REFERENCE_FILE)).expect("reference file");
+    let film = reference_render(reference.seed_for_test(), 64);
+    let (w, h) = (reference.width, reference.height);
+    let stored = |x: u32, y: u32| reference.luminance(x, y);
+    let z = z_scores(&luminance_of(&film), &stored, w, h);
+    let (worst, outliers, mean_z, total_z) = (z.worst, z.outlier_fraction, z.mean, z.total);
+    println!(
+        "reference: worst |Z| {worst:.2}, |Z| > 4 in {:.3} %, mean Z {mean_z:.3}, total Z {total_z:.2}",
+        outliers * 100.0
+    );
+    assert!(
+        outliers < 0.005,
+        "{:.2} % of pixels beyond 4σ",
+        outliers * 100.0
+    );
+    assert!(mean_z.abs() < 0.15, "mean Z {mean_z}");
+    assert!(total_z.abs() < 4.0, "total Z {total_z}");
+
+    // Negative control: the same comparison must reject a 3 % brighter image.
+    let brighter = |x: u32, y: u32| {
+        let (m, v) = luminance_of(&film)(x, y);
+        (1.03 * m, 1.03 * 1.03 * v)
+    };
+    let z = z_scores(&brighter, &stored, w, h);
+    assert!(
+        z.total > 8.0 && z.outlier_fraction > 0.005,
+        "a 3 % brighter image went unnoticed: total Z {}, outliers {}",
+        z.total,
+        z.outlier_fraction
+    );
+}
+
+#[test]
+#[ignore = "rebuilds tests/data/render_reference.csv (slow)"]
+fn write_render_reference() {
+    let film = reference_render(REFERENCE_SEED, 2048);
+    Reference::from_film(&film)
+        .write(&PathBuf::from(REFERENCE_FILE))
+        .expect("write reference");
+}
+
+/// Where the paper says the models must differ: toward grazing views the paint's
+/// Fresnel reflection rises (brighter, paler rims) while Phong's ks stays put; at
+/// normal view the naive Phong (kd = body albedo at 0°, ks = R(0°)) agrees with it.
+#[test]
+fn paint_and_phong_differ_toward_grazing_and_agree_head_on() {
+    let grid = WavelengthGrid::visible(16).expect("grid");
+    let design = presets::all().into_iter().next().expect("preset").design;
+    let model = design.model(grid).expect("model");
+    let camera = sphere_camera(48);
+    let film = |which| {
+        render(
+            sphere(96),
+            Environment::uniform(&grid),
+            &model,
+            which,
+            camera.clone(),
+            RenderSettings::default(),
+            64,
+        )
+    };
+    let paint = film(ShadingModel::Paint);
+    let phong = film(ShadingModel::Phong(PhongVariant::Naive));
+    let rings = predicted_image(&camera, 0.0, |_| 0.0);
+    // Ring means of luminance and their standard errors: head-on (μ > 0.9) and
+    // grazing (μ < 0.35).
+    let ring = |film: &Film, lo: f64, hi: f64| {
+        let (mut sum, mut var, mut n) = (0.0, 0.0, 0.0);
+        for y in 0..48 {
+            for x in 0..48 {
+                if let Some((_, mu)) = rings[(y * 48 + x) as usize]
+                    && (lo..hi).contains(&mu)
+                {
+                    sum += film.mean_xyz(x, y).y;
+                    var += film.variance_of_mean_xyz(x, y)[1];
+                    n += 1.0;
+                }
+            }
+        }
+        (sum / n, var.sqrt() / n)
+    };
+    let (paint_head, paint_head_se) = ring(&paint, 0.9, 1.01);
+    let (phong_head, phong_head_se) = ring(&phong, 0.9, 1.01);
+    let (paint_rim, paint_rim_se) = ring(&paint, 0.0, 0.35);
+    let (phong_rim, phong_rim_se) = ring(&phong, 0.0, 0.35);
+    println!(
+        "head-on Y: paint {paint_head:.4} ± {paint_head_se:.4}, phong {phong_head:.4} ± {phong_head_se:.4}; \
+         rim Y: paint {paint_rim:.4} ± {paint_rim_se:.4}, phong {phong_rim:.4} ± {phong_rim_se:.4}"
+    );
+    let rim_z = (paint_rim - phong_rim) / (paint_rim_se.powi(2) + phong_rim_se.powi(2)).sqrt();
+    assert!(
+        rim_z > 10.0,
+        "the paint's rim is not brighter than Phong's: Z = {rim_z}"
+    );
+    assert!(
+        paint_rim > phong_rim * 1.2,
+        "rim: paint {paint_rim}, phong {phong_rim}"
+    );
+    assert!(
+        (paint_head - phong_head).abs() < 0.05 * paint_head,
+        "head-on: paint {paint_head}, phong {phong_head}"
+    );
+    // View-dependent body colour: the paint's rim is paler (lower chroma relative to
+    // its head-on colour) than Phong's, whose body colour does not depend on view.
+    let chroma = |film: &Film, lo: f64, hi: f64| {
+        let (mut xyz, mut n) = ([0.0; 3], 0.0);
+        for y in 0..48 {
+            for x in 0..48 {
+                if let Some((_, mu)) = rings[(y * 48 + x) as usize]
+                    && (lo..hi).contains(&mu)
+                {
+                    let m = film.mean_xyz(x, y);
+                    xyz[0] += m.x;
+                    xyz[1] += m.y;
+                    xyz[2] += m.z;
+                    n += 1.0;
+                }
+            }
+        }
+        let (x, y) = (
+            xyz[0] / (xyz[0] + xyz[1] + xyz[2]),
+            xyz[1] / (xyz[0] + xyz[1] + xyz[2]),
+        );
+        let _ = n;
+        // Distance from the equal-energy white point in xy: a chroma proxy.
+        ((x - 1.0 / 3.0).powi(2) + (y - 1.0 / 3.0).powi(2)).sqrt()
+    };
+    let paint_ratio = chroma(&paint, 0.0, 0.35) / chroma(&paint, 0.9, 1.01);
+    let phong_ratio = chroma(&phong, 0.0, 0.35) / chroma(&phong, 0.9, 1.01);
+    println!("rim/head-on chroma: paint {paint_ratio:.3}, phong {phong_ratio:.3}");
+    assert!(
+        paint_ratio < phong_ratio - 0.05,
+        "paint {paint_ratio}, phong {phong_ratio}"
+    );
+}
+
+/// Every shared glTF test model renders (a few samples, small), with finite values,
+/// or is refused by the loader with a message naming the file.
+#[test]
+fn every_test_model_renders_or_is_refused() {
+    let dir = PathBuf::from(TESTDATA);
+    if !dir.is_dir() {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI is set but the glTF test models are missing at {}",
+            dir.display()
+        );
+        eprintln!(
+            "NOTICE: glTF test models not found at {}; test skipped",
+            dir.display()
+        );
+        return;
+    }
+    let mut files = Vec::new();
+    let mut stack = vec![dir];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).expect("read_dir") {
+            let path = entry.expect("entry").path();
+            if path.is_dir() {
+                stack.push(path);
+            } else if matches!(
+                path.extension().and_then(|e| e.to_str()),
+                Some("glb" | "gltf")
+            ) {
+                files.push(path);
+            }
+        }
+    }
+    files.sort();
+    assert!(files.len() >= 6, "found only {files:?}");
+    let grid = WavelengthGrid::visible(4).expect("grid");
+    let model = grey_model(grid, GlossExponent::Finite(300.0));
+    let (mut rendered, mut refused) = (0, 0);
+    for path in &files {
+        match load(path, &LoadOptions::default()) {
+            Ok(scene) => {
+                let camera = Camera::framing(scene.mesh.bounds().expect("bounds"), 24, 16);
+                let film = render(
+                    scene,
+                    Environment::studio(&grid),
+                    &model,
+                    ShadingModel::Paint,
+                    camera,
+                    RenderSettings::default(),
+                    2,
+                );
+                assert_eq!(film.rejected_samples(), 0, "{}", path.display());
+                let mut lit = 0;
+                for y in 0..16 {
+                    for x in 0..24 {
+                        let m = film.mean_xyz(x, y);
+                        assert!(m.y.is_finite() && m.y >= 0.0, "{}", path.display());
+                        lit += usize::from(m.y > 0.0);
+                    }
+                }
+                assert!(lit > 100, "{}: only {lit} pixels lit", path.display());
+                rendered += 1;
+            }
+            Err(err) => {
+                let message = err.to_string();
+                let name = path.file_name().and_then(|n| n.to_str()).expect("name");
+                assert!(message.contains(name), "{message}");
+                assert!(
+                    message.contains("KHR_draco_mesh_compression")
+                        || message.contains("EXT_meshopt_compression"),
+                    "{}: unexpected refusal: {message}",
+                    path.display()
+                );
+                refused += 1;
+            }
+        }
+    }
+    println!("{rendered} rendered, {refused} refused");
+    assert!(
+        rendered >= 4 && refused >= 2,
+        "{rendered} rendered, {refused} refused"
+    );
+}
+
+/// Bounded paths: with no bounces the camera sees only the sky, the car is black.
+#[test]
+fn zero_bounces_show_only_the_environment() {
+    let grid = WavelengthGrid::visible(4).expect("grid");
+    let model = grey_model(grid, GlossExponent::Finite(300.0));
+    let camera = sphere_camera(16);
+    let film = render(
+        sphere(16),
+        Environment::uniform(&grid),
+        &model,
+        ShadingModel::Paint,
+        camera,
+        RenderSettings {
+            integrator: IntegratorSettings {
+                max_bounces: 0,
+                roulette_start: 3,
+            },
+            ..RenderSettings::default()
+        },
+        2,
+    );
+    // Centre pixel sees the sphere (black), the corner the sky (exactly 1).
+    assert_eq!(film.mean_xyz(8, 8).y, 0.0);
+    assert!((film.mean_xyz(0, 0).y - 1.0).abs() < 1e-5);
+}
