@@ -39,6 +39,8 @@ enum Command {
     Measure(cmd::measure::MeasureArgs),
     /// Convert between a glossmeter reading (GU) and the lobe exponent m.
     Gloss(cmd::gloss::GlossArgs),
+    /// Render a design on a car (progressive spectral path tracer) to PNG or EXR.
+    Render(cmd::render::RenderArgs),
 }
 
 fn main() -> ExitCode {
@@ -54,6 +56,7 @@ fn main() -> ExitCode {
         Command::DeltaE => cmd::delta_e::run(stdin, &mut stdout),
         Command::Measure(args) => cmd::measure::run(args, &mut stdout),
         Command::Gloss(args) => cmd::gloss::run(args, &mut stdout),
+        Command::Render(args) => cmd::render::run(args, &mut stdout),
     }
     .and_then(|()| stdout.flush().map_err(anyhow::Error::from));
     match result {
