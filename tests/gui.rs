@@ -14,6 +14,7 @@ fn app() -> CoatlabApp {
     CoatlabApp::new(AppOptions {
         storage: Storage::none(),
         open: None,
+        preview: false,
     })
 }
 
@@ -138,6 +139,7 @@ fn dropping_a_design_file_opens_it_and_lists_it_as_recent() {
     let mut h = harness(CoatlabApp::new(AppOptions {
         storage: Storage::in_dir(dir.join("state")),
         open: None,
+        preview: false,
     }));
     h.input_mut()
         .dropped_files
@@ -157,6 +159,7 @@ fn save_then_reopen_round_trips_and_an_unsaved_edit_is_recovered_after_a_crash()
     let mut h = harness(CoatlabApp::new(AppOptions {
         storage: Storage::in_dir(&state),
         open: None,
+        preview: false,
     }));
     h.get_by_role_and_label(Role::Slider, "Thickness h (µm)")
         .set_value_accesskit(38.0);
@@ -181,6 +184,7 @@ fn save_then_reopen_round_trips_and_an_unsaved_edit_is_recovered_after_a_crash()
     let mut h = harness(CoatlabApp::new(AppOptions {
         storage: Storage::in_dir(&state),
         open: None,
+        preview: false,
     }));
     assert!(h.state().pending_recovery().is_some());
     h.get_by_label("Recover").click();
@@ -249,4 +253,41 @@ fn snapshot_of_the_designer() {
     h.state_mut().set_tab(Tab::Instruments);
     h.run();
     h.snapshot("designer_instruments");
+}
+
+/// The live preview renders off the UI thread and restarts on a design change.
+#[test]
+fn the_preview_accumulates_and_restarts_when_the_design_changes() {
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(1000.0, 700.0))
+        .build_ui_state(
+            |ui, app: &mut CoatlabApp| app.show(ui),
+            CoatlabApp::new(AppOptions {
+                storage: Storage::none(),
+                open: None,
+                preview: true,
+            }),
+        );
+    let spp = |h: &Harness<'static, CoatlabApp>| {
+        h.state()
+            .preview_status()
+            .map(|s| (s.samples_per_pixel, s.coarse))
+    };
+    let wait_for = |h: &mut Harness<'static, CoatlabApp>,
+                    done: &dyn Fn(Option<(u32, bool)>) -> bool| {
+        let start = std::time::Instant::now();
+        while !done(spp(h)) {
+            assert!(
+                start.elapsed().as_secs() < 120,
+                "the preview did not progress: {:?}",
+                spp(h)
+            );
+            h.step();
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+    };
+    wait_for(&mut h, &|s| s.is_some_and(|(n, coarse)| n >= 3 && !coarse));
+    h.get_by_role_and_label(Role::Slider, "Thickness h (µm)")
+        .set_value_accesskit(80.0);
+    wait_for(&mut h, &|s| s.is_some_and(|(_, coarse)| coarse));
 }

@@ -75,6 +75,7 @@ fn run_gui(design: Option<std::path::PathBuf>) -> ExitCode {
     let options = coatlab_app::gui::AppOptions {
         storage: coatlab_app::gui::storage::Storage::from_environment(),
         open: design,
+        preview: true,
     };
     match coatlab_app::gui::run(options) {
         Ok(()) => ExitCode::SUCCESS,

@@ -16,6 +16,7 @@ use super::history::History;
 use super::instruments_panel::{InstrumentsRequest, instruments_ui};
 use super::paint_panel::{PanelRequest, paint_controls_ui};
 use super::plots::{PlotSettings, plots_ui};
+use super::preview::Preview;
 use super::storage::{Recovery, Storage};
 
 /// How often an unsaved design is autosaved.
@@ -28,12 +29,16 @@ pub struct AppOptions {
     pub storage: Storage,
     /// A design file to open at start.
     pub open: Option<PathBuf>,
+    /// Run the live preview (a render thread). Off in headless tests that need the
+    /// UI to settle; the window turns it on.
+    pub preview: bool,
 }
 
 /// The tabs of the central area.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Tab {
     #[default]
+    Preview,
     Plots,
     Instruments,
 }
@@ -75,6 +80,9 @@ pub struct CoatlabApp {
     last_autosave: Instant,
     autosaved: Option<PaintDesign>,
     window_title: String,
+    preview_enabled: bool,
+    preview: Option<Preview>,
+    preview_design: Option<PaintDesign>,
 }
 
 impl CoatlabApp {
@@ -109,7 +117,6 @@ impl CoatlabApp {
             analysis_error: None,
             analysis_key: None,
             plot_settings: PlotSettings::default(),
-            tab: Tab::default(),
             browser: FileBrowser::default(),
             notices,
             recent: options.storage.recent_files(),
@@ -118,6 +125,14 @@ impl CoatlabApp {
             last_autosave: Instant::now(),
             autosaved: None,
             window_title: String::new(),
+            preview_enabled: options.preview,
+            preview: None,
+            preview_design: None,
+            tab: if options.preview {
+                Tab::Preview
+            } else {
+                Tab::Plots
+            },
         };
         if let Some(path) = options.open {
             app.open_design(&path);
@@ -155,6 +170,11 @@ impl CoatlabApp {
     /// The current analysis, if the design is valid.
     pub fn analysis(&self) -> Option<&Analysis> {
         self.analysis.as_ref()
+    }
+
+    /// The live preview's latest frame statistics, once it has shown one.
+    pub fn preview_status(&self) -> Option<&super::preview::PreviewFrame> {
+        self.preview.as_ref().and_then(|p| p.status())
     }
 
     /// Selects a tab.
@@ -484,6 +504,7 @@ impl CoatlabApp {
         egui::CentralPanel::default().show(ui, |ui| {
             self.recovery_ui(ui);
             ui.horizontal(|ui| {
+                ui.selectable_value(&mut self.tab, Tab::Preview, "Preview");
                 ui.selectable_value(&mut self.tab, Tab::Plots, "Plots");
                 ui.selectable_value(&mut self.tab, Tab::Instruments, "Instruments");
             });
@@ -497,6 +518,7 @@ impl CoatlabApp {
                 );
             }
             match self.tab {
+                Tab::Preview => self.preview_ui(ui),
                 Tab::Plots => plots_ui(ui, &mut self.plot_settings, self.analysis.as_ref()),
                 Tab::Instruments => {
                     let target_name = self.target.as_ref().map(|t| t.name.clone());
@@ -546,6 +568,24 @@ impl CoatlabApp {
             ctx.send_viewport_cmd(egui::ViewportCommand::Title(title.clone()));
             self.window_title = title;
         }
+    }
+
+    fn preview_ui(&mut self, ui: &mut Ui) {
+        if !self.preview_enabled {
+            ui.label("The live preview is off in this session.");
+            return;
+        }
+        let preview = self
+            .preview
+            .get_or_insert_with(|| Preview::start(ui.ctx(), &self.design));
+        // Restart the render on any change of a valid design.
+        if self.preview_design.as_ref() != Some(&self.design) {
+            if self.preview_design.is_some() && self.design.validate().is_ok() {
+                preview.set_design(&self.design);
+            }
+            self.preview_design = Some(self.design.clone());
+        }
+        preview.ui(ui);
     }
 
     fn menu_ui(&mut self, ui: &mut Ui) {

@@ -12,6 +12,7 @@
 //! | [`storage`] | recent files, autosave and crash recovery |
 //! | [`file_browser`] | the in-app open/save browser (why not a native dialog: there) |
 //! | [`export`] | readings as CSV and JSON |
+//! | [`preview`] | the live path-traced preview on a background thread |
 
 pub mod analysis;
 pub mod app;
@@ -22,6 +23,7 @@ pub mod history;
 pub mod instruments_panel;
 pub mod paint_panel;
 pub mod plots;
+pub mod preview;
 pub mod storage;
 
 pub use app::{AppOptions, CoatlabApp};
