@@ -110,13 +110,13 @@ pub enum EnvironmentError {
         row: usize,
         reason: &'static str,
     },
-    /// OpenEXR is refused (see `docs/lighting.md`).
-    #[error(
-        "{path}: OpenEXR environment maps are not supported (the exr crate would add a decoder stack to every build); convert the map to Radiance .hdr (e.g. `oiiotool in.exr -o out.hdr`)"
-    )]
-    ExrNotSupported { path: String },
+    /// An OpenEXR file the decoder cannot read (or without RGB channels).
+    #[error("{path}: not a readable OpenEXR file: {reason}")]
+    BadExr { path: String, reason: String },
     /// Neither .hdr nor .exr.
-    #[error("{path}: unknown environment map format (expected a Radiance .hdr file)")]
+    #[error(
+        "{path}: unknown environment map format (expected a Radiance .hdr or OpenEXR .exr file)"
+    )]
     UnknownFormat { path: String },
     /// An image whose pixel buffer does not fit its size, or holds NaN or infinity.
     #[error("{name}: {reason}")]
@@ -281,9 +281,10 @@ impl Environment {
     }
 
     /// An equirectangular environment map from a file: Radiance `.hdr` (RGBE, flat
-    /// or run-length encoded scanlines). `.exr` is refused with
-    /// [`EnvironmentError::ExrNotSupported`]. Linear sRGB (Rec. 709) primaries are
-    /// assumed; see [`Environment::from_rgb_image`].
+    /// or run-length encoded scanlines) or OpenEXR `.exr` (the first layer with R,
+    /// G and B channels, any compression the `exr` crate reads; alpha ignored).
+    /// Linear sRGB (Rec. 709) primaries are assumed; see
+    /// [`Environment::from_rgb_image`].
     pub fn from_image(path: &Path, grid: &WavelengthGrid) -> Result<Self, EnvironmentError> {
         let name = path.display().to_string();
         let extension = path
@@ -295,7 +296,10 @@ impl Environment {
                 let image = read_hdr(path)?;
                 Self::from_rgb_image(&image, &name, grid)
             }
-            Some("exr") => Err(EnvironmentError::ExrNotSupported { path: name }),
+            Some("exr") => {
+                let image = read_exr(path)?;
+                Self::from_rgb_image(&image, &name, grid)
+            }
             _ => Err(EnvironmentError::UnknownFormat { path: name }),
         }
     }
@@ -688,6 +692,35 @@ fn sigmoid(x: f64) -> f64 {
 
 // ---------------------------------------------------------------------------
 // Radiance .hdr (RGBE)
+
+/// Reads the first RGB(A) layer of an OpenEXR file as linear RGB.
+pub fn read_exr(path: &Path) -> Result<RgbImage, EnvironmentError> {
+    use exr::prelude::{Vec2, read_first_rgba_layer_from_file};
+    let name = path.display().to_string();
+    if let Err(source) = std::fs::metadata(path) {
+        return Err(EnvironmentError::Io { path: name, source });
+    }
+    type Pixels = (usize, Vec<[f32; 3]>);
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |size: Vec2<usize>, _| -> Pixels { (size.width(), vec![[0.0; 3]; size.area()]) },
+        |(width, pixels): &mut Pixels, at: Vec2<usize>, (r, g, b, _): (f32, f32, f32, f32)| {
+            pixels[at.y() * *width + at.x()] = [r, g, b];
+        },
+    )
+    .map_err(|e| EnvironmentError::BadExr {
+        path: name.clone(),
+        reason: e.to_string(),
+    })?;
+    let size = image.layer_data.size;
+    let (_, pixels) = image.layer_data.channel_data.pixels;
+    RgbImage::new(size.width(), size.height(), pixels).map_err(|e| match e {
+        EnvironmentError::InvalidImage { reason, .. } => {
+            EnvironmentError::InvalidImage { name, reason }
+        }
+        other => other,
+    })
+}
 
 /// Reads a Radiance RGBE picture (`#?RADIANCE` header, `FORMAT=32-bit_rle_rgbe`,
 /// resolution `-Y h +X w` or `+Y h +X w`, flat, old-style or new-style run-length
