@@ -48,7 +48,7 @@ pub struct RenderArgs {
     #[arg(long, conflicts_with = "seconds")]
     pub spp: Option<u32>,
     /// Render for this many seconds instead of a sample count (at least one pass).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub seconds: Option<f64>,
     /// Image size, WIDTHxHEIGHT.
     #[arg(long, default_value = "960x540", value_parser = parse_size)]
