@@ -1,0 +1,78 @@
+//! Path tracer throughput: one progressive pass (one sample per pixel) of the
+//! default car in the studio at 960×540, for the wavelength counts and models a
+//! user can choose. Samples per second = 518 400 / the time per pass; the rays per
+//! sample are printed once per variant.
+//!
+//!     cargo bench -p coatlab-core --bench render
+
+use std::sync::Arc;
+
+use coatlab_core::design::presets;
+use coatlab_core::paint::phong::PhongVariant;
+use coatlab_core::render::environment::Environment;
+use coatlab_core::render::material::{Shading, ShadingModel};
+use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
+use coatlab_core::scene::car::{CarParameters, generate};
+use coatlab_core::spectrum::WavelengthGrid;
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+
+const WIDTH: u32 = 960;
+const HEIGHT: u32 = 540;
+
+fn render_for(wavelengths: usize, model: ShadingModel) -> ProgressiveRender {
+    let grid = WavelengthGrid::visible(wavelengths).expect("grid");
+    let design = presets::all().into_iter().next().expect("preset").design;
+    let paint = design.model(grid).expect("model");
+    let scene = generate(&CarParameters::default());
+    let shading = Shading::new(&paint, model, &scene.materials, &scene.paint_materials);
+    let scene = RenderScene::new(scene).expect("scene");
+    let camera = scene.default_camera(WIDTH, HEIGHT);
+    ProgressiveRender::new(
+        Arc::new(scene),
+        Arc::new(Environment::studio(&grid)),
+        Arc::new(shading),
+        camera,
+        RenderSettings::default(),
+    )
+    .expect("render")
+}
+
+fn passes(c: &mut Criterion) {
+    let mut group = c.benchmark_group("pass_960x540");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(u64::from(WIDTH * HEIGHT)));
+    let variants = [
+        ("paint/8", 8, ShadingModel::Paint),
+        ("paint/16", 16, ShadingModel::Paint),
+        ("paint/32", 32, ShadingModel::Paint),
+        ("paint/81", 81, ShadingModel::Paint),
+        (
+            "phong-fit/32",
+            32,
+            ShadingModel::Phong(PhongVariant::BestFit),
+        ),
+    ];
+    for (name, wavelengths, model) in variants {
+        let mut render = render_for(wavelengths, model);
+        let first = render.render_pass(1);
+        eprintln!(
+            "{name}: {:.2} rays per sample, first pass {:.3} M samples/s, {:.2} M rays/s",
+            first.rays as f64 / first.samples as f64,
+            first.samples_per_second() / 1e6,
+            first.rays_per_second() / 1e6
+        );
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                // Keep the film from growing without bound: restart now and then.
+                if render.samples_per_pixel() > 64 {
+                    render.restart();
+                }
+                render.render_pass(1)
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, passes);
+criterion_main!(benches);
