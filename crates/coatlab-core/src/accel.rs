@@ -8,27 +8,29 @@
 //!   the caller's index, and callers store their primitives in slot order so the
 //!   closure reads memory sequentially.
 //! - [`Accel`] is the triangle layer the tracer uses: a [`Bvh`] over a
-//!   [`TriangleMesh`] plus the triangles copied in slot order, with
+//!   [`TriangleMesh`] plus the triangles copied in slot order (for `Simd8`, lane by
+//!   lane in the packs its leaves point to), with
 //!   [`Accel::closest_hit`] (shading rays, picking) and [`Accel::occluded`] (any hit,
 //!   for shadow rays).
 //!
 //! Layouts ([`BvhLayout`]): the default, `Simd8`, is our own CPU-first 8-wide BVH
-//! (binned-SAH build, f32 child boxes tested 8 at a time, leaves of triangle packs
-//! tested 4 at a time, ordered traversal and a separate any-hit traversal; see
-//! `accel/wide.rs`); obvhs's compressed 8-wide `CwBvh` (`Wide8`) and binary `Bvh2`
-//! (`Binary`) are kept for comparison. `docs/benchmarks.md` ("Acceleration
-//! structure") has the measurements behind the choice.
+//! (binned-SAH build, f32 child boxes tested 8 at a time, leaves of up to 8
+//! triangles tested 8 at a time, ordered traversal and a separate any-hit
+//! traversal; see `accel/wide.rs`); obvhs's compressed 8-wide `CwBvh` (`Wide8`) and
+//! binary `Bvh2` (`Binary`) are kept for comparison. `docs/benchmarks.md`
+//! ("Acceleration structure") has the measurements behind the choice.
 //!
 //! # Rays and the epsilon policy
 //!
 //! A ray is `origin + t · dir` for `t` in the open interval `(0, t_max)`; `t` is in
 //! units of `|dir|` (metres for a unit `dir`). `dir` need not be normalised but must be
 //! finite and non-zero; a ray with a non-finite origin or direction, or `t_max` that is
-//! not positive (NaN included), hits nothing. The triangle test is the watertight one of Woop, Benthin and Wald ("Watertight
-//! Ray/Triangle Intersection", JCGT 2013) in f32, without backface culling: the
+//! not positive (NaN included), hits nothing. The triangle test is the watertight
+//! one of Woop, Benthin and Wald ("Watertight Ray/Triangle Intersection", JCGT 2013)
+//! in f32, without backface culling: the
 //! vertices are moved into a frame where the ray is the +z axis and the three 2-D
 //! edge functions decide inside/outside, recomputed in f64 when one is exactly zero
-//! (`accel/triangle.rs`; the `Simd8` leaves run the same operations 4 lanes at a
+//! (`accel/triangle.rs`; the `Simd8` leaves run the same operations 8 lanes at a
 //! time, bit for bit).
 //! A ray through an edge or vertex shared by two triangles hits at least one of
 //! them. Möller–Trumbore was tried first and is not good enough here: a ray 1.4·10⁻⁶
@@ -77,7 +79,7 @@ use obvhs::{
 
 use crate::scene::TriangleMesh;
 use triangle::{ShearedRay, TrianglePack};
-use wide::{BoxRay, PACK, WideBvh, pack_count};
+use wide::{BoxRay, PACK, WideBvh, pack_count, prefetch};
 
 pub use obvhs::ray::Ray;
 
@@ -123,7 +125,7 @@ impl Bounds {
 pub enum BvhLayout {
     /// Our own 8-wide BVH (`accel/wide.rs`): binned-SAH binary build collapsed to 8
     /// children per 224-byte node, f32 child boxes tested 8 at a time, leaves of up to
-    /// 8 triangles stored as packs of 4 for the watertight test; ordered closest-hit
+    /// 8 triangles stored lane by lane (one pack) for the watertight test; ordered closest-hit
     /// and separate any-hit traversal. The `quality` sets the SAH bins per axis.
     Simd8,
     /// obvhs's compressed wide BVH: 8 children per 80-byte node, child boxes quantised
@@ -439,31 +441,41 @@ fn simd8_closest<F: FnMut(&Ray, usize) -> f32>(
 ) -> Option<(usize, f32)> {
     let box_ray = BoxRay::new(ray.origin.into(), ray.direction.into());
     let mut best = None;
-    tree.closest(&box_ray, ray.tmax, |first, count, t_max| {
-        ray.tmax = t_max;
-        for slots in &tree.pack_slots()[first..first + pack_count(count)] {
-            for &slot in slots.iter().filter(|&&s| s != u32::MAX) {
-                let t = intersect(&ray, slot as usize);
-                if t < ray.tmax {
-                    ray.tmax = t;
-                    best = Some((slot as usize, t));
+    tree.closest(
+        &box_ray,
+        ray.tmax,
+        |first, count, t_max| {
+            ray.tmax = t_max;
+            for slots in &tree.pack_slots()[first..first + pack_count(count)] {
+                for &slot in slots.iter().filter(|&&s| s != u32::MAX) {
+                    let t = intersect(&ray, slot as usize);
+                    if t < ray.tmax {
+                        ray.tmax = t;
+                        best = Some((slot as usize, t));
+                    }
                 }
             }
-        }
-        ray.tmax
-    });
+            ray.tmax
+        },
+        |_, _| {},
+    );
     best
 }
 
 /// [`Bvh::any`] on the `Simd8` tree, one slot at a time.
 fn simd8_any<F: FnMut(&Ray, usize) -> f32>(tree: &WideBvh, ray: Ray, mut intersect: F) -> bool {
     let box_ray = BoxRay::new(ray.origin.into(), ray.direction.into());
-    tree.any(&box_ray, ray.tmax, |first, count| {
-        tree.pack_slots()[first..first + pack_count(count)]
-            .iter()
-            .flatten()
-            .any(|&slot| slot != u32::MAX && intersect(&ray, slot as usize) < ray.tmax)
-    })
+    tree.any(
+        &box_ray,
+        ray.tmax,
+        |first, count| {
+            tree.pack_slots()[first..first + pack_count(count)]
+                .iter()
+                .flatten()
+                .any(|&slot| slot != u32::MAX && intersect(&ray, slot as usize) < ray.tmax)
+        },
+        |_, _| {},
+    )
 }
 
 /// Depth limit of obvhs's 8-wide traversal stack (`TRAVERSAL_STACK_SIZE`, private).
@@ -640,15 +652,20 @@ impl Accel {
         if let Tree::Simd8(tree) = &self.bvh.tree {
             let box_ray = BoxRay::new(origin, dir);
             let mut best = None;
-            tree.closest(&box_ray, t_max, |first, count, mut t_max| {
-                for p in first..first + pack_count(count) {
-                    if let Some(hit) = sheared.intersect_pack(&self.packs[p], t_max) {
-                        t_max = hit.t;
-                        best = Some((p, hit));
+            tree.closest(
+                &box_ray,
+                t_max,
+                |first, count, mut t_max| {
+                    for p in first..first + pack_count(count) {
+                        if let Some(hit) = sheared.intersect_pack(&self.packs[p], t_max) {
+                            t_max = hit.t;
+                            best = Some((p, hit));
+                        }
                     }
-                }
-                t_max
-            });
+                    t_max
+                },
+                |first, count| self.fetch_packs(first, count),
+            );
             return best.map(|(p, hit)| Hit {
                 t: hit.t,
                 triangle: self.packs[p].id[hit.lane],
@@ -680,11 +697,16 @@ impl Accel {
         let sheared = ShearedRay::new(origin, dir);
         if let Tree::Simd8(tree) = &self.bvh.tree {
             let box_ray = BoxRay::new(origin, dir);
-            return tree.any(&box_ray, t_max, |first, count| {
-                self.packs[first..first + pack_count(count)]
-                    .iter()
-                    .any(|pack| sheared.any_in_pack(pack, t_max))
-            });
+            return tree.any(
+                &box_ray,
+                t_max,
+                |first, count| {
+                    self.packs[first..first + pack_count(count)]
+                        .iter()
+                        .any(|pack| sheared.any_in_pack(pack, t_max))
+                },
+                |first, count| self.fetch_packs(first, count),
+            );
         }
         let ray = Ray::new(origin.into(), dir.into(), 0.0, t_max);
         self.bvh.any(ray, |ray, slot| {
@@ -692,6 +714,14 @@ impl Accel {
                 .intersect_pack(&single(&self.triangles[slot]), ray.tmax)
                 .map_or(f32::INFINITY, |hit| hit.t)
         })
+    }
+
+    /// Starts fetching a leaf's packs (see `wide::prefetch`).
+    #[inline(always)]
+    fn fetch_packs(&self, first: usize, count: usize) {
+        if let Some(packs) = self.packs.get(first..first + pack_count(count)) {
+            packs.iter().for_each(prefetch);
+        }
     }
 
     /// Checks the tree ([`Bvh::validate`]) against the triangles' boxes, and, for

@@ -3,15 +3,16 @@
 //!
 //! One generic routine, [`ShearedRay::intersect_pack`], tests `N` triangles stored
 //! lane by lane ([`TrianglePack`]); each lane goes through exactly the same f32
-//! operations in the same order, so the pack of 4 that the 8-wide tree's leaves use
+//! operations in the same order, so the pack of 8 that the 8-wide tree's leaves use
 //! and the pack of 1 behind [`super::intersect_triangle`] (the brute-force reference
 //! of the tests) give bit-identical distances and barycentrics. The per-lane loops are
 //! written for LLVM's loop vectoriser (straight-line arithmetic over fixed-size
-//! arrays, no early exits), which turns a pack of 4 into SSE/AVX instructions without
+//! arrays, no early exits), which turns a pack of 8 into AVX instructions without
 //! `unsafe`.
 
-/// Triangles per leaf block of the 8-wide tree.
-pub(super) const PACK: usize = 4;
+/// Triangles per leaf block of the 8-wide tree: 8, one AVX register per coordinate.
+/// (Measured against 4 with leaves of up to 4 or 8: see docs/benchmarks.md.)
+pub(super) const PACK: usize = 8;
 
 /// `N` triangles, lane by lane: `v[vertex][axis][lane]`, metres, and the caller's id
 /// of each lane. Unused lanes hold NaN vertices, which never hit (every comparison in
@@ -197,7 +198,7 @@ impl ShearedRay {
 mod tests {
     use super::*;
 
-    /// A pack of 4 agrees lane by lane, bit for bit, with four packs of 1, on random
+    /// A full pack agrees lane by lane, bit for bit, with packs of 1, on random
     /// triangles and rays (including rays through shared vertices).
     #[test]
     fn pack_lanes_agree_with_single_triangles() {
