@@ -152,8 +152,9 @@ fn lamborghini_is_normalised_to_a_car_length() {
     check_scene(&scene, "Lamborghini");
     assert_eq!(scene.mesh.triangle_count(), 145_917);
     assert_eq!(scene.materials.len(), 45);
-    // No material is named like paint: the largest non-excluded area wins.
-    assert_eq!(paint_names(&scene), ["LamborghiniHuracanGT3_CarBase"]);
+    // No material is named like paint: the largest non-excluded area seen from
+    // outside wins (the livery; CarBase is larger but mostly hidden under it).
+    assert_eq!(paint_names(&scene), ["Material.035"]);
 
     // The livery can be chosen by name.
     let path = testdata()

@@ -323,7 +323,10 @@ fn load_from_bytes(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<S
             warnings.push(format!("paint material: '{name}' (chosen by name)"));
             chosen
         }
-        None => match choose_paint_material(&materials) {
+        None => match choose_paint_material_by(
+            &materials,
+            &visible_area_by_material(&mesh, materials.len()),
+        ) {
             Some((index, reason)) => {
                 warnings.push(format!(
                     "paint material: '{}' ({reason})",
@@ -346,22 +349,38 @@ fn load_from_bytes(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<S
     })
 }
 
-/// The heuristic for the car-body material, returning its index and the reason.
+/// The heuristic for the car-body material by total area (see
+/// [`choose_paint_material_by`]).
+pub fn choose_paint_material(materials: &[SceneMaterial]) -> Option<(usize, String)> {
+    let area: Vec<f32> = materials.iter().map(|m| m.area_m2).collect();
+    choose_paint_material_by(materials, &area)
+}
+
+/// The heuristic for the car-body material, returning its index and the reason;
+/// `score` is an area per material: the loader passes the area seen from outside
+/// ([`visible_area_by_material`]), because real models hide large surfaces inside
+/// (the Lamborghini's `CarBase`, 17.7 m², is mostly under the livery `Material.035`).
 ///
 /// 1. Among materials whose name contains one of [`PAINT_NAME_HINTS`] and none of
-///    [`NOT_PAINT_NAME_HINTS`] (case-insensitive), the one with the largest area.
-/// 2. Otherwise the largest-area material whose name contains none of
+///    [`NOT_PAINT_NAME_HINTS`] (case-insensitive), the one with the largest score.
+/// 2. Otherwise the largest-score material whose name contains none of
 ///    [`NOT_PAINT_NAME_HINTS`].
-/// 3. Otherwise the largest-area material.
+/// 3. Otherwise the largest-score material.
 ///
 /// Materials without area (unused) are never chosen.
-pub fn choose_paint_material(materials: &[SceneMaterial]) -> Option<(usize, String)> {
+pub fn choose_paint_material_by(
+    materials: &[SceneMaterial],
+    score: &[f32],
+) -> Option<(usize, String)> {
+    let score_of = |i: usize| score.get(i).copied().unwrap_or(0.0);
     let largest = |filter: &dyn Fn(&str) -> bool| {
         materials
             .iter()
             .enumerate()
-            .filter(|(_, m)| m.area_m2 > 0.0 && filter(&m.name.to_lowercase()))
-            .max_by(|(_, a), (_, b)| a.area_m2.total_cmp(&b.area_m2))
+            .filter(|(i, m)| {
+                m.area_m2 > 0.0 && score_of(*i) > 0.0 && filter(&m.name.to_lowercase())
+            })
+            .max_by(|(a, _), (b, _)| score_of(*a).total_cmp(&score_of(*b)))
             .map(|(i, _)| i)
     };
     let excluded = |name: &str| NOT_PAINT_NAME_HINTS.iter().any(|h| name.contains(h));
@@ -375,17 +394,82 @@ pub fn choose_paint_material(materials: &[SceneMaterial]) -> Option<(usize, Stri
         return Some((
             i,
             format!(
-                "no name matches a paint hint; largest area, {:.2} m², among names not like glass, wheel, lights, …",
-                materials[i].area_m2
+                "no name matches a paint hint; largest area seen from outside, {:.2} m², among names not like glass, wheel, lights, …",
+                score_of(i)
             ),
         ));
     }
     largest(&|_| true).map(|i| {
         (
             i,
-            "every material looks like a non-body part; largest area".into(),
+            "every material looks like a non-body part; largest area seen from outside".into(),
         )
     })
+}
+
+/// Directions the model is looked at from in [`visible_area_by_material`].
+const VISIBILITY_VIEWS: usize = 64;
+/// Rays per view and side of the square grid.
+const VISIBILITY_GRID: usize = 40;
+
+/// Per material, the area a viewer outside the model sees of it: the projected
+/// area hit first by parallel rays from [`VISIBILITY_VIEWS`] directions spread over
+/// the sphere (those from below the ground left out), averaged over the views
+/// (m²; a sphere of radius r scores πr²). Falls back to the total area when the
+/// mesh cannot be traced.
+pub fn visible_area_by_material(mesh: &TriangleMesh, material_count: usize) -> Vec<f32> {
+    let total_area = || {
+        let mut area = vec![0.0f32; material_count];
+        for t in 0..mesh.triangle_count() {
+            if let Some(a) = area.get_mut(mesh.triangle_material[t] as usize) {
+                *a += mesh.triangle_area(t);
+            }
+        }
+        area
+    };
+    let (Some((lo, hi)), Ok(accel)) = (mesh.bounds(), crate::accel::Accel::build(mesh)) else {
+        return total_area();
+    };
+    let centre: [f32; 3] = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
+    let radius =
+        0.5 * ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt();
+    if !(radius > 0.0 && radius.is_finite()) {
+        return total_area();
+    }
+    let cell = 2.0 * radius / VISIBILITY_GRID as f32;
+    let mut seen = vec![0.0f64; material_count];
+    let mut views = 0;
+    for k in 0..VISIBILITY_VIEWS {
+        // Fibonacci sphere: even coverage without a preferred axis.
+        let y = 1.0 - 2.0 * (k as f32 + 0.5) / VISIBILITY_VIEWS as f32;
+        if y < -0.2 {
+            continue;
+        }
+        let r = (1.0 - y * y).max(0.0).sqrt();
+        let phi = k as f32 * 2.399_963_2;
+        // The ray direction points from the viewer toward the model.
+        let dir = [-r * phi.cos(), -y, -r * phi.sin()];
+        let (u, v) = crate::paint::lobe::orthonormal_basis(dir);
+        views += 1;
+        for i in 0..VISIBILITY_GRID {
+            for j in 0..VISIBILITY_GRID {
+                let a = -radius + (i as f32 + 0.5) * cell;
+                let b = -radius + (j as f32 + 0.5) * cell;
+                let origin: [f32; 3] = std::array::from_fn(|c| {
+                    centre[c] - 2.0 * radius * dir[c] + a * u[c] + b * v[c]
+                });
+                if let Some(hit) = accel.closest_hit(origin, dir, 4.0 * radius)
+                    && let Some(s) =
+                        seen.get_mut(mesh.triangle_material[hit.triangle as usize] as usize)
+                {
+                    *s += f64::from(cell * cell);
+                }
+            }
+        }
+    }
+    seen.iter()
+        .map(|&s| (s / f64::from(views.max(1))) as f32)
+        .collect()
 }
 
 // ---------------------------------------------------------------------------
