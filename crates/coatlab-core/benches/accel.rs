@@ -18,7 +18,11 @@
 //! - incoherent: 2¹⁹ bounce rays, origins at area-weighted random points on the
 //!   surface (moved off it with `offset_ray_origin`), cosine-distributed directions
 //!   about the geometric normal's front side, in chunks of 4096 rays;
-//! - shadow: the same rays as any-hit queries (`occluded`) with `t_max = 1 m`.
+//! - shadow: the same rays as any-hit queries (`occluded`) with `t_max = 1 m`;
+//! - image-order bounce: the tracer's first bounce in the order it issues it: camera
+//!   rays of a 1920×1080 image in 16×16 tiles, and for each hit a cosine-distributed
+//!   bounce about the geometric normal (camera side) from the offset hit point, so
+//!   that consecutive rays start close together; chunks of 4096 rays.
 //!
 //! Two ways to run it:
 //! - `ACCEL_SUMMARY=1 cargo bench -p coatlab-core --bench accel` prints the whole
@@ -58,6 +62,7 @@ const ALL_CONFIGS: [(&str, BuildOptions); 5] = [
         BuildOptions {
             layout: BvhLayout::Simd8,
             quality: BuildQuality::Fastest,
+            threads: 0,
         },
     ),
     (
@@ -65,6 +70,7 @@ const ALL_CONFIGS: [(&str, BuildOptions); 5] = [
         BuildOptions {
             layout: BvhLayout::Simd8,
             quality: BuildQuality::Fast,
+            threads: 0,
         },
     ),
     (
@@ -72,6 +78,7 @@ const ALL_CONFIGS: [(&str, BuildOptions); 5] = [
         BuildOptions {
             layout: BvhLayout::Simd8,
             quality: BuildQuality::Medium,
+            threads: 0,
         },
     ),
     (
@@ -79,6 +86,7 @@ const ALL_CONFIGS: [(&str, BuildOptions); 5] = [
         BuildOptions {
             layout: BvhLayout::Wide8,
             quality: BuildQuality::Fast,
+            threads: 0,
         },
     ),
     (
@@ -86,6 +94,7 @@ const ALL_CONFIGS: [(&str, BuildOptions); 5] = [
         BuildOptions {
             layout: BvhLayout::Binary,
             quality: BuildQuality::Fast,
+            threads: 0,
         },
     ),
 ];
@@ -176,9 +185,14 @@ impl Camera {
     }
 
     fn dir(&self, x: usize, y: usize) -> [f32; 3] {
-        let aspect = WIDTH as f32 / HEIGHT as f32;
-        let sx = (2.0 * (x as f32 + 0.5) / WIDTH as f32 - 1.0) * self.tan_half * aspect;
-        let sy = (1.0 - 2.0 * (y as f32 + 0.5) / HEIGHT as f32) * self.tan_half;
+        self.dir_in(x, y, WIDTH, HEIGHT)
+    }
+
+    /// Direction through pixel (x, y) of a `width` × `height` image.
+    fn dir_in(&self, x: usize, y: usize, width: usize, height: usize) -> [f32; 3] {
+        let aspect = width as f32 / height as f32;
+        let sx = (2.0 * (x as f32 + 0.5) / width as f32 - 1.0) * self.tan_half * aspect;
+        let sy = (1.0 - 2.0 * (y as f32 + 0.5) / height as f32) * self.tan_half;
         normalise(std::array::from_fn(|k| {
             self.forward[k] + sx * self.right[k] + sy * self.up[k]
         }))
@@ -209,19 +223,63 @@ fn incoherent_rays(mesh: &TriangleMesh, count: usize, seed: u64) -> Vec<([f32; 3
             (u, v) = (1.0 - u, 1.0 - v);
         }
         let p: [f32; 3] = std::array::from_fn(|k| a[k] + u * (b[k] - a[k]) + v * (c[k] - a[k]));
-        // Cosine hemisphere about n.
-        let (r1, r2) = (rng.random::<f32>(), rng.random::<f32>());
-        let (r, phi) = (r1.sqrt(), 2.0 * PI * r2);
-        let helper = if n[0].abs() > 0.9 {
-            [0.0, 1.0, 0.0]
-        } else {
-            [1.0, 0.0, 0.0]
-        };
-        let tx = normalise(cross(helper, n));
-        let ty = cross(n, tx);
-        let (lx, ly, lz) = (r * phi.cos(), r * phi.sin(), (1.0 - r1).max(0.0).sqrt());
-        let dir = normalise(std::array::from_fn(|k| lx * tx[k] + ly * ty[k] + lz * n[k]));
+        let dir = cosine_about(n, &mut rng);
         rays.push((offset_ray_origin(p, n), dir));
+    }
+    rays
+}
+
+/// A cosine-distributed unit direction about the unit normal `n`.
+fn cosine_about(n: [f32; 3], rng: &mut Pcg64) -> [f32; 3] {
+    let (r1, r2) = (rng.random::<f32>(), rng.random::<f32>());
+    let (r, phi) = (r1.sqrt(), 2.0 * PI * r2);
+    let helper = if n[0].abs() > 0.9 {
+        [0.0, 1.0, 0.0]
+    } else {
+        [1.0, 0.0, 0.0]
+    };
+    let tx = normalise(cross(helper, n));
+    let ty = cross(n, tx);
+    let (lx, ly, lz) = (r * phi.cos(), r * phi.sin(), (1.0 - r1).max(0.0).sqrt());
+    normalise(std::array::from_fn(|k| lx * tx[k] + ly * ty[k] + lz * n[k]))
+}
+
+/// The tracer's first bounce as it issues it: camera rays of a 1920×1080 image in
+/// 16×16-pixel tiles (the film's tiles), and for each one that hits, a
+/// cosine-distributed bounce about the geometric normal on the camera's side, from
+/// the hit point moved off the surface; in that order, so consecutive rays start
+/// close together (unlike the area-sampled `incoherent_rays`).
+fn image_order_bounces(
+    mesh: &TriangleMesh,
+    camera: &Camera,
+    seed: u64,
+) -> Vec<([f32; 3], [f32; 3])> {
+    const TILE: usize = 16;
+    let (width, height) = (2 * WIDTH, 2 * HEIGHT);
+    let accel = Accel::build(mesh).expect("build");
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let mut rays = Vec::new();
+    for ty in (0..height).step_by(TILE) {
+        for tx in (0..width).step_by(TILE) {
+            for y in ty..(ty + TILE).min(height) {
+                for x in tx..(tx + TILE).min(width) {
+                    let dir = camera.dir_in(x, y, width, height);
+                    let Some(hit) = accel.closest_hit(camera.eye, dir, f32::INFINITY) else {
+                        continue;
+                    };
+                    let [a, b, c] =
+                        mesh.triangles[hit.triangle as usize].map(|i| mesh.positions[i as usize]);
+                    let mut n = normalise(cross(sub(b, a), sub(c, a)));
+                    if n.iter().zip(&dir).map(|(p, q)| p * q).sum::<f32>() > 0.0 {
+                        n = n.map(|x| -x);
+                    }
+                    let [u, v] = hit.barycentric;
+                    let p: [f32; 3] =
+                        std::array::from_fn(|k| a[k] + u * (b[k] - a[k]) + v * (c[k] - a[k]));
+                    rays.push((offset_ray_origin(p, n), cosine_about(n, &mut rng)));
+                }
+            }
+        }
     }
     rays
 }
@@ -298,18 +356,32 @@ fn summary() {
     println!(
         "| mesh | triangles | BVH | build 1 thread (ms) | build 2 threads (ms) | nodes | \
          camera Mrays/s 1 core | camera Mrays/s 2 cores | incoherent Mrays/s 1 core | \
-         incoherent Mrays/s 2 cores | shadow Mrays/s 2 cores |"
+         incoherent Mrays/s 2 cores | shadow Mrays/s 2 cores | image-order bounce Mrays/s \
+         2 cores |"
     );
-    println!("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |");
+    println!("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |");
     for (name, mesh) in meshes() {
         let camera = Camera::three_quarter(&mesh);
         let rays = incoherent_rays(&mesh, INCOHERENT_RAYS, 7);
+        let bounces = image_order_bounces(&mesh, &camera, 8);
         eprintln!("{name}: load average before: {}", load_average());
-        let mut reference: Option<(f64, f64)> = None;
+        let mut reference: Option<(f64, f64, f64)> = None;
         let mut notes = Vec::new();
         for (label, options) in configs() {
-            let (build1, _) = best_of(5, || one.install(|| Accel::build_with(&mesh, &options)));
-            let (build2, accel) = best_of(5, || two.install(|| Accel::build_with(&mesh, &options)));
+            // `Simd8` builds on threads of its own: as many as the pool has.
+            let (options1, options2) = (
+                BuildOptions {
+                    threads: 1,
+                    ..options
+                },
+                BuildOptions {
+                    threads: 2,
+                    ..options
+                },
+            );
+            let (build1, _) = best_of(5, || one.install(|| Accel::build_with(&mesh, &options1)));
+            let (build2, accel) =
+                best_of(5, || two.install(|| Accel::build_with(&mesh, &options2)));
             let accel = accel.expect("build");
             let rate = |pool: &rayon::ThreadPool, n: usize, f: &(dyn Fn() -> usize + Sync)| {
                 let (t, hits) = best_of(5, || pool.install(f));
@@ -321,35 +393,41 @@ fn summary() {
             let (inc1, _) = rate(&one, rays.len(), &|| trace_incoherent(&accel, &rays));
             let (inc2, inc_hits) = rate(&two, rays.len(), &|| trace_incoherent(&accel, &rays));
             let (sh2, sh_hits) = rate(&two, rays.len(), &|| trace_shadow(&accel, &rays));
+            let (bo2, bo_hits) = rate(&two, bounces.len(), &|| trace_incoherent(&accel, &bounces));
             println!(
                 "| {name} | {} | {label} | {:.1} | {:.1} | {} | {cam1:.2} | {cam2:.2} | {inc1:.2} | \
-                 {inc2:.2} | {sh2:.2} |",
+                 {inc2:.2} | {sh2:.2} | {bo2:.2} |",
                 mesh.triangle_count(),
                 build1.as_secs_f64() * 1e3,
                 build2.as_secs_f64() * 1e3,
                 accel.bvh().node_count(),
             );
             if label == "Wide8/Fast" {
-                reference = Some((cam2, inc2));
+                reference = Some((cam2, inc2, bo2));
             }
-            notes.push((label, cam2, inc2));
+            notes.push((label, cam2, inc2, bo2));
             if label == "Simd8/Fast" {
                 eprintln!(
                     "{name}: camera rays hitting {:.1} %, incoherent rays hitting {:.1} %, \
-                     shadow rays (t_max {SHADOW_T_MAX} m) occluded {:.1} %",
+                     shadow rays (t_max {SHADOW_T_MAX} m) occluded {:.1} %, {} image-order \
+                     bounce rays hitting {:.1} %",
                     100.0 * cam_hits as f64 / camera_n as f64,
                     100.0 * inc_hits as f64 / rays.len() as f64,
                     100.0 * sh_hits as f64 / rays.len() as f64,
+                    bounces.len(),
+                    100.0 * bo_hits as f64 / bounces.len() as f64,
                 );
             }
         }
         eprintln!("{name}: load average after: {}", load_average());
-        if let Some((cam_ref, inc_ref)) = reference {
-            for (label, cam, inc) in notes {
+        if let Some((cam_ref, inc_ref, bo_ref)) = reference {
+            for (label, cam, inc, bo) in notes {
                 eprintln!(
-                    "{name}: {label} vs Wide8/Fast (2 cores): camera ×{:.2}, incoherent ×{:.2}",
+                    "{name}: {label} vs Wide8/Fast (2 cores): camera ×{:.2}, incoherent ×{:.2}, \
+                     image-order bounce ×{:.2}",
                     cam / cam_ref,
-                    inc / inc_ref
+                    inc / inc_ref,
+                    bo / bo_ref
                 );
             }
         }
@@ -365,6 +443,7 @@ fn criterion_benches(c: &mut Criterion) {
         build.sample_size(10);
         for (label, options) in configs() {
             for (threads, pool) in [(1, &one), (2, &two)] {
+                let options = BuildOptions { threads, ..options };
                 build.bench_function(BenchmarkId::new(label, format!("{threads}T")), |b| {
                     b.iter(|| pool.install(|| Accel::build_with(black_box(&mesh), &options)))
                 });

@@ -176,11 +176,26 @@ impl BuildQuality {
     }
 }
 
-/// How to build a [`Bvh`]. The build runs on rayon's current thread pool.
+/// How to build a [`Bvh`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct BuildOptions {
     pub layout: BvhLayout,
     pub quality: BuildQuality,
+    /// Threads for the `Simd8` build (scoped threads of its own, each subtree of
+    /// 4096 or more primitives split between two); 0 for
+    /// `std::thread::available_parallelism`. The obvhs layouts build on rayon's
+    /// current thread pool regardless.
+    pub threads: usize,
+}
+
+impl BuildOptions {
+    /// `threads`, with 0 resolved.
+    fn build_threads(&self) -> usize {
+        match self.threads {
+            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+            n => n,
+        }
+    }
 }
 
 impl Default for BuildOptions {
@@ -189,6 +204,7 @@ impl Default for BuildOptions {
         BuildOptions {
             layout: BvhLayout::Simd8,
             quality: BuildQuality::Fast,
+            threads: 0,
         }
     }
 }
@@ -272,7 +288,11 @@ impl Bvh {
         }
         if options.layout == BvhLayout::Simd8 {
             return Ok(Bvh {
-                tree: Tree::Simd8(WideBvh::build(boxes, options.quality.sah_bins())),
+                tree: Tree::Simd8(WideBvh::build(
+                    boxes,
+                    options.quality.sah_bins(),
+                    options.build_threads(),
+                )),
                 options: *options,
                 bounds,
             });
@@ -293,10 +313,7 @@ impl Bvh {
         };
         Ok(Bvh {
             tree,
-            options: BuildOptions {
-                layout,
-                quality: options.quality,
-            },
+            options: BuildOptions { layout, ..*options },
             bounds,
         })
     }

@@ -22,26 +22,32 @@ const ALL_OPTIONS: [BuildOptions; 6] = [
     BuildOptions {
         layout: BvhLayout::Simd8,
         quality: BuildQuality::Fast,
+        threads: 0,
     },
     BuildOptions {
         layout: BvhLayout::Wide8,
         quality: BuildQuality::Fast,
+        threads: 0,
     },
     BuildOptions {
         layout: BvhLayout::Binary,
         quality: BuildQuality::Medium,
+        threads: 0,
     },
     BuildOptions {
         layout: BvhLayout::Wide8,
         quality: BuildQuality::Fastest,
+        threads: 0,
     },
     BuildOptions {
         layout: BvhLayout::Wide8,
         quality: BuildQuality::Slow,
+        threads: 0,
     },
     BuildOptions {
         layout: BvhLayout::Simd8,
         quality: BuildQuality::Fastest,
+        threads: 0,
     },
 ];
 
@@ -226,9 +232,45 @@ fn default_build_is_simd8_and_fast() {
         BuildOptions::default(),
         BuildOptions {
             layout: BvhLayout::Simd8,
-            quality: BuildQuality::Fast
+            quality: BuildQuality::Fast,
+            threads: 0,
         }
     );
+}
+
+#[test]
+fn parallel_and_serial_simd8_builds_are_identical() {
+    // The subtrees built on other threads are appended in the serial order, so the
+    // tree does not depend on the thread count.
+    let mesh = torus(200, 60);
+    let build = |threads| {
+        Accel::build_with(
+            &mesh,
+            &BuildOptions {
+                threads,
+                ..BuildOptions::default()
+            },
+        )
+        .expect("build")
+    };
+    let serial = build(1);
+    for threads in [2, 3, 8] {
+        let parallel = build(threads);
+        parallel.validate().expect("valid tree");
+        assert_eq!(parallel.bvh().node_count(), serial.bvh().node_count());
+        assert_eq!(
+            parallel.bvh().primitive_order(),
+            serial.bvh().primitive_order()
+        );
+    }
+    let rays = random_rays(&mesh, 300, 15);
+    let parallel = build(2);
+    for &(origin, dir, t_max) in &rays {
+        assert_eq!(
+            parallel.closest_hit(origin, dir, t_max),
+            serial.closest_hit(origin, dir, t_max)
+        );
+    }
 }
 
 /// Any hit over every triangle, with the accel's own triangle test.

@@ -396,8 +396,8 @@ impl WideBvh {
     }
 
     /// Builds the tree over `boxes` (finite; checked by the caller) with `bins` SAH
-    /// bins per axis.
-    pub fn build(boxes: &[Bounds], bins: usize) -> WideBvh {
+    /// bins per axis, on up to `threads` threads (at least one).
+    pub fn build(boxes: &[Bounds], bins: usize, threads: usize) -> WideBvh {
         if boxes.is_empty() {
             return WideBvh {
                 nodes: Vec::new(),
@@ -405,15 +405,19 @@ impl WideBvh {
                 pack_slots: Vec::new(),
             };
         }
+        let centroids: Vec<[f32; 3]> = boxes
+            .iter()
+            .map(|b| std::array::from_fn(|k| b.min[k] + b.max[k]))
+            .collect();
+        let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
         let mut builder = BinaryBuilder {
             boxes,
-            centroids: boxes
-                .iter()
-                .map(|b| std::array::from_fn(|k| b.min[k] + b.max[k]))
-                .collect(),
-            order: (0..boxes.len() as u32).collect(),
+            centroids: &centroids,
+            order: &mut order,
+            base: 0,
             nodes: Vec::with_capacity(2 * boxes.len() / PACK + 1),
             bins: bins.clamp(2, 256),
+            threads: threads.max(1),
         };
         builder.build(0, boxes.len(), 0);
         let mut wide = WideBvh {
@@ -431,7 +435,7 @@ impl WideBvh {
         } else {
             wide.collapse(&builder.nodes, 0);
         }
-        wide.order = builder.order;
+        wide.order = order;
         wide
     }
 
@@ -653,23 +657,30 @@ impl Bounds {
 struct BinaryBuilder<'a> {
     boxes: &'a [Bounds],
     /// Twice each box's centre (the factor of 2 changes no decision).
-    centroids: Vec<[f32; 3]>,
-    order: Vec<u32>,
+    centroids: &'a [[f32; 3]],
+    /// The part of the slot order this builder works on: slots `base..`.
+    order: &'a mut [u32],
+    base: usize,
     nodes: Vec<BinNode>,
     bins: usize,
+    /// Threads this builder may use (itself included).
+    threads: usize,
 }
+
+/// Fewest primitives for which a subtree is handed to another thread.
+const PARALLEL_MIN: usize = 4096;
 
 /// Relative cost of one node visit against one pack test, for the SAH.
 const TRAVERSAL_COST: f32 = 1.0;
 
-impl BinaryBuilder<'_> {
-    /// Builds the subtree over `order[first..first + count]`; returns its node index.
+impl<'a> BinaryBuilder<'a> {
+    /// Builds the subtree over slots `first..first + count`; returns its node index.
     fn build(&mut self, first: usize, count: usize, depth: usize) -> usize {
         let index = self.nodes.len();
-        let range = first..first + count;
+        let range = first - self.base..first - self.base + count;
         let mut bounds = Bounds::empty();
         let mut centres = Bounds::empty();
-        for &p in &self.order[range.clone()] {
+        for &p in &self.order[range] {
             bounds.grow(&self.boxes[p as usize]);
             let c = self.centroids[p as usize];
             centres.grow(&Bounds { min: c, max: c });
@@ -693,10 +704,61 @@ impl BinaryBuilder<'_> {
             None if count <= MAX_LEAF => return index,
             None => self.median_split(first, count, &centres),
         };
-        let left = self.build(first, mid - first, depth + 1);
-        let right = self.build(mid, first + count - mid, depth + 1);
+        let (left, right) = if self.threads > 1 && count >= PARALLEL_MIN {
+            self.build_both_in_parallel(first, mid, first + count, depth + 1)
+        } else {
+            let left = self.build(first, mid - first, depth + 1);
+            (left, self.build(mid, first + count - mid, depth + 1))
+        };
         self.nodes[index].kind = BinKind::Inner { left, right };
         index
+    }
+
+    /// Builds slots `first..mid` here and `mid..end` on a scoped thread with a builder
+    /// of its own (half the threads each), then appends that builder's nodes.
+    /// Afterwards this builder holds only slots up to `mid`: every caller above has
+    /// finished with the slots beyond (they were its right part, or another thread's).
+    fn build_both_in_parallel(
+        &mut self,
+        first: usize,
+        mid: usize,
+        end: usize,
+        depth: usize,
+    ) -> (usize, usize) {
+        let order = std::mem::take(&mut self.order);
+        let (left_order, right_order) = order.split_at_mut(mid - self.base);
+        let right_order = &mut right_order[..end - mid];
+        self.order = left_order;
+        let half = self.threads / 2;
+        self.threads -= half;
+        let mut right_builder = BinaryBuilder {
+            boxes: self.boxes,
+            centroids: self.centroids,
+            order: right_order,
+            base: mid,
+            nodes: Vec::with_capacity(2 * (end - mid) / PACK + 1),
+            bins: self.bins,
+            threads: half,
+        };
+        let left = std::thread::scope(|scope| {
+            let right = scope.spawn(|| right_builder.build(mid, end - mid, depth));
+            let left = self.build(first, mid - first, depth);
+            // A panic in the right half is a bug; re-raise it here.
+            if let Err(payload) = right.join() {
+                std::panic::resume_unwind(payload);
+            }
+            left
+        });
+        let offset = self.nodes.len();
+        self.nodes
+            .extend(right_builder.nodes.into_iter().map(|mut node| {
+                if let BinKind::Inner { left, right } = &mut node.kind {
+                    *left += offset;
+                    *right += offset;
+                }
+                node
+            }));
+        (left, offset)
     }
 
     /// The best SAH split, partitioning `order` accordingly: `Some(Some(mid))` (the
@@ -710,7 +772,7 @@ impl BinaryBuilder<'_> {
         centres: &Bounds,
     ) -> Option<Option<usize>> {
         let bins = self.bins;
-        let range = first..first + count;
+        let range = first - self.base..first - self.base + count;
         let extent: [f32; 3] = std::array::from_fn(|k| centres.max[k] - centres.min[k]);
         // Bin index of centroid coordinate x on axis k; scale 0 on a flat axis.
         let scale: [f32; 3] = std::array::from_fn(|k| {
@@ -789,7 +851,8 @@ impl BinaryBuilder<'_> {
             .unwrap_or(0);
         let half = count / 2;
         let centroids = &self.centroids;
-        self.order[first..first + count].select_nth_unstable_by(half, |&a, &b| {
+        let start = first - self.base;
+        self.order[start..start + count].select_nth_unstable_by(half, |&a, &b| {
             centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
         });
         first + half
