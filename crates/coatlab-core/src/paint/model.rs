@@ -599,6 +599,14 @@ pub trait SpectralBsdf {
     /// Samples a direction; writes f·cos θi/pdf (the path weight) per wavelength into
     /// `weight`. `None` when the sample is lost (below the surface).
     fn sample(&self, wo: [f32; 3], u: [f32; 3], weight: &mut [f32]) -> Option<BsdfSample>;
+    /// For a BSDF with a delta (mirror) component: its reflectance toward the
+    /// mirror direction of `wo` per wavelength, written to `out`, and `true`;
+    /// `false` (and `out` untouched) without one. Re-shading a recorded delta
+    /// sample needs it.
+    fn delta_reflectance(&self, wo: [f32; 3], out: &mut [f32]) -> bool {
+        let _ = (wo, out);
+        false
+    }
 }
 
 /// The paint model in single precision for the renderer.
@@ -784,6 +792,14 @@ impl SpectralBsdf for SpectralPaint {
             cosine_hemisphere([u[1], u[2]])
         };
         weigh_sample(self, wo, wi, weight)
+    }
+
+    fn delta_reflectance(&self, wo: [f32; 3], out: &mut [f32]) -> bool {
+        if !matches!(self.lobe, SpectralLobe::Mirror) || wo[2] <= 0.0 {
+            return false;
+        }
+        self.mirror_reflectance(wo[2], &mut out[..self.len]);
+        true
     }
 }
 

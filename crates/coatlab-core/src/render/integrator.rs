@@ -84,6 +84,70 @@ pub struct PathStats {
     pub rays: u32,
 }
 
+/// The light sample at a vertex that reached the light (unoccluded, non-zero
+/// weight): enough to re-evaluate its contribution with another BSDF.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LightRecord {
+    /// Direction toward the light, local frame.
+    pub wi: [f32; 3],
+    /// The same direction in world space (to look up the environment again).
+    pub dir: [f32; 3],
+    /// Density of the light sample.
+    pub light_pdf: f32,
+    /// Density with which the BSDF in use would have sampled it (for MIS).
+    pub bsdf_pdf: f32,
+}
+
+/// The BSDF sample that continued the path from a vertex.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NextRecord {
+    /// Sampled direction, local frame.
+    pub wi: [f32; 3],
+    /// The same direction in world space.
+    pub dir: [f32; 3],
+    /// Its density (for a delta: the probability of choosing the delta).
+    pub pdf: f32,
+    /// Whether it came from a delta (mirror) component.
+    pub delta: bool,
+    /// Russian roulette's survival probability after it (1 when no roulette).
+    pub survive: f32,
+}
+
+/// What the tracer did at one surface.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VertexRecord {
+    /// The surface.
+    pub surface: Surface,
+    /// Direction toward the viewer (the previous vertex), local frame.
+    pub wo: [f32; 3],
+    /// The light sample, when it reached the light.
+    pub light: Option<LightRecord>,
+    /// The continuation, when the path went on.
+    pub next: Option<NextRecord>,
+}
+
+/// Receives the decisions a path made, in order, for re-shading
+/// ([`crate::render::reshade`]): every surface vertex, then, when the path ended
+/// in the environment, its escape (along the last vertex's continuation, or the
+/// camera ray).
+pub trait PathRecorder {
+    /// A surface vertex was shaded.
+    fn vertex(&mut self, vertex: &VertexRecord);
+    /// The path escaped to the environment along `dir`.
+    fn escape(&mut self, dir: [f32; 3]);
+}
+
+/// Records nothing (ordinary rendering; compiles to nothing).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NoRecord;
+
+impl PathRecorder for NoRecord {
+    #[inline]
+    fn vertex(&mut self, _: &VertexRecord) {}
+    #[inline]
+    fn escape(&mut self, _: [f32; 3]) {}
+}
+
 impl<'a> PathTracer<'a> {
     /// A tracer. The floor plane takes part when both the geometry and the lighting
     /// setup have one.
@@ -137,6 +201,19 @@ impl<'a> PathTracer<'a> {
         buffers: &mut PathBuffers,
         out: &mut [f32],
     ) -> PathStats {
+        self.radiance_recorded(origin, dir, sampler, buffers, out, &mut NoRecord)
+    }
+
+    /// [`Self::radiance`], telling `recorder` every decision the path made.
+    pub fn radiance_recorded(
+        &self,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        sampler: &mut PixelSampler,
+        buffers: &mut PathBuffers,
+        out: &mut [f32],
+        recorder: &mut impl PathRecorder,
+    ) -> PathStats {
         let len = self.len();
         let out = &mut out[..len];
         let PathBuffers {
@@ -169,6 +246,7 @@ impl<'a> PathTracer<'a> {
                 for ((o, t), l) in out.iter_mut().zip(throughput.iter()).zip(light.iter()) {
                     *o += t * l * mis;
                 }
+                recorder.escape(ray_dir);
                 break;
             };
             if bounce == self.settings.max_bounces {
@@ -190,6 +268,12 @@ impl<'a> PathTracer<'a> {
             };
             let frame = Frame::from_normal(normal);
             let wo = frame.to_local(to_viewer);
+            let mut record = VertexRecord {
+                surface: hit.surface,
+                wo,
+                light: None,
+                next: None,
+            };
 
             // Next-event estimation.
             let u_light = sampler.next_2d();
@@ -199,7 +283,8 @@ impl<'a> PathTracer<'a> {
                 let wi = frame.to_local(light_sample.dir);
                 if wi[2] > 0.0 {
                     material.eval(wi, wo, f);
-                    let mis = power_heuristic(light_sample.pdf, material.pdf(wo, wi));
+                    let bsdf_pdf = material.pdf(wo, wi);
+                    let mis = power_heuristic(light_sample.pdf, bsdf_pdf);
                     let scale = wi[2] * mis / light_sample.pdf;
                     if scale > 0.0 {
                         stats.rays += 1;
@@ -218,6 +303,12 @@ impl<'a> PathTracer<'a> {
                             {
                                 *o += t * fv * l * scale;
                             }
+                            record.light = Some(LightRecord {
+                                wi,
+                                dir: light_sample.dir,
+                                light_pdf: light_sample.pdf,
+                                bsdf_pdf,
+                            });
                         }
                     }
                 }
@@ -227,12 +318,14 @@ impl<'a> PathTracer<'a> {
             let u_bsdf = [sampler.next_1d(), sampler.next_1d(), sampler.next_1d()];
             let u_roulette = sampler.next_1d();
             let Some(sample) = material.sample(wo, u_bsdf, weight) else {
+                recorder.vertex(&record);
                 break;
             };
             let next_dir = frame.to_world(sample.wi);
             // A direction above the shading normal but below the geometric surface
             // would pass through it.
             if dot(next_dir, hit.geometric_normal) <= 0.0 {
+                recorder.vertex(&record);
                 break;
             }
             let mut largest = 0.0f32;
@@ -241,15 +334,26 @@ impl<'a> PathTracer<'a> {
                 largest = largest.max(*t);
             }
             if !(largest > 0.0 && largest.is_finite()) {
+                recorder.vertex(&record);
                 break;
             }
+            let mut survive = 1.0;
             if bounce + 1 >= self.settings.roulette_start {
-                let survive = largest.min(0.95);
+                survive = largest.min(0.95);
                 if u_roulette >= survive {
+                    recorder.vertex(&record);
                     break;
                 }
                 throughput.iter_mut().for_each(|t| *t /= survive);
             }
+            record.next = Some(NextRecord {
+                wi: sample.wi,
+                dir: next_dir,
+                pdf: sample.pdf,
+                delta: sample.delta,
+                survive,
+            });
+            recorder.vertex(&record);
             previous_pdf = sample.pdf;
             previous_delta = sample.delta;
             ray_origin = RenderGeometry::spawn_origin(&hit, next_dir);
@@ -261,7 +365,7 @@ impl<'a> PathTracer<'a> {
 
 /// Veach's power heuristic (β = 2) for the strategy with density `a` against `b`.
 #[inline]
-fn power_heuristic(a: f32, b: f32) -> f32 {
+pub(crate) fn power_heuristic(a: f32, b: f32) -> f32 {
     let (a2, b2) = (a * a, b * b);
     if a2.is_infinite() {
         return 1.0;

@@ -6,7 +6,7 @@
 //! Parts that are not painted keep the glTF metallic-roughness description they came
 //! with, reduced to what a preview needs: a Lambertian base under a glossy lobe,
 //!
-//! f = (1 − F₀(λ)) · a(λ)/π + F₀(λ) · (m + 2)/(2π) · cos^m α,
+//! f = (1 − F₀(λ)) · a(λ)/π + F₀(λ) · (m + 1)/(2π) · cos^m α / max(cos θi, cos θo),
 //!
 //! with α the angle between ωi and the mirror direction of ωo, and
 //!
@@ -17,10 +17,13 @@
 //! | m, lobe exponent | 1 | [0, [`MAX_SIMPLE_EXPONENT`]] | 2/α² − 2 with α = roughness² (the Blinn–Phong equivalent of GGX's α) |
 //!
 //! Base colours are turned into smooth reflectance spectra by
-//! [`RgbUpsampler::reflectance`]. The lobe is normalised at normal incidence, so it
-//! never creates energy; it loses a little at grazing angles (no below-horizon
-//! correction) — acceptable for tyres, trim and glass in a paint preview, and the
-//! reason these materials are not used for anything measured.
+//! [`RgbUpsampler::reflectance`]. The lobe's 1/max(cos θi, cos θo) makes it
+//! reciprocal and lets a sharp lobe reflect F₀ at every angle, as a mirror does (the
+//! classic (m + 2)/(2π) normalisation reflects only F₀·cos θ, so chrome and glass went
+//! black toward grazing); its directional albedo never exceeds F₀ (∫ cos θi / max(·)
+//! dω/2π ≤ 1). Below-horizon parts of the lobe are lost, which darkens rough lobes at
+//! grazing a little — acceptable for tyres, trim and glass in a paint preview, and
+//! the reason these materials are not used for anything measured.
 
 use std::sync::Arc;
 
@@ -99,6 +102,14 @@ impl SpectralBsdf for DesignBsdf {
         match self {
             DesignBsdf::Paint(b) => b.sample(wo, u, weight),
             DesignBsdf::Phong(b) => b.sample(wo, u, weight),
+        }
+    }
+
+    #[inline]
+    fn delta_reflectance(&self, wo: [f32; 3], out: &mut [f32]) -> bool {
+        match self {
+            DesignBsdf::Paint(b) => b.delta_reflectance(wo, out),
+            DesignBsdf::Phong(b) => b.delta_reflectance(wo, out),
         }
     }
 }
@@ -188,7 +199,7 @@ impl SpectralBsdf for SimpleMaterial {
         }
         let lobe = if self.specular_probability > 0.0 {
             let m = self.exponent;
-            (m + 2.0) / (2.0 * std::f32::consts::PI) * phong_lobe(wi, wo, m)
+            (m + 1.0) / (2.0 * std::f32::consts::PI) * phong_lobe(wi, wo, m) / wi[2].max(wo[2])
         } else {
             0.0
         };
@@ -304,6 +315,13 @@ impl Shading {
         self.len() == 0
     }
 
+    /// Whether scene material `material` carries the design (an index the scene
+    /// does not have counts as painted, like [`Self::material`]).
+    #[inline]
+    pub fn is_painted(&self, material: u32) -> bool {
+        self.painted.get(material as usize).copied().unwrap_or(true)
+    }
+
     /// The BSDF of scene material `material`; an index the scene does not have
     /// (which the loader never produces) shades as the paint.
     #[inline]
@@ -377,6 +395,8 @@ mod tests {
                     albedo <= 1.0 + 5e-3,
                     "roughness {roughness} metallic {metallic} mu {mu}: albedo {albedo}"
                 );
+                // A white material is bright at every angle (its diffuse part or its
+                // F₀ = 1 lobe).
                 assert!(albedo > 0.3, "white material too dark: {albedo}");
             }
         }

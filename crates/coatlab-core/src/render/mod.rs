@@ -13,7 +13,8 @@
 //! - [`camera`] and [`film`]: rays from pixels, and accumulation into an image;
 //! - [`material`]: the design as paint or Phong, and the scene's simple materials;
 //! - [`integrator`]: the path tracer;
-//! - [`progressive`]: passes over tiles on all cores, restarts, noise estimates.
+//! - [`progressive`]: passes over tiles on all cores, restarts, noise estimates;
+//! - [`reshade`]: a paint edit's picture from the recorded paths, without tracing.
 
 pub mod geometry;
 pub mod sampler;
@@ -24,3 +25,4 @@ pub mod film;
 pub mod integrator;
 pub mod material;
 pub mod progressive;
+pub mod reshade;

@@ -31,6 +31,7 @@ use crate::render::film::{DisplaySettings, Film, NoiseEstimate};
 use crate::render::geometry::RenderGeometry;
 use crate::render::integrator::{IntegratorSettings, PathBuffers, PathTracer};
 use crate::render::material::Shading;
+use crate::render::reshade::{PathCache, ReshadeError, Reshaded, TileCache, TileRecorder, reshade};
 use crate::render::sampler::PixelSampler;
 use crate::scene::{Scene, SceneMaterial};
 
@@ -184,6 +185,9 @@ pub struct ProgressiveRender {
     /// Samples per pixel so far (the next pass's first sample index).
     samples_per_pixel: u32,
     totals: PassStats,
+    /// Paths of the first `cache_target` samples per pixel, for re-shading.
+    cache: PathCache,
+    cache_target: u32,
 }
 
 impl ProgressiveRender {
@@ -199,6 +203,7 @@ impl ProgressiveRender {
         check_grids(&environment, &shading)?;
         let film = new_film(&camera, &environment)?;
         let tiles = film.tiles(settings.tile_size);
+        let cache = cache_for(&tiles);
         Ok(Self {
             scene,
             environment,
@@ -209,7 +214,41 @@ impl ProgressiveRender {
             tiles,
             samples_per_pixel: 0,
             totals: PassStats::default(),
+            cache,
+            cache_target: 0,
         })
+    }
+
+    /// Records the paths of the first `samples` samples of every pixel that touch
+    /// the paint, for [`Self::reshade`] (0: record nothing, the default). Restarts.
+    /// Costs memory ([`PathCache::memory_bytes`]) and a little time while recording.
+    pub fn set_path_cache_samples(&mut self, samples: u32) {
+        self.cache_target = samples;
+        self.restart();
+    }
+
+    /// The recorded paths (complete once [`Self::samples_per_pixel`] reaches the
+    /// number asked for).
+    pub fn path_cache(&self) -> &PathCache {
+        &self.cache
+    }
+
+    /// This render's image as it would look with `shading` instead of its own,
+    /// from the recorded paths, without tracing (see [`crate::render::reshade`]).
+    pub fn reshade(&self, shading: &Shading) -> Result<Reshaded, ReshadeError> {
+        if self.cache_target == 0 || self.cache.samples_per_pixel() < self.cache_target {
+            return Err(ReshadeError::NotReady {
+                recorded: self.cache.samples_per_pixel(),
+                wanted: self.cache_target,
+            });
+        }
+        reshade(
+            &self.film,
+            &self.cache,
+            &self.environment,
+            shading,
+            self.scene.geometry().has_floor(),
+        )
     }
 
     /// Adds `samples` samples to every pixel. Returns what the pass did.
@@ -239,29 +278,43 @@ impl ProgressiveRender {
         let seed = self.settings.seed;
         let width = self.film.width();
         let len = self.shading.len();
+        let record_below = self.cache_target;
+        let shading: &Shading = &self.shading;
+        let lengths: Vec<(usize, usize)> =
+            self.cache.tiles.iter().map(TileCache::lengths).collect();
         let rays: u64 = self
             .tiles
             .par_iter_mut()
-            .map(|tile| {
+            .zip(self.cache.tiles.par_iter_mut())
+            .map(|(tile, cache)| {
                 if cancel.load(Ordering::Relaxed) {
                     return 0;
                 }
                 tile.clear();
-                render_tile(
-                    tile,
-                    &tracer,
+                let job = TileJob {
+                    tracer: &tracer,
                     camera,
                     seed,
-                    width,
+                    image_width: width,
                     first_sample,
                     samples,
                     len,
-                )
+                };
+                if first_sample < record_below {
+                    let mut recorder = TileRecorder::new(cache, shading);
+                    job.render(tile, Some((&mut recorder, record_below)))
+                } else {
+                    job.render(tile, None)
+                }
             })
             .sum();
         if cancel.load(Ordering::Relaxed) {
+            for (cache, &length) in self.cache.tiles.iter_mut().zip(&lengths) {
+                cache.truncate(length);
+            }
             return None;
         }
+        self.cache.samples_per_pixel = (first_sample + samples).min(self.cache_target);
         for tile in &self.tiles {
             self.film.merge(tile);
         }
@@ -326,6 +379,8 @@ impl ProgressiveRender {
         self.film.clear();
         self.samples_per_pixel = 0;
         self.totals = PassStats::default();
+        self.cache.tiles.iter_mut().for_each(TileCache::clear);
+        self.cache.samples_per_pixel = 0;
     }
 
     /// A new view (and possibly a new image size); restarts.
@@ -333,6 +388,7 @@ impl ProgressiveRender {
         if (camera.width(), camera.height()) != (self.film.width(), self.film.height()) {
             self.film = new_film(&camera, &self.environment)?;
             self.tiles = self.film.tiles(self.settings.tile_size);
+            self.cache = cache_for(&self.tiles);
         }
         self.camera = camera;
         self.restart();
@@ -353,6 +409,7 @@ impl ProgressiveRender {
         if environment.grid() != self.film.grid() {
             self.film = new_film(&self.camera, &environment)?;
             self.tiles = self.film.tiles(self.settings.tile_size);
+            self.cache = cache_for(&self.tiles);
         }
         self.environment = environment;
         self.restart();
@@ -376,41 +433,79 @@ impl ProgressiveRender {
     pub fn set_settings(&mut self, settings: RenderSettings) {
         if settings.tile_size != self.settings.tile_size {
             self.tiles = self.film.tiles(settings.tile_size);
+            self.cache = cache_for(&self.tiles);
         }
         self.settings = settings;
         self.restart();
     }
 }
 
-#[allow(clippy::too_many_arguments)]
-fn render_tile(
-    tile: &mut Film,
-    tracer: &PathTracer<'_>,
-    camera: &Camera,
+/// What a tile needs to render its share of a pass.
+struct TileJob<'a> {
+    tracer: &'a PathTracer<'a>,
+    camera: &'a Camera,
     seed: u64,
     image_width: u32,
     first_sample: u32,
     samples: u32,
     len: usize,
-) -> u64 {
-    let mut buffers = PathBuffers::new(len);
-    let mut radiance = vec![0.0f32; len];
-    let [x0, y0] = tile.origin();
-    let mut rays = 0u64;
-    for y in y0..y0 + tile.height() {
-        for x in x0..x0 + tile.width() {
-            let pixel_index = y * image_width + x;
-            for sample in first_sample..first_sample + samples {
-                let mut sampler = PixelSampler::new(seed, pixel_index, sample);
-                let [jx, jy] = sampler.next_2d();
-                let (origin, dir) = camera.ray(x as f32 + jx, y as f32 + jy);
-                let stats = tracer.radiance(origin, dir, &mut sampler, &mut buffers, &mut radiance);
-                rays += u64::from(stats.rays);
-                tile.add_sample(x, y, &radiance);
+}
+
+impl TileJob<'_> {
+    /// Renders the tile; with a recorder, samples below its limit are recorded.
+    /// Returns the rays traced.
+    fn render(&self, tile: &mut Film, mut recorder: Option<(&mut TileRecorder<'_>, u32)>) -> u64 {
+        let mut buffers = PathBuffers::new(self.len);
+        let mut radiance = vec![0.0f32; self.len];
+        let [x0, y0] = tile.origin();
+        let mut rays = 0u64;
+        for y in y0..y0 + tile.height() {
+            for x in x0..x0 + tile.width() {
+                let pixel_index = y * self.image_width + x;
+                for sample in self.first_sample..self.first_sample + self.samples {
+                    let mut sampler = PixelSampler::new(self.seed, pixel_index, sample);
+                    let [jx, jy] = sampler.next_2d();
+                    let (origin, dir) = self.camera.ray(x as f32 + jx, y as f32 + jy);
+                    let stats = match &mut recorder {
+                        Some((recorder, below)) if sample < *below => {
+                            recorder.begin();
+                            let stats = self.tracer.radiance_recorded(
+                                origin,
+                                dir,
+                                &mut sampler,
+                                &mut buffers,
+                                &mut radiance,
+                                *recorder,
+                            );
+                            recorder.finish(x, y, tile.xyz_of(&radiance));
+                            stats
+                        }
+                        _ => self.tracer.radiance(
+                            origin,
+                            dir,
+                            &mut sampler,
+                            &mut buffers,
+                            &mut radiance,
+                        ),
+                    };
+                    rays += u64::from(stats.rays);
+                    tile.add_sample(x, y, &radiance);
+                }
             }
         }
+        rays
     }
-    rays
+}
+
+/// Empty path caches aligned with `tiles`.
+fn cache_for(tiles: &[Film]) -> PathCache {
+    PathCache {
+        tiles: tiles
+            .iter()
+            .map(|t| TileCache::new(t.origin(), t.width(), t.height()))
+            .collect(),
+        samples_per_pixel: 0,
+    }
 }
 
 fn check_grids(environment: &Environment, shading: &Shading) -> Result<(), RenderError> {

@@ -1,0 +1,412 @@
+//! Re-shading: a new picture after a paint edit without tracing a single ray.
+//!
+//! While a designer drags a paint slider, the geometry, the camera and the lighting
+//! stay put; only the paint's BSDF values change. The progressive renderer records,
+//! for the first K samples of every pixel, each path that touches the paint: at
+//! every vertex the surface, ωo, the light sample that reached the light (its
+//! directions and densities) and the continuation (direction, density, roulette),
+//! plus the colour the path contributed ([`PathCache`]).
+//!
+//! # The estimator (a control variate)
+//!
+//! With I_old the accumulated image of the old design (many samples) and, per pixel,
+//! the K recorded paths with contributions c_old,k, re-evaluating the same paths with
+//! the new BSDF gives c_new,k, and
+//!
+//! Î_new = Î_old + (1/K) Σ_k (c_new,k − c_old,k)
+//!
+//! estimates the new image without bias: the paths were sampled with the old BSDF's
+//! densities, and re-weighting them by f_new·cos/p_old (and the old roulette
+//! probabilities and MIS densities, which need only be a valid partition) keeps every
+//! term an unbiased estimate, as long as the old sampling covers where the new BSDF
+//! is non-zero — always true here, because every paint samples the cosine hemisphere
+//! with non-zero probability. Its noise is that of Î_old plus that of the difference,
+//! which is small when the edit is (the same paths enter both terms). Paths that
+//! never touch the paint have c_new = c_old and are not stored.
+//!
+//! Where it does not apply: a change of the lobe from or to the ideal mirror (a delta
+//! cannot be re-weighted; [`ReshadeError::DeltaChanged`]), and any change of the
+//! scene, lighting, camera or wavelength grid (the renderer restarts and drops the
+//! cache). A change of gloss between finite lobes is unbiased but noisy (the old
+//! lobe's samples cover a new, sharper lobe poorly): the application traces fresh.
+//!
+//! # Memory
+//!
+//! [`PathCache::memory_bytes`]: one [`VertexRecord`] per stored vertex plus one
+//! small header per stored path. See `docs/rendering.md` for measured sizes.
+
+use rayon::prelude::*;
+use thiserror::Error;
+
+use crate::colour::Xyz;
+use crate::paint::model::SpectralBsdf;
+use crate::render::environment::Environment;
+use crate::render::film::Film;
+use crate::render::geometry::Surface;
+use crate::render::integrator::{PathRecorder, VertexRecord, power_heuristic};
+use crate::render::material::{Shading, SimpleMaterial};
+
+/// Why a re-shade cannot be done.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+pub enum ReshadeError {
+    /// Fewer samples per pixel are recorded than asked for.
+    #[error("the path cache is not complete yet ({recorded} of {wanted} samples per pixel)")]
+    NotReady {
+        /// Recorded so far.
+        recorded: u32,
+        /// Asked for.
+        wanted: u32,
+    },
+    /// The new shading is on another grid.
+    #[error("the new shading is on another wavelength grid")]
+    GridChanged,
+    /// A recorded mirror (delta) bounce meets a BSDF without a mirror.
+    #[error("the paint changed to or from an ideal mirror: its paths must be traced anew")]
+    DeltaChanged,
+}
+
+/// One stored path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct CachedPath {
+    /// Pixel index within the tile.
+    pixel: u32,
+    first_vertex: u32,
+    vertex_count: u32,
+    escaped: bool,
+    /// XYZ it contributed when traced.
+    xyz: [f32; 3],
+}
+
+/// The recorded paths of one tile of the image.
+#[derive(Debug, Clone, Default)]
+pub struct TileCache {
+    origin: [u32; 2],
+    width: u32,
+    height: u32,
+    paths: Vec<CachedPath>,
+    vertices: Vec<VertexRecord>,
+}
+
+impl TileCache {
+    pub(crate) fn new(origin: [u32; 2], width: u32, height: u32) -> Self {
+        Self {
+            origin,
+            width,
+            height,
+            ..Self::default()
+        }
+    }
+
+    pub(crate) fn clear(&mut self) {
+        self.paths.clear();
+        self.vertices.clear();
+    }
+
+    /// (paths, vertices) stored, to roll back a cancelled pass.
+    pub(crate) fn lengths(&self) -> (usize, usize) {
+        (self.paths.len(), self.vertices.len())
+    }
+
+    pub(crate) fn truncate(&mut self, lengths: (usize, usize)) {
+        self.paths.truncate(lengths.0);
+        self.vertices.truncate(lengths.1);
+    }
+
+    fn memory_bytes(&self) -> usize {
+        self.paths.capacity() * size_of::<CachedPath>()
+            + self.vertices.capacity() * size_of::<VertexRecord>()
+    }
+}
+
+/// Records one path into a tile cache (see [`PathRecorder`]).
+pub(crate) struct TileRecorder<'a> {
+    cache: &'a mut TileCache,
+    shading: &'a Shading,
+    start: usize,
+    touches_paint: bool,
+    escaped: bool,
+}
+
+impl<'a> TileRecorder<'a> {
+    pub(crate) fn new(cache: &'a mut TileCache, shading: &'a Shading) -> Self {
+        let start = cache.vertices.len();
+        Self {
+            cache,
+            shading,
+            start,
+            touches_paint: false,
+            escaped: false,
+        }
+    }
+
+    /// Starts the next path.
+    pub(crate) fn begin(&mut self) {
+        self.start = self.cache.vertices.len();
+        self.touches_paint = false;
+        self.escaped = false;
+    }
+
+    /// Ends the path traced since [`Self::begin`], at image pixel (`x`, `y`), which
+    /// contributed `xyz`: kept if it touched the paint.
+    pub(crate) fn finish(&mut self, x: u32, y: u32, xyz: Xyz) {
+        if !self.touches_paint {
+            self.cache.vertices.truncate(self.start);
+            return;
+        }
+        let pixel = (y - self.cache.origin[1]) * self.cache.width + (x - self.cache.origin[0]);
+        self.cache.paths.push(CachedPath {
+            pixel,
+            first_vertex: self.start as u32,
+            vertex_count: (self.cache.vertices.len() - self.start) as u32,
+            escaped: self.escaped,
+            xyz: [xyz.x as f32, xyz.y as f32, xyz.z as f32],
+        });
+    }
+}
+
+impl PathRecorder for TileRecorder<'_> {
+    fn vertex(&mut self, vertex: &VertexRecord) {
+        if let Surface::Mesh { material } = vertex.surface
+            && self.shading.is_painted(material)
+        {
+            self.touches_paint = true;
+        }
+        self.cache.vertices.push(*vertex);
+    }
+
+    fn escape(&mut self, _dir: [f32; 3]) {
+        self.escaped = true;
+    }
+}
+
+/// The paths recorded for re-shading: the first
+/// [`PathCache::samples_per_pixel`] samples of every pixel that touched the paint.
+#[derive(Debug, Clone, Default)]
+pub struct PathCache {
+    pub(crate) tiles: Vec<TileCache>,
+    pub(crate) samples_per_pixel: u32,
+}
+
+impl PathCache {
+    /// Samples per pixel recorded.
+    pub fn samples_per_pixel(&self) -> u32 {
+        self.samples_per_pixel
+    }
+
+    /// Stored paths (those that touched the paint).
+    pub fn path_count(&self) -> usize {
+        self.tiles.iter().map(|t| t.paths.len()).sum()
+    }
+
+    /// Stored vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.tiles.iter().map(|t| t.vertices.len()).sum()
+    }
+
+    /// Heap memory held, bytes.
+    pub fn memory_bytes(&self) -> usize {
+        self.tiles.iter().map(TileCache::memory_bytes).sum()
+    }
+}
+
+/// A re-shaded image: per pixel the estimate of the new design's mean XYZ and the
+/// variance of that estimate's Y.
+#[derive(Debug, Clone)]
+pub struct Reshaded {
+    /// Width, pixels.
+    pub width: u32,
+    /// Height, pixels.
+    pub height: u32,
+    /// Mean XYZ per pixel (white at Y = 1), row-major.
+    pub xyz: Vec<[f32; 3]>,
+    /// Estimated variance of each pixel's Y.
+    pub variance_y: Vec<f32>,
+}
+
+/// Re-shades `cache` (recorded on `base`, rendered with the old shading, lit by
+/// `environment`) with `shading`. See the module documentation.
+pub fn reshade(
+    base: &Film,
+    cache: &PathCache,
+    environment: &Environment,
+    shading: &Shading,
+    floor: bool,
+) -> Result<Reshaded, ReshadeError> {
+    if shading.grid() != base.grid() || environment.grid() != base.grid() {
+        return Err(ReshadeError::GridChanged);
+    }
+    let floor_material = environment
+        .floor()
+        .filter(|_| floor)
+        .map(|f| SimpleMaterial::lambertian(&f.reflectance));
+    let k = f64::from(cache.samples_per_pixel.max(1));
+    let (width, height) = (base.width(), base.height());
+    let tiles: Vec<Result<(usize, Vec<DifferenceSums>), ReshadeError>> = cache
+        .tiles
+        .par_iter()
+        .enumerate()
+        .map(|(index, tile)| {
+            replay_tile(tile, base, environment, shading, floor_material.as_ref())
+                .map(|d| (index, d))
+        })
+        .collect();
+    let mut xyz = vec![[0.0f32; 3]; (width * height) as usize];
+    let mut variance_y = vec![0.0f32; (width * height) as usize];
+    for y in 0..height {
+        for x in 0..width {
+            let m = base.mean_xyz(x, y);
+            let i = (y * width + x) as usize;
+            xyz[i] = [m.x as f32, m.y as f32, m.z as f32];
+            variance_y[i] = base.variance_of_mean_xyz(x, y)[1] as f32;
+        }
+    }
+    for result in tiles {
+        let (index, sums) = result?;
+        let tile = &cache.tiles[index];
+        for (p, s) in sums.iter().enumerate() {
+            let (tx, ty) = (p as u32 % tile.width, p as u32 / tile.width);
+            let i = ((tile.origin[1] + ty) * width + tile.origin[0] + tx) as usize;
+            // Mean and variance of the difference over the K recorded samples (the
+            // paths not stored have a difference of exactly 0).
+            for c in 0..3 {
+                xyz[i][c] += (s[c] / k) as f32;
+            }
+            if k > 1.0 {
+                let mean = s[1] / k;
+                let var = ((s[4] - k * mean * mean) / (k - 1.0)).max(0.0) / k;
+                variance_y[i] += var as f32;
+            }
+        }
+    }
+    Ok(Reshaded {
+        width,
+        height,
+        xyz,
+        variance_y,
+    })
+}
+
+/// Per pixel: Σ ΔX, Σ ΔY, Σ ΔZ, Σ ΔX², Σ ΔY², Σ ΔZ² over its stored paths.
+type DifferenceSums = [f64; 6];
+
+/// The [`DifferenceSums`] of every pixel of a tile.
+fn replay_tile(
+    tile: &TileCache,
+    film: &Film,
+    environment: &Environment,
+    shading: &Shading,
+    floor: Option<&SimpleMaterial>,
+) -> Result<Vec<DifferenceSums>, ReshadeError> {
+    let len = shading.len();
+    let mut sums = vec![[0.0f64; 6]; (tile.width * tile.height) as usize];
+    let mut buffers = ReplayBuffers::new(len);
+    for path in &tile.paths {
+        let vertices = &tile.vertices
+            [path.first_vertex as usize..(path.first_vertex + path.vertex_count) as usize];
+        replay_path(
+            vertices,
+            path.escaped,
+            environment,
+            shading,
+            floor,
+            &mut buffers,
+        )?;
+        let new = film.xyz_of(&buffers.out);
+        let d = [
+            new.x - f64::from(path.xyz[0]),
+            new.y - f64::from(path.xyz[1]),
+            new.z - f64::from(path.xyz[2]),
+        ];
+        let s = &mut sums[path.pixel as usize];
+        for c in 0..3 {
+            s[c] += d[c];
+            s[c + 3] += d[c] * d[c];
+        }
+    }
+    Ok(sums)
+}
+
+struct ReplayBuffers {
+    out: Vec<f32>,
+    throughput: Vec<f32>,
+    f: Vec<f32>,
+    light: Vec<f32>,
+}
+
+impl ReplayBuffers {
+    fn new(len: usize) -> Self {
+        Self {
+            out: vec![0.0; len],
+            throughput: vec![0.0; len],
+            f: vec![0.0; len],
+            light: vec![0.0; len],
+        }
+    }
+}
+
+/// The contribution of a recorded path under `shading`, into `buffers.out`: the
+/// integrator's sums with its recorded decisions (see [`crate::render::integrator`]).
+fn replay_path(
+    vertices: &[VertexRecord],
+    escaped: bool,
+    environment: &Environment,
+    shading: &Shading,
+    floor: Option<&SimpleMaterial>,
+    buffers: &mut ReplayBuffers,
+) -> Result<(), ReshadeError> {
+    let ReplayBuffers {
+        out,
+        throughput,
+        f,
+        light,
+    } = buffers;
+    out.fill(0.0);
+    throughput.fill(1.0);
+    for vertex in vertices {
+        let material: &dyn SpectralBsdf = match (vertex.surface, floor) {
+            (Surface::Mesh { material }, _) => shading.material(material),
+            (Surface::Floor, Some(floor)) => floor,
+            // The recording saw a floor the lighting no longer has: not re-shadeable,
+            // but the renderer drops the cache on a lighting change first.
+            (Surface::Floor, None) => return Ok(()),
+        };
+        if let Some(l) = vertex.light {
+            material.eval(l.wi, vertex.wo, f);
+            environment.radiance(l.dir, light);
+            let scale = l.wi[2] * power_heuristic(l.light_pdf, l.bsdf_pdf) / l.light_pdf;
+            for (((o, t), fv), lv) in out.iter_mut().zip(&*throughput).zip(&*f).zip(&*light) {
+                *o += t * fv * lv * scale;
+            }
+        }
+        let Some(next) = vertex.next else {
+            return Ok(());
+        };
+        if next.delta {
+            if !material.delta_reflectance(vertex.wo, f) {
+                return Err(ReshadeError::DeltaChanged);
+            }
+            let scale = 1.0 / (next.pdf * next.survive);
+            for (t, fv) in throughput.iter_mut().zip(&*f) {
+                *t *= fv * scale;
+            }
+        } else {
+            material.eval(next.wi, vertex.wo, f);
+            let scale = next.wi[2] / (next.pdf * next.survive);
+            for (t, fv) in throughput.iter_mut().zip(&*f) {
+                *t *= fv * scale;
+            }
+        }
+    }
+    if escaped && let Some(next) = vertices.last().and_then(|v| v.next) {
+        environment.radiance(next.dir, light);
+        let mis = if next.delta {
+            1.0
+        } else {
+            power_heuristic(next.pdf, environment.pdf(next.dir))
+        };
+        for ((o, t), lv) in out.iter_mut().zip(&*throughput).zip(&*light) {
+            *o += t * lv * mis;
+        }
+    }
+    Ok(())
+}
