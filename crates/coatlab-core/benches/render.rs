@@ -74,5 +74,47 @@ fn passes(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, passes);
+/// Re-shading after a paint edit (ρ × 0.8) from K recorded samples per pixel, and
+/// the memory the recording takes.
+fn reshading(c: &mut Criterion) {
+    let mut group = c.benchmark_group("reshade_960x540");
+    group.sample_size(10);
+    for (wavelengths, cached) in [(16, 4), (32, 4), (32, 8)] {
+        let grid = WavelengthGrid::visible(wavelengths).expect("grid");
+        let design = presets::all().into_iter().next().expect("preset").design;
+        let paint = design.model(grid).expect("model");
+        let scene = generate(&CarParameters::default());
+        let mut render = render_for(wavelengths, ShadingModel::Paint);
+        render.set_path_cache_samples(cached);
+        let record_start = std::time::Instant::now();
+        while render.samples_per_pixel() < cached {
+            render.render_pass(1);
+        }
+        let record_seconds = record_start.elapsed().as_secs_f64();
+        let cache = render.path_cache();
+        eprintln!(
+            "{wavelengths} wavelengths, {cached} recorded spp: {} paths, {} vertices, {:.0} MB, recording passes {:.2} s",
+            cache.path_count(),
+            cache.vertex_count(),
+            cache.memory_bytes() as f64 / 1e6,
+            record_seconds
+        );
+        let mut edited = paint.clone();
+        edited
+            .set_albedo(paint.albedo().iter().map(|r| r * 0.8).collect())
+            .expect("albedo");
+        let shading = Shading::new(
+            &edited,
+            ShadingModel::Paint,
+            &scene.materials,
+            &scene.paint_materials,
+        );
+        group.bench_function(format!("{wavelengths}wl/{cached}spp"), |b| {
+            b.iter(|| render.reshade(&shading).expect("reshade"))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, passes, reshading);
 criterion_main!(benches);
