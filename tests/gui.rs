@@ -291,3 +291,386 @@ fn the_preview_accumulates_and_restarts_when_the_design_changes() {
         .set_value_accesskit(80.0);
     wait_for(&mut h, &|s| s.is_some_and(|(_, coarse)| coarse));
 }
+
+// ---------------------------------------------------------------------------
+// The preview's comparisons, scenes, lighting maps and export, driven through the
+// window with the render thread running.
+
+/// The window at its default size with the live preview on.
+fn preview_harness(wgpu: bool) -> Harness<'static, CoatlabApp> {
+    let builder = Harness::builder().with_size(egui::vec2(1500.0, 940.0));
+    let builder = if wgpu { builder.wgpu() } else { builder };
+    builder.build_ui_state(
+        |ui, app: &mut CoatlabApp| app.show(ui),
+        CoatlabApp::new(AppOptions {
+            storage: Storage::none(),
+            open: None,
+            preview: true,
+        }),
+    )
+}
+
+/// Steps frames (the render thread keeps asking for repaints, so `run` would not
+/// settle) until `done` holds; fails after two minutes with `what`.
+fn wait_until(
+    h: &mut Harness<'static, CoatlabApp>,
+    what: &str,
+    done: impl Fn(&CoatlabApp) -> bool,
+) {
+    let start = std::time::Instant::now();
+    while !done(h.state()) {
+        assert!(
+            start.elapsed().as_secs() < 120,
+            "timed out waiting for {what}; notices: {:?}",
+            h.state().notices()
+        );
+        h.step();
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+}
+
+fn steps(h: &mut Harness<'static, CoatlabApp>, n: usize) {
+    for _ in 0..n {
+        h.step();
+    }
+}
+
+fn has_notice(app: &CoatlabApp, is_error: bool, text: &str) -> bool {
+    app.notices()
+        .iter()
+        .any(|n| n.is_error == is_error && n.text.contains(text))
+}
+
+fn preview(app: &CoatlabApp) -> &coatlab_app::gui::preview::Preview {
+    app.preview().expect("the preview runs")
+}
+
+/// Both views refined past the coarse pass, on the same change, with a ΔE00 map of
+/// at least `spp` samples per pixel.
+fn compared(app: &CoatlabApp, spp: u32) -> bool {
+    let Some(p) = app.preview() else { return false };
+    match (p.status(), p.second_status(), p.delta_e_map()) {
+        (Some(a), Some(b), Some(map)) => {
+            !a.coarse
+                && a.epoch == b.epoch
+                && (a.width, a.height) == (b.width, b.height)
+                && map.samples_per_pixel >= spp
+                && (map.width, map.height) == (a.width, a.height)
+        }
+        _ => false,
+    }
+}
+
+/// Share of the map's pixels where the two views agree exactly: the backdrop seen
+/// directly, which only the same camera and the same random numbers make equal.
+fn exact_share(map: &coatlab_app::gui::compare::DeltaEMap) -> f64 {
+    map.values.iter().filter(|&&v| v == 0.0).count() as f64 / map.values.len() as f64
+}
+
+fn drag(h: &mut Harness<'static, CoatlabApp>, from: egui::Pos2, by: egui::Vec2) {
+    h.hover_at(from);
+    h.step();
+    h.drag_at(from);
+    h.step();
+    for k in 1..=4 {
+        h.hover_at(from + by * (k as f32 / 4.0));
+        h.step();
+    }
+    h.drop_at(from + by);
+    h.step();
+}
+
+fn save_screenshot(h: &mut Harness<'static, CoatlabApp>, name: &str) {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/gui-preview");
+    std::fs::create_dir_all(&dir).expect("screenshot dir");
+    match h.render() {
+        Ok(image) => image.save(dir.join(name)).expect("save screenshot"),
+        Err(e) => panic!("render: {e}"),
+    }
+}
+
+#[test]
+fn the_comparison_shows_paint_and_phong_with_one_camera_and_a_delta_e_map() {
+    let mut h = preview_harness(true);
+    wait_until(&mut h, "the first refined image", |app| {
+        app.preview_status().is_some_and(|s| !s.coarse)
+    });
+    h.get_by_role_and_label(Role::ComboBox, "Compare").click();
+    steps(&mut h, 2);
+    h.get_by_label("Paint vs Phong").click();
+    steps(&mut h, 2);
+    wait_until(&mut h, "both views and their ΔE00 map", |app| {
+        compared(app, 2)
+    });
+    h.get_by_role_and_label(Role::Image, "Preview pane: Paint model");
+    let phong_pane = h
+        .get_by_role_and_label(Role::Image, "Preview pane: Phong (best fit)")
+        .rect();
+    let map = preview(h.state()).delta_e_map().expect("map").clone();
+    let share = exact_share(&map);
+    assert!(share > 0.05, "the backdrop differs: {share}");
+    assert!(
+        map.p95 > 0.5 && map.mean.is_finite(),
+        "the models should differ on the car: mean {} p95 {}",
+        map.mean,
+        map.p95
+    );
+    save_screenshot(&mut h, "compare_side_by_side.png");
+
+    // Orbiting in the right pane moves both views.
+    let epoch = preview(h.state()).status().map(|s| s.epoch).unwrap_or(0);
+    drag(&mut h, phong_pane.center(), egui::vec2(60.0, 0.0));
+    wait_until(&mut h, "both views after the orbit", |app| {
+        compared(app, 2) && preview(app).status().is_some_and(|s| s.epoch > epoch)
+    });
+    let moved = preview(h.state()).delta_e_map().expect("map").clone();
+    assert!(
+        exact_share(&moved) > 0.05,
+        "after the orbit the views still share one camera"
+    );
+    assert_ne!(
+        moved.values, map.values,
+        "the view moved, so the map changed"
+    );
+
+    // The ΔE00 map with its scale and numbers.
+    h.get_by_label("ΔE00 map").click();
+    steps(&mut h, 3);
+    h.get_by_role_and_label(Role::Image, "ΔE00 map");
+    h.get_by_role_and_label(Role::ComboBox, "Scale");
+    h.get_by_label_contains("difference ΔE00 mean");
+    save_screenshot(&mut h, "compare_delta_e_map.png");
+
+    // Split view: dragging the divider moves the divider, not the camera.
+    h.get_by_label("Split").click();
+    // The split view renders each view at the whole area's size: wait for that.
+    wait_until(&mut h, "the split view's images", |app| {
+        compared(app, 1) && !preview(app).change_pending()
+    });
+    let epoch = preview(h.state()).status().map(|s| s.epoch).unwrap_or(0);
+    let divider = h
+        .get_by_role_and_label(Role::Splitter, "Split divider")
+        .rect();
+    drag(&mut h, divider.center(), egui::vec2(-150.0, 0.0));
+    steps(&mut h, 3);
+    let p = preview(h.state());
+    assert!(p.divider() < 0.4, "divider at {}", p.divider());
+    assert!(!p.change_pending(), "the camera did not move");
+    assert_eq!(p.status().map(|s| s.epoch), Some(epoch));
+    save_screenshot(&mut h, "compare_split.png");
+}
+
+#[test]
+fn two_designs_side_by_side_from_a_preset_and_from_a_file() {
+    let dir = temp_dir("second");
+    let mut h = preview_harness(false);
+    steps(&mut h, 2);
+    h.get_by_role_and_label(Role::ComboBox, "Compare").click();
+    steps(&mut h, 2);
+    h.get_by_label("Two designs").click();
+    steps(&mut h, 2);
+    h.get_by_role_and_label(Role::ComboBox, "Second design")
+        .click();
+    steps(&mut h, 2);
+    h.get_by_label("Deep blue").click();
+    steps(&mut h, 2);
+    assert_eq!(
+        preview(h.state()).second_design().map(|(l, _)| l),
+        Some("Deep blue")
+    );
+    h.get_by_role_and_label(Role::Image, "Preview pane: Current design");
+    h.get_by_role_and_label(Role::Image, "Preview pane: Deep blue");
+    wait_until(&mut h, "both designs and their ΔE00 map", |app| {
+        compared(app, 1)
+            && preview(app)
+                .second_design()
+                .is_some_and(|(l, _)| l == "Deep blue")
+    });
+    let map = preview(h.state()).delta_e_map().expect("map");
+    assert!(map.p95 > 20.0, "red against blue: p95 {}", map.p95);
+
+    // A file as the second design: the same design as the current one shows no
+    // difference anywhere (same camera, same seed).
+    let file = dir.join("same.toml");
+    h.state().design().save(&file).expect("save");
+    h.state_mut().open_second_design(&file);
+    steps(&mut h, 2);
+    assert!(
+        preview(h.state())
+            .second_design()
+            .is_some_and(|(l, _)| l.contains("same.toml"))
+    );
+    h.get_by_label_contains("Preview pane: Signal red (");
+    let epoch = preview(h.state()).status().map(|s| s.epoch).unwrap_or(0);
+    wait_until(&mut h, "the file's design beside the current one", |app| {
+        compared(app, 1) && preview(app).status().is_some_and(|s| s.epoch > epoch)
+    });
+    let map = preview(h.state()).delta_e_map().expect("map");
+    assert_eq!(map.max, 0.0, "identical designs render identically");
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// A small Radiance .hdr: flat (not run-length) scanlines, a bright upper half.
+fn write_hdr(path: &Path) {
+    let (w, h) = (16usize, 8usize);
+    let mut bytes = format!("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n").into_bytes();
+    for y in 0..h {
+        for x in 0..w {
+            let level = if y < h / 2 { 200u8 } else { 60 };
+            bytes.extend_from_slice(&[level, level, (level as usize * x / w) as u8 + 10, 129]);
+        }
+    }
+    std::fs::write(path, bytes).expect("write .hdr");
+}
+
+#[test]
+fn dropped_scenes_and_environment_maps_go_to_the_preview_and_bad_ones_change_nothing() {
+    let dir = temp_dir("scene");
+    let mut h = preview_harness(false);
+    wait_until(&mut h, "the built-in car", |app| {
+        app.preview()
+            .and_then(|p| p.scene())
+            .is_some_and(|s| s.name == "Built-in car")
+    });
+    let glb = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/default-car.glb");
+    h.input_mut().dropped_files.push(Arc::new(Dropped(glb)));
+    wait_until(&mut h, "the dropped glTF scene", |app| {
+        app.preview()
+            .and_then(|p| p.scene())
+            .is_some_and(|s| s.name == "default-car.glb")
+    });
+    assert!(has_notice(h.state(), false, "Opened the scene"));
+    let scene = preview(h.state()).scene().cloned().expect("scene");
+    assert!(
+        !scene.warnings.is_empty(),
+        "the loader explains its paint choice"
+    );
+    steps(&mut h, 2);
+    h.get_by_label(&format!("{} warning(s)", scene.warnings.len()));
+
+    // Paint another material by name, through the combo listing the scene's materials.
+    let other = (0..scene.materials.len() as u32)
+        .find(|i| !scene.automatic_paint.contains(i))
+        .expect("a material that is not painted");
+    let name = scene.materials[other as usize].clone();
+    h.get_by_role_and_label(Role::ComboBox, "Paint material")
+        .click();
+    steps(&mut h, 2);
+    h.get_all_by_label(&name)
+        .next()
+        .expect("the material in the list")
+        .click();
+    steps(&mut h, 2);
+    assert_eq!(preview(h.state()).paint_material(), Some(other));
+    let epoch = preview(h.state()).status().map(|s| s.epoch).unwrap_or(0);
+    wait_until(&mut h, "the repainted scene", |app| {
+        app.preview_status()
+            .is_some_and(|s| s.epoch >= epoch && !preview(app).change_pending())
+    });
+
+    // A broken scene: an error, and the scene stays.
+    let broken = dir.join("broken.glb");
+    std::fs::write(&broken, b"glTF\x02\0\0\0\x40\0\0\0garbage").expect("write");
+    h.input_mut().dropped_files.push(Arc::new(Dropped(broken)));
+    wait_until(&mut h, "the scene error", |app| {
+        has_notice(app, true, "Could not open the scene")
+    });
+    assert_eq!(
+        preview(h.state()).scene().map(|s| s.name.as_str()),
+        Some("default-car.glb")
+    );
+
+    // An environment map, then a broken one.
+    let hdr = dir.join("sky.hdr");
+    write_hdr(&hdr);
+    h.input_mut().dropped_files.push(Arc::new(Dropped(hdr)));
+    wait_until(&mut h, "the environment map", |app| {
+        app.preview().is_some_and(|p| {
+            p.environment()
+                == (
+                    coatlab_app::gui::preview::EnvironmentChoice::Image,
+                    Some("sky.hdr"),
+                )
+        })
+    });
+    assert!(has_notice(h.state(), false, "environment map"));
+    let bad = dir.join("bad.hdr");
+    std::fs::write(&bad, "not a picture").expect("write");
+    h.input_mut().dropped_files.push(Arc::new(Dropped(bad)));
+    wait_until(&mut h, "the environment error", |app| {
+        has_notice(app, true, "Could not open the environment map")
+    });
+    assert_eq!(preview(h.state()).environment().1, Some("sky.hdr"));
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+fn png_size(path: &Path) -> (u32, u32) {
+    let bytes = std::fs::read(path).expect("read png");
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{}", path.display());
+    let be = |o: usize| u32::from_be_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]);
+    (be(16), be(20))
+}
+
+#[test]
+fn the_preview_exports_png_and_exr_and_the_exr_lights_the_car() {
+    let dir = temp_dir("export");
+    let mut h = preview_harness(false);
+    wait_until(&mut h, "a refined image", |app| {
+        app.preview_status()
+            .is_some_and(|s| !s.coarse && s.samples_per_pixel >= 2)
+    });
+    let png = dir.join("car.png");
+    h.state_mut().export_preview(&png);
+    wait_until(&mut h, "the PNG export", |app| {
+        has_notice(app, false, "Exported the preview")
+    });
+    let status = h.state().preview_status().cloned().expect("status");
+    assert_eq!(png_size(&png), (status.width, status.height));
+    let exr = dir.join("car.exr");
+    h.state_mut().export_preview(&exr);
+    wait_until(&mut h, "the EXR export", |app| {
+        app.notices()
+            .iter()
+            .any(|n| n.text.contains("Exported") && n.text.contains("car.exr"))
+    });
+    let bytes = std::fs::read(&exr).expect("exr");
+    assert_eq!(&bytes[..4], &[0x76, 0x2f, 0x31, 0x01], "OpenEXR magic");
+    // No temporary files are left beside the exports.
+    let names: Vec<String> = std::fs::read_dir(&dir)
+        .expect("list")
+        .filter_map(Result::ok)
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names.len(), 2, "{names:?}");
+
+    h.state_mut().export_preview(&dir.join("car.jpg"));
+    h.step();
+    assert!(has_notice(
+        h.state(),
+        true,
+        "car.jpg: export the preview as .png"
+    ));
+
+    // In a comparison both views are written.
+    h.state_mut().preview_mut().expect("preview").set_compare(
+        coatlab_app::gui::compare::CompareMode::Models,
+        coatlab_app::gui::compare::CompareLayout::Split,
+    );
+    wait_until(&mut h, "both views", |app| compared(app, 1));
+    h.state_mut().export_preview(&dir.join("pair.png"));
+    wait_until(&mut h, "the pair's export", |app| {
+        app.notices().iter().any(|n| n.text.contains("pair-b.png"))
+    });
+    assert_eq!(
+        png_size(&dir.join("pair.png")),
+        png_size(&dir.join("pair-b.png"))
+    );
+
+    // The EXR is an environment map too: its upper half is lit.
+    h.state_mut().open_environment(&exr);
+    wait_until(&mut h, "the EXR as lighting", |app| {
+        app.preview()
+            .is_some_and(|p| p.environment().1 == Some("car.exr"))
+    });
+    let _ = std::fs::remove_dir_all(dir);
+}

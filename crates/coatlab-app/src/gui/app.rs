@@ -16,7 +16,7 @@ use super::history::History;
 use super::instruments_panel::{InstrumentsRequest, instruments_ui};
 use super::paint_panel::{PanelRequest, paint_controls_ui};
 use super::plots::{PlotSettings, plots_ui};
-use super::preview::Preview;
+use super::preview::{Preview, PreviewEvent, PreviewRequest};
 use super::storage::{Recovery, Storage};
 
 /// How often an unsaved design is autosaved.
@@ -83,6 +83,9 @@ pub struct CoatlabApp {
     preview_enabled: bool,
     preview: Option<Preview>,
     preview_design: Option<PaintDesign>,
+    /// The egui context of the last frame: the preview's render thread needs it to
+    /// ask for repaints, and a dropped scene may start the preview.
+    ctx: Option<egui::Context>,
 }
 
 impl CoatlabApp {
@@ -128,6 +131,7 @@ impl CoatlabApp {
             preview_enabled: options.preview,
             preview: None,
             preview_design: None,
+            ctx: None,
             tab: if options.preview {
                 Tab::Preview
             } else {
@@ -175,6 +179,80 @@ impl CoatlabApp {
     /// The live preview's latest frame statistics, once it has shown one.
     pub fn preview_status(&self) -> Option<&super::preview::PreviewFrame> {
         self.preview.as_ref().and_then(|p| p.status())
+    }
+
+    /// The live preview, once started.
+    pub fn preview(&self) -> Option<&Preview> {
+        self.preview.as_ref()
+    }
+
+    /// The live preview, started if it is enabled and not running yet (it needs a
+    /// frame's egui context first).
+    pub fn preview_mut(&mut self) -> Option<&mut Preview> {
+        if self.preview.is_none()
+            && self.preview_enabled
+            && let Some(ctx) = &self.ctx
+        {
+            self.preview = Some(Preview::start(ctx, &self.design));
+            self.preview_design = Some(self.design.clone());
+        }
+        self.preview.as_mut()
+    }
+
+    fn running_preview(&mut self, what: &str) -> Option<&mut Preview> {
+        if self.preview_mut().is_none() {
+            self.error(format!(
+                "The live preview is off in this session; cannot {what}."
+            ));
+            return None;
+        }
+        self.tab = Tab::Preview;
+        self.preview.as_mut()
+    }
+
+    /// Opens a glTF scene (.glb, .gltf) in the preview. It loads on the render
+    /// thread; a file that fails shows an error and the current scene stays.
+    pub fn open_scene(&mut self, path: &Path) {
+        if let Some(p) = self.running_preview("open a scene") {
+            p.open_scene(path);
+        }
+    }
+
+    /// Opens an environment map (.hdr, .exr) as the preview's lighting.
+    pub fn open_environment(&mut self, path: &Path) {
+        if let Some(p) = self.running_preview("open an environment map") {
+            p.open_environment(path);
+        }
+    }
+
+    /// Writes the preview as PNG (as shown) or EXR (linear), atomically.
+    pub fn export_preview(&mut self, path: &Path) {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        if !matches!(ext.as_deref(), Some("png") | Some("exr")) {
+            return self.error(format!(
+                "{}: export the preview as .png (as shown) or .exr (linear sRGB)",
+                path.display()
+            ));
+        }
+        if let Some(p) = self.running_preview("export the preview") {
+            p.export(path);
+        }
+    }
+
+    /// Uses a design file as the second design of the comparison.
+    pub fn open_second_design(&mut self, path: &Path) {
+        match PaintDesign::load(path) {
+            Ok(d) => {
+                let label = format!("{} ({})", d.name, path.display());
+                if let Some(p) = self.running_preview("compare designs") {
+                    p.set_second_design(&label, &d);
+                }
+            }
+            Err(e) => self.error(format!("Could not open the design to compare with: {e}")),
+        }
     }
 
     /// Selects a tab.
@@ -348,9 +426,10 @@ impl CoatlabApp {
             FilePurpose::ImportAlbedoCsv => self.import_albedo_csv(&path),
             FilePurpose::TargetDesign => self.open_target(&path),
             FilePurpose::ExportMeasurement => self.export_measurement(&path),
-            FilePurpose::ExportPreviewImage => {
-                self.error("The preview is not running; nothing to export.")
-            }
+            FilePurpose::ExportPreviewImage => self.export_preview(&path),
+            FilePurpose::OpenScene => self.open_scene(&path),
+            FilePurpose::OpenEnvironment => self.open_environment(&path),
+            FilePurpose::SecondDesign => self.open_second_design(&path),
         }
     }
 
@@ -365,7 +444,8 @@ impl CoatlabApp {
         }
     }
 
-    /// A file dropped on the window: a design opens, a CSV becomes ρ(λ).
+    /// A file dropped on the window: a design opens, a CSV becomes ρ(λ), a glTF
+    /// scene or an environment map goes to the preview.
     pub fn file_dropped(&mut self, path: &Path) {
         let ext = path
             .extension()
@@ -374,8 +454,11 @@ impl CoatlabApp {
         match ext.as_deref() {
             Some("toml") => self.open_design(path),
             Some("csv") => self.import_albedo_csv(path),
+            Some("glb") | Some("gltf") => self.open_scene(path),
+            Some("hdr") | Some("exr") => self.open_environment(path),
             _ => self.error(format!(
-                "{}: not a design (.toml) or a spectral CSV (.csv)",
+                "{}: not a design (.toml), a spectral CSV (.csv), a glTF scene (.glb, .gltf) \
+                 or an environment map (.hdr, .exr)",
                 path.display()
             )),
         }
@@ -465,6 +548,7 @@ impl CoatlabApp {
     /// both call this).
     pub fn show(&mut self, ui: &mut Ui) {
         let ctx = ui.ctx().clone();
+        self.ctx = Some(ctx.clone());
         self.shortcuts(&ctx);
         let dropped: Vec<PathBuf> = ctx.input(|i| {
             i.raw
@@ -549,6 +633,22 @@ impl CoatlabApp {
         if let Some((purpose, path)) = self.browser.show(&ctx) {
             self.file_chosen(purpose, path);
         }
+        // After the preview took up what its thread published this frame; shown in
+        // the notice bar from the next frame on.
+        let events = self
+            .preview
+            .as_mut()
+            .map(Preview::take_events)
+            .unwrap_or_default();
+        if !events.is_empty() {
+            ctx.request_repaint();
+        }
+        for e in events {
+            match e {
+                PreviewEvent::Info(text) => self.info(text),
+                PreviewEvent::Error(text) => self.error(text),
+            }
+        }
         drop_overlay(&ctx);
 
         // One undo step per gesture: commit once no button is held and no text field
@@ -575,17 +675,29 @@ impl CoatlabApp {
             ui.label("The live preview is off in this session.");
             return;
         }
-        let preview = self
-            .preview
-            .get_or_insert_with(|| Preview::start(ui.ctx(), &self.design));
-        // Restart the render on any change of a valid design.
-        if self.preview_design.as_ref() != Some(&self.design) {
-            if self.preview_design.is_some() && self.design.validate().is_ok() {
-                preview.set_design(&self.design);
-            }
-            self.preview_design = Some(self.design.clone());
+        let design = self.design.clone();
+        let changed = self.preview_design.as_ref() != Some(&design);
+        if self.preview_mut().is_none() {
+            return;
         }
-        preview.ui(ui);
+        let Some(preview) = self.preview.as_mut() else {
+            return;
+        };
+        // Restart the render on any change of a valid design.
+        if changed && design.validate().is_ok() {
+            preview.set_design(&design);
+        }
+        let requests = preview.ui(ui, &self.presets);
+        self.preview_design = Some(design);
+        for r in requests {
+            let purpose = match r {
+                PreviewRequest::OpenScene => FilePurpose::OpenScene,
+                PreviewRequest::OpenEnvironment => FilePurpose::OpenEnvironment,
+                PreviewRequest::SecondDesignFile => FilePurpose::SecondDesign,
+                PreviewRequest::Export => FilePurpose::ExportPreviewImage,
+            };
+            self.open_browser(purpose);
+        }
     }
 
     fn menu_ui(&mut self, ui: &mut Ui) {
@@ -616,6 +728,16 @@ impl CoatlabApp {
                 }
                 if ui.button("Export readings (CSV, JSON)…").clicked() {
                     self.open_browser(FilePurpose::ExportMeasurement);
+                }
+                ui.separator();
+                if ui.button("Open scene (glTF)…").clicked() {
+                    self.open_browser(FilePurpose::OpenScene);
+                }
+                if ui.button("Open environment map (HDR, EXR)…").clicked() {
+                    self.open_browser(FilePurpose::OpenEnvironment);
+                }
+                if ui.button("Export preview image (PNG, EXR)…").clicked() {
+                    self.open_browser(FilePurpose::ExportPreviewImage);
                 }
                 ui.separator();
                 if ui.button("Quit").clicked() {
@@ -678,8 +800,11 @@ impl CoatlabApp {
         }
         if self.notices.is_empty() {
             ui.label(
-                RichText::new("Drop a design (.toml) or a spectral CSV on the window to open it.")
-                    .weak(),
+                RichText::new(
+                    "Drop a design (.toml), a spectral CSV, a glTF scene (.glb, .gltf) or an \
+                     environment map (.hdr, .exr) on the window to open it.",
+                )
+                .weak(),
             );
         }
         if let Some(i) = dismiss {
@@ -755,7 +880,7 @@ fn drop_overlay(ctx: &egui::Context) {
     painter.text(
         screen.center(),
         egui::Align2::CENTER_CENTER,
-        "Drop a design (.toml) or a spectral CSV",
+        "Drop a design, a spectral CSV, a glTF scene or an environment map",
         egui::FontId::proportional(24.0),
         Color32::WHITE,
     );

@@ -20,6 +20,9 @@ pub enum FilePurpose {
     TargetDesign,
     ExportMeasurement,
     ExportPreviewImage,
+    OpenScene,
+    OpenEnvironment,
+    SecondDesign,
 }
 
 impl FilePurpose {
@@ -31,17 +34,23 @@ impl FilePurpose {
             FilePurpose::TargetDesign => "Choose a target design",
             FilePurpose::ExportMeasurement => "Export readings (.csv or .json)",
             FilePurpose::ExportPreviewImage => "Export preview (.png or .exr)",
+            FilePurpose::OpenScene => "Open a glTF scene (.glb or .gltf)",
+            FilePurpose::OpenEnvironment => "Open an environment map (.hdr or .exr)",
+            FilePurpose::SecondDesign => "Choose a design to compare with",
         }
     }
 
     fn extensions(self) -> &'static [&'static str] {
         match self {
-            FilePurpose::OpenDesign | FilePurpose::SaveDesign | FilePurpose::TargetDesign => {
-                &["toml"]
-            }
+            FilePurpose::OpenDesign
+            | FilePurpose::SaveDesign
+            | FilePurpose::TargetDesign
+            | FilePurpose::SecondDesign => &["toml"],
             FilePurpose::ImportAlbedoCsv => &["csv"],
             FilePurpose::ExportMeasurement => &["csv", "json"],
             FilePurpose::ExportPreviewImage => &["png", "exr"],
+            FilePurpose::OpenScene => &["glb", "gltf"],
+            FilePurpose::OpenEnvironment => &["hdr", "exr"],
         }
     }
 

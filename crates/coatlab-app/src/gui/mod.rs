@@ -12,10 +12,12 @@
 //! | [`storage`] | recent files, autosave and crash recovery |
 //! | [`file_browser`] | the in-app open/save browser (why not a native dialog: there) |
 //! | [`export`] | readings as CSV and JSON |
-//! | [`preview`] | the live path-traced preview on a background thread |
+//! | [`preview`] | the live path-traced preview on a background thread; scenes, lighting maps, export |
+//! | [`compare`] | comparison modes and layouts, the ΔE00 map and its legend |
 
 pub mod analysis;
 pub mod app;
+pub mod compare;
 pub mod curve_editor;
 pub mod export;
 pub mod file_browser;

@@ -1,30 +1,47 @@
 //! The live preview: the progressive path tracer of `coatlab-core` on a background
-//! thread, its latest image shown as a texture.
+//! thread, its latest images shown as textures.
 //!
 //! The UI never waits on the renderer. It sends commands (a new design, a camera
-//! move, another environment, a new size) over a channel and raises a cancel flag so
-//! a pass in flight stops at its next tile; the render thread drains the commands,
-//! restarts, renders one coarse pass at a quarter of the resolution so a new image
-//! appears at once, then refines at full resolution one sample per pixel per pass.
-//! After each pass it publishes the display image (sRGB bytes) in a shared slot and
-//! asks egui for a repaint; the UI uploads the newest image when there is one.
+//! move, another environment or scene, a new size, an export) over a channel and
+//! raises a cancel flag so a pass in flight stops at its next tile; the render
+//! thread drains the commands, restarts, renders one coarse pass at a quarter of the
+//! resolution so a new image appears at once, then refines at full resolution one
+//! sample per pixel per pass. After each pass it publishes the display images (sRGB
+//! bytes) in a shared slot and asks egui for a repaint; the UI uploads the newest
+//! images when there are some.
+//!
+//! Comparisons render a second view with the same scene, lighting, camera and seed
+//! (so the random numbers of a pixel's samples are the same in both views and the
+//! difference comes from the models or designs, not from noise), one pass of each
+//! in turn, shown with the same exposure. Files (glTF scenes, environment maps) are
+//! read on the render thread too; what happens is reported back as events the app
+//! shows in its notice bar.
 
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use coatlab_core::cie::Illuminant;
 use coatlab_core::design::PaintDesign;
+use coatlab_core::design::presets::Preset;
+use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::camera::Camera;
 use coatlab_core::render::environment::Environment;
-use coatlab_core::render::film::DisplaySettings;
+use coatlab_core::render::film::{DisplaySettings, Film};
 use coatlab_core::render::material::{Shading, ShadingModel};
-use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
+use coatlab_core::render::progressive::{
+    PassStats, ProgressiveRender, RenderScene, RenderSettings,
+};
 use coatlab_core::scene::car::{CarParameters, generate};
+use coatlab_core::scene::gltf_loader::{LoadOptions, load};
+use coatlab_core::scene::{Scene, SceneMaterial};
 use coatlab_core::spectrum::WavelengthGrid;
-use egui::{RichText, Ui};
+use egui::{Color32, RichText, Ui};
+
+use super::compare::{CompareLayout, CompareMode, DeltaEMap, SCALES, legend_ui};
 
 /// Wavelengths per path: as `coatlab render` by default.
 const PREVIEW_WAVELENGTHS: usize = 32;
@@ -35,6 +52,10 @@ const MAX_SPP: u32 = 1024;
 /// The preview's largest size in pixels (it renders at most this, scaled up on screen):
 /// the default keeps the first image within reach of a 2-core machine.
 const MAX_PREVIEW_PIXELS: (u32, u32) = (640, 400);
+/// Gap between side-by-side panes, points.
+const PANE_GAP: f32 = 4.0;
+/// Width kept for the ΔE00 legend, points.
+const LEGEND_WIDTH: f32 = 64.0;
 
 /// The lighting setups offered.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -44,9 +65,12 @@ pub enum EnvironmentChoice {
     BoothA,
     BoothF11,
     Outdoor,
+    /// The environment map last opened (.hdr or .exr).
+    Image,
 }
 
 impl EnvironmentChoice {
+    /// The built-in setups (an image is offered once one is open).
     pub const ALL: [EnvironmentChoice; 5] = [
         EnvironmentChoice::Studio,
         EnvironmentChoice::BoothD65,
@@ -62,28 +86,56 @@ impl EnvironmentChoice {
             EnvironmentChoice::BoothA => "Light booth A",
             EnvironmentChoice::BoothF11 => "Light booth F11",
             EnvironmentChoice::Outdoor => "Outdoor",
+            EnvironmentChoice::Image => "Environment map",
         }
     }
 
-    fn build(self, grid: &WavelengthGrid) -> Environment {
-        match self {
+    fn build(self, grid: &WavelengthGrid) -> Option<Environment> {
+        Some(match self {
             EnvironmentChoice::Studio => Environment::studio(grid),
             EnvironmentChoice::BoothD65 => Environment::booth(Illuminant::D65, grid),
             EnvironmentChoice::BoothA => Environment::booth(Illuminant::A, grid),
             EnvironmentChoice::BoothF11 => Environment::booth(Illuminant::F11, grid),
             EnvironmentChoice::Outdoor => Environment::outdoor(grid),
-        }
+            EnvironmentChoice::Image => return None,
+        })
     }
+}
+
+/// What the two views render: the first view's model, and the second view's design
+/// (`None`: the same design) and model, if there is a second view.
+#[derive(Debug, Clone, PartialEq)]
+struct Views {
+    model_a: ShadingModel,
+    b: Option<(Option<Box<PaintDesign>>, ShadingModel)>,
 }
 
 enum Command {
     Design(Box<PaintDesign>),
-    Model(ShadingModel),
+    Views(Views),
     Environment(EnvironmentChoice),
+    EnvironmentFile(PathBuf),
+    Scene(Option<PathBuf>),
+    PaintMaterial(Option<u32>),
     Resize(u32, u32),
     Orbit(f32, f32),
     Zoom(f32),
     Pan(f32, f32),
+    Export(PathBuf),
+}
+
+impl Command {
+    /// Whether the command changes the picture (exports do not).
+    fn changes_picture(&self) -> bool {
+        !matches!(self, Command::Export(_))
+    }
+}
+
+/// A command with the number of the last picture-changing command sent with or
+/// before it, so a published image says which change it already shows.
+struct Envelope {
+    epoch: u64,
+    command: Command,
 }
 
 /// One published image.
@@ -98,26 +150,84 @@ pub struct PreviewFrame {
     pub noise_delta_e: Option<f64>,
     /// The coarse first pass after a change.
     pub coarse: bool,
+    /// The last change this image shows (see [`Preview::last_change_latency`]).
+    pub epoch: u64,
+}
+
+/// The scene being rendered, as the UI shows it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneInfo {
+    /// "Built-in car" or the file name.
+    pub name: String,
+    /// Its file; `None` for the built-in car.
+    pub path: Option<PathBuf>,
+    /// Material names, by index.
+    pub materials: Vec<String>,
+    /// Materials that carry the paint as the loader chose them.
+    pub automatic_paint: Vec<u32>,
+    /// Problems that did not stop the load.
+    pub warnings: Vec<String>,
+}
+
+/// Something the app should tell the user.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PreviewEvent {
+    Info(String),
+    Error(String),
 }
 
 #[derive(Default)]
 struct Shared {
-    frame: Option<PreviewFrame>,
+    frames: [Option<PreviewFrame>; 2],
+    delta_e: Option<DeltaEMap>,
     fresh: bool,
-    error: Option<String>,
+    fresh_map: bool,
+    scene: Option<SceneInfo>,
+    environment_loaded: Option<String>,
+    events: Vec<PreviewEvent>,
+}
+
+/// Something the preview needs the app for (a file browser).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PreviewRequest {
+    OpenScene,
+    OpenEnvironment,
+    SecondDesignFile,
+    Export,
 }
 
 /// The preview's UI-side handle.
 pub struct Preview {
-    commands: Sender<Command>,
+    commands: Sender<Envelope>,
     shared: Arc<Mutex<Shared>>,
     cancel: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
-    texture: Option<egui::TextureHandle>,
-    status: Option<PreviewFrame>,
+    textures: [Option<egui::TextureHandle>; 2],
+    map_texture: Option<egui::TextureHandle>,
+    status: [Option<PreviewFrame>; 2],
+    delta_e: Option<DeltaEMap>,
+    map_scale: f32,
+    map_scale_shown: f32,
     environment: EnvironmentChoice,
+    environment_name: Option<String>,
+    /// The model of the single view and of both in the designs comparison.
     model: ShadingModel,
+    /// The Phong variant in the models comparison.
+    phong: PhongVariant,
+    compare: CompareMode,
+    layout: CompareLayout,
+    /// The split view's divider, as a fraction of the image's width from the left.
+    divider: f32,
+    second: Option<(String, PaintDesign)>,
+    scene: Option<SceneInfo>,
+    paint_override: Option<u32>,
+    /// The current design's name (to offer a different one for comparison).
+    design_name: String,
     size: (u32, u32),
+    epoch: u64,
+    change_sent_at: Option<Instant>,
+    last_latency: Option<Duration>,
+    events: Vec<PreviewEvent>,
 }
 
 impl Preview {
@@ -132,135 +242,683 @@ impl Preview {
             cancel: cancel.clone(),
             ctx: ctx.clone(),
         };
-        let design = design.clone();
+        let initial = design.clone();
         let thread = std::thread::Builder::new()
             .name("coatlab-preview".into())
-            .spawn(move || worker.run(design))
+            .spawn(move || worker.run(initial))
             .ok();
         Self {
             commands: tx,
             shared,
             cancel,
             thread,
-            texture: None,
-            status: None,
+            textures: [None, None],
+            map_texture: None,
+            status: [None, None],
+            delta_e: None,
+            map_scale: 5.0,
+            map_scale_shown: f32::NAN,
             environment: EnvironmentChoice::Studio,
+            environment_name: None,
             model: ShadingModel::Paint,
+            phong: PhongVariant::BestFit,
+            compare: CompareMode::Off,
+            layout: CompareLayout::SideBySide,
+            divider: 0.5,
+            second: None,
+            scene: None,
+            paint_override: None,
+            design_name: design.name.clone(),
             size: (0, 0),
+            epoch: 0,
+            change_sent_at: None,
+            last_latency: None,
+            events: Vec::new(),
         }
     }
 
-    fn send(&self, command: Command) {
-        // Stop the pass in flight: the thread picks the command up at once.
-        self.cancel.store(true, Ordering::Relaxed);
-        let _ = self.commands.send(command);
+    fn send(&mut self, command: Command) {
+        if command.changes_picture() {
+            self.epoch += 1;
+            self.change_sent_at = Some(Instant::now());
+            // Stop the pass in flight: the thread picks the command up at once. An
+            // export waits for the pass to end instead (it keeps the samples).
+            self.cancel.store(true, Ordering::Relaxed);
+        }
+        let _ = self.commands.send(Envelope {
+            epoch: self.epoch,
+            command,
+        });
     }
 
     /// The design changed.
-    pub fn set_design(&self, design: &PaintDesign) {
+    pub fn set_design(&mut self, design: &PaintDesign) {
+        self.design_name = design.name.clone();
         self.send(Command::Design(Box::new(design.clone())));
     }
 
-    /// The latest frame's statistics.
+    /// Opens a glTF scene (.glb, .gltf) on the render thread; the current scene stays
+    /// if it cannot be loaded (an error event says why).
+    pub fn open_scene(&mut self, path: &Path) {
+        self.paint_override = None;
+        self.send(Command::Scene(Some(path.to_owned())));
+    }
+
+    /// Goes back to the built-in car.
+    pub fn built_in_scene(&mut self) {
+        self.paint_override = None;
+        self.send(Command::Scene(None));
+    }
+
+    /// Opens an environment map (.hdr, .exr) on the render thread; the lighting stays
+    /// if it cannot be read.
+    pub fn open_environment(&mut self, path: &Path) {
+        self.send(Command::EnvironmentFile(path.to_owned()));
+    }
+
+    /// Paints the scene material `index` instead of the loader's choice (`None`).
+    pub fn set_paint_material(&mut self, index: Option<u32>) {
+        if self.paint_override != index {
+            self.paint_override = index;
+            self.send(Command::PaintMaterial(index));
+        }
+    }
+
+    /// The scene material painted instead of the loader's choice, if any.
+    pub fn paint_material(&self) -> Option<u32> {
+        self.paint_override
+    }
+
+    /// Writes the first view (and the second, as NAME-b.EXT, in a comparison): PNG
+    /// as shown (same exposure and tone mapping), EXR as linear sRGB.
+    pub fn export(&mut self, path: &Path) {
+        self.send(Command::Export(path.to_owned()));
+    }
+
+    /// Sets the comparison.
+    pub fn set_compare(&mut self, mode: CompareMode, layout: CompareLayout) {
+        let changed = mode != self.compare;
+        self.compare = mode;
+        self.layout = layout;
+        if changed {
+            self.send_views();
+        }
+    }
+
+    /// The second design of the designs comparison.
+    pub fn set_second_design(&mut self, label: &str, design: &PaintDesign) {
+        self.second = Some((label.to_owned(), design.clone()));
+        if self.compare == CompareMode::Designs {
+            self.send_views();
+        }
+    }
+
+    /// The second design and its label.
+    pub fn second_design(&self) -> Option<(&str, &PaintDesign)> {
+        self.second.as_ref().map(|(l, d)| (l.as_str(), d))
+    }
+
+    /// The comparison shown.
+    pub fn compare(&self) -> (CompareMode, CompareLayout) {
+        (self.compare, self.layout)
+    }
+
+    /// The split view's divider (fraction of the width from the left).
+    pub fn divider(&self) -> f32 {
+        self.divider
+    }
+
+    fn views(&self) -> Views {
+        match self.compare {
+            CompareMode::Off => Views {
+                model_a: self.model,
+                b: None,
+            },
+            CompareMode::Models => Views {
+                model_a: ShadingModel::Paint,
+                b: Some((None, ShadingModel::Phong(self.phong))),
+            },
+            CompareMode::Designs => Views {
+                model_a: self.model,
+                b: self
+                    .second
+                    .as_ref()
+                    .map(|(_, d)| (Some(Box::new(d.clone())), self.model)),
+            },
+        }
+    }
+
+    fn send_views(&mut self) {
+        let views = self.views();
+        self.send(Command::Views(views));
+    }
+
+    /// The latest frame's statistics (the first view).
     pub fn status(&self) -> Option<&PreviewFrame> {
-        self.status.as_ref()
+        self.status[0].as_ref()
+    }
+
+    /// The second view's latest frame statistics, in a comparison.
+    pub fn second_status(&self) -> Option<&PreviewFrame> {
+        self.status[1].as_ref()
+    }
+
+    /// The latest ΔE00 map between the two views, in a comparison.
+    pub fn delta_e_map(&self) -> Option<&DeltaEMap> {
+        self.delta_e.as_ref()
+    }
+
+    /// The scene being rendered.
+    pub fn scene(&self) -> Option<&SceneInfo> {
+        self.scene.as_ref()
+    }
+
+    /// The lighting selected, and the name of the open map.
+    pub fn environment(&self) -> (EnvironmentChoice, Option<&str>) {
+        (self.environment, self.environment_name.as_deref())
+    }
+
+    /// How long the last change took to show: from the command being sent to the
+    /// UI taking up the first image rendered after it.
+    pub fn last_change_latency(&self) -> Option<Duration> {
+        self.last_latency
+    }
+
+    /// Whether a change is still waiting for its first image.
+    pub fn change_pending(&self) -> bool {
+        self.change_sent_at.is_some()
+    }
+
+    /// What happened since the last call (loads, exports, errors).
+    pub fn take_events(&mut self) -> Vec<PreviewEvent> {
+        std::mem::take(&mut self.events)
+    }
+
+    /// Takes up what the render thread published: images, the ΔE00 map, the scene,
+    /// events. Called by [`Self::ui`] each frame; tests call it between frames.
+    pub fn poll(&mut self, ctx: &egui::Context) {
+        let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
+        self.events.append(&mut shared.events);
+        if let Some(scene) = shared.scene.take() {
+            self.scene = Some(scene);
+        }
+        if let Some(name) = shared.environment_loaded.take() {
+            self.environment = EnvironmentChoice::Image;
+            self.environment_name = Some(name);
+        }
+        if shared.fresh {
+            shared.fresh = false;
+            for (i, frame) in shared.frames.iter().enumerate() {
+                let Some(frame) = frame else {
+                    self.status[i] = None;
+                    self.textures[i] = None;
+                    continue;
+                };
+                let image = egui::ColorImage::from_rgba_unmultiplied(
+                    [frame.width as usize, frame.height as usize],
+                    frame.pixels.as_flattened(),
+                );
+                upload(
+                    ctx,
+                    &mut self.textures[i],
+                    ["preview-a", "preview-b"][i],
+                    image,
+                );
+                self.status[i] = Some(PreviewFrame {
+                    pixels: Vec::new(),
+                    ..frame.clone()
+                });
+            }
+            if let Some(f) = &self.status[0]
+                && f.epoch >= self.epoch
+                && let Some(sent) = self.change_sent_at.take()
+            {
+                self.last_latency = Some(sent.elapsed());
+            }
+        }
+        if shared.fresh_map {
+            shared.fresh_map = false;
+            self.delta_e = shared.delta_e.take();
+            self.map_scale_shown = f32::NAN;
+        }
+        drop(shared);
+        if self.compare == CompareMode::Off {
+            self.delta_e = None;
+        }
+        if let Some(map) = &self.delta_e
+            && self.map_scale_shown != self.map_scale
+        {
+            let image = egui::ColorImage::new(
+                [map.width as usize, map.height as usize],
+                map.to_colours(self.map_scale),
+            );
+            upload(ctx, &mut self.map_texture, "preview-delta-e", image);
+            self.map_scale_shown = self.map_scale;
+        }
     }
 
     /// Draws the preview with its controls; mouse drags orbit (left) or pan (right or
-    /// middle), the wheel zooms.
-    pub fn ui(&mut self, ui: &mut Ui) {
-        ui.horizontal(|ui| {
+    /// middle), the wheel zooms, in either pane of a comparison (both follow).
+    pub fn ui(&mut self, ui: &mut Ui, presets: &[Preset]) -> Vec<PreviewRequest> {
+        let mut requests = Vec::new();
+        self.poll(ui.ctx());
+        self.toolbar_ui(ui, presets, &mut requests);
+        self.scene_ui(ui, &mut requests);
+
+        let status_height = 22.0;
+        let available = ui.available_size() - egui::vec2(0.0, status_height);
+        let (rect, _) = ui.allocate_exact_size(available, egui::Sense::hover());
+        let two = self.compare != CompareMode::Off;
+        let pane_size = match (two, self.layout) {
+            (true, CompareLayout::SideBySide) => {
+                egui::vec2((rect.width() - PANE_GAP) / 2.0, rect.height())
+            }
+            (true, CompareLayout::DeltaE) => egui::vec2(rect.width() - LEGEND_WIDTH, rect.height()),
+            _ => rect.size(),
+        };
+        let ppp = ui.ctx().pixels_per_point();
+        let want = fit(pane_size.x * ppp, pane_size.y * ppp);
+        if want != self.size && want.0 > 16 && want.1 > 16 {
+            self.size = want;
+            self.send(Command::Resize(want.0, want.1));
+        }
+        ui.painter().rect_filled(rect, 0.0, Color32::from_gray(20));
+        let labels = self.view_labels();
+        match (two, self.layout) {
+            (false, _) => {
+                let r = ui.interact(
+                    rect,
+                    ui.scope_id().with("pane-a"),
+                    egui::Sense::click_and_drag(),
+                );
+                named(&r, "Preview pane");
+                self.image_ui(ui, 0, rect, None);
+                self.camera_input(ui, &r);
+            }
+            (true, CompareLayout::SideBySide) => {
+                for (i, label) in labels.iter().enumerate() {
+                    let pane = egui::Rect::from_min_size(
+                        rect.min + egui::vec2(i as f32 * (pane_size.x + PANE_GAP), 0.0),
+                        pane_size,
+                    );
+                    let r = ui.interact(
+                        pane,
+                        ui.scope_id().with(("pane", i)),
+                        egui::Sense::click_and_drag(),
+                    );
+                    named(&r, &format!("Preview pane: {label}"));
+                    self.image_ui(ui, i, pane, Some(label));
+                    self.camera_input(ui, &r);
+                }
+            }
+            (true, CompareLayout::Split) => self.split_ui(ui, rect, &labels),
+            (true, CompareLayout::DeltaE) => {
+                let map_rect = egui::Rect::from_min_size(rect.min, pane_size);
+                let r = ui.interact(
+                    map_rect,
+                    ui.scope_id().with("pane-map"),
+                    egui::Sense::click_and_drag(),
+                );
+                named(&r, "ΔE00 map");
+                self.map_ui(ui, map_rect, &r, &labels);
+                self.camera_input(ui, &r);
+                let legend =
+                    egui::Rect::from_min_max(egui::pos2(map_rect.right(), rect.top()), rect.max);
+                legend_ui(ui, legend.shrink2(egui::vec2(4.0, 20.0)), self.map_scale);
+            }
+        }
+        ui.label(RichText::new(self.status_line()).weak());
+        requests
+    }
+
+    fn view_labels(&self) -> [String; 2] {
+        match self.compare {
+            CompareMode::Off => [self.model.label().to_owned(), String::new()],
+            CompareMode::Models => [
+                ShadingModel::Paint.label().to_owned(),
+                self.phong.label().to_owned(),
+            ],
+            CompareMode::Designs => [
+                "Current design".to_owned(),
+                self.second
+                    .as_ref()
+                    .map(|(l, _)| l.clone())
+                    .unwrap_or_else(|| "(choose a second design)".into()),
+            ],
+        }
+    }
+
+    fn toolbar_ui(&mut self, ui: &mut Ui, presets: &[Preset], requests: &mut Vec<PreviewRequest>) {
+        ui.horizontal_wrapped(|ui| {
             let mut env = self.environment;
+            let image_label = self
+                .environment_name
+                .as_ref()
+                .map(|n| format!("Map: {n}"))
+                .unwrap_or_default();
+            let shown = if env == EnvironmentChoice::Image {
+                image_label.clone()
+            } else {
+                env.label().to_owned()
+            };
             egui::ComboBox::from_label("Lighting")
-                .selected_text(env.label())
+                .selected_text(shown)
                 .show_ui(ui, |ui| {
                     for e in EnvironmentChoice::ALL {
                         ui.selectable_value(&mut env, e, e.label());
+                    }
+                    if self.environment_name.is_some() {
+                        ui.selectable_value(&mut env, EnvironmentChoice::Image, &image_label);
                     }
                 });
             if env != self.environment {
                 self.environment = env;
                 self.send(Command::Environment(env));
             }
-            let mut model = self.model;
-            for m in [
-                ShadingModel::Paint,
-                ShadingModel::Phong(coatlab_core::paint::phong::PhongVariant::Naive),
-                ShadingModel::Phong(coatlab_core::paint::phong::PhongVariant::BestFit),
-            ] {
-                ui.selectable_value(&mut model, m, m.label());
+            if ui
+                .button("Open map…")
+                .on_hover_text("An equirectangular environment map (.hdr or .exr)")
+                .clicked()
+            {
+                requests.push(PreviewRequest::OpenEnvironment);
             }
-            if model != self.model {
-                self.model = model;
-                self.send(Command::Model(model));
-            }
-        });
-        {
-            let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
-            if let Some(e) = shared.error.take() {
-                ui.label(RichText::new(e).color(ui.visuals().error_fg_color));
-            }
-            if shared.fresh {
-                shared.fresh = false;
-                if let Some(frame) = &shared.frame {
-                    let image = egui::ColorImage::from_rgba_unmultiplied(
-                        [frame.width as usize, frame.height as usize],
-                        bytemuck_pixels(&frame.pixels),
-                    );
-                    match &mut self.texture {
-                        Some(t) => t.set(image, egui::TextureOptions::LINEAR),
-                        None => {
-                            self.texture = Some(ui.ctx().load_texture(
-                                "preview",
-                                image,
-                                egui::TextureOptions::LINEAR,
-                            ))
-                        }
+            ui.separator();
+            match self.compare {
+                CompareMode::Models => {
+                    let mut phong = self.phong;
+                    ui.label("against");
+                    for v in [PhongVariant::Naive, PhongVariant::BestFit] {
+                        ui.selectable_value(&mut phong, v, v.label());
                     }
-                    self.status = Some(PreviewFrame {
-                        pixels: Vec::new(),
-                        ..frame.clone()
-                    });
+                    if phong != self.phong {
+                        self.phong = phong;
+                        self.send_views();
+                    }
+                }
+                _ => {
+                    let mut model = self.model;
+                    for m in [
+                        ShadingModel::Paint,
+                        ShadingModel::Phong(PhongVariant::Naive),
+                        ShadingModel::Phong(PhongVariant::BestFit),
+                    ] {
+                        ui.selectable_value(&mut model, m, m.label());
+                    }
+                    if model != self.model {
+                        self.model = model;
+                        self.send_views();
+                    }
                 }
             }
+            ui.separator();
+            let mut mode = self.compare;
+            egui::ComboBox::from_label("Compare")
+                .selected_text(mode.label())
+                .show_ui(ui, |ui| {
+                    for m in CompareMode::ALL {
+                        ui.selectable_value(&mut mode, m, m.label());
+                    }
+                });
+            if mode == CompareMode::Designs && self.second.is_none() {
+                // Something to compare with at once: the first preset unlike the
+                // design; the combo beside it changes it.
+                if let Some(p) = presets.iter().find(|p| p.design.name != self.design_name) {
+                    self.second = Some((p.design.name.clone(), p.design.clone()));
+                }
+            }
+            if mode != self.compare {
+                self.set_compare(mode, self.layout);
+            }
+            if self.compare != CompareMode::Off {
+                let mut layout = self.layout;
+                for l in CompareLayout::ALL {
+                    ui.selectable_value(&mut layout, l, l.label());
+                }
+                self.layout = layout;
+            }
+            if self.compare == CompareMode::Designs {
+                let current = self
+                    .second
+                    .as_ref()
+                    .map(|(l, _)| l.clone())
+                    .unwrap_or_default();
+                let mut chosen = None;
+                egui::ComboBox::from_label("Second design")
+                    .selected_text(current)
+                    .show_ui(ui, |ui| {
+                        for (i, p) in presets.iter().enumerate() {
+                            if ui.selectable_label(false, &p.design.name).clicked() {
+                                chosen = Some(i);
+                            }
+                        }
+                    });
+                if let Some(p) = chosen.and_then(|i| presets.get(i)) {
+                    let (name, design) = (p.design.name.clone(), p.design.clone());
+                    self.set_second_design(&name, &design);
+                }
+                if ui.button("Second design from file…").clicked() {
+                    requests.push(PreviewRequest::SecondDesignFile);
+                }
+            }
+            if self.compare != CompareMode::Off && self.layout == CompareLayout::DeltaE {
+                let mut scale = self.map_scale;
+                egui::ComboBox::from_label("Scale")
+                    .selected_text(format!("0–{scale:.0} ΔE00"))
+                    .show_ui(ui, |ui| {
+                        for s in SCALES {
+                            ui.selectable_value(&mut scale, s, format!("0–{s:.0} ΔE00"));
+                        }
+                    });
+                self.map_scale = scale;
+            }
+        });
+    }
+
+    fn scene_ui(&mut self, ui: &mut Ui, requests: &mut Vec<PreviewRequest>) {
+        ui.horizontal_wrapped(|ui| {
+            let name = self
+                .scene
+                .as_ref()
+                .map(|s| s.name.clone())
+                .unwrap_or_else(|| "Built-in car".into());
+            ui.label(format!("Scene: {name}"));
+            if ui
+                .button("Open scene…")
+                .on_hover_text("A glTF 2.0 scene (.glb or .gltf); or drop one on the window")
+                .clicked()
+            {
+                requests.push(PreviewRequest::OpenScene);
+            }
+            if self.scene.as_ref().is_some_and(|s| s.path.is_some())
+                && ui.button("Built-in car").clicked()
+            {
+                self.built_in_scene();
+            }
+            if let Some(scene) = self.scene.clone() {
+                let automatic = format!(
+                    "automatic ({})",
+                    names_of(&scene.materials, &scene.automatic_paint)
+                );
+                let selected = match self.paint_override {
+                    Some(i) => scene.materials.get(i as usize).cloned().unwrap_or_default(),
+                    None => automatic.clone(),
+                };
+                let mut choice = self.paint_override;
+                egui::ComboBox::from_label("Paint material")
+                    .selected_text(selected)
+                    .show_ui(ui, |ui| {
+                        ui.selectable_value(&mut choice, None, &automatic);
+                        for (i, m) in scene.materials.iter().enumerate() {
+                            ui.selectable_value(&mut choice, Some(i as u32), m);
+                        }
+                    });
+                self.set_paint_material(choice);
+                if !scene.warnings.is_empty() {
+                    ui.label(
+                        RichText::new(format!("{} warning(s)", scene.warnings.len()))
+                            .color(ui.visuals().warn_fg_color),
+                    )
+                    .on_hover_text(scene.warnings.join("\n"));
+                }
+            }
+            ui.separator();
+            if ui
+                .button("Export image…")
+                .on_hover_text("The preview as PNG (as shown) or EXR (linear)")
+                .clicked()
+            {
+                requests.push(PreviewRequest::Export);
+            }
+        });
+    }
+
+    /// Draws view `i`'s image letterboxed in `rect`, with a label.
+    fn image_ui(&self, ui: &Ui, i: usize, rect: egui::Rect, label: Option<&str>) {
+        match &self.textures[i] {
+            Some(t) => {
+                let shown = letterbox(rect, t.size_vec2());
+                ui.painter().image(t.id(), shown, full_uv(), Color32::WHITE);
+            }
+            None => {
+                ui.painter().text(
+                    rect.center(),
+                    egui::Align2::CENTER_CENTER,
+                    "Preparing the car…",
+                    egui::FontId::proportional(16.0),
+                    ui.visuals().weak_text_color(),
+                );
+            }
         }
-        let status_height = 22.0;
-        let available = ui.available_size() - egui::vec2(0.0, status_height);
-        let ppp = ui.ctx().pixels_per_point();
-        let want = fit(available.x * ppp, available.y * ppp);
-        if want != self.size && want.0 > 16 && want.1 > 16 {
-            self.size = want;
-            self.send(Command::Resize(want.0, want.1));
-        }
-        let (rect, response) = ui.allocate_exact_size(available, egui::Sense::click_and_drag());
-        ui.painter()
-            .rect_filled(rect, 0.0, egui::Color32::from_gray(20));
-        if let Some(t) = &self.texture {
-            // Keep the image's aspect: letterbox inside the area.
-            let size = t.size_vec2();
-            let scale = (rect.width() / size.x).min(rect.height() / size.y);
-            let shown = egui::Rect::from_center_size(rect.center(), size * scale);
-            ui.painter().image(
-                t.id(),
-                shown,
-                egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)),
-                egui::Color32::WHITE,
+        if let Some(label) = label {
+            pane_label(
+                ui,
+                rect.left_top() + egui::vec2(6.0, 6.0),
+                egui::Align2::LEFT_TOP,
+                label,
             );
-        } else {
+        }
+    }
+
+    fn split_ui(&mut self, ui: &mut Ui, rect: egui::Rect, labels: &[String; 2]) {
+        let r = ui.interact(
+            rect,
+            ui.scope_id().with("pane-split"),
+            egui::Sense::click_and_drag(),
+        );
+        named(&r, "Preview pane: split");
+        let size = self.textures[0]
+            .as_ref()
+            .map(|t| t.size_vec2())
+            .unwrap_or(egui::vec2(16.0, 10.0));
+        let shown = letterbox(rect, size);
+        let x = shown.left() + self.divider * shown.width();
+        for (i, t) in self.textures.iter().enumerate() {
+            let Some(t) = t else { continue };
+            let (part, uv) = if i == 0 {
+                (
+                    egui::Rect::from_min_max(shown.min, egui::pos2(x, shown.bottom())),
+                    egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(self.divider, 1.0)),
+                )
+            } else {
+                (
+                    egui::Rect::from_min_max(egui::pos2(x, shown.top()), shown.max),
+                    egui::Rect::from_min_max(egui::pos2(self.divider, 0.0), egui::pos2(1.0, 1.0)),
+                )
+            };
+            ui.painter().image(t.id(), part, uv, Color32::WHITE);
+        }
+        if self.textures[0].is_none() {
+            self.image_ui(ui, 0, rect, None);
+        }
+        // The divider: a handle over the line, on top of the picture's own drag area.
+        let handle = egui::Rect::from_center_size(
+            egui::pos2(x, shown.center().y),
+            egui::vec2(12.0, shown.height()),
+        );
+        let d = ui
+            .interact(
+                handle,
+                ui.scope_id().with("split-divider"),
+                egui::Sense::drag(),
+            )
+            .on_hover_cursor(egui::CursorIcon::ResizeHorizontal);
+        named(&d, "Split divider");
+        if d.dragged() {
+            self.divider =
+                (self.divider + d.drag_delta().x / shown.width().max(1.0)).clamp(0.0, 1.0);
+        }
+        let stroke = if d.hovered() || d.dragged() { 3.0 } else { 1.5 };
+        ui.painter().line_segment(
+            [egui::pos2(x, shown.top()), egui::pos2(x, shown.bottom())],
+            egui::Stroke::new(stroke, Color32::WHITE),
+        );
+        ui.painter()
+            .circle_filled(egui::pos2(x, shown.center().y), 6.0, Color32::WHITE);
+        pane_label(
+            ui,
+            shown.left_top() + egui::vec2(6.0, 6.0),
+            egui::Align2::LEFT_TOP,
+            &labels[0],
+        );
+        pane_label(
+            ui,
+            shown.right_top() + egui::vec2(-6.0, 6.0),
+            egui::Align2::RIGHT_TOP,
+            &labels[1],
+        );
+        if !d.dragged() {
+            self.camera_input(ui, &r);
+        }
+    }
+
+    fn map_ui(&self, ui: &Ui, rect: egui::Rect, response: &egui::Response, labels: &[String; 2]) {
+        let (Some(t), Some(map)) = (&self.map_texture, &self.delta_e) else {
             ui.painter().text(
                 rect.center(),
                 egui::Align2::CENTER_CENTER,
-                "Preparing the car…",
+                "Computing the ΔE00 map…",
                 egui::FontId::proportional(16.0),
                 ui.visuals().weak_text_color(),
             );
+            return;
+        };
+        let shown = letterbox(rect, t.size_vec2());
+        ui.painter().image(t.id(), shown, full_uv(), Color32::WHITE);
+        pane_label(
+            ui,
+            shown.left_top() + egui::vec2(6.0, 6.0),
+            egui::Align2::LEFT_TOP,
+            &format!(
+                "ΔE00 {} vs {}: mean {:.2}, 95th percentile {:.2}, max {:.1} ({} spp)",
+                labels[0], labels[1], map.mean, map.p95, map.max, map.samples_per_pixel
+            ),
+        );
+        if let Some(pos) = response.hover_pos()
+            && shown.contains(pos)
+        {
+            let u = (pos - shown.min) / shown.size();
+            let x = ((u.x * map.width as f32) as u32).min(map.width - 1);
+            let y = ((u.y * map.height as f32) as u32).min(map.height - 1);
+            if let Some(v) = map.values.get((y * map.width + x) as usize)
+                && v.is_finite()
+            {
+                pane_label(
+                    ui,
+                    pos + egui::vec2(14.0, 0.0),
+                    egui::Align2::LEFT_CENTER,
+                    &format!("ΔE00 {v:.2}"),
+                );
+            }
         }
+    }
+
+    fn camera_input(&mut self, ui: &Ui, response: &egui::Response) {
         let delta = response.drag_delta();
         if delta != egui::Vec2::ZERO {
             if response.dragged_by(egui::PointerButton::Primary) {
                 self.send(Command::Orbit(-delta.x * 0.4, delta.y * 0.4));
             } else {
-                let scale = self.size.0 as f32 / rect.width().max(1.0);
+                let scale = self.size.0 as f32 / response.rect.width().max(1.0);
                 self.send(Command::Pan(delta.x * scale, delta.y * scale));
             }
         }
@@ -270,21 +928,33 @@ impl Preview {
                 self.send(Command::Zoom((scroll * 0.004).exp()));
             }
         }
-        let status = match &self.status {
-            Some(s) => format!(
-                "{} spp{}  ·  {:.0} k samples/s  ·  noise {}  ·  {}×{}",
-                s.samples_per_pixel,
-                if s.coarse { " (coarse)" } else { "" },
-                s.samples_per_second / 1e3,
-                s.noise_delta_e
-                    .map(|d| format!("ΔE00 {d:.2}"))
-                    .unwrap_or_else(|| "–".into()),
-                s.width,
-                s.height
-            ),
-            None => "starting…".into(),
+    }
+
+    fn status_line(&self) -> String {
+        let Some(s) = &self.status[0] else {
+            return "starting…".into();
         };
-        ui.label(RichText::new(status).weak());
+        let mut line = format!(
+            "{} spp{}  ·  {:.0} k samples/s  ·  noise {}  ·  {}×{}",
+            s.samples_per_pixel,
+            if s.coarse { " (coarse)" } else { "" },
+            s.samples_per_second / 1e3,
+            s.noise_delta_e
+                .map(|d| format!("ΔE00 {d:.2}"))
+                .unwrap_or_else(|| "–".into()),
+            s.width,
+            s.height
+        );
+        if let Some(map) = &self.delta_e {
+            line += &format!(
+                "  ·  difference ΔE00 mean {:.2}, 95 % {:.2}",
+                map.mean, map.p95
+            );
+        }
+        if let Some(l) = self.last_latency {
+            line += &format!("  ·  last change shown after {} ms", l.as_millis());
+        }
+        line
     }
 }
 
@@ -300,8 +970,61 @@ impl Drop for Preview {
     }
 }
 
-fn bytemuck_pixels(pixels: &[[u8; 4]]) -> &[u8] {
-    pixels.as_flattened()
+fn upload(
+    ctx: &egui::Context,
+    slot: &mut Option<egui::TextureHandle>,
+    name: &str,
+    image: egui::ColorImage,
+) {
+    match slot {
+        Some(t) => t.set(image, egui::TextureOptions::LINEAR),
+        None => *slot = Some(ctx.load_texture(name, image, egui::TextureOptions::LINEAR)),
+    }
+}
+
+/// Gives an area a name assistive technology (and the tests) can find it by.
+fn named(response: &egui::Response, name: &str) {
+    let role = if name == "Split divider" {
+        egui::Role::Splitter
+    } else {
+        egui::Role::Image
+    };
+    response.widget_info(|| egui::WidgetInfo::labeled(role, true, name));
+}
+
+fn full_uv() -> egui::Rect {
+    egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0))
+}
+
+/// The largest rectangle of `size`'s aspect centred in `rect`.
+fn letterbox(rect: egui::Rect, size: egui::Vec2) -> egui::Rect {
+    let scale = (rect.width() / size.x.max(1.0)).min(rect.height() / size.y.max(1.0));
+    egui::Rect::from_center_size(rect.center(), size * scale)
+}
+
+/// A label on a dark backing, readable over any picture.
+fn pane_label(ui: &Ui, pos: egui::Pos2, align: egui::Align2, text: &str) {
+    let painter = ui.painter();
+    let galley = painter.layout_no_wrap(
+        text.to_owned(),
+        egui::FontId::proportional(13.0),
+        Color32::WHITE,
+    );
+    let rect = align.anchor_size(pos, galley.size()).expand(3.0);
+    painter.rect_filled(rect, 3.0, Color32::from_black_alpha(150));
+    painter.galley(rect.min + egui::vec2(3.0, 3.0), galley, Color32::WHITE);
+}
+
+fn names_of(materials: &[String], indices: &[u32]) -> String {
+    let names: Vec<&str> = indices
+        .iter()
+        .filter_map(|&i| materials.get(i as usize).map(String::as_str))
+        .collect();
+    if names.is_empty() {
+        "none".into()
+    } else {
+        names.join(", ")
+    }
 }
 
 /// The render size for an area of `w`×`h` physical pixels, capped at
@@ -313,56 +1036,130 @@ fn fit(w: f32, h: f32) -> (u32, u32) {
 }
 
 struct Worker {
-    commands: Receiver<Command>,
+    commands: Receiver<Envelope>,
     shared: Arc<Mutex<Shared>>,
     cancel: Arc<AtomicBool>,
     ctx: egui::Context,
 }
 
+/// What the render thread renders: everything but the renders themselves.
+struct State {
+    grid: WavelengthGrid,
+    scene: Arc<RenderScene>,
+    materials: Vec<SceneMaterial>,
+    /// The loader's choice of paint materials, and the override.
+    automatic_paint: Vec<u32>,
+    paint_override: Option<u32>,
+    design: PaintDesign,
+    views: Views,
+    environment: Arc<Environment>,
+    image_environment: Option<Arc<Environment>>,
+    camera: Camera,
+    size: (u32, u32),
+    epoch: u64,
+    /// The display settings of the last published images (what an export writes).
+    display: DisplaySettings,
+}
+
+impl State {
+    fn paint_materials(&self) -> Vec<u32> {
+        match self.paint_override {
+            Some(i) => vec![i],
+            None => self.automatic_paint.clone(),
+        }
+    }
+
+    fn shading(&self, design: &PaintDesign, model: ShadingModel) -> Option<Arc<Shading>> {
+        let paint = design.model(self.grid).ok()?;
+        Some(Arc::new(Shading::new(
+            &paint,
+            model,
+            &self.materials,
+            &self.paint_materials(),
+        )))
+    }
+
+    /// Shading of both views; `None` while a design is invalid.
+    fn shadings(&self) -> Option<(Arc<Shading>, Option<Arc<Shading>>)> {
+        let a = self.shading(&self.design, self.views.model_a)?;
+        let b = match &self.views.b {
+            None => None,
+            Some((design, model)) => {
+                Some(self.shading(design.as_deref().unwrap_or(&self.design), *model)?)
+            }
+        };
+        Some((a, b))
+    }
+}
+
 impl Worker {
-    fn publish_error(&self, e: String) {
-        self.shared.lock().unwrap_or_else(|p| p.into_inner()).error = Some(e);
+    fn event(&self, event: PreviewEvent) {
+        self.shared
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .events
+            .push(event);
         self.ctx.request_repaint();
     }
 
-    fn run(self, mut design: PaintDesign) {
+    fn error(&self, e: String) {
+        self.event(PreviewEvent::Error(e));
+    }
+
+    fn run(self, design: PaintDesign) {
         let Ok(grid) = WavelengthGrid::visible(PREVIEW_WAVELENGTHS) else {
-            return self.publish_error("preview: no wavelength grid".into());
+            return self.error("preview: no wavelength grid".into());
         };
         let scene = generate(&CarParameters::default());
+        let info = scene_info(&scene, None);
         let materials = scene.materials.clone();
-        let paint_materials = scene.paint_materials.clone();
+        let automatic_paint = scene.paint_materials.clone();
         let render_scene = match RenderScene::new(scene) {
             Ok(s) => Arc::new(s),
-            Err(e) => return self.publish_error(format!("preview: {e}")),
+            Err(e) => return self.error(format!("preview: {e}")),
         };
-        let mut env_choice = EnvironmentChoice::Studio;
-        let mut model_choice = ShadingModel::Paint;
-        let mut size = (320u32, 200u32);
-        let mut camera: Camera = render_scene.default_camera(size.0, size.1);
-        let shading_of = |design: &PaintDesign, which: ShadingModel| {
-            design
-                .model(grid)
-                .map(|m| Arc::new(Shading::new(&m, which, &materials, &paint_materials)))
+        self.shared.lock().unwrap_or_else(|p| p.into_inner()).scene = Some(info);
+        let size = (320u32, 200u32);
+        let Some(environment) = EnvironmentChoice::Studio.build(&grid) else {
+            return;
         };
-        let Ok(shading) = shading_of(&design, model_choice) else {
-            return self.publish_error("preview: the design is invalid".into());
+        let mut state = State {
+            grid,
+            camera: render_scene.default_camera(size.0, size.1),
+            scene: render_scene,
+            materials,
+            automatic_paint,
+            paint_override: None,
+            design,
+            views: Views {
+                model_a: ShadingModel::Paint,
+                b: None,
+            },
+            environment: Arc::new(environment),
+            image_environment: None,
+            size,
+            epoch: 0,
+            display: DisplaySettings::default(),
         };
-        let mut render = match ProgressiveRender::new(
-            render_scene.clone(),
-            Arc::new(env_choice.build(&grid)),
+        let Some((shading, _)) = state.shadings() else {
+            return self.error("preview: the design is invalid".into());
+        };
+        let mut a = match ProgressiveRender::new(
+            state.scene.clone(),
+            state.environment.clone(),
             shading,
-            camera.clone(),
+            state.camera.clone(),
             RenderSettings::default(),
         ) {
             Ok(r) => r,
-            Err(e) => return self.publish_error(format!("preview: {e}")),
+            Err(e) => return self.error(format!("preview: {e}")),
         };
+        let mut b: Option<ProgressiveRender> = None;
         let mut restart = true;
         loop {
             // Wait for work when converged; otherwise just look for commands.
             let mut pending = Vec::new();
-            if !restart && render.samples_per_pixel() >= MAX_SPP {
+            if !restart && a.samples_per_pixel() >= MAX_SPP {
                 match self.commands.recv() {
                     Ok(c) => pending.push(c),
                     Err(_) => return,
@@ -377,92 +1174,334 @@ impl Worker {
             }
             self.cancel.store(false, Ordering::Relaxed);
             let mut new_shading = false;
+            let mut new_scene = false;
             let mut new_env = false;
-            for c in pending {
-                restart = true;
-                match c {
+            for Envelope { epoch, command } in pending {
+                state.epoch = state.epoch.max(epoch);
+                if command.changes_picture() {
+                    restart = true;
+                }
+                match command {
                     Command::Design(d) => {
-                        design = *d;
+                        state.design = *d;
                         new_shading = true;
                     }
-                    Command::Model(m) => {
-                        model_choice = m;
+                    Command::Views(v) => {
+                        state.views = v;
                         new_shading = true;
                     }
                     Command::Environment(e) => {
-                        env_choice = e;
-                        new_env = true;
-                    }
-                    Command::Resize(w, h) => size = (w, h),
-                    Command::Orbit(yaw, pitch) => camera.orbit(yaw, pitch),
-                    Command::Zoom(f) => camera.zoom(f),
-                    Command::Pan(dx, dy) => camera.pan(dx, dy),
-                }
-            }
-            if new_env && let Err(e) = render.set_environment(Arc::new(env_choice.build(&grid))) {
-                self.publish_error(format!("preview: {e}"));
-            }
-            if new_shading {
-                match shading_of(&design, model_choice) {
-                    Ok(s) => {
-                        if let Err(e) = render.set_shading(s) {
-                            self.publish_error(format!("preview: {e}"));
+                        let env = match e {
+                            EnvironmentChoice::Image => state.image_environment.clone(),
+                            other => other.build(&grid).map(Arc::new),
+                        };
+                        if let Some(env) = env {
+                            state.environment = env;
+                            new_env = true;
                         }
                     }
-                    // An invalid design keeps the last valid image; the paint panel
-                    // says what is wrong.
-                    Err(_) => {
-                        restart = false;
-                        continue;
+                    Command::EnvironmentFile(path) => match Environment::from_image(&path, &grid) {
+                        Ok(env) => {
+                            let env = Arc::new(env);
+                            state.image_environment = Some(env.clone());
+                            state.environment = env;
+                            new_env = true;
+                            let name = file_name(&path);
+                            self.shared
+                                .lock()
+                                .unwrap_or_else(|p| p.into_inner())
+                                .environment_loaded = Some(name);
+                            self.event(PreviewEvent::Info(format!(
+                                "Lighting: environment map {}",
+                                path.display()
+                            )));
+                        }
+                        Err(e) => self.error(format!("Could not open the environment map: {e}")),
+                    },
+                    Command::Scene(path) => {
+                        if self.load_scene(&mut state, path.as_deref()) {
+                            new_scene = true;
+                        }
+                    }
+                    Command::PaintMaterial(index) => {
+                        state.paint_override = index;
+                        new_shading = true;
+                    }
+                    Command::Resize(w, h) => state.size = (w, h),
+                    Command::Orbit(yaw, pitch) => state.camera.orbit(yaw, pitch),
+                    Command::Zoom(f) => state.camera.zoom(f),
+                    Command::Pan(dx, dy) => state.camera.pan(dx, dy),
+                    Command::Export(path) => self.export(&path, &a, b.as_ref(), &state.display),
+                }
+            }
+            if new_env {
+                for r in std::iter::once(&mut a).chain(b.as_mut()) {
+                    if let Err(e) = r.set_environment(state.environment.clone()) {
+                        self.error(format!("preview: {e}"));
                     }
                 }
             }
+            if new_shading || new_scene {
+                // An invalid design keeps the last valid image; the paint panel says
+                // what is wrong.
+                let Some((shading_a, shading_b)) = state.shadings() else {
+                    restart = false;
+                    continue;
+                };
+                let result = if new_scene {
+                    a.set_scene(state.scene.clone(), shading_a)
+                } else {
+                    a.set_shading(shading_a)
+                };
+                if let Err(e) = result {
+                    self.error(format!("preview: {e}"));
+                }
+                b = match (b.take(), shading_b) {
+                    (_, None) => None,
+                    (Some(mut r), Some(s)) => {
+                        let result = if new_scene {
+                            r.set_scene(state.scene.clone(), s)
+                        } else {
+                            r.set_shading(s)
+                        };
+                        match result {
+                            Ok(()) => Some(r),
+                            Err(e) => {
+                                self.error(format!("preview: {e}"));
+                                None
+                            }
+                        }
+                    }
+                    (None, Some(s)) => match ProgressiveRender::new(
+                        state.scene.clone(),
+                        state.environment.clone(),
+                        s,
+                        state.camera.clone(),
+                        RenderSettings::default(),
+                    ) {
+                        Ok(r) => Some(r),
+                        Err(e) => {
+                            self.error(format!("preview: {e}"));
+                            None
+                        }
+                    },
+                };
+            }
             let coarse = restart;
-            if restart {
+            let resolution = if restart {
                 restart = false;
                 // A coarse pass first, so a change shows within a frame or two.
-                camera.set_resolution(
-                    (size.0 / COARSE_FACTOR).max(1),
-                    (size.1 / COARSE_FACTOR).max(1),
-                );
-                if render.set_camera(camera.clone()).is_err() {
-                    continue;
-                }
-            } else if (render.camera().width(), render.camera().height()) != size {
-                camera.set_resolution(size.0, size.1);
-                if render.set_camera(camera.clone()).is_err() {
+                Some((
+                    (state.size.0 / COARSE_FACTOR).max(1),
+                    (state.size.1 / COARSE_FACTOR).max(1),
+                ))
+            } else if (a.camera().width(), a.camera().height()) != state.size {
+                Some(state.size)
+            } else {
+                None
+            };
+            if let Some((w, h)) = resolution {
+                state.camera.set_resolution(w, h);
+                if a.set_camera(state.camera.clone()).is_err() {
                     continue;
                 }
             }
-            let start = Instant::now();
-            let Some(stats) = render.render_pass_cancellable(1, &self.cancel) else {
+            // The second view follows the first's camera (and resolution) exactly, and
+            // both hold the same samples: after a pass of the second was cancelled
+            // without a change, both start again.
+            if let Some(r) = b.as_mut()
+                && (resolution.is_some() || r.samples_per_pixel() != a.samples_per_pixel())
+            {
+                a.restart();
+                if r.set_camera(state.camera.clone()).is_err() {
+                    b = None;
+                }
+            }
+            let Some(stats_a) = a.render_pass_cancellable(1, &self.cancel) else {
                 continue;
             };
-            let _ = start;
-            let film = render.film();
-            let display = DisplaySettings {
-                exposure_stops: film.auto_exposure(),
-                ..DisplaySettings::default()
-            };
-            let frame = PreviewFrame {
-                width: film.width(),
-                height: film.height(),
-                pixels: film.to_display(&display),
-                samples_per_pixel: render.samples_per_pixel(),
-                samples_per_second: stats.samples_per_second(),
-                noise_delta_e: if coarse {
-                    None
-                } else {
-                    render.noise_estimate(&display).map(|n| n.mean_delta_e)
+            let stats_b = match b.as_mut() {
+                Some(r) => match r.render_pass_cancellable(1, &self.cancel) {
+                    Some(s) => Some(s),
+                    None => continue,
                 },
-                coarse,
+                None => None,
             };
-            {
-                let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
-                shared.frame = Some(frame);
-                shared.fresh = true;
-            }
-            self.ctx.request_repaint();
+            self.publish(&mut state, &a, b.as_ref().zip(stats_b), stats_a, coarse);
         }
     }
+
+    /// Loads a glTF scene (or the built-in car for `None`) into `state`; on failure
+    /// reports the error and leaves `state` as it was.
+    fn load_scene(&self, state: &mut State, path: Option<&Path>) -> bool {
+        let loaded: Result<Scene, String> = match path {
+            None => Ok(generate(&CarParameters::default())),
+            Some(p) => load(p, &LoadOptions::default()).map_err(|e| e.to_string()),
+        };
+        let scene = match loaded {
+            Ok(s) => s,
+            Err(e) => {
+                self.error(format!("Could not open the scene: {e}"));
+                return false;
+            }
+        };
+        let info = scene_info(&scene, path);
+        let materials = scene.materials.clone();
+        let automatic_paint = scene.paint_materials.clone();
+        let render_scene = match RenderScene::new(scene) {
+            Ok(s) => Arc::new(s),
+            Err(e) => {
+                self.error(format!("Could not open the scene: {e}"));
+                return false;
+            }
+        };
+        state.camera = render_scene.default_camera(state.size.0, state.size.1);
+        state.scene = render_scene;
+        state.materials = materials;
+        state.automatic_paint = automatic_paint;
+        state.paint_override = None;
+        let message = match path {
+            None => "Scene: the built-in car".to_owned(),
+            Some(p) => format!(
+                "Opened the scene {} ({} materials; paint on {}){}",
+                p.display(),
+                info.materials.len(),
+                names_of(&info.materials, &info.automatic_paint),
+                if info.warnings.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        "; {} warning(s): {}",
+                        info.warnings.len(),
+                        info.warnings.join("; ")
+                    )
+                }
+            ),
+        };
+        self.shared.lock().unwrap_or_else(|p| p.into_inner()).scene = Some(info);
+        self.event(PreviewEvent::Info(message));
+        true
+    }
+
+    fn export(
+        &self,
+        path: &Path,
+        a: &ProgressiveRender,
+        b: Option<&ProgressiveRender>,
+        display: &DisplaySettings,
+    ) {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        let write = |film: &Film, path: &Path| match ext.as_deref() {
+            Some("png") => film.write_png(path, display).map_err(|e| e.to_string()),
+            Some("exr") => film.write_exr(path).map_err(|e| e.to_string()),
+            _ => Err(format!(
+                "{}: export as .png (as shown) or .exr (linear sRGB)",
+                path.display()
+            )),
+        };
+        if a.samples_per_pixel() == 0 {
+            return self.error("Nothing to export yet: the preview has no samples.".into());
+        }
+        let mut written = Vec::new();
+        let mut targets = vec![(a.film(), path.to_owned())];
+        if let Some(b) = b {
+            targets.push((b.film(), second_path(path)));
+        }
+        for (film, target) in targets {
+            match write(film, &target) {
+                Ok(()) => written.push(target.display().to_string()),
+                Err(e) => return self.error(format!("Could not export the preview: {e}")),
+            }
+        }
+        self.event(PreviewEvent::Info(format!(
+            "Exported the preview ({} spp) to {}",
+            a.samples_per_pixel(),
+            written.join(" and ")
+        )));
+    }
+
+    fn publish(
+        &self,
+        state: &mut State,
+        a: &ProgressiveRender,
+        b: Option<(&ProgressiveRender, PassStats)>,
+        stats_a: PassStats,
+        coarse: bool,
+    ) {
+        // One exposure for both views, so neither hides nor invents a difference.
+        let display = DisplaySettings {
+            exposure_stops: a.film().auto_exposure(),
+            ..DisplaySettings::default()
+        };
+        state.display = display;
+        let frame = |r: &ProgressiveRender, stats: PassStats| PreviewFrame {
+            width: r.film().width(),
+            height: r.film().height(),
+            pixels: r.film().to_display(&display),
+            samples_per_pixel: r.samples_per_pixel(),
+            samples_per_second: stats.samples_per_second(),
+            noise_delta_e: if coarse {
+                None
+            } else {
+                r.noise_estimate(&display).map(|n| n.mean_delta_e)
+            },
+            coarse,
+            epoch: state.epoch,
+        };
+        let frames = [Some(frame(a, stats_a)), b.map(|(r, s)| frame(r, s))];
+        // The map costs about as much as a pass at 640×400: made at 1, 2, 4, 8, …
+        // samples per pixel, which keeps its share of the time small.
+        let spp = a.samples_per_pixel();
+        let map = match b {
+            Some((b, _)) if coarse || spp.is_power_of_two() || spp >= MAX_SPP => {
+                DeltaEMap::between(a.film(), b.film(), &display).map(|mut m| {
+                    m.samples_per_pixel = spp;
+                    m
+                })
+            }
+            _ => None,
+        };
+        {
+            let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
+            shared.frames = frames;
+            shared.fresh = true;
+            if map.is_some() || b.is_none() {
+                shared.delta_e = map;
+                shared.fresh_map = true;
+            }
+        }
+        self.ctx.request_repaint();
+    }
+}
+
+fn scene_info(scene: &Scene, path: Option<&Path>) -> SceneInfo {
+    SceneInfo {
+        name: path.map(file_name).unwrap_or_else(|| "Built-in car".into()),
+        path: path.map(Path::to_owned),
+        materials: scene.materials.iter().map(|m| m.name.clone()).collect(),
+        automatic_paint: scene.paint_materials.clone(),
+        warnings: scene.warnings.clone(),
+    }
+}
+
+fn file_name(path: &Path) -> String {
+    path.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.display().to_string())
+}
+
+/// Where the second view of a comparison is exported: NAME-b.EXT beside NAME.EXT.
+pub fn second_path(path: &Path) -> PathBuf {
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let name = match path.extension() {
+        Some(ext) => format!("{stem}-b.{}", ext.to_string_lossy()),
+        None => format!("{stem}-b"),
+    };
+    path.with_file_name(name)
 }
