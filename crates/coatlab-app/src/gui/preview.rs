@@ -1070,26 +1070,43 @@ impl State {
     }
 
     fn shading(&self, design: &PaintDesign, model: ShadingModel) -> Option<Arc<Shading>> {
-        let paint = design.model(self.grid).ok()?;
-        Some(Arc::new(Shading::new(
-            &paint,
+        shading_of(
+            design,
             model,
+            self.grid,
             &self.materials,
             &self.paint_materials(),
-        )))
+        )
     }
 
-    /// Shading of both views; `None` while a design is invalid.
-    fn shadings(&self) -> Option<(Arc<Shading>, Option<Arc<Shading>>)> {
-        let a = self.shading(&self.design, self.views.model_a)?;
-        let b = match &self.views.b {
-            None => None,
-            Some((design, model)) => {
-                Some(self.shading(design.as_deref().unwrap_or(&self.design), *model)?)
-            }
-        };
-        Some((a, b))
+    /// Starts building the second view's shading on a thread of its own: a best-fit
+    /// Phong takes tens of milliseconds to fit, which then overlaps the first view's
+    /// coarse pass instead of delaying the first new image.
+    fn spawn_second_shading(&self) -> Option<JoinHandle<Option<Arc<Shading>>>> {
+        let (design, model) = self.views.b.clone()?;
+        let design = design.map(|d| *d).unwrap_or_else(|| self.design.clone());
+        let (grid, materials, paint) = (self.grid, self.materials.clone(), self.paint_materials());
+        std::thread::Builder::new()
+            .name("coatlab-preview-shading".into())
+            .spawn(move || shading_of(&design, model, grid, &materials, &paint))
+            .ok()
     }
+}
+
+fn shading_of(
+    design: &PaintDesign,
+    model: ShadingModel,
+    grid: WavelengthGrid,
+    materials: &[SceneMaterial],
+    paint_materials: &[u32],
+) -> Option<Arc<Shading>> {
+    let paint = design.model(grid).ok()?;
+    Some(Arc::new(Shading::new(
+        &paint,
+        model,
+        materials,
+        paint_materials,
+    )))
 }
 
 impl Worker {
@@ -1141,7 +1158,7 @@ impl Worker {
             epoch: 0,
             display: DisplaySettings::default(),
         };
-        let Some((shading, _)) = state.shadings() else {
+        let Some(shading) = state.shading(&state.design, state.views.model_a) else {
             return self.error("preview: the design is invalid".into());
         };
         let mut a = match ProgressiveRender::new(
@@ -1155,6 +1172,9 @@ impl Worker {
             Err(e) => return self.error(format!("preview: {e}")),
         };
         let mut b: Option<ProgressiveRender> = None;
+        // The second view's shading being built, and whether it is for a new scene.
+        let mut b_job: Option<JoinHandle<Option<Arc<Shading>>>> = None;
+        let mut b_new_scene = false;
         let mut restart = true;
         loop {
             // Wait for work when converged; otherwise just look for commands.
@@ -1244,7 +1264,7 @@ impl Worker {
             if new_shading || new_scene {
                 // An invalid design keeps the last valid image; the paint panel says
                 // what is wrong.
-                let Some((shading_a, shading_b)) = state.shadings() else {
+                let Some(shading_a) = state.shading(&state.design, state.views.model_a) else {
                     restart = false;
                     continue;
                 };
@@ -1256,36 +1276,13 @@ impl Worker {
                 if let Err(e) = result {
                     self.error(format!("preview: {e}"));
                 }
-                b = match (b.take(), shading_b) {
-                    (_, None) => None,
-                    (Some(mut r), Some(s)) => {
-                        let result = if new_scene {
-                            r.set_scene(state.scene.clone(), s)
-                        } else {
-                            r.set_shading(s)
-                        };
-                        match result {
-                            Ok(()) => Some(r),
-                            Err(e) => {
-                                self.error(format!("preview: {e}"));
-                                None
-                            }
-                        }
-                    }
-                    (None, Some(s)) => match ProgressiveRender::new(
-                        state.scene.clone(),
-                        state.environment.clone(),
-                        s,
-                        state.camera.clone(),
-                        RenderSettings::default(),
-                    ) {
-                        Ok(r) => Some(r),
-                        Err(e) => {
-                            self.error(format!("preview: {e}"));
-                            None
-                        }
-                    },
-                };
+                // A job still running for an older change finishes unobserved.
+                b_job = state.spawn_second_shading();
+                b_new_scene |= new_scene;
+                if state.views.b.is_none() {
+                    b = None;
+                    b_new_scene = false;
+                }
             }
             let coarse = restart;
             let resolution = if restart {
@@ -1306,28 +1303,85 @@ impl Worker {
                     continue;
                 }
             }
-            // The second view follows the first's camera (and resolution) exactly, and
-            // both hold the same samples: after a pass of the second was cancelled
-            // without a change, both start again.
-            if let Some(r) = b.as_mut()
-                && (resolution.is_some() || r.samples_per_pixel() != a.samples_per_pixel())
-            {
-                a.restart();
-                if r.set_camera(state.camera.clone()).is_err() {
-                    b = None;
-                }
-            }
             let Some(stats_a) = a.render_pass_cancellable(1, &self.cancel) else {
+                restart = true;
                 continue;
             };
-            let stats_b = match b.as_mut() {
-                Some(r) => match r.render_pass_cancellable(1, &self.cancel) {
-                    Some(s) => Some(s),
-                    None => continue,
-                },
-                None => None,
+            if let Some(job) = b_job.take() {
+                // Show the first view's new image while the second's shading is
+                // still being fitted.
+                if !job.is_finished() {
+                    self.publish(&mut state, &a, None, stats_a, coarse, true);
+                }
+                match job.join().ok().flatten() {
+                    Some(shading) => {
+                        b = self.second_view(b.take(), &state, shading, b_new_scene);
+                        b_new_scene = false;
+                    }
+                    None => {
+                        self.error("preview: the second design is invalid".into());
+                        b = None;
+                    }
+                }
+            }
+            let Some(r) = b.as_mut() else {
+                self.publish(&mut state, &a, None, stats_a, coarse, false);
+                continue;
             };
-            self.publish(&mut state, &a, b.as_ref().zip(stats_b), stats_a, coarse);
+            // The second view follows the first's camera (and resolution) exactly, and
+            // holds the same samples.
+            if resolution.is_some() || r.samples_per_pixel() + 1 != a.samples_per_pixel() {
+                if r.set_camera(state.camera.clone()).is_err() {
+                    b = None;
+                    continue;
+                }
+                if a.samples_per_pixel() != 1 {
+                    // Out of step (a pass of the second view was cancelled): both
+                    // start again.
+                    restart = true;
+                    continue;
+                }
+            }
+            let Some(stats_b) = r.render_pass_cancellable(1, &self.cancel) else {
+                restart = true;
+                continue;
+            };
+            self.publish(&mut state, &a, Some((&*r, stats_b)), stats_a, coarse, false);
+        }
+    }
+
+    /// The second view with new shading: the existing render re-shaded (and given the
+    /// new scene), or a new one.
+    fn second_view(
+        &self,
+        existing: Option<ProgressiveRender>,
+        state: &State,
+        shading: Arc<Shading>,
+        new_scene: bool,
+    ) -> Option<ProgressiveRender> {
+        let result = match existing {
+            Some(mut r) => {
+                let set = if new_scene {
+                    r.set_scene(state.scene.clone(), shading)
+                } else {
+                    r.set_shading(shading)
+                };
+                set.map(|()| r)
+            }
+            None => ProgressiveRender::new(
+                state.scene.clone(),
+                state.environment.clone(),
+                shading,
+                state.camera.clone(),
+                RenderSettings::default(),
+            ),
+        };
+        match result {
+            Ok(r) => Some(r),
+            Err(e) => {
+                self.error(format!("preview: {e}"));
+                None
+            }
         }
     }
 
@@ -1430,6 +1484,7 @@ impl Worker {
         b: Option<(&ProgressiveRender, PassStats)>,
         stats_a: PassStats,
         coarse: bool,
+        b_pending: bool,
     ) {
         // One exposure for both views, so neither hides nor invents a difference.
         let display = DisplaySettings {
@@ -1466,9 +1521,15 @@ impl Worker {
         };
         {
             let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
-            shared.frames = frames;
+            if b_pending {
+                // Keep the second view's last image until its new one is rendered.
+                let [first, _] = frames;
+                shared.frames[0] = first;
+            } else {
+                shared.frames = frames;
+            }
             shared.fresh = true;
-            if map.is_some() || b.is_none() {
+            if map.is_some() || (b.is_none() && !b_pending) {
                 shared.delta_e = map;
                 shared.fresh_map = true;
             }
