@@ -179,6 +179,21 @@ impl<'a> PathTracer<'a> {
         }
     }
 
+    /// The lighting.
+    pub fn environment(&self) -> &Environment {
+        self.environment
+    }
+
+    /// The shading.
+    pub fn shading(&self) -> &Shading {
+        self.shading
+    }
+
+    /// The floor's material, when the floor takes part.
+    pub fn floor_material(&self) -> Option<&SimpleMaterial> {
+        self.floor.as_ref()
+    }
+
     /// Number of wavelengths a path carries.
     pub fn len(&self) -> usize {
         self.shading.len()

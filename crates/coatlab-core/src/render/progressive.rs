@@ -279,9 +279,7 @@ impl ProgressiveRender {
         let width = self.film.width();
         let len = self.shading.len();
         let record_below = self.cache_target;
-        let shading: &Shading = &self.shading;
-        let lengths: Vec<(usize, usize)> =
-            self.cache.tiles.iter().map(TileCache::lengths).collect();
+        let lengths: Vec<[usize; 4]> = self.cache.tiles.iter().map(TileCache::lengths).collect();
         let rays: u64 = self
             .tiles
             .par_iter_mut()
@@ -301,7 +299,7 @@ impl ProgressiveRender {
                     len,
                 };
                 if first_sample < record_below {
-                    let mut recorder = TileRecorder::new(cache, shading);
+                    let mut recorder = TileRecorder::new(cache, &tracer);
                     job.render(tile, Some((&mut recorder, record_below)))
                 } else {
                     job.render(tile, None)

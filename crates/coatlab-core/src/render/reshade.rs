@@ -43,7 +43,7 @@ use crate::paint::model::SpectralBsdf;
 use crate::render::environment::Environment;
 use crate::render::film::Film;
 use crate::render::geometry::Surface;
-use crate::render::integrator::{PathRecorder, VertexRecord, power_heuristic};
+use crate::render::integrator::{PathRecorder, PathTracer, VertexRecord, power_heuristic};
 use crate::render::material::{Shading, SimpleMaterial};
 
 /// Why a re-shade cannot be done.
@@ -85,6 +85,26 @@ pub struct TileCache {
     height: u32,
     paths: Vec<CachedPath>,
     vertices: Vec<VertexRecord>,
+    compact: Vec<CompactPath>,
+    /// Two spectra per compact path: its light sample and the rest of the path.
+    spectra: Vec<f32>,
+}
+
+/// A path whose only painted vertex is its first, the common case (the camera
+/// sees the paint; the path goes on to the floor, the sky or unpainted parts):
+/// stored as the first vertex's decisions plus the two spectra that a paint edit
+/// does not change, so re-shading it is two BSDF evaluations.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct CompactPath {
+    pixel: u32,
+    /// Index of its first spectrum in [`TileCache::spectra`].
+    spectra: u32,
+    wo: [f32; 3],
+    /// The light sample's direction (local), when it reached the light.
+    light_wi: Option<[f32; 3]>,
+    /// The continuation: direction (local), density, delta, roulette survival.
+    next: Option<([f32; 3], f32, bool, f32)>,
+    xyz: [f32; 3],
 }
 
 impl TileCache {
@@ -100,41 +120,56 @@ impl TileCache {
     pub(crate) fn clear(&mut self) {
         self.paths.clear();
         self.vertices.clear();
+        self.compact.clear();
+        self.spectra.clear();
     }
 
-    /// (paths, vertices) stored, to roll back a cancelled pass.
-    pub(crate) fn lengths(&self) -> (usize, usize) {
-        (self.paths.len(), self.vertices.len())
+    /// What is stored, to roll back a cancelled pass.
+    pub(crate) fn lengths(&self) -> [usize; 4] {
+        [
+            self.paths.len(),
+            self.vertices.len(),
+            self.compact.len(),
+            self.spectra.len(),
+        ]
     }
 
-    pub(crate) fn truncate(&mut self, lengths: (usize, usize)) {
-        self.paths.truncate(lengths.0);
-        self.vertices.truncate(lengths.1);
+    pub(crate) fn truncate(&mut self, lengths: [usize; 4]) {
+        self.paths.truncate(lengths[0]);
+        self.vertices.truncate(lengths[1]);
+        self.compact.truncate(lengths[2]);
+        self.spectra.truncate(lengths[3]);
     }
 
     fn memory_bytes(&self) -> usize {
         self.paths.capacity() * size_of::<CachedPath>()
             + self.vertices.capacity() * size_of::<VertexRecord>()
+            + self.compact.capacity() * size_of::<CompactPath>()
+            + self.spectra.capacity() * size_of::<f32>()
     }
 }
 
 /// Records one path into a tile cache (see [`PathRecorder`]).
 pub(crate) struct TileRecorder<'a> {
     cache: &'a mut TileCache,
-    shading: &'a Shading,
+    tracer: &'a PathTracer<'a>,
+    buffers: ReplayBuffers,
     start: usize,
-    touches_paint: bool,
+    painted_vertices: u32,
+    first_painted: bool,
     escaped: bool,
 }
 
 impl<'a> TileRecorder<'a> {
-    pub(crate) fn new(cache: &'a mut TileCache, shading: &'a Shading) -> Self {
+    pub(crate) fn new(cache: &'a mut TileCache, tracer: &'a PathTracer<'a>) -> Self {
         let start = cache.vertices.len();
         Self {
             cache,
-            shading,
+            tracer,
+            buffers: ReplayBuffers::new(tracer.len()),
             start,
-            touches_paint: false,
+            painted_vertices: 0,
+            first_painted: false,
             escaped: false,
         }
     }
@@ -142,24 +177,91 @@ impl<'a> TileRecorder<'a> {
     /// Starts the next path.
     pub(crate) fn begin(&mut self) {
         self.start = self.cache.vertices.len();
-        self.touches_paint = false;
+        self.painted_vertices = 0;
+        self.first_painted = false;
         self.escaped = false;
     }
 
     /// Ends the path traced since [`Self::begin`], at image pixel (`x`, `y`), which
     /// contributed `xyz`: kept if it touched the paint.
     pub(crate) fn finish(&mut self, x: u32, y: u32, xyz: Xyz) {
-        if !self.touches_paint {
-            self.cache.vertices.truncate(self.start);
+        let start = self.start;
+        if self.painted_vertices == 0 {
+            self.cache.vertices.truncate(start);
             return;
         }
         let pixel = (y - self.cache.origin[1]) * self.cache.width + (x - self.cache.origin[0]);
+        let xyz = [xyz.x as f32, xyz.y as f32, xyz.z as f32];
+        if self.painted_vertices == 1 && self.first_painted {
+            self.store_compact(pixel, xyz);
+            self.cache.vertices.truncate(start);
+            return;
+        }
         self.cache.paths.push(CachedPath {
             pixel,
-            first_vertex: self.start as u32,
-            vertex_count: (self.cache.vertices.len() - self.start) as u32,
+            first_vertex: start as u32,
+            vertex_count: (self.cache.vertices.len() - start) as u32,
             escaped: self.escaped,
-            xyz: [xyz.x as f32, xyz.y as f32, xyz.z as f32],
+            xyz,
+        });
+    }
+
+    /// Stores the path begun at `self.start` (painted at its first vertex only) in
+    /// compact form.
+    fn store_compact(&mut self, pixel: u32, xyz: [f32; 3]) {
+        let environment = self.tracer.environment();
+        let shading = self.tracer.shading();
+        let floor = self.tracer.floor_material();
+        let len = self.tracer.len();
+        let vertices = &self.cache.vertices[self.start..];
+        let first = vertices[0];
+        let offset = self.cache.spectra.len();
+        // The light sample's radiance times its fixed weights.
+        let light = &mut self.buffers.light;
+        match first.light {
+            Some(l) => {
+                environment.radiance(l.dir, light);
+                let scale = l.wi[2] * power_heuristic(l.light_pdf, l.bsdf_pdf) / l.light_pdf;
+                light.iter_mut().for_each(|v| *v *= scale);
+            }
+            None => light.fill(0.0),
+        }
+        self.cache.spectra.extend_from_slice(&light[..len]);
+        // The rest of the path: unpainted, so it does not change with the paint.
+        let rest = if vertices.len() > 1 {
+            replay_path(
+                &vertices[1..],
+                self.escaped,
+                environment,
+                shading,
+                floor,
+                &mut self.buffers,
+            )
+            .map(|()| self.buffers.out.clone())
+            .unwrap_or_else(|_| vec![0.0; len])
+        } else {
+            let mut rest = vec![0.0; len];
+            if self.escaped
+                && let Some(next) = first.next
+            {
+                environment.radiance(next.dir, &mut rest);
+                let mis = if next.delta {
+                    1.0
+                } else {
+                    power_heuristic(next.pdf, environment.pdf(next.dir))
+                };
+                rest.iter_mut().for_each(|v| *v *= mis);
+            }
+            rest
+        };
+        self.cache.spectra.extend_from_slice(&rest);
+        self.cache.compact.push(CompactPath {
+            pixel,
+            spectra: offset as u32,
+            wo: first.wo,
+            light_wi: first.light.map(|l| l.wi),
+            next: first.next.map(|n| (n.wi, n.pdf, n.delta, n.survive)),
+            xyz,
         });
     }
 }
@@ -167,9 +269,12 @@ impl<'a> TileRecorder<'a> {
 impl PathRecorder for TileRecorder<'_> {
     fn vertex(&mut self, vertex: &VertexRecord) {
         if let Surface::Mesh { material } = vertex.surface
-            && self.shading.is_painted(material)
+            && self.tracer.shading().is_painted(material)
         {
-            self.touches_paint = true;
+            self.painted_vertices += 1;
+            if self.cache.vertices.len() == self.start {
+                self.first_painted = true;
+            }
         }
         self.cache.vertices.push(*vertex);
     }
@@ -195,7 +300,16 @@ impl PathCache {
 
     /// Stored paths (those that touched the paint).
     pub fn path_count(&self) -> usize {
-        self.tiles.iter().map(|t| t.paths.len()).sum()
+        self.tiles
+            .iter()
+            .map(|t| t.paths.len() + t.compact.len())
+            .sum()
+    }
+
+    /// Of [`Self::path_count`], those stored compactly (painted at the first
+    /// vertex only).
+    pub fn compact_path_count(&self) -> usize {
+        self.tiles.iter().map(|t| t.compact.len()).sum()
     }
 
     /// Stored vertices.
@@ -300,6 +414,48 @@ fn replay_tile(
     let len = shading.len();
     let mut sums = vec![[0.0f64; 6]; (tile.width * tile.height) as usize];
     let mut buffers = ReplayBuffers::new(len);
+    let mut add = |pixel: u32, new: Xyz, old: [f32; 3]| {
+        let d = [
+            new.x - f64::from(old[0]),
+            new.y - f64::from(old[1]),
+            new.z - f64::from(old[2]),
+        ];
+        let s = &mut sums[pixel as usize];
+        for c in 0..3 {
+            s[c] += d[c];
+            s[c + 3] += d[c] * d[c];
+        }
+    };
+    for path in &tile.compact {
+        let spectra = &tile.spectra[path.spectra as usize..][..2 * len];
+        let (light, rest) = spectra.split_at(len);
+        let material = shading.design();
+        let ReplayBuffers { out, f, .. } = &mut buffers;
+        match path.light_wi {
+            Some(wi) => {
+                material.eval(wi, path.wo, f);
+                for ((o, fv), l) in out.iter_mut().zip(&*f).zip(light) {
+                    *o = fv * l;
+                }
+            }
+            None => out.fill(0.0),
+        }
+        if let Some((wi, pdf, delta, survive)) = path.next {
+            let scale = if delta {
+                if !material.delta_reflectance(path.wo, f) {
+                    return Err(ReshadeError::DeltaChanged);
+                }
+                1.0 / (pdf * survive)
+            } else {
+                material.eval(wi, path.wo, f);
+                wi[2] / (pdf * survive)
+            };
+            for ((o, fv), r) in out.iter_mut().zip(&*f).zip(rest) {
+                *o += fv * scale * r;
+            }
+        }
+        add(path.pixel, film.xyz_of(out), path.xyz);
+    }
     for path in &tile.paths {
         let vertices = &tile.vertices
             [path.first_vertex as usize..(path.first_vertex + path.vertex_count) as usize];
@@ -311,17 +467,7 @@ fn replay_tile(
             floor,
             &mut buffers,
         )?;
-        let new = film.xyz_of(&buffers.out);
-        let d = [
-            new.x - f64::from(path.xyz[0]),
-            new.y - f64::from(path.xyz[1]),
-            new.z - f64::from(path.xyz[2]),
-        ];
-        let s = &mut sums[path.pixel as usize];
-        for c in 0..3 {
-            s[c] += d[c];
-            s[c + 3] += d[c] * d[c];
-        }
+        add(path.pixel, film.xyz_of(&buffers.out), path.xyz);
     }
     Ok(sums)
 }
