@@ -61,6 +61,7 @@
 //! The `Simd8` tree splits at the median where the SAH cannot separate primitives,
 //! so its depth stays logarithmic, and its stack spills to the heap if ever needed.
 
+mod split;
 mod triangle;
 mod wide;
 
@@ -554,6 +555,8 @@ pub struct Accel {
     packs: Vec<TrianglePack<PACK>>,
     /// Index into `mesh.triangles` of each slot.
     mesh_triangle: Vec<u32>,
+    /// Triangles in the tree (each once, however many references it has).
+    triangle_count: usize,
     /// Zero-area triangles left out.
     skipped_degenerate: usize,
 }
@@ -602,9 +605,22 @@ impl Accel {
                 kept.push(triangle as u32);
             }
         }
-        let boxes: Vec<Bounds> = triangles.iter().map(triangle_bounds).collect();
+        let mut boxes: Vec<Bounds> = triangles.iter().map(triangle_bounds).collect();
+        // The tree's primitives: references to triangles (one a triangle, except
+        // that `Simd8` splits large ones; see `accel/split.rs`).
+        let mut reference_triangle: Vec<u32> = (0..triangles.len() as u32).collect();
+        if options.layout == BvhLayout::Simd8 {
+            let vertices: Vec<[[f32; 3]; 3]> =
+                triangles.iter().map(|t| t.map(Into::into)).collect();
+            (boxes, reference_triangle) = split::split_references(&vertices, &boxes);
+        }
         let bvh = Bvh::build(&boxes, options)?;
-        let order = bvh.primitive_order();
+        // Slot → index into `triangles`.
+        let order: Vec<u32> = bvh
+            .primitive_order()
+            .iter()
+            .map(|&r| reference_triangle[r as usize])
+            .collect();
         let mesh_triangle: Vec<u32> = order.iter().map(|&i| kept[i as usize]).collect();
         let (slot_triangles, packs) = match &bvh.tree {
             Tree::Simd8(tree) => {
@@ -633,6 +649,7 @@ impl Accel {
             triangles: slot_triangles,
             packs,
             mesh_triangle,
+            triangle_count: kept.len(),
             skipped_degenerate: mesh.triangles.len() - kept.len(),
             bvh,
         })
@@ -645,7 +662,14 @@ impl Accel {
 
     /// Number of triangles in the tree.
     pub fn triangle_count(&self) -> usize {
-        self.mesh_triangle.len()
+        self.triangle_count
+    }
+
+    /// For each slot of [`Accel::bvh`], the index into `mesh.triangles` of its
+    /// triangle. (With `Simd8` a large triangle may fill several slots: the tree's
+    /// primitives are then references, see `accel/split.rs`.)
+    pub fn slot_triangles(&self) -> &[u32] {
+        &self.mesh_triangle
     }
 
     /// Number of the mesh's zero-area triangles left out of the tree.
@@ -741,6 +765,60 @@ impl Accel {
         }
     }
 
+    /// The `Simd8` part of [`Accel::validate`]: the references are recomputed from the
+    /// triangles (the split is deterministic) and the tree is checked against their
+    /// boxes; each slot must hold its reference's triangle.
+    fn validate_references(&self, slot_triangles: &[Option<[Vec3A; 3]>]) -> Result<(), String> {
+        // Each triangle once, in mesh order (the order the tree was built from).
+        let mut by_mesh: Vec<(u32, [Vec3A; 3])> = Vec::with_capacity(self.triangle_count);
+        for (slot, t) in slot_triangles.iter().enumerate() {
+            let t = t.ok_or_else(|| format!("slot {slot} is in no pack"))?;
+            by_mesh.push((self.mesh_triangle[slot], t));
+        }
+        by_mesh.sort_by_key(|&(id, _)| id);
+        let mut unique: Vec<(u32, [Vec3A; 3])> = Vec::with_capacity(self.triangle_count);
+        for (id, t) in by_mesh {
+            match unique.last() {
+                Some(&(last, u)) if last == id => {
+                    if u != t {
+                        return Err(format!("two slots of triangle {id} differ"));
+                    }
+                }
+                _ => unique.push((id, t)),
+            }
+        }
+        if unique.len() != self.triangle_count {
+            return Err(format!(
+                "{} triangles in the slots, {} built",
+                unique.len(),
+                self.triangle_count
+            ));
+        }
+        let vertices: Vec<[[f32; 3]; 3]> = unique.iter().map(|(_, t)| t.map(Into::into)).collect();
+        let boxes: Vec<Bounds> = unique.iter().map(|(_, t)| triangle_bounds(t)).collect();
+        let (reference_boxes, reference_triangle) = split::split_references(&vertices, &boxes);
+        let order = self.bvh.primitive_order();
+        if reference_boxes.len() != order.len() {
+            return Err(format!(
+                "{} references, but the tree holds {}",
+                reference_boxes.len(),
+                order.len()
+            ));
+        }
+        for (slot, &r) in order.iter().enumerate() {
+            let t = reference_triangle
+                .get(r as usize)
+                .ok_or_else(|| format!("slot {slot}: reference {r} out of range"))?;
+            if unique[*t as usize].0 != self.mesh_triangle[slot] {
+                return Err(format!(
+                    "slot {slot} holds triangle {}, its reference is to {}",
+                    self.mesh_triangle[slot], unique[*t as usize].0
+                ));
+            }
+        }
+        self.bvh.validate(&reference_boxes)
+    }
+
     /// Checks the tree ([`Bvh::validate`]) against the triangles' boxes, and, for
     /// `Simd8`, that the packs hold the slots' triangles.
     pub fn validate(&self) -> Result<(), String> {
@@ -793,6 +871,9 @@ impl Accel {
                     *entry = Some(*t);
                 }
             }
+        }
+        if let Tree::Simd8(_) = &self.bvh.tree {
+            return self.validate_references(&slot_triangles);
         }
         // Back from slot order to mesh order, as the tree was built.
         let mut boxes = vec![

@@ -391,9 +391,10 @@ fn the_box_level_queries_agree_with_the_triangle_layer_in_every_layout() {
     let rays = random_rays(&mesh, 800, 14);
     for options in ALL_OPTIONS {
         let accel = Accel::build_with(&mesh, &options).expect("build");
-        let order = accel.bvh().primitive_order();
+        let slot_triangles = accel.slot_triangles();
         let intersect = |ray: &coatlab_core::accel::Ray, slot: usize| {
-            let tri = mesh.triangles[order[slot] as usize].map(|v| mesh.positions[v as usize]);
+            let tri =
+                mesh.triangles[slot_triangles[slot] as usize].map(|v| mesh.positions[v as usize]);
             intersect_triangle(ray.origin.into(), ray.direction.into(), tri, ray.tmax)
                 .map_or(f32::INFINITY, |(t, _)| t)
         };
@@ -643,5 +644,52 @@ fn huge_coordinates_build_validate_and_trace() {
             .closest_hit([5e5, 5.0, 0.0], [0.0, -1.0, 0.0], f32::INFINITY)
             .expect("hit");
         assert_eq!((hit.triangle, hit.t), (0, 5.0));
+    }
+}
+
+#[test]
+fn large_triangles_split_into_references_are_still_found_everywhere() {
+    // A 100 m ground quad (two triangles, far above the average box area) under a
+    // torus, and a long diagonal sliver through it: `Simd8` enters them as several
+    // references each. Rays straight down exactly on the split planes (x and z at
+    // multiples of 100 m / 2⁴, the middles of the halved boxes) and random rays
+    // must agree with brute force.
+    let mut mesh = torus(60, 20);
+    let base = mesh.positions.len() as u32;
+    mesh.positions.extend([
+        [-50.0, 0.0, -50.0],
+        [50.0, 0.0, -50.0],
+        [50.0, 0.0, 50.0],
+        [-50.0, 0.0, 50.0],
+        [-3.0, 0.1, -3.0],
+        [3.0, 1.1, 3.0],
+        [3.0, 1.1, 3.01],
+    ]);
+    mesh.triangles
+        .extend([[base, base + 2, base + 1], [base, base + 3, base + 2]]);
+    mesh.triangles.push([base + 4, base + 5, base + 6]);
+    let accel = Accel::build(&mesh).expect("build");
+    accel.validate().expect("valid tree");
+    assert_eq!(accel.triangle_count(), mesh.triangle_count());
+    assert!(
+        accel.bvh().len() > accel.triangle_count(),
+        "expected split references: {} slots for {} triangles",
+        accel.bvh().len(),
+        accel.triangle_count()
+    );
+    let mut rays = random_rays(&mesh, 1500, 16);
+    for i in 0..=16 {
+        for j in 0..=16 {
+            let (x, z) = (-50.0 + 6.25 * i as f32, -50.0 + 6.25 * j as f32);
+            rays.push(([x, 10.0, z], [0.0, -1.0, 0.0], f32::INFINITY));
+            rays.push(([x, -10.0, z], [0.0, 1.0, 0.0], 20.0));
+        }
+    }
+    check_against_brute_force(&mesh, &accel, &rays);
+    for &(origin, dir, t_max) in &rays {
+        assert_eq!(
+            accel.occluded(origin, dir, t_max),
+            brute_force_any(&mesh, origin, dir, t_max)
+        );
     }
 }

@@ -26,8 +26,13 @@
 //! with the distance of the origin from the world origin), and widens the exit
 //! distance by a few ulps as Ize does ("Robust BVH Ray Traversal", JCGT 2013), so a
 //! box is never missed by a ray that hits a primitive inside it. Zero direction
-//! components are replaced by ±`f32::MIN_POSITIVE`, so no `0 · ∞` NaN arises. Empty
-//! child slots have the box `[+∞, −∞]`, which no ray enters.
+//! components are replaced by ±`f32::MIN_POSITIVE`, so no `0 · ∞` NaN arises; and
+//! child boxes are stored one ulp larger on every side, so that a ray with a zero
+//! component (an axis-aligned ray) that hits a primitive has its origin strictly
+//! inside that slab and sees the slab as unbounded, rather than leaving it at
+//! `t = 0` when the origin lies exactly in a face plane (a vertical ray through a
+//! box's edge, found by the tests). Empty child slots have the box `[+∞, −∞]`,
+//! which no ray enters.
 
 use super::Bounds;
 
@@ -80,7 +85,10 @@ impl Node {
         }
     }
 
+    /// Stores child `i`'s box one ulp larger on every side (see the module
+    /// documentation, "Robustness").
     fn set_bounds(&mut self, i: usize, b: &Bounds) {
+        let b = widened(b);
         for axis in 0..3 {
             self.bounds[2 * axis][i] = b.min[axis];
             self.bounds[2 * axis + 1][i] = b.max[axis];
@@ -92,6 +100,14 @@ impl Node {
             min: std::array::from_fn(|axis| self.bounds[2 * axis][i]),
             max: std::array::from_fn(|axis| self.bounds[2 * axis + 1][i]),
         }
+    }
+}
+
+/// `b` one ulp larger on every side.
+fn widened(b: &Bounds) -> Bounds {
+    Bounds {
+        min: b.min.map(f32::next_down),
+        max: b.max.map(f32::next_up),
     }
 }
 
@@ -514,6 +530,8 @@ impl WideBvh {
         let Some(bounds) = bounds else {
             return Err("nodes, but no bounds".into());
         };
+        // The root's children are stored widened like all others.
+        let bounds = widened(&bounds);
         if self.pack_slots.len() > INDEX_MASK as usize {
             return Err(format!(
                 "{} packs: too many to address",
