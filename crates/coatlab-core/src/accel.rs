@@ -126,8 +126,10 @@ impl Bounds {
 pub enum BvhLayout {
     /// Our own 8-wide BVH (`accel/wide.rs`): binned-SAH binary build collapsed to 8
     /// children per 224-byte node, f32 child boxes tested 8 at a time, leaves of up to
-    /// 8 triangles stored lane by lane (one pack) for the watertight test; ordered closest-hit
-    /// and separate any-hit traversal. The `quality` sets the SAH bins per axis.
+    /// 8 triangles stored lane by lane (one pack) for the watertight test; ordered
+    /// closest-hit and separate any-hit traversal. Through [`Accel`], triangles far
+    /// larger than the average enter the tree as several references
+    /// (`accel/split.rs`). The `quality` sets the SAH bins per axis.
     Simd8,
     /// obvhs's compressed wide BVH: 8 children per 80-byte node, child boxes quantised
     /// to 8 bits, traversed 4 boxes at a time with SIMD; up to 3 triangles per leaf.

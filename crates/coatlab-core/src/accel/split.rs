@@ -8,7 +8,7 @@
 //!
 //! Measured on the Lamborghini (docs/benchmarks.md): with the threshold at 8 times
 //! the average box area, 2.9 % more references, 41 → 29 triangles and 5.8 → 4.0
-//! leaves per incoherent ray, about +18 % rays per second; the default car and the
+//! leaves per incoherent ray, +15–18 % rays per second; the default car and the
 //! torus have almost no such triangles and are unchanged.
 //!
 //! **Conservative boxes.** A piece is the triangle clipped to an axis-aligned half
