@@ -15,7 +15,8 @@
 //!
 //!     cargo bench -p coatlab-app --bench gui_responsiveness
 //!
-//! Options after `--`: `--frames N` (default 300), `--changes N` (default 30).
+//! Options after `--`: `--seconds S` of paced frames per case (default 10),
+//! `--changes N` (default 30).
 
 use std::time::{Duration, Instant};
 
@@ -86,14 +87,20 @@ fn settle(h: &mut Harness<'static, CoatlabApp>) {
     });
 }
 
-/// (a): frame times while the render thread refines.
-fn frame_times(h: &mut Harness<'static, CoatlabApp>, frames: usize, label: &str) {
+/// (a): frame times while the render thread refines, frames paced at 60 Hz as a
+/// display would (a frame as soon as the last one is done would mostly measure
+/// frames with nothing new; paced, the frames that take up new images are in the
+/// sample in their real share).
+fn frame_times(h: &mut Harness<'static, CoatlabApp>, seconds: f64, label: &str) {
     settle(h);
+    let period = Duration::from_secs_f64(1.0 / 60.0);
     let mut all = Vec::new();
     let mut with_image = Vec::new();
     let mut last_spp = h.state().preview_status().map(|s| s.samples_per_pixel);
+    let first_spp = last_spp.unwrap_or(0);
     let start = Instant::now();
-    for _ in 0..frames {
+    let mut next = start;
+    while start.elapsed().as_secs_f64() < seconds {
         let t = Instant::now();
         h.step();
         let ms = t.elapsed().as_secs_f64() * 1e3;
@@ -103,16 +110,21 @@ fn frame_times(h: &mut Harness<'static, CoatlabApp>, frames: usize, label: &str)
             last_spp = spp;
         }
         all.push(ms);
+        next += period;
+        if let Some(wait) = next.checked_duration_since(Instant::now()) {
+            std::thread::sleep(wait);
+        } else {
+            next = Instant::now();
+        }
     }
-    let seconds = start.elapsed().as_secs_f64();
-    let spp = h
-        .state()
-        .preview_status()
-        .map(|s| s.samples_per_pixel)
-        .unwrap_or(0);
+    let elapsed = start.elapsed().as_secs_f64();
+    let over_budget = all.iter().filter(|&&ms| ms > 1e3 / 30.0).count();
     println!(
-        "[{label}] {frames} frames in {seconds:.2} s = {:.0} frames/s while rendering (reached {spp} spp)",
-        frames as f64 / seconds
+        "[{label}] {} frames in {elapsed:.1} s = {:.1} frames/s (paced at 60); {over_budget} over 33.3 ms; \
+         renderer went from {first_spp} to {} spp",
+        all.len(),
+        all.len() as f64 / elapsed,
+        last_spp.unwrap_or(0)
     );
     summary(&format!("[{label}] UI frame, every frame"), all);
     summary(
@@ -165,7 +177,7 @@ fn main() {
             .and_then(|v| v.parse().ok())
             .unwrap_or(default)
     };
-    let frames = option("--frames", 300);
+    let seconds = option("--seconds", 10) as f64;
     let changes = option("--changes", 30);
     println!(
         "cores: {}, load average before: {}",
@@ -183,7 +195,7 @@ fn main() {
         h.state().preview_status().map(|s| (s.width, s.height)),
         size
     );
-    frame_times(&mut h, frames, "single view");
+    frame_times(&mut h, seconds, "single view");
     change_latency(&mut h, changes, "single view");
 
     if let Some(p) = h.state_mut().preview_mut() {
@@ -194,7 +206,7 @@ fn main() {
         "comparison pane size: {:?}",
         h.state().preview_status().map(|s| (s.width, s.height))
     );
-    frame_times(&mut h, frames, "paint vs Phong, side by side");
+    frame_times(&mut h, seconds, "paint vs Phong, side by side");
     change_latency(&mut h, changes, "paint vs Phong, side by side");
     println!("load average after: {}", load_average());
 }
