@@ -674,3 +674,36 @@ fn the_preview_exports_png_and_exr_and_the_exr_lights_the_car() {
     });
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn a_scene_opens_through_the_in_app_browser() {
+    let mut h = preview_harness(false);
+    steps(&mut h, 2);
+    h.get_by_label("Open scene…").click();
+    steps(&mut h, 2);
+    assert!(
+        h.query_by_label("Open a glTF scene (.glb or .gltf)")
+            .is_some()
+    );
+    let glb = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../assets/default-car.glb")
+        .canonicalize()
+        .expect("the default car");
+    // The file name field (the browser's last text field) takes an absolute path.
+    h.get_all_by_role(Role::TextInput)
+        .last()
+        .expect("file name field")
+        .focus();
+    steps(&mut h, 1);
+    h.get_all_by_role(Role::TextInput)
+        .last()
+        .expect("file name field")
+        .type_text(&glb.display().to_string());
+    steps(&mut h, 1);
+    h.get_by_label("Open").click();
+    wait_until(&mut h, "the scene from the browser", |app| {
+        app.preview()
+            .and_then(|p| p.scene())
+            .is_some_and(|s| s.path.as_deref() == Some(glb.as_path()))
+    });
+}
