@@ -184,20 +184,31 @@ pub fn legend_ui(ui: &Ui, rect: egui::Rect, scale_max: f32) {
         painter.rect_filled(band, 0.0, false_colour(0.5 * (t0 + t1)));
     }
     let text = ui.visuals().text_color();
-    for k in 0..=4 {
-        let t = k as f32 / 4.0;
-        let y = bar.bottom() - t * bar.height();
+    // Round ticks: 0.5 for the 0–2 scale, 1, 2 and 5 for 0–5, 0–10, 0–20.
+    let step = match scale_max {
+        s if s <= 2.0 => 0.5,
+        s if s <= 5.0 => 1.0,
+        s if s <= 10.0 => 2.0,
+        _ => 5.0,
+    };
+    let ticks = (scale_max / step).round().max(1.0) as usize;
+    for k in 0..=ticks {
+        let value = k as f32 * step;
+        let y = bar.bottom() - value / scale_max * bar.height();
         painter.line_segment(
             [egui::pos2(bar.right(), y), egui::pos2(bar.right() + 4.0, y)],
             egui::Stroke::new(1.0, text),
         );
-        let value = t * scale_max;
-        let label = if k == 4 {
-            format!("{value:.0}+")
-        } else if scale_max < 5.0 {
+        let label = if step < 1.0 {
             format!("{value:.1}")
         } else {
-            format!("{value:.1}").trim_end_matches(".0").to_owned()
+            format!("{value:.0}")
+        };
+        // The top colour also stands for everything above the scale.
+        let label = if k == ticks {
+            format!("{label}+")
+        } else {
+            label
         };
         painter.text(
             egui::pos2(bar.right() + 6.0, y),
