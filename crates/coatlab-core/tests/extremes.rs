@@ -32,9 +32,13 @@ use coatlab_core::render::film::Film;
 use coatlab_core::render::geometry::Surface;
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
+use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{BODY, CarParameters, generate};
-use coatlab_core::scene::{Scene, SceneMaterial, TriangleMesh};
 use coatlab_core::spectrum::WavelengthGrid;
+
+#[path = "support/sphere.rs"]
+mod sphere;
+use sphere::{sphere, sphere_camera, sphere_hit};
 
 // ---------------------------------------------------------------------------
 // The grid.
@@ -918,76 +922,7 @@ fn extreme_designs_render_the_car_finite_and_plausible() {
     );
 }
 
-/// A unit sphere at (0, 1, 0) with smooth normals, painted.
-fn sphere(rings: u32) -> Scene {
-    let mut mesh = TriangleMesh::default();
-    let segments = 2 * rings;
-    for i in 0..=rings {
-        let theta = std::f32::consts::PI * i as f32 / rings as f32;
-        for j in 0..segments {
-            let phi = 2.0 * std::f32::consts::PI * j as f32 / segments as f32;
-            let n = [
-                theta.sin() * phi.cos(),
-                theta.cos(),
-                theta.sin() * phi.sin(),
-            ];
-            mesh.positions.push([n[0], n[1] + 1.0, n[2]]);
-            mesh.normals.push(n);
-        }
-    }
-    for i in 0..rings {
-        for j in 0..segments {
-            let a = i * segments + j;
-            let b = i * segments + (j + 1) % segments;
-            let (c, d) = (a + segments, b + segments);
-            mesh.triangles.push([a, c, b]);
-            mesh.triangles.push([b, c, d]);
-        }
-    }
-    mesh.triangle_material = vec![0; mesh.triangles.len()];
-    Scene {
-        mesh,
-        materials: vec![SceneMaterial {
-            name: "paint".into(),
-            base_color: [0.5; 3],
-            roughness: 0.5,
-            metallic: 0.0,
-            area_m2: 4.0 * std::f32::consts::PI,
-        }],
-        paint_materials: vec![0],
-        warnings: Vec::new(),
-    }
-}
-
 const SPHERE_SIZE: u32 = 32;
-
-fn sphere_camera() -> Camera {
-    Camera::new(
-        [0.0, 1.0, 6.0],
-        [0.0, 1.0, 0.0],
-        [0.0, 1.0, 0.0],
-        22.0,
-        SPHERE_SIZE,
-        SPHERE_SIZE,
-    )
-    .expect("camera")
-}
-
-/// Where the ray through (px, py) hits the unit sphere: the unit normal there;
-/// `None` on a miss.
-fn sphere_normal(camera: &Camera, px: f32, py: f32) -> Option<([f64; 3], [f64; 3])> {
-    let (o, d) = camera.ray(px, py);
-    let oc = [f64::from(o[0]), f64::from(o[1]) - 1.0, f64::from(o[2])];
-    let d = d.map(f64::from);
-    let b = oc[0] * d[0] + oc[1] * d[1] + oc[2] * d[2];
-    let c = oc[0] * oc[0] + oc[1] * oc[1] + oc[2] * oc[2] - 1.0;
-    let disc = b * b - c;
-    if disc < 0.0 {
-        return None;
-    }
-    let t = -b - disc.sqrt();
-    Some(([oc[0] + t * d[0], oc[1] + t * d[1], oc[2] + t * d[2]], d))
-}
 
 /// Sphere pixels whose 4 × 4 footprint rays all hit it with a view cosine ≥ `min_mu`,
 /// with the view cosines and the mirror-reflected directions of those rays.
@@ -1004,7 +939,7 @@ fn sphere_pixels(camera: &Camera, min_mu: f64) -> Vec<SpherePixel> {
                         x as f32 + (k % 4) as f32 / 4.0 + 0.125,
                         y as f32 + (k / 4) as f32 / 4.0 + 0.125,
                     );
-                    let (n, d) = sphere_normal(camera, px, py)?;
+                    let (n, d) = sphere_hit(camera, px, py)?;
                     let mu = -(n[0] * d[0] + n[1] * d[1] + n[2] * d[2]);
                     let r = [
                         d[0] + 2.0 * mu * n[0],
@@ -1029,7 +964,7 @@ fn sphere_pixels(camera: &Camera, min_mu: f64) -> Vec<SpherePixel> {
 #[test]
 fn white_furnace_with_a_high_index_white_design() {
     let grid = WavelengthGrid::visible(RENDER_WAVELENGTHS).expect("grid");
-    let camera = sphere_camera();
+    let camera = sphere_camera(SPHERE_SIZE);
     let pixels = sphere_pixels(&camera, 0.1);
     assert!(pixels.len() > 300, "{} pixels", pixels.len());
     for (m, spp) in [
@@ -1092,7 +1027,7 @@ fn white_furnace_with_a_high_index_white_design() {
 #[test]
 fn a_perfect_mirror_shows_the_environment() {
     let grid = WavelengthGrid::visible(RENDER_WAVELENGTHS).expect("grid");
-    let camera = sphere_camera();
+    let camera = sphere_camera(SPHERE_SIZE);
     let environment = Environment::studio(&grid);
     let model = design(0.0, 1.5, 0.0, GlossExponent::Mirror);
     let film = render_film(sphere(48), &environment, &model, camera.clone(), 3, 32);

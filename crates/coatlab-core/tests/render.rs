@@ -16,10 +16,14 @@ use coatlab_core::render::film::Film;
 use coatlab_core::render::integrator::IntegratorSettings;
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
+use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
-use coatlab_core::scene::{Scene, SceneMaterial, TriangleMesh};
 use coatlab_core::spectrum::WavelengthGrid;
+
+#[path = "support/sphere.rs"]
+mod sphere;
+use sphere::{sphere, sphere_camera, sphere_hit};
 
 #[path = "support/render_reference.rs"]
 mod render_reference;
@@ -27,76 +31,11 @@ use render_reference::{REFERENCE_FILE, REFERENCE_SEED, Reference, reference_rend
 
 const TESTDATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/testdata/gltf");
 
-/// A unit sphere at (0, 1, 0) with smooth normals, `rings` × 2·`rings` quads.
-fn sphere(rings: u32) -> Scene {
-    let mut mesh = TriangleMesh::default();
-    let segments = 2 * rings;
-    for i in 0..=rings {
-        let theta = std::f32::consts::PI * i as f32 / rings as f32;
-        for j in 0..segments {
-            let phi = 2.0 * std::f32::consts::PI * j as f32 / segments as f32;
-            let n = [
-                theta.sin() * phi.cos(),
-                theta.cos(),
-                theta.sin() * phi.sin(),
-            ];
-            mesh.positions.push([n[0], n[1] + 1.0, n[2]]);
-            mesh.normals.push(n);
-        }
-    }
-    for i in 0..rings {
-        for j in 0..segments {
-            let a = i * segments + j;
-            let b = i * segments + (j + 1) % segments;
-            let (c, d) = (a + segments, b + segments);
-            mesh.triangles.push([a, c, b]);
-            mesh.triangles.push([b, c, d]);
-        }
-    }
-    mesh.triangle_material = vec![0; mesh.triangles.len()];
-    Scene {
-        mesh,
-        materials: vec![SceneMaterial {
-            name: "paint".into(),
-            base_color: [0.5; 3],
-            roughness: 0.5,
-            metallic: 0.0,
-            area_m2: 4.0 * std::f32::consts::PI,
-        }],
-        paint_materials: vec![0],
-        warnings: Vec::new(),
-    }
-}
-
-const SPHERE_CAMERA_DISTANCE: f32 = 6.0;
-
-fn sphere_camera(size: u32) -> Camera {
-    Camera::new(
-        [0.0, 1.0, SPHERE_CAMERA_DISTANCE],
-        [0.0, 1.0, 0.0],
-        [0.0, 1.0, 0.0],
-        22.0,
-        size,
-        size,
-    )
-    .expect("camera")
-}
-
 /// The cosine between the sphere's normal and the direction to the camera where the
 /// ray through continuous pixel (`px`, `py`) hits the unit sphere; `None` on a miss.
 fn sphere_view_cosine(camera: &Camera, px: f32, py: f32) -> Option<f64> {
-    let (o, d) = camera.ray(px, py);
-    let oc = [o[0] as f64, o[1] as f64 - 1.0, o[2] as f64];
-    let d = d.map(f64::from);
-    let b = oc[0] * d[0] + oc[1] * d[1] + oc[2] * d[2];
-    let c = oc[0] * oc[0] + oc[1] * oc[1] + oc[2] * oc[2] - 1.0;
-    let disc = b * b - c;
-    if disc < 0.0 {
-        return None;
-    }
-    let t = -b - disc.sqrt();
-    let p = [oc[0] + t * d[0], oc[1] + t * d[1], oc[2] + t * d[2]];
-    Some(-(p[0] * d[0] + p[1] * d[1] + p[2] * d[2]))
+    let (n, d) = sphere_hit(camera, px, py)?;
+    Some(-(n[0] * d[0] + n[1] * d[1] + n[2] * d[2]))
 }
 
 /// Per pixel: the mean of `predict(μo)` over a 4×4 grid in the pixel, or `None`
