@@ -27,7 +27,7 @@ use sphere::{sphere, sphere_camera, sphere_hit};
 
 #[path = "support/render_reference.rs"]
 mod render_reference;
-use render_reference::{REFERENCE_FILE, REFERENCE_SEED, Reference, reference_render};
+use render_reference::{REFERENCE_FILE, Reference, reference_render};
 
 const TESTDATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/testdata/gltf");
 
@@ -299,7 +299,7 @@ fn two_seeds_agree_within_their_noise() {
 
 /// A render against the stored converged reference (mean and variance images,
 /// `tests/data/render_reference.csv`, rebuilt by
-/// `cargo test -p coatlab-core --test render -- --ignored write_render_reference`):
+/// `cargo run --release -p coatlab-core --example make_render_reference`):
 /// no pixel is off by more than its noise, and a 3 % brighter image is caught.
 #[test]
 fn a_render_matches_the_stored_reference() {
@@ -333,15 +333,6 @@ fn a_render_matches_the_stored_reference() {
         z.total,
         z.outlier_fraction
     );
-}
-
-#[test]
-#[ignore = "rebuilds tests/data/render_reference.csv (slow)"]
-fn write_render_reference() {
-    let film = reference_render(REFERENCE_SEED, 2048);
-    Reference::from_film(&film)
-        .write(&PathBuf::from(REFERENCE_FILE))
-        .expect("write reference");
 }
 
 /// Where the paper says the models must differ: toward grazing views the paint's

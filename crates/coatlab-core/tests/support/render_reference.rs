@@ -1,6 +1,8 @@
 //! The stored render reference: the default car in the studio, the signal-red
 //! preset, small, with enough samples that its own noise is far below a test
 //! render's. Stores per pixel the mean luminance Y and the variance of that mean.
+//! Written by `examples/make_render_reference.rs`, read by `tests/render.rs`.
+#![allow(dead_code)] // the example and the test each use their own half
 
 use std::path::Path;
 use std::sync::Arc;
