@@ -43,7 +43,9 @@ use crate::paint::model::SpectralBsdf;
 use crate::render::environment::Environment;
 use crate::render::film::Film;
 use crate::render::geometry::Surface;
-use crate::render::integrator::{PathRecorder, PathTracer, VertexRecord, power_heuristic};
+use crate::render::integrator::{
+    NextRecord, PathRecorder, PathTracer, VertexRecord, power_heuristic,
+};
 use crate::render::material::{Shading, SimpleMaterial};
 
 /// Why a re-shade cannot be done.
@@ -228,33 +230,33 @@ impl<'a> TileRecorder<'a> {
         }
         self.cache.spectra.extend_from_slice(&light[..len]);
         // The rest of the path: unpainted, so it does not change with the paint.
-        let rest = if vertices.len() > 1 {
-            replay_path(
+        // Written into `buffers.out`, then appended: no allocation per path.
+        if vertices.len() > 1 {
+            let replayed = replay_path(
                 &vertices[1..],
                 self.escaped,
                 environment,
                 shading,
                 floor,
                 &mut self.buffers,
-            )
-            .map(|()| self.buffers.out.clone())
-            .unwrap_or_else(|_| vec![0.0; len])
+            );
+            if replayed.is_err() {
+                self.buffers.out.fill(0.0);
+            }
         } else {
-            let mut rest = vec![0.0; len];
+            let out = &mut self.buffers.out;
+            out.fill(0.0);
             if self.escaped
                 && let Some(next) = first.next
             {
-                environment.radiance(next.dir, &mut rest);
-                let mis = if next.delta {
-                    1.0
-                } else {
-                    power_heuristic(next.pdf, environment.pdf(next.dir))
-                };
-                rest.iter_mut().for_each(|v| *v *= mis);
+                environment.radiance(next.dir, out);
+                let mis = escape_weight(environment, &next);
+                out.iter_mut().for_each(|v| *v *= mis);
             }
-            rest
-        };
-        self.cache.spectra.extend_from_slice(&rest);
+        }
+        self.cache
+            .spectra
+            .extend_from_slice(&self.buffers.out[..len]);
         self.cache.compact.push(CompactPath {
             pixel,
             spectra: offset as u32,
@@ -545,14 +547,21 @@ fn replay_path(
     }
     if escaped && let Some(next) = vertices.last().and_then(|v| v.next) {
         environment.radiance(next.dir, light);
-        let mis = if next.delta {
-            1.0
-        } else {
-            power_heuristic(next.pdf, environment.pdf(next.dir))
-        };
+        let mis = escape_weight(environment, &next);
         for ((o, t), lv) in out.iter_mut().zip(&*throughput).zip(&*light) {
             *o += t * lv * mis;
         }
     }
     Ok(())
+}
+
+/// The MIS weight of the environment seen by an escaping continuation, as the
+/// integrator gave it: full after a delta, else the power heuristic against the
+/// environment's own sampling density.
+fn escape_weight(environment: &Environment, next: &NextRecord) -> f32 {
+    if next.delta {
+        1.0
+    } else {
+        power_heuristic(next.pdf, environment.pdf(next.dir))
+    }
 }
