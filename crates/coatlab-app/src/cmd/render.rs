@@ -202,16 +202,13 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
 
     let mut progress = Progress::new(args.seconds.map(Duration::from_secs_f64), spp);
     let start = Instant::now();
-    let mut totals = PassStats::default();
     loop {
         let done = render.samples_per_pixel();
         let batch = match args.seconds {
             Some(_) => 1,
             None => (spp - done).min(4),
         };
-        let pass = render.render_pass(batch);
-        totals.samples += pass.samples;
-        totals.rays += pass.rays;
+        render.render_pass(batch);
         let elapsed = start.elapsed();
         progress.update(render.samples_per_pixel(), elapsed);
         let finished = match args.seconds {
@@ -222,7 +219,11 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
             break;
         }
     }
-    totals.seconds = start.elapsed().as_secs_f64();
+    // The renderer counts samples and rays; the wall time includes the progress bar.
+    let totals = PassStats {
+        seconds: start.elapsed().as_secs_f64(),
+        ..render.totals()
+    };
     progress.finish();
 
     let display = DisplaySettings {
