@@ -400,6 +400,49 @@ impl PaintDesign {
         })
     }
 
+    /// Brings `model`, built from `previous` on its grid, up to this design through
+    /// the model's setters, so an edit rebuilds only the derived tables the changed
+    /// fields touch (ρ: the body factor alone; see [`PaintModel`]'s setters). Where
+    /// a setter refuses an intermediate state (n and gloss changed together, say),
+    /// the model is built anew.
+    pub fn update_model(
+        &self,
+        previous: &PaintDesign,
+        model: &mut PaintModel,
+    ) -> Result<(), DesignError> {
+        self.validate()?;
+        let grid = *model.grid();
+        let mut apply = || -> Result<(), crate::paint::model::ParamError> {
+            if self.albedo != previous.albedo {
+                model.set_albedo(self.albedo_on(&grid).into_values())?;
+            }
+            if self.refractive_index != previous.refractive_index {
+                model.set_refractive_index(
+                    self.refractive_index_on(&grid).into_values(),
+                    self.refractive_index_at_nm(GLOSS_WAVELENGTH_NM),
+                )?;
+            }
+            if self.absorption_per_um != previous.absorption_per_um {
+                model.set_absorption(self.absorption_on(&grid).into_values())?;
+            }
+            if self.thickness_um != previous.thickness_um {
+                model.set_thickness(self.thickness_um)?;
+            }
+            if self.gloss != previous.gloss {
+                model.set_gloss(GlossSetting::Reading {
+                    gu: self.gloss.gu,
+                    geometry: self.gloss.geometry,
+                })?;
+            }
+            model.set_lobe(self.lobe);
+            Ok(())
+        };
+        if apply().is_err() {
+            *model = self.model(grid)?;
+        }
+        Ok(())
+    }
+
     /// The lobe exponent m(g) from the gloss reading, its geometry and n at 587.6 nm
     /// (spec 4.3): finite, or the ideal mirror for readings at or above the coat's
     /// mirror reading. Errors for readings below what the broadest lobe gives.

@@ -10,11 +10,13 @@ use coatlab_core::paint::model::{GlossSetting, PaintModel, PaintParams};
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::environment::Environment;
 use coatlab_core::render::material::{Shading, ShadingModel};
-use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
+use coatlab_core::render::progressive::{
+    EditOutcome, FRESH_ONLY_WEIGHT, ProgressiveRender, RenderScene, RenderSettings,
+};
 use coatlab_core::render::reshade::{ReshadeError, Reshaded};
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{CarParameters, generate};
-use coatlab_core::spectrum::WavelengthGrid;
+use coatlab_core::spectrum::{TabulatedSpectrum, WavelengthGrid};
 
 const WIDTH: u32 = 64;
 const HEIGHT: u32 = 36;
@@ -227,4 +229,242 @@ fn re_shading_refuses_what_it_cannot_do() {
     assert!(render.render_pass_cancellable(1, &cancel).is_none());
     assert_eq!(render.path_cache().path_count(), before);
     assert_eq!(render.path_cache().samples_per_pixel(), 1);
+}
+
+/// Z-scores of Y between an estimate (mean XYZ and variance of Y per pixel) and a
+/// film: (share beyond 4σ, total Z).
+fn compare_film(estimate: &Reshaded, film_of: &ProgressiveRender) -> (f64, f64) {
+    compare(estimate, film_of)
+}
+
+/// The current film of a render as an estimate, for [`compare`].
+fn film_estimate(render: &ProgressiveRender) -> Reshaded {
+    let film = render.film();
+    let mut xyz = Vec::new();
+    let mut variance_y = Vec::new();
+    for y in 0..HEIGHT {
+        for x in 0..WIDTH {
+            let m = film.mean_xyz(x, y);
+            xyz.push([m.x as f32, m.y as f32, m.z as f32]);
+            variance_y.push(film.variance_of_mean_xyz(x, y)[1] as f32);
+        }
+    }
+    Reshaded {
+        width: WIDTH,
+        height: HEIGHT,
+        xyz,
+        variance_y,
+    }
+}
+
+/// An edit session: ρ halved is shown re-shaded at once, then blended with fresh
+/// passes, then the fresh film alone; at every stage the picture agrees with an
+/// independent fresh render of the new design, and the scene, lighting and BVH
+/// are the same objects throughout.
+#[test]
+fn an_edit_is_reshaded_then_refined_to_the_fresh_render() {
+    let base = red();
+    let (mut render, scene) = render(&base, ShadingModel::Paint, 5, 32, 8);
+    let (scene_before, environment_before) = (render.scene().clone(), render.environment().clone());
+    let mut edited = base.clone();
+    edited
+        .set_albedo(base.albedo().iter().map(|r| r * 0.5).collect())
+        .expect("albedo");
+    let outcome = render
+        .edit_shading(shading(&scene, &edited, ShadingModel::Paint))
+        .expect("edit");
+    assert_eq!(outcome, EditOutcome::Reshaded);
+    assert!(Arc::ptr_eq(render.scene(), &scene_before), "scene rebuilt");
+    assert!(Arc::ptr_eq(render.environment(), &environment_before));
+    assert_eq!(render.samples_per_pixel(), 0);
+    let (fresh, _) = self::render(&edited, ShadingModel::Paint, 99, 256, 0);
+    let (first, w) = render.edit_estimate().expect("re-shaded image");
+    assert_eq!(w, 0.0);
+    let (outliers, z) = compare_film(&first, &fresh);
+    println!(
+        "re-shaded: beyond 4σ {:.2} %, total Z {z:.2}",
+        outliers * 100.0
+    );
+    assert!(outliers < 0.01 && z.abs() < 4.0, "{outliers} {z}");
+    // Blended with fresh passes of the new design.
+    render.render_pass(16);
+    let (blend, w) = render.edit_estimate().expect("still blended");
+    assert!(w > 0.2 && w < FRESH_ONLY_WEIGHT, "fresh weight {w}");
+    let (outliers, z) = compare_film(&blend, &fresh);
+    println!(
+        "blend (w {w:.2}): beyond 4σ {:.2} %, total Z {z:.2}",
+        outliers * 100.0
+    );
+    assert!(outliers < 0.01 && z.abs() < 4.0, "{outliers} {z}");
+    // The re-shaded image is dropped once the film alone is as good: the picture
+    // is then the fresh render of the new design.
+    while render.is_reshaded() {
+        assert!(render.samples_per_pixel() < 4096, "the blend never ended");
+        render.render_pass(64);
+    }
+    println!("film alone from {} spp", render.samples_per_pixel());
+    let (outliers, z) = compare_film(&film_estimate(&render), &fresh);
+    println!("film: beyond 4σ {:.2} %, total Z {z:.2}", outliers * 100.0);
+    assert!(outliers < 0.01 && z.abs() < 4.0, "{outliers} {z}");
+    assert!(Arc::ptr_eq(render.scene(), &scene_before));
+    // Negative control: the old design's image is not taken for the new one.
+    let (old, _) = self::render(&base, ShadingModel::Paint, 7, 64, 0);
+    let (_, z) = compare_film(&film_estimate(&old), &fresh);
+    assert!(z.abs() > 5.0, "the unedited image passed: Z {z}");
+}
+
+/// A second edit re-shades from the same base (its cache is not complete yet),
+/// and a mirror cannot be re-weighted: that edit is traced fresh.
+#[test]
+fn edits_in_a_row_share_the_base_and_mirrors_trace_fresh() {
+    let base = red();
+    let (mut render, scene) = render(&base, ShadingModel::Paint, 5, 8, 4);
+    let mut edited = base.clone();
+    edited.set_thickness(60.0).expect("thickness");
+    assert_eq!(
+        render
+            .edit_shading(shading(&scene, &edited, ShadingModel::Paint))
+            .expect("edit"),
+        EditOutcome::Reshaded
+    );
+    render.render_pass(1);
+    edited.set_thickness(70.0).expect("thickness");
+    assert_eq!(
+        render
+            .edit_shading(shading(&scene, &edited, ShadingModel::Paint))
+            .expect("edit"),
+        EditOutcome::Reshaded
+    );
+    assert_eq!(render.edit_base_samples_per_pixel(), 8);
+    let mut mirror = edited.clone();
+    mirror
+        .set_gloss(GlossSetting::Exponent(GlossExponent::Mirror))
+        .expect("gloss");
+    assert_eq!(
+        render
+            .edit_shading(shading(&scene, &mirror, ShadingModel::Paint))
+            .expect("edit"),
+        EditOutcome::Fresh(ReshadeError::DeltaChanged)
+    );
+    assert!(!render.is_reshaded());
+    assert!(render.edit_estimate().is_none());
+}
+
+/// The path caches stay within their budget: a small budget stops the recording
+/// early (the cache is complete at fewer samples and still re-shades), and the
+/// edit base plus the cache being recorded never pass it together.
+#[test]
+fn path_caches_stay_within_their_memory_budget() {
+    let base = red();
+    let (unbounded, scene) = render(&base, ShadingModel::Paint, 5, 4, 4);
+    let full = unbounded.path_cache_memory_bytes();
+    assert!(full > 0);
+    let budget = full / 3;
+    let scene_arc = unbounded.scene().clone();
+    let mut render = ProgressiveRender::new(
+        scene_arc,
+        unbounded.environment().clone(),
+        shading(&scene, &base, ShadingModel::Paint),
+        unbounded.camera().clone(),
+        RenderSettings {
+            seed: 5,
+            ..RenderSettings::default()
+        },
+    )
+    .expect("render");
+    render.set_path_cache_samples(4);
+    render.set_path_cache_budget(budget);
+    for _ in 0..6 {
+        render.render_pass(1);
+        assert!(
+            render.path_cache_memory_bytes() <= budget,
+            "{} > {budget}",
+            render.path_cache_memory_bytes()
+        );
+    }
+    let capped = render.path_cache_target();
+    println!("unbounded {full} B at 4 spp; budget {budget} B: {capped} spp");
+    assert!((1..4).contains(&capped), "cache capped at {capped} spp");
+    let same = render
+        .reshade(&shading(&scene, &base, ShadingModel::Paint))
+        .expect("a capped cache re-shades");
+    assert_eq!(same.xyz.len(), (WIDTH * HEIGHT) as usize);
+    // With a base held, the new cache gets what is left.
+    let mut edited = base.clone();
+    edited.set_thickness(60.0).expect("thickness");
+    assert_eq!(
+        render
+            .edit_shading(shading(&scene, &edited, ShadingModel::Paint))
+            .expect("edit"),
+        EditOutcome::Reshaded
+    );
+    for _ in 0..4 {
+        render.render_pass(1);
+        assert!(render.path_cache_memory_bytes() <= budget);
+    }
+    // No budget, no cache: every edit is traced fresh.
+    render.set_path_cache_budget(0);
+    render.render_pass(2);
+    assert_eq!(render.path_cache_memory_bytes(), 0);
+    assert!(matches!(
+        render.edit_shading(shading(&scene, &base, ShadingModel::Paint)),
+        Ok(EditOutcome::Fresh(ReshadeError::NotReady {
+            recorded: 0,
+            ..
+        }))
+    ));
+}
+
+/// A design edit rebuilds only the derived tables the changed field touches, and
+/// gives the same model as building it anew.
+#[test]
+fn design_edits_recompute_only_what_they_touch() {
+    let design = presets::all().into_iter().next().expect("preset").design;
+    let grid = grid();
+    let mut model = design.model(grid).expect("model");
+    let mut previous = design.clone();
+    let mut step = |edit: &dyn Fn(&mut coatlab_core::design::PaintDesign)| {
+        let mut next = previous.clone();
+        edit(&mut next);
+        let before = model.recompute_counts();
+        next.update_model(&previous, &mut model).expect("update");
+        let after = model.recompute_counts();
+        let fresh = next.model(grid).expect("model");
+        let mut a = vec![0.0f64; grid.len()];
+        let mut b = vec![0.0f64; grid.len()];
+        for (wi, wo) in [
+            ([0.3, 0.1, 0.95], [-0.2, 0.0, 0.98]),
+            ([0.0, 0.6, 0.8], [0.1, -0.5, 0.86]),
+        ] {
+            model.eval_reference(wi, wo, &mut a);
+            fresh.eval_reference(wi, wo, &mut b);
+            for (x, y) in a.iter().zip(&b) {
+                assert!((x - y).abs() <= 1e-9 * y.abs().max(1e-3), "{x} vs {y}");
+            }
+        }
+        previous = next;
+        (before, after)
+    };
+    // ρ: the body factor only.
+    let (b, a) = step(&|d| {
+        d.albedo = TabulatedSpectrum::new(
+            d.albedo.wavelengths_nm().to_vec(),
+            d.albedo.values().iter().map(|r| r * 0.5).collect(),
+        )
+        .expect("albedo");
+    });
+    assert_eq!(a.coat_integrals, b.coat_integrals, "ρ recomputed C");
+    assert_eq!(a.angular_tables, b.angular_tables);
+    assert_eq!(a.normalisation, b.normalisation);
+    assert_eq!(a.body_factor, b.body_factor + 1);
+    // h: τ changes, so C and the angular tables, but not the lobe.
+    let (b, a) = step(&|d| d.thickness_um += 10.0);
+    assert_eq!(a.coat_integrals, b.coat_integrals + 1);
+    assert_eq!(a.exponent, b.exponent);
+    assert_eq!(a.normalisation, b.normalisation);
+    // Gloss: m and its normalisation, not C.
+    let (b, a) = step(&|d| d.gloss.gu *= 0.9);
+    assert_eq!(a.coat_integrals, b.coat_integrals, "gloss recomputed C");
+    assert_eq!(a.angular_tables, b.angular_tables);
+    assert_eq!(a.exponent, b.exponent + 1);
 }

@@ -732,6 +732,28 @@ fn tone_map(rgb: [f32; 3], tone_mapping: ToneMapping) -> [f32; 3] {
 }
 
 /// CIELAB of the displayed colour of `xyz` (display white L* = 100).
+/// The displayable pixels (RGBA8, sRGB-encoded) of mean XYZ values (white at
+/// Y = 1), as [`Film::to_display`] shows a film's means: for images that are
+/// estimates but not films (a re-shaded image, `render::reshade`).
+pub fn display_xyz(xyz: &[[f32; 3]], settings: &DisplaySettings) -> Vec<[u8; 4]> {
+    let m = display_matrix(settings.adapt_white, settings.exposure_stops);
+    let lut = encode_lut();
+    xyz.iter()
+        .map(|&v| {
+            let rgb = tone_map(mul(&m, v), settings.tone_mapping);
+            let [r, g, b] = rgb.map(|c| encode(lut, c));
+            [r, g, b, 255]
+        })
+        .collect()
+}
+
+/// CIELAB of the colour a mean XYZ is displayed in with `settings`, as
+/// [`Film::display_lab`] gives it for a film's pixel.
+pub fn display_lab_of_xyz(xyz: Xyz, settings: &DisplaySettings) -> Lab {
+    let m = display_matrix(settings.adapt_white, settings.exposure_stops);
+    display_lab_of(&m, settings.tone_mapping, xyz)
+}
+
 fn display_lab_of(m: &Mat3f, tone_mapping: ToneMapping, xyz: Xyz) -> Lab {
     let rgb = tone_map(
         mul(m, [xyz.x as f32, xyz.y as f32, xyz.z as f32]),

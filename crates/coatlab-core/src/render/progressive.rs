@@ -16,6 +16,30 @@
 //! | [`Environment`] | the lighting setup or grid changes | ms |
 //! | [`Shading`] | the design, the model or the scene's materials change | ≤ 1 ms (tables come from [`crate::paint::PaintModel`]) |
 //! | [`Camera`], film | the view or the size changes | – |
+//! | edit base (film + [`PathCache`]) | the scene, lighting, view, size or settings change | – |
+//!
+//! # Editing the paint: re-shade, then refine
+//!
+//! [`ProgressiveRender::edit_shading`] swaps the shading without restarting from
+//! nothing: the last image whose path cache is complete (its film and cache, the
+//! *edit base*) is kept for the whole editing session, and every edit re-shades it
+//! ([`crate::render::reshade`]) into an unbiased estimate R of the new design at full
+//! resolution, with its per-pixel variance. Fresh passes of the new design then
+//! accumulate in their own film F as usual. What is shown
+//! ([`ProgressiveRender::edit_estimate`]) is (1 − w)·R + w·F with one weight for the
+//! whole image, w = V_R / (V_R + V_F), V the mean over the pixels of each
+//! estimate's variance of Y: both terms are unbiased and w is (all but) independent
+//! of any pixel's value, so the blend is unbiased; w grows towards 1 as F
+//! accumulates, and once w > [`FRESH_ONLY_WEIGHT`] R is dropped and the film alone
+//! is shown: the picture converges to the fresh render of the new design. Once the
+//! fresh film's own cache is complete and it holds at least the base's samples, the
+//! next edit makes it the base.
+//!
+//! Memory: at most two path caches live at once (the base's and the one being
+//! recorded), together bounded by [`ProgressiveRender::set_path_cache_budget`]
+//! ([`DEFAULT_PATH_CACHE_BUDGET_BYTES`]); a pass that would pass the budget is not
+//! recorded (its recordings are rolled back) and the cache stays at the samples
+//! per pixel it has.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -31,7 +55,9 @@ use crate::render::film::{DisplaySettings, Film, NoiseEstimate};
 use crate::render::geometry::RenderGeometry;
 use crate::render::integrator::{IntegratorSettings, PathBuffers, PathTracer};
 use crate::render::material::Shading;
-use crate::render::reshade::{PathCache, ReshadeError, Reshaded, TileCache, TileRecorder, reshade};
+use crate::render::reshade::{
+    PathCache, ReshadeError, Reshaded, TileCache, TileRecorder, paint_is_mirror, reshade,
+};
 use crate::render::sampler::PixelSampler;
 use crate::scene::{Scene, SceneMaterial};
 
@@ -39,6 +65,32 @@ use crate::scene::{Scene, SceneMaterial};
 /// cores stay busy to the end of a pass on a preview-sized image, large enough that
 /// a tile's film and tracer setup are amortised.
 pub const DEFAULT_TILE_SIZE: u32 = 32;
+
+/// Heap memory the path caches of a render may hold together, bytes: the base's
+/// and the one being recorded (measured: 89–129 MB for 960×540, 4 samples per
+/// pixel, 32 wavelengths, the default car; see `docs/benchmarks.md`).
+pub const DEFAULT_PATH_CACHE_BUDGET_BYTES: usize = 320 << 20;
+
+/// The fresh film's weight in the blend above which a re-shaded estimate is
+/// dropped (see the module documentation).
+pub const FRESH_ONLY_WEIGHT: f64 = 0.98;
+
+/// How [`ProgressiveRender::edit_shading`] shows the new shading.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum EditOutcome {
+    /// Re-shaded from the edit base: [`ProgressiveRender::edit_estimate`] has a
+    /// full-resolution image at once.
+    Reshaded,
+    /// Traced fresh, for the reason given.
+    Fresh(ReshadeError),
+}
+
+/// The film and path cache an editing session re-shades.
+#[derive(Debug)]
+struct EditBase {
+    film: Film,
+    cache: PathCache,
+}
 
 /// Why a render could not be set up.
 #[derive(Debug, Error)]
@@ -188,6 +240,12 @@ pub struct ProgressiveRender {
     /// Paths of the first `cache_target` samples per pixel, for re-shading.
     cache: PathCache,
     cache_target: u32,
+    /// The recording stopped at the budget: the cache is complete at what it has.
+    cache_capped: bool,
+    cache_budget_bytes: usize,
+    base: Option<EditBase>,
+    /// The re-shaded image of the current shading, while it still helps.
+    reshaded: Option<Reshaded>,
 }
 
 impl ProgressiveRender {
@@ -216,7 +274,160 @@ impl ProgressiveRender {
             totals: PassStats::default(),
             cache,
             cache_target: 0,
+            cache_capped: false,
+            cache_budget_bytes: DEFAULT_PATH_CACHE_BUDGET_BYTES,
+            base: None,
+            reshaded: None,
         })
+    }
+
+    /// Bounds the heap memory of the path caches (the edit base's and the one
+    /// being recorded, together) to `bytes`; see the module documentation.
+    /// Restarts.
+    pub fn set_path_cache_budget(&mut self, bytes: usize) {
+        self.cache_budget_bytes = bytes;
+        self.restart();
+    }
+
+    /// Samples per pixel the cache is complete at: the number asked for, or fewer
+    /// where the budget stopped the recording.
+    pub fn path_cache_target(&self) -> u32 {
+        if self.cache_capped {
+            self.cache.samples_per_pixel()
+        } else {
+            self.cache_target
+        }
+    }
+
+    /// Heap memory of every path cache held (the edit base's and the current),
+    /// bytes; never above the budget.
+    pub fn path_cache_memory_bytes(&self) -> usize {
+        self.cache.memory_bytes() + self.base.as_ref().map_or(0, |b| b.cache.memory_bytes())
+    }
+
+    /// Whether the current cache is complete (re-shadeable).
+    fn cache_complete(&self) -> bool {
+        let target = self.path_cache_target();
+        target > 0 && self.cache.samples_per_pixel() >= target
+    }
+
+    /// The new `shading` for a paint edit (see the module documentation): shown at
+    /// once re-shaded from the edit base where that is possible, while fresh passes
+    /// of it accumulate. Without a complete cache, or across a change to or from
+    /// an ideal mirror, it restarts like [`Self::set_shading`] (the outcome says
+    /// why). Keeps the scene, lighting, camera and their derived data.
+    pub fn edit_shading(&mut self, shading: Arc<Shading>) -> Result<EditOutcome, RenderError> {
+        check_grids(&self.environment, &shading)?;
+        let base_samples = self
+            .base
+            .as_ref()
+            .map(|b| b.film.samples_per_pixel())
+            .unwrap_or(0);
+        if self.cache_complete() && u64::from(self.samples_per_pixel) >= base_samples {
+            // The current image becomes the base: moved, not copied.
+            let film = new_film(&self.camera, &self.environment)?;
+            let cache = cache_for(&self.tiles);
+            self.base = Some(EditBase {
+                film: std::mem::replace(&mut self.film, film),
+                cache: std::mem::replace(&mut self.cache, cache),
+            });
+        }
+        let outcome = match &self.base {
+            Some(base) => match reshade(
+                &base.film,
+                &base.cache,
+                &self.environment,
+                &shading,
+                self.scene.geometry().has_floor(),
+            ) {
+                Ok(image) => {
+                    self.reshaded = Some(image);
+                    EditOutcome::Reshaded
+                }
+                Err(e) => {
+                    self.reshaded = None;
+                    EditOutcome::Fresh(e)
+                }
+            },
+            None => {
+                self.reshaded = None;
+                EditOutcome::Fresh(ReshadeError::NotReady {
+                    recorded: self.cache.samples_per_pixel(),
+                    wanted: self.path_cache_target(),
+                })
+            }
+        };
+        self.shading = shading;
+        self.restart_samples();
+        Ok(outcome)
+    }
+
+    /// Whether the picture is still partly the re-shaded estimate of an edit.
+    pub fn is_reshaded(&self) -> bool {
+        self.reshaded.is_some()
+    }
+
+    /// Samples per pixel of the edit base (0 without one).
+    pub fn edit_base_samples_per_pixel(&self) -> u64 {
+        self.base
+            .as_ref()
+            .map(|b| b.film.samples_per_pixel())
+            .unwrap_or(0)
+    }
+
+    /// The best estimate of the current shading's image while an edit's re-shaded
+    /// image still helps: the blend of the module documentation, with the fresh
+    /// film's weight. `None` once the film alone is better (show [`Self::film`]).
+    pub fn edit_estimate(&self) -> Option<(Reshaded, f64)> {
+        let reshaded = self.reshaded.as_ref()?;
+        let w = self.fresh_weight(reshaded);
+        let film = &self.film;
+        let width = film.width();
+        let mut xyz = reshaded.xyz.clone();
+        let mut variance_y = reshaded.variance_y.clone();
+        if w > 0.0 {
+            let keep = 1.0 - w;
+            for (i, (v, var)) in xyz.iter_mut().zip(variance_y.iter_mut()).enumerate() {
+                let (x, y) = (i as u32 % width, i as u32 / width);
+                let m = film.mean_xyz(x, y);
+                let f = [m.x, m.y, m.z];
+                for c in 0..3 {
+                    v[c] = (keep * f64::from(v[c]) + w * f[c]) as f32;
+                }
+                let vf = film.variance_of_mean_xyz(x, y)[1];
+                *var = (keep * keep * f64::from(*var) + w * w * vf) as f32;
+            }
+        }
+        Some((
+            Reshaded {
+                width: reshaded.width,
+                height: reshaded.height,
+                xyz,
+                variance_y,
+            },
+            w,
+        ))
+    }
+
+    /// The fresh film's weight against `reshaded` (0 below 2 samples per pixel).
+    fn fresh_weight(&self, reshaded: &Reshaded) -> f64 {
+        if self.samples_per_pixel < 2 {
+            return 0.0;
+        }
+        let film = &self.film;
+        let width = film.width();
+        let (mut v_r, mut v_f) = (0.0f64, 0.0f64);
+        for (i, &vr) in reshaded.variance_y.iter().enumerate() {
+            let vf = film.variance_of_mean_xyz(i as u32 % width, i as u32 / width)[1];
+            if vf.is_finite() {
+                v_r += f64::from(vr);
+                v_f += vf;
+            }
+        }
+        if v_r + v_f <= 0.0 {
+            return 1.0;
+        }
+        v_r / (v_r + v_f)
     }
 
     /// Records the paths of the first `samples` samples of every pixel that touch
@@ -236,10 +447,10 @@ impl ProgressiveRender {
     /// This render's image as it would look with `shading` instead of its own,
     /// from the recorded paths, without tracing (see [`crate::render::reshade`]).
     pub fn reshade(&self, shading: &Shading) -> Result<Reshaded, ReshadeError> {
-        if self.cache_target == 0 || self.cache.samples_per_pixel() < self.cache_target {
+        if !self.cache_complete() {
             return Err(ReshadeError::NotReady {
                 recorded: self.cache.samples_per_pixel(),
-                wanted: self.cache_target,
+                wanted: self.path_cache_target(),
             });
         }
         reshade(
@@ -278,8 +489,20 @@ impl ProgressiveRender {
         let seed = self.settings.seed;
         let width = self.film.width();
         let len = self.shading.len();
-        let record_below = self.cache_target;
+        let record_below = self.path_cache_target();
         let lengths: Vec<[usize; 4]> = self.cache.tiles.iter().map(TileCache::lengths).collect();
+        if first_sample < record_below {
+            self.cache.paint_is_mirror = paint_is_mirror(&self.shading);
+            // Each tile's share of what the budget leaves beside the base's cache.
+            let room = self
+                .cache_budget_bytes
+                .saturating_sub(self.base.as_ref().map_or(0, |b| b.cache.memory_bytes()));
+            let pixels = (f64::from(width) * f64::from(self.film.height())).max(1.0);
+            for cache in &mut self.cache.tiles {
+                let share = f64::from(cache.pixel_count()) / pixels;
+                cache.set_limit((room as f64 * share) as usize);
+            }
+        }
         let rays: u64 = self
             .tiles
             .par_iter_mut()
@@ -312,11 +535,26 @@ impl ProgressiveRender {
             }
             return None;
         }
-        self.cache.samples_per_pixel = (first_sample + samples).min(self.cache_target);
+        if self.cache.tiles.iter().any(TileCache::overflowed) {
+            // Over the budget: this pass is not recorded, and the cache is complete
+            // at what it had.
+            for (cache, &length) in self.cache.tiles.iter_mut().zip(&lengths) {
+                cache.roll_back(length);
+            }
+            self.cache_capped = true;
+            self.cache.samples_per_pixel = first_sample.min(record_below);
+        } else {
+            self.cache.samples_per_pixel = (first_sample + samples).min(record_below);
+        }
         for tile in &self.tiles {
             self.film.merge(tile);
         }
         self.samples_per_pixel += samples;
+        if let Some(reshaded) = &self.reshaded
+            && self.fresh_weight(reshaded) > FRESH_ONLY_WEIGHT
+        {
+            self.reshaded = None;
+        }
         let stats = PassStats {
             samples: u64::from(samples) * u64::from(width) * u64::from(self.film.height()),
             rays,
@@ -372,13 +610,22 @@ impl ProgressiveRender {
         &self.settings
     }
 
-    /// Forgets every sample.
+    /// Forgets every sample, the edit base's too.
     pub fn restart(&mut self) {
+        self.base = None;
+        self.reshaded = None;
+        self.restart_samples();
+    }
+
+    /// Forgets the samples of the current shading (and its re-shaded image unless
+    /// set anew): what an edit does; the edit base stays.
+    fn restart_samples(&mut self) {
         self.film.clear();
         self.samples_per_pixel = 0;
         self.totals = PassStats::default();
         self.cache.tiles.iter_mut().for_each(TileCache::clear);
         self.cache.samples_per_pixel = 0;
+        self.cache_capped = false;
     }
 
     /// A new view (and possibly a new image size); restarts.
@@ -503,6 +750,7 @@ fn cache_for(tiles: &[Film]) -> PathCache {
             .map(|t| TileCache::new(t.origin(), t.width(), t.height()))
             .collect(),
         samples_per_pixel: 0,
+        paint_is_mirror: false,
     }
 }
 

@@ -90,6 +90,13 @@ pub struct TileCache {
     compact: Vec<CompactPath>,
     /// Two spectra per compact path: its light sample and the rest of the path.
     spectra: Vec<f32>,
+    /// Heap bytes this tile may hold ([`TileCache::memory_bytes`]); `usize::MAX`:
+    /// unbounded.
+    limit_bytes: usize,
+    /// A path did not fit under the limit in the pass being recorded: the pass's
+    /// recordings are rolled back and recording stops (see
+    /// [`PathCache::memory_bytes`]).
+    overflowed: bool,
 }
 
 /// A path whose only painted vertex is its first, the common case (the camera
@@ -115,8 +122,68 @@ impl TileCache {
             origin,
             width,
             height,
+            limit_bytes: usize::MAX,
             ..Self::default()
         }
+    }
+
+    /// Bounds this tile's heap memory to `bytes`.
+    pub(crate) fn set_limit(&mut self, bytes: usize) {
+        self.limit_bytes = bytes;
+    }
+
+    /// Pixels of the tile.
+    pub(crate) fn pixel_count(&self) -> u32 {
+        self.width * self.height
+    }
+
+    pub(crate) fn overflowed(&self) -> bool {
+        self.overflowed
+    }
+
+    /// Makes room for `extra` more items in the vector `which` picks without the
+    /// tile's memory passing its limit (growth is capped at the limit, so capacity,
+    /// not only length, stays under it). False when they do not fit.
+    fn reserve(&mut self, which: Store, extra: usize) -> bool {
+        let (len, capacity, size) = match which {
+            Store::Paths => (
+                self.paths.len(),
+                self.paths.capacity(),
+                size_of::<CachedPath>(),
+            ),
+            Store::Vertices => (
+                self.vertices.len(),
+                self.vertices.capacity(),
+                size_of::<VertexRecord>(),
+            ),
+            Store::Compact => (
+                self.compact.len(),
+                self.compact.capacity(),
+                size_of::<CompactPath>(),
+            ),
+            Store::Spectra => (
+                self.spectra.len(),
+                self.spectra.capacity(),
+                size_of::<f32>(),
+            ),
+        };
+        if len + extra <= capacity {
+            return true;
+        }
+        let others = self.memory_bytes() - capacity * size;
+        let room = self.limit_bytes.saturating_sub(others) / size;
+        let wanted = (len + extra).max(capacity * 2).max(16).min(room);
+        if wanted < len + extra {
+            self.overflowed = true;
+            return false;
+        }
+        match which {
+            Store::Paths => self.paths.reserve_exact(wanted - len),
+            Store::Vertices => self.vertices.reserve_exact(wanted - len),
+            Store::Compact => self.compact.reserve_exact(wanted - len),
+            Store::Spectra => self.spectra.reserve_exact(wanted - len),
+        }
+        true
     }
 
     pub(crate) fn clear(&mut self) {
@@ -124,6 +191,7 @@ impl TileCache {
         self.vertices.clear();
         self.compact.clear();
         self.spectra.clear();
+        self.overflowed = false;
     }
 
     /// What is stored, to roll back a cancelled pass.
@@ -143,12 +211,31 @@ impl TileCache {
         self.spectra.truncate(lengths[3]);
     }
 
+    /// Rolls back to `lengths` after an overflow and gives the memory back.
+    pub(crate) fn roll_back(&mut self, lengths: [usize; 4]) {
+        self.truncate(lengths);
+        self.paths.shrink_to_fit();
+        self.vertices.shrink_to_fit();
+        self.compact.shrink_to_fit();
+        self.spectra.shrink_to_fit();
+        self.overflowed = false;
+    }
+
     fn memory_bytes(&self) -> usize {
         self.paths.capacity() * size_of::<CachedPath>()
             + self.vertices.capacity() * size_of::<VertexRecord>()
             + self.compact.capacity() * size_of::<CompactPath>()
             + self.spectra.capacity() * size_of::<f32>()
     }
+}
+
+/// The vectors of a [`TileCache`], for [`TileCache::reserve`].
+#[derive(Debug, Clone, Copy)]
+enum Store {
+    Paths,
+    Vertices,
+    Compact,
+    Spectra,
 }
 
 /// Records one path into a tile cache (see [`PathRecorder`]).
@@ -188,14 +275,22 @@ impl<'a> TileRecorder<'a> {
     /// contributed `xyz`: kept if it touched the paint.
     pub(crate) fn finish(&mut self, x: u32, y: u32, xyz: Xyz) {
         let start = self.start;
-        if self.painted_vertices == 0 {
+        if self.painted_vertices == 0 || self.cache.overflowed {
             self.cache.vertices.truncate(start);
             return;
         }
         let pixel = (y - self.cache.origin[1]) * self.cache.width + (x - self.cache.origin[0]);
         let xyz = [xyz.x as f32, xyz.y as f32, xyz.z as f32];
         if self.painted_vertices == 1 && self.first_painted {
-            self.store_compact(pixel, xyz);
+            let len = self.tracer.len();
+            if self.cache.reserve(Store::Compact, 1) && self.cache.reserve(Store::Spectra, 2 * len)
+            {
+                self.store_compact(pixel, xyz);
+            }
+            self.cache.vertices.truncate(start);
+            return;
+        }
+        if !self.cache.reserve(Store::Paths, 1) {
             self.cache.vertices.truncate(start);
             return;
         }
@@ -270,6 +365,10 @@ impl<'a> TileRecorder<'a> {
 
 impl PathRecorder for TileRecorder<'_> {
     fn vertex(&mut self, vertex: &VertexRecord) {
+        // Past the limit nothing more is kept in this pass (it is rolled back).
+        if self.cache.overflowed || !self.cache.reserve(Store::Vertices, 1) {
+            return;
+        }
         if let Surface::Mesh { material } = vertex.surface
             && self.tracer.shading().is_painted(material)
         {
@@ -292,6 +391,8 @@ impl PathRecorder for TileRecorder<'_> {
 pub struct PathCache {
     pub(crate) tiles: Vec<TileCache>,
     pub(crate) samples_per_pixel: u32,
+    /// Whether the paint it was recorded with is an ideal mirror.
+    pub(crate) paint_is_mirror: bool,
 }
 
 impl PathCache {
@@ -351,6 +452,11 @@ pub fn reshade(
     if shading.grid() != base.grid() || environment.grid() != base.grid() {
         return Err(ReshadeError::GridChanged);
     }
+    // A recorded mirror bounce meets a finite lobe in the replay, but a new mirror
+    // has no recorded bounce to weigh: refused here, not missed silently.
+    if paint_is_mirror(shading) != cache.paint_is_mirror {
+        return Err(ReshadeError::DeltaChanged);
+    }
     let floor_material = environment
         .floor()
         .filter(|_| floor)
@@ -400,6 +506,12 @@ pub fn reshade(
         xyz,
         variance_y,
     })
+}
+
+/// Whether the designed paint of `shading` is an ideal mirror (has a delta lobe).
+pub(crate) fn paint_is_mirror(shading: &Shading) -> bool {
+    let mut f = vec![0.0f32; shading.len()];
+    shading.design().delta_reflectance([0.0, 0.0, 1.0], &mut f)
 }
 
 /// Per pixel: Σ ΔX, Σ ΔY, Σ ΔZ, Σ ΔX², Σ ΔY², Σ ΔZ² over its stored paths.
