@@ -287,9 +287,54 @@ fn the_preview_accumulates_and_restarts_when_the_design_changes() {
         }
     };
     wait_for(&mut h, &|s| s.is_some_and(|(n, coarse)| n >= 3 && !coarse));
-    h.get_by_role_and_label(Role::Slider, "Thickness h (µm)")
+    // A gloss edit cannot be re-shaded: accumulation restarts with a coarse pass.
+    h.get_by_role_and_label(Role::Slider, "Gloss g (GU)")
         .set_value_accesskit(80.0);
     wait_for(&mut h, &|s| s.is_some_and(|(_, coarse)| coarse));
+}
+
+/// A paint edit once the preview has its path cache: the next image is the new
+/// design at full resolution at once, re-shaded from the old samples (the status
+/// line says so), then fresh samples of the new design take over; a gloss edit
+/// is traced fresh (coarse first).
+#[test]
+fn a_paint_edit_is_shown_re_shaded_at_full_resolution_then_refined() {
+    let mut h = preview_harness(false);
+    let full = |app: &CoatlabApp| {
+        app.preview_status()
+            .is_some_and(|s| !s.coarse && s.reshaded.is_none() && s.samples_per_pixel >= 6)
+    };
+    wait_until(&mut h, "the cache to fill", full);
+    let before = h.state().preview_status().cloned().expect("status");
+    h.get_by_role_and_label(Role::Slider, "Thickness h (µm)")
+        .set_value_accesskit(80.0);
+    wait_until(&mut h, "the edit to show", |app| {
+        app.preview_status().is_some_and(|s| s.epoch > before.epoch)
+    });
+    let edited = h.state().preview_status().cloned().expect("status");
+    assert_eq!(edited.reshaded, Some(0.0), "{edited:?}");
+    assert!(!edited.coarse);
+    assert_eq!((edited.width, edited.height), (before.width, before.height));
+    assert_eq!(edited.samples_per_pixel, 0);
+    h.step();
+    assert!(
+        h.query_by_label_contains("re-shaded edit").is_some(),
+        "the status line does not say the image is re-shaded"
+    );
+    // Fresh samples of the new design join in.
+    wait_until(&mut h, "fresh samples in the blend", |app| {
+        app.preview_status()
+            .is_some_and(|s| s.samples_per_pixel >= 2 && s.reshaded.is_some_and(|w| w > 0.0))
+    });
+    // The gloss cannot be re-weighted well: traced fresh, coarse first.
+    let epoch = h.state().preview_status().map(|s| s.epoch).unwrap_or(0);
+    h.get_by_role_and_label(Role::Slider, "Gloss g (GU)")
+        .set_value_accesskit(80.0);
+    wait_until(&mut h, "the gloss edit", |app| {
+        app.preview_status().is_some_and(|s| s.epoch > epoch)
+    });
+    let gloss = h.state().preview_status().cloned().expect("status");
+    assert!(gloss.coarse && gloss.reshaded.is_none(), "{gloss:?}");
 }
 
 // ---------------------------------------------------------------------------

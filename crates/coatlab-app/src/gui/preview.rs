@@ -27,13 +27,14 @@ use std::time::{Duration, Instant};
 use coatlab_core::cie::Illuminant;
 use coatlab_core::design::PaintDesign;
 use coatlab_core::design::presets::Preset;
+use coatlab_core::paint::model::PaintModel;
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::camera::Camera;
 use coatlab_core::render::environment::Environment;
-use coatlab_core::render::film::{DisplaySettings, Film};
+use coatlab_core::render::film::{DisplaySettings, Film, display_xyz};
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{
-    PassStats, ProgressiveRender, RenderScene, RenderSettings,
+    EditOutcome, PassStats, ProgressiveRender, RenderScene, RenderSettings,
 };
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
@@ -49,6 +50,10 @@ const PREVIEW_WAVELENGTHS: usize = 32;
 const COARSE_FACTOR: u32 = 4;
 /// Refinement stops here; the image is then as good as the preview gets.
 const MAX_SPP: u32 = 1024;
+/// Samples per pixel whose paths the first view records for re-shading paint
+/// edits (`ProgressiveRender::edit_shading`; memory bounded by the core's
+/// default path-cache budget).
+const RESHADE_SAMPLES: u32 = 4;
 /// The preview's largest size in pixels (it renders at most this, scaled up on screen):
 /// the default keeps the first image within reach of a 2-core machine.
 const MAX_PREVIEW_PIXELS: (u32, u32) = (640, 400);
@@ -150,6 +155,10 @@ pub struct PreviewFrame {
     pub noise_delta_e: Option<f64>,
     /// The coarse first pass after a change.
     pub coarse: bool,
+    /// A paint edit shown re-shaded from the previous design's samples: the share
+    /// (0–1) the fresh samples of the new design already carry in the image.
+    /// `None`: the image is the new design's own samples alone.
+    pub reshaded: Option<f64>,
     /// The last change this image shows (see [`Preview::last_change_latency`]).
     pub epoch: u64,
 }
@@ -934,10 +943,15 @@ impl Preview {
         let Some(s) = &self.status[0] else {
             return "starting…".into();
         };
+        let mode = match s.reshaded {
+            Some(w) => format!(" (re-shaded edit, fresh share {:.0} %)", w * 100.0),
+            None if s.coarse => " (coarse)".to_owned(),
+            None => String::new(),
+        };
         let mut line = format!(
             "{} spp{}  ·  {:.0} k samples/s  ·  noise {}  ·  {}×{}",
             s.samples_per_pixel,
-            if s.coarse { " (coarse)" } else { "" },
+            mode,
             s.samples_per_second / 1e3,
             s.noise_delta_e
                 .map(|d| format!("ΔE00 {d:.2}"))
@@ -1059,6 +1073,9 @@ struct State {
     epoch: u64,
     /// The display settings of the last published images (what an export writes).
     display: DisplaySettings,
+    /// The first view's design and its paint model, kept so an edit rebuilds only
+    /// the derived tables it touches (`PaintDesign::update_model`).
+    paint_a: Option<(PaintDesign, PaintModel)>,
 }
 
 impl State {
@@ -1069,14 +1086,24 @@ impl State {
         }
     }
 
-    fn shading(&self, design: &PaintDesign, model: ShadingModel) -> Option<Arc<Shading>> {
-        shading_of(
-            design,
-            model,
-            self.grid,
+    /// The first view's shading, from the kept paint model brought up to the
+    /// current design (a full rebuild only for a new grid or a first design).
+    fn shading_a(&mut self) -> Option<Arc<Shading>> {
+        let model = match self.paint_a.take() {
+            Some((previous, mut model)) => match self.design.update_model(&previous, &mut model) {
+                Ok(()) => model,
+                Err(_) => return None,
+            },
+            None => self.design.model(self.grid).ok()?,
+        };
+        let shading = Arc::new(Shading::new(
+            &model,
+            self.views.model_a,
             &self.materials,
             &self.paint_materials(),
-        )
+        ));
+        self.paint_a = Some((self.design.clone(), model));
+        Some(shading)
     }
 
     /// Starts building the second view's shading on a thread of its own: a best-fit
@@ -1157,8 +1184,9 @@ impl Worker {
             size,
             epoch: 0,
             display: DisplaySettings::default(),
+            paint_a: None,
         };
-        let Some(shading) = state.shading(&state.design, state.views.model_a) else {
+        let Some(shading) = state.shading_a() else {
             return self.error("preview: the design is invalid".into());
         };
         let mut a = match ProgressiveRender::new(
@@ -1171,6 +1199,7 @@ impl Worker {
             Ok(r) => r,
             Err(e) => return self.error(format!("preview: {e}")),
         };
+        a.set_path_cache_samples(RESHADE_SAMPLES);
         let mut b: Option<ProgressiveRender> = None;
         // The second view's shading being built, and whether it is for a new scene.
         let mut b_job: Option<JoinHandle<Option<Arc<Shading>>>> = None;
@@ -1196,10 +1225,17 @@ impl Worker {
             let mut new_shading = false;
             let mut new_scene = false;
             let mut new_env = false;
+            // Whether every change was a paint edit that samples of the previous
+            // design can show at once (re-shading): not the gloss (a new lobe is
+            // covered poorly by the old one's samples), the view, the lighting or
+            // what is painted.
+            let mut reshadeable = true;
+            let gloss_before = state.design.gloss;
             for Envelope { epoch, command } in pending {
                 state.epoch = state.epoch.max(epoch);
                 if command.changes_picture() {
                     restart = true;
+                    reshadeable &= matches!(command, Command::Design(_));
                 }
                 match command {
                     Command::Design(d) => {
@@ -1261,13 +1297,34 @@ impl Worker {
                     }
                 }
             }
+            reshadeable &= new_shading
+                && state.design.gloss == gloss_before
+                && state.views.b.is_none()
+                && (a.camera().width(), a.camera().height()) == state.size;
             if new_shading || new_scene {
                 // An invalid design keeps the last valid image; the paint panel says
                 // what is wrong.
-                let Some(shading_a) = state.shading(&state.design, state.views.model_a) else {
+                if new_scene {
+                    state.paint_a = None;
+                }
+                let Some(shading_a) = state.shading_a() else {
                     restart = false;
                     continue;
                 };
+                if reshadeable {
+                    match a.edit_shading(shading_a.clone()) {
+                        Ok(EditOutcome::Reshaded) => {
+                            // The full-resolution re-shaded image now; fresh
+                            // passes of the new design refine it below.
+                            restart = false;
+                            self.publish_edit(&state, &a, PassStats::default());
+                            continue;
+                        }
+                        // No complete cache yet, or a mirror: traced fresh.
+                        Ok(EditOutcome::Fresh(_)) => {}
+                        Err(e) => self.error(format!("preview: {e}")),
+                    }
+                }
                 let result = if new_scene {
                     a.set_scene(state.scene.clone(), shading_a)
                 } else {
@@ -1325,7 +1382,11 @@ impl Worker {
                 }
             }
             let Some(r) = b.as_mut() else {
-                self.publish(&mut state, &a, None, stats_a, coarse, false);
+                if a.is_reshaded() {
+                    self.publish_edit(&state, &a, stats_a);
+                } else {
+                    self.publish(&mut state, &a, None, stats_a, coarse, false);
+                }
                 continue;
             };
             // The second view follows the first's camera (and resolution) exactly, and
@@ -1477,6 +1538,35 @@ impl Worker {
         )));
     }
 
+    /// Publishes the first view's image while a paint edit is shown re-shaded:
+    /// the blend of the re-shaded and the fresh image, in the exposure of the last
+    /// image (the fresh film is too young to set one, and a steady exposure lets
+    /// the edit show).
+    fn publish_edit(&self, state: &State, a: &ProgressiveRender, stats: PassStats) {
+        let Some((image, fresh_weight)) = a.edit_estimate() else {
+            return;
+        };
+        let frame = PreviewFrame {
+            width: image.width,
+            height: image.height,
+            pixels: display_xyz(&image.xyz, &state.display),
+            samples_per_pixel: a.samples_per_pixel(),
+            samples_per_second: stats.samples_per_second(),
+            noise_delta_e: None,
+            coarse: false,
+            reshaded: Some(fresh_weight),
+            epoch: state.epoch,
+        };
+        {
+            let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
+            shared.frames = [Some(frame), None];
+            shared.fresh = true;
+            shared.delta_e = None;
+            shared.fresh_map = true;
+        }
+        self.ctx.request_repaint();
+    }
+
     fn publish(
         &self,
         state: &mut State,
@@ -1504,6 +1594,7 @@ impl Worker {
                 r.noise_estimate(&display).map(|n| n.mean_delta_e)
             },
             coarse,
+            reshaded: None,
             epoch: state.epoch,
         };
         let frames = [Some(frame(a, stats_a)), b.map(|(r, s)| frame(r, s))];
