@@ -17,12 +17,15 @@
 //!   handed out to rayon in chunks of 8 rows;
 //! - incoherent: 2¹⁹ bounce rays, origins at area-weighted random points on the
 //!   surface (moved off it with `offset_ray_origin`), cosine-distributed directions
-//!   about the geometric normal's front side, in chunks of 4096 rays;
+//!   about the geometric normal's front side, in chunks of 4096 rays, each chunk one
+//!   call of the batch interface `Accel::closest_hits` (and, for comparison, the same
+//!   rays through `closest_hit` one by one);
 //! - shadow: the same rays as any-hit queries (`occluded`) with `t_max = 1 m`;
 //! - image-order bounce: the tracer's first bounce in the order it issues it: camera
 //!   rays of a 1920×1080 image in 16×16 tiles, and for each hit a cosine-distributed
 //!   bounce about the geometric normal (camera side) from the offset hit point, so
-//!   that consecutive rays start close together; chunks of 4096 rays.
+//!   that consecutive rays start close together; chunks of 4096 rays through
+//!   `closest_hits`.
 //!
 //! Two ways to run it:
 //! - `ACCEL_SUMMARY=1 cargo bench -p coatlab-core --bench accel` prints the whole
@@ -31,13 +34,18 @@
 //! - `cargo bench -p coatlab-core --bench accel -- --warm-up-time 1
 //!   --measurement-time 3` runs the criterion benches (build single- and
 //!   two-threaded; ray batches with throughput in rays).
+//! - `ACCEL_BATCH=1 cargo bench -p coatlab-core --bench accel` compares, on one
+//!   thread and in per-thread CPU time (robust to other processes on the machine),
+//!   single-ray queries with batches of 2–16 rays in flight.
 
 use std::f32::consts::PI;
 use std::hint::black_box;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use coatlab_core::accel::{Accel, BuildOptions, BuildQuality, BvhLayout, offset_ray_origin};
+use coatlab_core::accel::{
+    Accel, BuildOptions, BuildQuality, BvhLayout, Hit, RayQuery, offset_ray_origin,
+};
 use coatlab_core::scene::TriangleMesh;
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
@@ -301,7 +309,28 @@ fn trace_camera(accel: &Accel, camera: &Camera) -> usize {
         .sum()
 }
 
+/// Closest hits through the batch interface (`Accel::closest_hits`), a chunk of
+/// 4096 rays a call; returns the number of hits.
 fn trace_incoherent(accel: &Accel, rays: &[([f32; 3], [f32; 3])]) -> usize {
+    rays.par_chunks(4096)
+        .map(|chunk| {
+            let queries: Vec<RayQuery> = chunk
+                .iter()
+                .map(|&(origin, dir)| RayQuery {
+                    origin,
+                    dir,
+                    t_max: f32::INFINITY,
+                })
+                .collect();
+            let mut hits = vec![None; queries.len()];
+            accel.closest_hits(&queries, &mut hits);
+            hits.iter().filter(|h| h.is_some()).count()
+        })
+        .sum()
+}
+
+/// The same rays through `Accel::closest_hit`, one by one.
+fn trace_one_by_one(accel: &Accel, rays: &[([f32; 3], [f32; 3])]) -> usize {
     rays.par_chunks(4096)
         .map(|chunk| {
             chunk
@@ -356,10 +385,10 @@ fn summary() {
     println!(
         "| mesh | triangles | BVH | build 1 thread (ms) | build 2 threads (ms) | nodes | \
          camera Mrays/s 1 core | camera Mrays/s 2 cores | incoherent Mrays/s 1 core | \
-         incoherent Mrays/s 2 cores | shadow Mrays/s 2 cores | image-order bounce Mrays/s \
-         2 cores |"
+         incoherent Mrays/s 2 cores | incoherent one by one Mrays/s 1 core | \
+         shadow Mrays/s 2 cores | image-order bounce Mrays/s 2 cores |"
     );
-    println!("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |");
+    println!("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |");
     for (name, mesh) in meshes() {
         let camera = Camera::three_quarter(&mesh);
         let rays = incoherent_rays(&mesh, INCOHERENT_RAYS, 7);
@@ -392,11 +421,12 @@ fn summary() {
             let (cam2, cam_hits) = rate(&two, camera_n, &|| trace_camera(&accel, &camera));
             let (inc1, _) = rate(&one, rays.len(), &|| trace_incoherent(&accel, &rays));
             let (inc2, inc_hits) = rate(&two, rays.len(), &|| trace_incoherent(&accel, &rays));
+            let (single1, _) = rate(&one, rays.len(), &|| trace_one_by_one(&accel, &rays));
             let (sh2, sh_hits) = rate(&two, rays.len(), &|| trace_shadow(&accel, &rays));
             let (bo2, bo_hits) = rate(&two, bounces.len(), &|| trace_incoherent(&accel, &bounces));
             println!(
                 "| {name} | {} | {label} | {:.1} | {:.1} | {} | {cam1:.2} | {cam2:.2} | {inc1:.2} | \
-                 {inc2:.2} | {sh2:.2} | {bo2:.2} |",
+                 {inc2:.2} | {single1:.2} | {sh2:.2} | {bo2:.2} |",
                 mesh.triangle_count(),
                 build1.as_secs_f64() * 1e3,
                 build2.as_secs_f64() * 1e3,
@@ -466,6 +496,9 @@ fn criterion_benches(c: &mut Criterion) {
             trace.bench_function(BenchmarkId::new("incoherent_1T", label), |b| {
                 b.iter(|| one.install(|| trace_incoherent(&accel, &rays)))
             });
+            trace.bench_function(BenchmarkId::new("incoherent_one_by_one_1T", label), |b| {
+                b.iter(|| one.install(|| trace_one_by_one(&accel, &rays)))
+            });
             trace.bench_function(BenchmarkId::new("shadow_2T", label), |b| {
                 b.iter(|| two.install(|| trace_shadow(&accel, &rays)))
             });
@@ -474,7 +507,88 @@ fn criterion_benches(c: &mut Criterion) {
     }
 }
 
+/// CPU time this thread has run (`/proc/thread-self/schedstat`, first field, ns):
+/// unlike the wall clock, it does not count the time other processes held the core.
+fn thread_cpu_time() -> Duration {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse().ok())
+        .map(Duration::from_nanos)
+        .expect("/proc/thread-self/schedstat (Linux) for ACCEL_BATCH")
+}
+
+/// Incoherent rays through `closest_hit` one by one and through `closest_hits` with
+/// 2, 4, 8 and 16 rays in flight, on this thread, `Simd8/Fast`: M rays per CPU-second
+/// (best of 5 interleaved rounds) and the ratio to one by one; the batch results
+/// are checked against the single-ray ones bit for bit.
+fn batch_comparison() {
+    let options = BuildOptions {
+        threads: 1,
+        ..BuildOptions::default()
+    };
+    type Trace = fn(&Accel, &[RayQuery], &mut [Option<Hit>]);
+    let variants: [(&str, Trace); 6] = [
+        ("one by one", |accel, rays, hits| {
+            for (q, h) in rays.iter().zip(hits.iter_mut()) {
+                *h = accel.closest_hit(q.origin, q.dir, q.t_max);
+            }
+        }),
+        ("batch, 2 lanes", |a, r, h| {
+            a.closest_hits_in_lanes::<2>(r, h)
+        }),
+        ("batch, 4 lanes", |a, r, h| {
+            a.closest_hits_in_lanes::<4>(r, h)
+        }),
+        ("batch, 8 lanes", |a, r, h| {
+            a.closest_hits_in_lanes::<8>(r, h)
+        }),
+        ("batch, 16 lanes", |a, r, h| {
+            a.closest_hits_in_lanes::<16>(r, h)
+        }),
+        ("closest_hits", |a, r, h| a.closest_hits(r, h)),
+    ];
+    for (name, mesh) in meshes() {
+        let accel = Accel::build_with(&mesh, &options).expect("build");
+        let rays: Vec<RayQuery> = incoherent_rays(&mesh, INCOHERENT_RAYS, 7)
+            .into_iter()
+            .map(|(origin, dir)| RayQuery {
+                origin,
+                dir,
+                t_max: f32::INFINITY,
+            })
+            .collect();
+        eprintln!("{name}: load average before: {}", load_average());
+        let mut reference = vec![None; rays.len()];
+        variants[0].1(&accel, &rays, &mut reference);
+        let mut best = [Duration::MAX; 6];
+        let mut hits = vec![None; rays.len()];
+        for _ in 0..5 {
+            for (i, (label, trace)) in variants.iter().enumerate() {
+                let start = thread_cpu_time();
+                trace(&accel, &rays, &mut hits);
+                best[i] = best[i].min(thread_cpu_time() - start);
+                assert!(hits == reference, "{name}: {label} differs from one by one");
+            }
+        }
+        eprintln!("{name}: load average after: {}", load_average());
+        let rate = |t: Duration| rays.len() as f64 / t.as_secs_f64() / 1e6;
+        for (i, (label, _)) in variants.iter().enumerate() {
+            println!(
+                "| {name} | {label} | {:.2} | ×{:.2} |",
+                rate(best[i]),
+                best[0].as_secs_f64() / best[i].as_secs_f64()
+            );
+        }
+    }
+}
+
 fn main() {
+    if std::env::var_os("ACCEL_BATCH").is_some() {
+        println!("| mesh | incoherent rays | M rays per CPU-second, 1 thread | vs one by one |");
+        println!("| --- | --- | --- | --- |");
+        batch_comparison();
+        return;
+    }
     if std::env::var_os("ACCEL_SUMMARY").is_some() {
         summary();
         return;

@@ -5,7 +5,7 @@ use std::f32::consts::PI;
 use std::path::Path;
 
 use coatlab_core::accel::{
-    Accel, AccelError, BuildOptions, BuildQuality, BvhLayout, Hit, intersect_triangle,
+    Accel, AccelError, BuildOptions, BuildQuality, BvhLayout, Hit, RayQuery, intersect_triangle,
     offset_ray_origin,
 };
 use coatlab_core::scene::TriangleMesh;
@@ -191,6 +191,50 @@ fn check_against_brute_force(
         "only {hits} of {} rays hit",
         rays.len()
     );
+    check_batch_against_single_rays(accel, rays);
+}
+
+/// A hit's fields as bits, so that equality is bit for bit (-0 ≠ +0).
+fn hit_bits(hit: Option<Hit>) -> Option<(u32, u32, [u32; 2])> {
+    hit.map(|h| (h.t.to_bits(), h.triangle, h.barycentric.map(f32::to_bits)))
+}
+
+/// `closest_hits` (and its variants with other numbers of rays in flight) gives
+/// exactly `closest_hit`'s result for every ray.
+fn check_batch_against_single_rays(accel: &Accel, rays: &[([f32; 3], [f32; 3], f32)]) {
+    let queries: Vec<RayQuery> = rays
+        .iter()
+        .map(|&(origin, dir, t_max)| RayQuery { origin, dir, t_max })
+        .collect();
+    let single: Vec<_> = rays
+        .iter()
+        .map(|&(origin, dir, t_max)| hit_bits(accel.closest_hit(origin, dir, t_max)))
+        .collect();
+    let mut batch = vec![None; rays.len()];
+    type Trace = fn(&Accel, &[RayQuery], &mut [Option<Hit>]);
+    let trace: [Trace; 4] = [
+        |a, r, h| a.closest_hits(r, h),
+        |a, r, h| a.closest_hits_in_lanes::<1>(r, h),
+        |a, r, h| a.closest_hits_in_lanes::<3>(r, h),
+        |a, r, h| a.closest_hits_in_lanes::<16>(r, h),
+    ];
+    for (variant, trace) in trace.iter().enumerate() {
+        // Stale hits must be overwritten.
+        batch.fill(Some(Hit {
+            t: 1.0,
+            triangle: u32::MAX,
+            barycentric: [0.0; 2],
+        }));
+        trace(accel, &queries, &mut batch);
+        for (i, (s, b)) in single.iter().zip(&batch).enumerate() {
+            assert_eq!(
+                *s,
+                hit_bits(*b),
+                "variant {variant}, ray {i}: {:?}",
+                rays[i]
+            );
+        }
+    }
 }
 
 #[test]
@@ -692,4 +736,43 @@ fn large_triangles_split_into_references_are_still_found_everywhere() {
             brute_force_any(&mesh, origin, dir, t_max)
         );
     }
+}
+
+#[test]
+fn batches_with_unusable_rays_and_every_length_agree_with_single_rays() {
+    let mesh = torus(60, 20);
+    let mut rays = random_rays(&mesh, 200, 5);
+    // Unusable queries between usable ones: they miss, as in `closest_hit`.
+    for (k, bad) in [
+        ([f32::NAN, 0.0, 0.0], [0.0, 0.0, 1.0], f32::INFINITY),
+        ([0.0, 0.0, 0.0], [0.0, 0.0, 0.0], f32::INFINITY),
+        ([0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 0.0),
+        ([0.0, 0.0, 0.0], [0.0, 1.0, 0.0], f32::NAN),
+        ([0.0, 0.0, 0.0], [f32::INFINITY, 1.0, 0.0], 1.0),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        rays.insert(7 * k + 3, bad);
+    }
+    for options in ALL_OPTIONS {
+        let accel = Accel::build_with(&mesh, &options).expect("build");
+        for len in [0, 1, 2, 5, 9, 17, rays.len()] {
+            check_batch_against_single_rays(&accel, &rays[..len]);
+        }
+    }
+    let empty = Accel::build(&TriangleMesh::default()).expect("empty accel");
+    check_batch_against_single_rays(&empty, &rays);
+}
+
+#[test]
+#[should_panic(expected = "closest_hits: 1 rays but 2 hit slots")]
+fn a_batch_with_the_wrong_number_of_hit_slots_is_a_bug() {
+    let accel = Accel::build(&torus(8, 4)).expect("build");
+    let ray = RayQuery {
+        origin: [0.0; 3],
+        dir: [0.0, 0.0, 1.0],
+        t_max: 1.0,
+    };
+    accel.closest_hits(&[ray], &mut [None, None]);
 }

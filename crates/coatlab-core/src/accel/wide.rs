@@ -276,6 +276,37 @@ impl Stack {
     }
 }
 
+/// The state of one ray's closest-hit traversal, resumable step by step
+/// ([`WideBvh::closest_step`]); reusable for the next ray ([`Traversal::start`]), so a
+/// batch sets up its stacks once.
+pub(super) struct Traversal {
+    stack: Stack,
+    /// The node or leaf to visit next.
+    current: u32,
+    /// The closest hit so far (the query's `t_max` before any).
+    t_max: f32,
+}
+
+impl Traversal {
+    #[inline(always)]
+    pub fn new() -> Traversal {
+        Traversal {
+            stack: Stack::new(),
+            current: 0,
+            t_max: 0.0,
+        }
+    }
+
+    /// Starts a new ray at the root with `t_max`.
+    #[inline(always)]
+    pub fn start(&mut self, t_max: f32) {
+        self.stack.len = 0;
+        self.stack.overflow.clear();
+        self.current = 0;
+        self.t_max = t_max;
+    }
+}
+
 impl WideBvh {
     /// Number of nodes.
     pub fn node_count(&self) -> usize {
@@ -311,56 +342,72 @@ impl WideBvh {
     pub fn closest(
         &self,
         ray: &BoxRay,
-        mut t_max: f32,
+        t_max: f32,
         mut leaf: impl FnMut(usize, usize, f32) -> f32,
         fetch_leaf: impl Fn(usize, usize),
     ) {
+        let mut traversal = Traversal::new();
+        traversal.start(t_max);
+        while self.closest_step(ray, &mut traversal, &mut leaf, &fetch_leaf) {}
+    }
+
+    /// One step of a closest-hit traversal: visits the traversal's current node or
+    /// leaf and moves on to the next one, which it has asked the cache for. Returns
+    /// `false` when the traversal is over. [`WideBvh::closest`] runs the steps of one
+    /// ray back to back; a batch interleaves the steps of several rays, so that the
+    /// memory each ray waits for arrives while the others work. The steps of one ray
+    /// are the same either way, so are its results, bit for bit.
+    #[inline(always)]
+    pub fn closest_step(
+        &self,
+        ray: &BoxRay,
+        traversal: &mut Traversal,
+        leaf: &mut impl FnMut(usize, usize, f32) -> f32,
+        fetch_leaf: &impl Fn(usize, usize),
+    ) -> bool {
         if self.nodes.is_empty() {
-            return;
+            return false;
         }
-        let mut stack = Stack::new();
-        let mut current = 0u32;
-        loop {
-            if current & LEAF_BIT != 0 {
-                let (first, count) = leaf_parts(current);
-                t_max = leaf(first, count, t_max);
-            } else {
-                let node = &self.nodes[current as usize];
-                let (mut mask, entry) = ray.hit_children(node, t_max * TMAX_WIDEN);
-                if mask != 0 {
-                    // Hit children, sorted by decreasing entry distance (insertion
-                    // sort: rarely more than three).
-                    let mut hits = [(0u32, 0.0f32); WIDTH];
-                    let mut n = 0;
-                    while mask != 0 {
-                        let i = mask.trailing_zeros() as usize;
-                        mask &= mask - 1;
-                        let item = (node.child[i], entry[i]);
-                        self.fetch(item.0, &fetch_leaf);
-                        let mut j = n;
-                        while j > 0 && hits[j - 1].1 < item.1 {
-                            hits[j] = hits[j - 1];
-                            j -= 1;
-                        }
-                        hits[j] = item;
-                        n += 1;
+        let current = traversal.current;
+        if current & LEAF_BIT != 0 {
+            let (first, count) = leaf_parts(current);
+            traversal.t_max = leaf(first, count, traversal.t_max);
+        } else {
+            let node = &self.nodes[current as usize];
+            let (mut mask, entry) = ray.hit_children(node, traversal.t_max * TMAX_WIDEN);
+            if mask != 0 {
+                // Hit children, sorted by decreasing entry distance (insertion
+                // sort: rarely more than three).
+                let mut hits = [(0u32, 0.0f32); WIDTH];
+                let mut n = 0;
+                while mask != 0 {
+                    let i = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let item = (node.child[i], entry[i]);
+                    self.fetch(item.0, fetch_leaf);
+                    let mut j = n;
+                    while j > 0 && hits[j - 1].1 < item.1 {
+                        hits[j] = hits[j - 1];
+                        j -= 1;
                     }
-                    for &(child, t) in &hits[..n - 1] {
-                        stack.push(child, t);
-                    }
-                    current = hits[n - 1].0;
-                    continue;
+                    hits[j] = item;
+                    n += 1;
                 }
+                for &(child, t) in &hits[..n - 1] {
+                    traversal.stack.push(child, t);
+                }
+                traversal.current = hits[n - 1].0;
+                return true;
             }
-            // Next: the nearest pending child not already beyond the closest hit.
-            loop {
-                let Some((child, entry)) = stack.pop() else {
-                    return;
-                };
-                if entry <= t_max * TMAX_WIDEN {
-                    current = child;
-                    break;
-                }
+        }
+        // Next: the nearest pending child not already beyond the closest hit.
+        loop {
+            let Some((child, entry)) = traversal.stack.pop() else {
+                return false;
+            };
+            if entry <= traversal.t_max * TMAX_WIDEN {
+                traversal.current = child;
+                return true;
             }
         }
     }
