@@ -24,6 +24,7 @@ use coatlab_core::paint::lobe::{
 use coatlab_core::paint::model::{
     GlossSetting, PaintModel, PaintParams, SpectralBsdf, cosine_hemisphere,
 };
+use coatlab_core::paint::phong::PhongParams;
 use coatlab_core::spectrum::WavelengthGrid;
 use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group};
 use rand::{RngExt, SeedableRng};
@@ -564,8 +565,49 @@ mod variants {
     }
 }
 
+/// The best-fit Phong of the signal-red preset on the preview's 32 wavelengths:
+/// "cold" cycles through 16 glosses (m from 30 000 up in 1 % steps, so no fit is
+/// ever reused), "rho_edit" alternates two albedos of one coat (only kd depends on
+/// ρ). One iteration is one `PhongParams::best_fit`.
+fn phong_benches(c: &mut Criterion) {
+    let grid = WavelengthGrid::visible(32).expect("32-sample grid");
+    let preset = coatlab_core::design::presets::all()
+        .into_iter()
+        .find(|p| p.slug == "signal-red")
+        .expect("the signal-red preset");
+    let base = preset.design.model(grid).expect("valid preset");
+    let with = |albedo: &[f64], m: f64| {
+        let mut model = base.clone();
+        model.set_albedo(albedo.to_vec()).expect("valid albedo");
+        model
+            .set_gloss(GlossSetting::Exponent(GlossExponent::Finite(m)))
+            .expect("valid gloss");
+        model
+    };
+    let albedo = base.albedo().to_vec();
+    let cold: Vec<PaintModel> = (0..16)
+        .map(|k| with(&albedo, 30_000.0 * 1.01_f64.powi(k)))
+        .collect();
+    let paler: Vec<f64> = albedo.iter().map(|r| 0.9 * r + 0.05).collect();
+    let rho_edit = [with(&albedo, 30_000.0), with(&paler, 30_000.0)];
+    let mut k = 0_usize;
+    c.bench_function("phong_best_fit/32/cold", |b| {
+        b.iter(|| {
+            k = k.wrapping_add(1);
+            black_box(PhongParams::best_fit(black_box(&cold[k % cold.len()])))
+        })
+    });
+    c.bench_function("phong_best_fit/32/rho_edit", |b| {
+        b.iter(|| {
+            k = k.wrapping_add(1);
+            black_box(PhongParams::best_fit(black_box(&rho_edit[k % 2])))
+        })
+    });
+}
+
 criterion_group!(
     benches,
+    phong_benches,
     eval_benches,
     sample_benches,
     parameter_benches,
