@@ -4,6 +4,9 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use coatlab_app::gui::dialogs::{
+    DialogOutcome, DialogRequest, NativeFileDialog, native_dialog_availability,
+};
 use coatlab_app::gui::storage::Storage;
 use coatlab_app::gui::{AppOptions, CoatlabApp, app::Tab};
 use egui::accesskit::Role;
@@ -723,6 +726,9 @@ fn the_preview_exports_png_and_exr_and_the_exr_lights_the_car() {
 #[test]
 fn a_scene_opens_through_the_in_app_browser() {
     let mut h = preview_harness(false);
+    // The in-app browser whatever this machine has (a system dialog would wait for
+    // a person).
+    h.state_mut().set_native_dialog(None);
     steps(&mut h, 2);
     h.get_by_label("Open scene…").click();
     steps(&mut h, 2);
@@ -751,4 +757,194 @@ fn a_scene_opens_through_the_in_app_browser() {
             .and_then(|p| p.scene())
             .is_some_and(|s| s.path.as_deref() == Some(glb.as_path()))
     });
+}
+
+/// Stands in for the system's file dialog: answers every request with `outcome`,
+/// after `gate` lets it (a person taking their time), and records the requests.
+struct FakeDialog {
+    outcome: DialogOutcome,
+    gate: std::sync::Mutex<Option<std::sync::mpsc::Receiver<()>>>,
+    asked: std::sync::Mutex<Vec<DialogRequest>>,
+}
+
+impl FakeDialog {
+    fn new(outcome: DialogOutcome) -> Arc<Self> {
+        Arc::new(Self {
+            outcome,
+            gate: std::sync::Mutex::new(None),
+            asked: std::sync::Mutex::new(Vec::new()),
+        })
+    }
+
+    fn requests(&self) -> Vec<DialogRequest> {
+        self.asked.lock().expect("requests").clone()
+    }
+}
+
+impl NativeFileDialog for FakeDialog {
+    fn ask(&self, request: &DialogRequest) -> DialogOutcome {
+        self.asked.lock().expect("requests").push(request.clone());
+        if let Some(gate) = self.gate.lock().expect("gate").take() {
+            let _ = gate.recv();
+        }
+        self.outcome.clone()
+    }
+}
+
+fn deep_blue() -> coatlab_core::design::PaintDesign {
+    coatlab_core::design::presets::all()
+        .into_iter()
+        .find(|p| p.slug == "deep-blue")
+        .map(|p| p.design)
+        .expect("deep blue preset")
+}
+
+fn press_ctrl(h: &mut Harness<'static, CoatlabApp>, key: egui::Key) {
+    h.key_press_modifiers(egui::Modifiers::COMMAND, key);
+    h.step();
+}
+
+#[test]
+fn a_file_chosen_in_the_system_dialog_opens_while_the_ui_keeps_drawing() {
+    let dir = temp_dir("native-open");
+    let file = dir.join("blue.toml");
+    deep_blue().save(&file).expect("save");
+    let fake = FakeDialog::new(DialogOutcome::Chosen(file.clone()));
+    let (release, gate) = std::sync::mpsc::channel();
+    *fake.gate.lock().expect("gate") = Some(gate);
+    let mut h = harness(app());
+    h.state_mut().set_native_dialog(Some(fake.clone()));
+    press_ctrl(&mut h, egui::Key::O);
+
+    // The dialog is up on its own thread: frames go on, the menu bar says so.
+    steps(&mut h, 5);
+    assert!(h.state().file_dialogs().is_waiting());
+    assert!(h.query_by_label("Waiting for the file dialog…").is_some());
+    assert_ne!(h.state().design(), &deep_blue());
+    let asked = fake.requests();
+    assert_eq!(asked.len(), 1);
+    assert!(!asked[0].save && asked[0].extensions == ["toml"]);
+
+    release.send(()).expect("release the dialog");
+    wait_until(&mut h, "the design from the system dialog", |app| {
+        app.design() == &deep_blue()
+    });
+    assert_eq!(h.state().path(), Some(file.as_path()));
+    assert!(!h.state().file_dialogs().is_waiting());
+    assert!(!h.state().file_dialogs().browser_is_open());
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn saving_through_the_system_dialog_writes_the_chosen_file() {
+    let dir = temp_dir("native-save");
+    let file = dir.join("chosen.toml");
+    let fake = FakeDialog::new(DialogOutcome::Chosen(file.clone()));
+    let mut h = harness(app());
+    h.state_mut().set_native_dialog(Some(fake.clone()));
+    h.get_by_role_and_label(Role::Slider, "Thickness h (µm)")
+        .set_value_accesskit(52.0);
+    h.run();
+    // Never saved: Ctrl+S asks where.
+    press_ctrl(&mut h, egui::Key::S);
+    wait_until(&mut h, "the save", |app| app.path() == Some(file.as_path()));
+    let asked = fake.requests();
+    assert!(asked[0].save && asked[0].file_name.ends_with(".toml"));
+    assert_eq!(
+        coatlab_core::design::PaintDesign::load(&file)
+            .expect("saved")
+            .thickness_um,
+        52.0
+    );
+    assert!(!h.state().is_dirty());
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn cancelling_the_system_dialog_changes_nothing() {
+    let fake = FakeDialog::new(DialogOutcome::Cancelled);
+    let mut h = harness(app());
+    h.state_mut().set_native_dialog(Some(fake.clone()));
+    let before = h.state().design().clone();
+    press_ctrl(&mut h, egui::Key::O);
+    wait_until(&mut h, "the dialog to close", |app| {
+        !app.file_dialogs().is_waiting()
+    });
+    steps(&mut h, 2);
+    assert_eq!(fake.requests().len(), 1);
+    assert_eq!(h.state().design(), &before);
+    assert_eq!(h.state().path(), None);
+    assert!(h.state().notices().is_empty(), "{:?}", h.state().notices());
+    assert!(!h.state().file_dialogs().browser_is_open());
+    assert!(h.state().file_dialogs().use_native());
+}
+
+#[test]
+fn without_a_system_dialog_the_in_app_browser_opens_and_says_why_once() {
+    let fake = FakeDialog::new(DialogOutcome::Unavailable(
+        "no desktop portal answers on the session bus, and zenity is not installed".into(),
+    ));
+    let mut h = harness(app());
+    h.state_mut().set_native_dialog(Some(fake.clone()));
+    press_ctrl(&mut h, egui::Key::O);
+    wait_until(&mut h, "the in-app browser", |app| {
+        app.file_dialogs().browser_is_open()
+    });
+    steps(&mut h, 2);
+    assert!(
+        h.query_by_label("Open design").is_some(),
+        "the browser's window"
+    );
+    let why = |app: &CoatlabApp| {
+        app.notices()
+            .iter()
+            .filter(|n| n.text.contains("No system file dialog (no desktop portal"))
+            .count()
+    };
+    assert_eq!(why(h.state()), 1);
+    assert!(!h.state().file_dialogs().use_native());
+
+    // The browser works: a design typed into it opens.
+    let dir = temp_dir("fallback");
+    let file = dir.join("blue.toml");
+    deep_blue().save(&file).expect("save");
+    h.get_all_by_role(Role::TextInput)
+        .last()
+        .expect("file name field")
+        .focus();
+    steps(&mut h, 1);
+    h.get_all_by_role(Role::TextInput)
+        .last()
+        .expect("file name field")
+        .type_text(&file.display().to_string());
+    steps(&mut h, 1);
+    h.get_by_label("Open").click();
+    wait_until(&mut h, "the design from the browser", |app| {
+        app.design() == &deep_blue()
+    });
+
+    // Later requests go straight to the browser: the system is not asked again and
+    // the reason is not repeated.
+    press_ctrl(&mut h, egui::Key::O);
+    steps(&mut h, 2);
+    assert!(h.state().file_dialogs().browser_is_open());
+    assert_eq!(fake.requests().len(), 1);
+    assert_eq!(why(h.state()), 1);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// The real system dialog where this machine has none (CI: Xvfb, no portal, no
+/// zenity): the request ends in the in-app browser with the reason shown.
+#[test]
+fn the_real_system_dialog_falls_back_where_the_machine_has_none() {
+    if let Ok(()) = native_dialog_availability() {
+        eprintln!("skipped: this machine has a system file dialog, which would wait for a person");
+        return;
+    }
+    let mut h = harness(app());
+    press_ctrl(&mut h, egui::Key::O);
+    wait_until(&mut h, "the in-app browser", |app| {
+        app.file_dialogs().browser_is_open()
+    });
+    assert!(has_notice(h.state(), false, "No system file dialog ("));
 }

@@ -2,6 +2,7 @@
 //! menus and shortcuts, files in and out, and drag and drop.
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use coatlab_core::design::PaintDesign;
@@ -10,8 +11,9 @@ use coatlab_core::spectrum::{ValueBounds, read_spectra_csv};
 use egui::{Color32, RichText, Ui};
 
 use super::analysis::Analysis;
+use super::dialogs::{DialogEvent, DialogRequest, FileDialogs, NativeFileDialog};
 use super::export;
-use super::file_browser::{FileBrowser, FilePurpose};
+use super::file_browser::FilePurpose;
 use super::history::History;
 use super::instruments_panel::{InstrumentsRequest, instruments_ui};
 use super::paint_panel::{PanelRequest, paint_controls_ui};
@@ -72,7 +74,8 @@ pub struct CoatlabApp {
     analysis_key: Option<AnalysisKey>,
     plot_settings: PlotSettings,
     tab: Tab,
-    browser: FileBrowser,
+    /// Open and save: the system's file dialog, or the in-app browser.
+    dialogs: FileDialogs,
     notices: Vec<Notice>,
     storage: Storage,
     recent: Vec<PathBuf>,
@@ -120,7 +123,7 @@ impl CoatlabApp {
             analysis_error: None,
             analysis_key: None,
             plot_settings: PlotSettings::default(),
-            browser: FileBrowser::default(),
+            dialogs: FileDialogs::default(),
             notices,
             recent: options.storage.recent_files(),
             storage: options.storage,
@@ -142,6 +145,17 @@ impl CoatlabApp {
             app.open_design(&path);
         }
         app
+    }
+
+    /// Replaces the system file dialog (the tests stand in for it); `None` leaves
+    /// only the in-app browser.
+    pub fn set_native_dialog(&mut self, native: Option<Arc<dyn NativeFileDialog>>) {
+        self.dialogs = FileDialogs::new(native);
+    }
+
+    /// How files are chosen (the system dialog, the in-app browser).
+    pub fn file_dialogs(&self) -> &FileDialogs {
+        &self.dialogs
     }
 
     /// The design being edited.
@@ -322,7 +336,7 @@ impl CoatlabApp {
     fn save(&mut self) {
         match self.path.clone() {
             Some(p) => self.save_design_as(&p),
-            None => self.open_browser(FilePurpose::SaveDesign),
+            None => self.choose_file(FilePurpose::SaveDesign),
         }
     }
 
@@ -398,7 +412,9 @@ impl CoatlabApp {
         }
     }
 
-    fn open_browser(&mut self, purpose: FilePurpose) {
+    /// Asks for a file for `purpose`: the system dialog on its own thread (the UI
+    /// keeps drawing), or the in-app browser; the answer arrives in `show`.
+    fn choose_file(&mut self, purpose: FilePurpose) {
         let dir = self
             .path
             .as_ref()
@@ -416,7 +432,22 @@ impl CoatlabApp {
             FilePurpose::ExportPreviewImage => format!("{}.png", slug(&self.design.name)),
             _ => String::new(),
         };
-        self.browser.open(purpose, &dir, &name);
+        let request = DialogRequest {
+            purpose,
+            title: purpose.title().to_owned(),
+            filter_name: purpose.filter_name().to_owned(),
+            extensions: purpose
+                .extensions()
+                .iter()
+                .map(|e| (*e).to_owned())
+                .collect(),
+            directory: dir,
+            file_name: name,
+            save: purpose.is_save(),
+        };
+        if let Some(text) = self.dialogs.request(self.ctx.as_ref(), request) {
+            self.info(text);
+        }
     }
 
     fn file_chosen(&mut self, purpose: FilePurpose, path: PathBuf) {
@@ -540,7 +571,7 @@ impl CoatlabApp {
             self.save();
         }
         if ctx.input_mut(|i| i.consume_shortcut(&open)) {
-            self.open_browser(FilePurpose::OpenDesign);
+            self.choose_file(FilePurpose::OpenDesign);
         }
     }
 
@@ -572,7 +603,7 @@ impl CoatlabApp {
                     for r in requests {
                         match r {
                             PanelRequest::ImportAlbedoCsv => {
-                                self.open_browser(FilePurpose::ImportAlbedoCsv)
+                                self.choose_file(FilePurpose::ImportAlbedoCsv)
                             }
                             PanelRequest::LoadPreset(i) => {
                                 if let Some(p) = self.presets.get(i) {
@@ -618,11 +649,11 @@ impl CoatlabApp {
                                 self.target = self.presets.get(i).map(|p| p.design.clone());
                             }
                             InstrumentsRequest::TargetFile => {
-                                self.open_browser(FilePurpose::TargetDesign)
+                                self.choose_file(FilePurpose::TargetDesign)
                             }
                             InstrumentsRequest::ClearTarget => self.target = None,
                             InstrumentsRequest::Export => {
-                                self.open_browser(FilePurpose::ExportMeasurement)
+                                self.choose_file(FilePurpose::ExportMeasurement)
                             }
                         }
                     }
@@ -630,8 +661,11 @@ impl CoatlabApp {
             }
         });
 
-        if let Some((purpose, path)) = self.browser.show(&ctx) {
-            self.file_chosen(purpose, path);
+        for event in self.dialogs.show(&ctx) {
+            match event {
+                DialogEvent::Chosen(purpose, path) => self.file_chosen(purpose, path),
+                DialogEvent::Info(text) => self.info(text),
+            }
         }
         // After the preview took up what its thread published this frame; shown in
         // the notice bar from the next frame on.
@@ -696,7 +730,7 @@ impl CoatlabApp {
                 PreviewRequest::SecondDesignFile => FilePurpose::SecondDesign,
                 PreviewRequest::Export => FilePurpose::ExportPreviewImage,
             };
-            self.open_browser(purpose);
+            self.choose_file(purpose);
         }
     }
 
@@ -704,13 +738,13 @@ impl CoatlabApp {
         egui::MenuBar::new().ui(ui, |ui| {
             ui.menu_button("File", |ui| {
                 if ui.button("Open design…  (Ctrl+O)").clicked() {
-                    self.open_browser(FilePurpose::OpenDesign);
+                    self.choose_file(FilePurpose::OpenDesign);
                 }
                 if ui.button("Save  (Ctrl+S)").clicked() {
                     self.save();
                 }
                 if ui.button("Save as…").clicked() {
-                    self.open_browser(FilePurpose::SaveDesign);
+                    self.choose_file(FilePurpose::SaveDesign);
                 }
                 ui.menu_button("Open recent", |ui| {
                     if self.recent.is_empty() {
@@ -724,20 +758,31 @@ impl CoatlabApp {
                 });
                 ui.separator();
                 if ui.button("Import ρ(λ) from CSV…").clicked() {
-                    self.open_browser(FilePurpose::ImportAlbedoCsv);
+                    self.choose_file(FilePurpose::ImportAlbedoCsv);
                 }
                 if ui.button("Export readings (CSV, JSON)…").clicked() {
-                    self.open_browser(FilePurpose::ExportMeasurement);
+                    self.choose_file(FilePurpose::ExportMeasurement);
                 }
                 ui.separator();
                 if ui.button("Open scene (glTF)…").clicked() {
-                    self.open_browser(FilePurpose::OpenScene);
+                    self.choose_file(FilePurpose::OpenScene);
                 }
                 if ui.button("Open environment map (HDR, EXR)…").clicked() {
-                    self.open_browser(FilePurpose::OpenEnvironment);
+                    self.choose_file(FilePurpose::OpenEnvironment);
                 }
                 if ui.button("Export preview image (PNG, EXR)…").clicked() {
-                    self.open_browser(FilePurpose::ExportPreviewImage);
+                    self.choose_file(FilePurpose::ExportPreviewImage);
+                }
+                ui.separator();
+                if self.dialogs.has_native() {
+                    let mut native = self.dialogs.use_native();
+                    if ui
+                        .checkbox(&mut native, "Use the system file dialog")
+                        .on_hover_text("Off: files are chosen in the app's own browser")
+                        .changed()
+                    {
+                        self.dialogs.set_use_native(native);
+                    }
                 }
                 ui.separator();
                 if ui.button("Quit").clicked() {
@@ -764,6 +809,10 @@ impl CoatlabApp {
                     self.redo();
                 }
             });
+            if self.dialogs.is_waiting() {
+                ui.separator();
+                ui.label(RichText::new("Waiting for the file dialog…").weak());
+            }
             ui.separator();
             let file = self
                 .path

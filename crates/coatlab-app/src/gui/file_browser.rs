@@ -1,11 +1,9 @@
-//! An in-app file browser for opening and saving.
-//!
-//! Why not a native dialog (`rfd`): on Linux rfd needs either GTK 3 headers at
-//! build time (a `-dev` package CI and users would have to install) or the XDG
-//! desktop portal over D-Bus (an async runtime and zbus, heavy for CI's 2 cores,
-//! and no portal exists on a headless machine or a bare X session). This browser is
-//! a path field plus a directory listing: it builds with nothing, works under Xvfb,
-//! and egui_kittest can drive it. Files can also be dropped on the window.
+//! The in-app file browser: a path field plus a directory listing. It is what
+//! [`super::dialogs`] falls back to where no system file dialog can be shown (no
+//! desktop portal and no zenity, as under Xvfb in CI), and what the File menu's
+//! "Use the system file dialog" setting switches to. It builds with nothing, works
+//! anywhere egui draws, and egui_kittest can drive it. Files can also be dropped on
+//! the window.
 
 use std::path::{Path, PathBuf};
 
@@ -26,7 +24,8 @@ pub enum FilePurpose {
 }
 
 impl FilePurpose {
-    fn title(self) -> &'static str {
+    /// The dialog's title.
+    pub fn title(self) -> &'static str {
         match self {
             FilePurpose::OpenDesign => "Open design",
             FilePurpose::SaveDesign => "Save design as",
@@ -40,7 +39,8 @@ impl FilePurpose {
         }
     }
 
-    fn extensions(self) -> &'static [&'static str] {
+    /// The file types offered, as extensions without the dot.
+    pub fn extensions(self) -> &'static [&'static str] {
         match self {
             FilePurpose::OpenDesign
             | FilePurpose::SaveDesign
@@ -54,8 +54,23 @@ impl FilePurpose {
         }
     }
 
+    /// What the file types are called in a system dialog's filter.
+    pub fn filter_name(self) -> &'static str {
+        match self {
+            FilePurpose::OpenDesign
+            | FilePurpose::SaveDesign
+            | FilePurpose::TargetDesign
+            | FilePurpose::SecondDesign => "Coatlab design",
+            FilePurpose::ImportAlbedoCsv => "Spectral CSV",
+            FilePurpose::ExportMeasurement => "Readings (CSV, JSON)",
+            FilePurpose::ExportPreviewImage => "Image (PNG, EXR)",
+            FilePurpose::OpenScene => "glTF scene",
+            FilePurpose::OpenEnvironment => "Environment map (HDR, EXR)",
+        }
+    }
+
     /// Whether the path names a file to create (a name may be typed).
-    fn is_save(self) -> bool {
+    pub fn is_save(self) -> bool {
         matches!(
             self,
             FilePurpose::SaveDesign

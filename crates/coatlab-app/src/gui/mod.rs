@@ -10,7 +10,8 @@
 //! | [`analysis`] | the physics the plots and instruments show, computed on change |
 //! | [`history`] | undo/redo by design snapshots |
 //! | [`storage`] | recent files, autosave and crash recovery |
-//! | [`file_browser`] | the in-app open/save browser (why not a native dialog: there) |
+//! | [`dialogs`] | choosing files: the system file dialog (rfd, XDG portal or zenity) on its own thread, else the in-app browser |
+//! | [`file_browser`] | the in-app open/save browser |
 //! | [`export`] | readings as CSV and JSON |
 //! | [`preview`] | the live path-traced preview on a background thread; scenes, lighting maps, export |
 //! | [`compare`] | comparison modes and layouts, the ΔE00 map and its legend |
@@ -19,6 +20,7 @@ pub mod analysis;
 pub mod app;
 pub mod compare;
 pub mod curve_editor;
+pub mod dialogs;
 pub mod export;
 pub mod file_browser;
 pub mod history;
