@@ -134,6 +134,9 @@ fn meshes() -> Vec<(String, TriangleMesh)> {
         eprintln!("note: Lamborghini not benchmarked: {LAMBORGHINI} is missing");
     }
     out.push(("torus".to_string(), torus(500, 150)));
+    // `ACCEL_MESH` (a substring of the name) restricts the meshes, like `ACCEL_FILTER`.
+    let filter = std::env::var("ACCEL_MESH").unwrap_or_default();
+    out.retain(|(name, _)| name.contains(&filter));
     out
 }
 
@@ -518,7 +521,7 @@ fn thread_cpu_time() -> Duration {
 }
 
 /// Incoherent rays through `closest_hit` one by one and through `closest_hits` with
-/// 2, 4, 8 and 16 rays in flight, on this thread, `Simd8/Fast`: M rays per CPU-second
+/// 2, 4, 8, 12, 16 and 32 rays in flight, on this thread, `Simd8/Fast`: M rays per CPU-second
 /// (best of 5 interleaved rounds) and the ratio to one by one; the batch results
 /// are checked against the single-ray ones bit for bit.
 fn batch_comparison() {
@@ -527,7 +530,7 @@ fn batch_comparison() {
         ..BuildOptions::default()
     };
     type Trace = fn(&Accel, &[RayQuery], &mut [Option<Hit>]);
-    let variants: [(&str, Trace); 6] = [
+    let variants: [(&str, Trace); 8] = [
         ("one by one", |accel, rays, hits| {
             for (q, h) in rays.iter().zip(hits.iter_mut()) {
                 *h = accel.closest_hit(q.origin, q.dir, q.t_max);
@@ -542,8 +545,14 @@ fn batch_comparison() {
         ("batch, 8 lanes", |a, r, h| {
             a.closest_hits_in_lanes::<8>(r, h)
         }),
+        ("batch, 12 lanes", |a, r, h| {
+            a.closest_hits_in_lanes::<12>(r, h)
+        }),
         ("batch, 16 lanes", |a, r, h| {
             a.closest_hits_in_lanes::<16>(r, h)
+        }),
+        ("batch, 32 lanes", |a, r, h| {
+            a.closest_hits_in_lanes::<32>(r, h)
         }),
         ("closest_hits", |a, r, h| a.closest_hits(r, h)),
     ];
@@ -560,7 +569,7 @@ fn batch_comparison() {
         eprintln!("{name}: load average before: {}", load_average());
         let mut reference = vec![None; rays.len()];
         variants[0].1(&accel, &rays, &mut reference);
-        let mut best = [Duration::MAX; 6];
+        let mut best = [Duration::MAX; 8];
         let mut hits = vec![None; rays.len()];
         for _ in 0..5 {
             for (i, (label, trace)) in variants.iter().enumerate() {
