@@ -382,8 +382,22 @@ impl Film {
 
     /// Forgets every sample (a parameter changed: restart accumulation).
     pub fn clear(&mut self) {
-        self.pixels.fill(PixelSums::default());
-        self.squares.fill([0.0; 3]);
+        // In parallel: a paint edit clears a whole-image film (tens of MB) on the
+        // way to its first image (`ProgressiveRender::edit_shading`).
+        use rayon::prelude::*;
+        const CHUNK: usize = 1 << 14;
+        rayon::join(
+            || {
+                self.pixels
+                    .par_chunks_mut(CHUNK)
+                    .for_each(|c| c.fill(PixelSums::default()))
+            },
+            || {
+                self.squares
+                    .par_chunks_mut(CHUNK)
+                    .for_each(|c| c.fill([0.0; 3]))
+            },
+        );
         self.rejected = 0;
     }
 
@@ -736,9 +750,10 @@ fn tone_map(rgb: [f32; 3], tone_mapping: ToneMapping) -> [f32; 3] {
 /// Y = 1), as [`Film::to_display`] shows a film's means: for images that are
 /// estimates but not films (a re-shaded image, `render::reshade`).
 pub fn display_xyz(xyz: &[[f32; 3]], settings: &DisplaySettings) -> Vec<[u8; 4]> {
+    use rayon::prelude::*;
     let m = display_matrix(settings.adapt_white, settings.exposure_stops);
     let lut = encode_lut();
-    xyz.iter()
+    xyz.par_iter()
         .map(|&v| {
             let rgb = tone_map(mul(&m, v), settings.tone_mapping);
             let [r, g, b] = rgb.map(|c| encode(lut, c));

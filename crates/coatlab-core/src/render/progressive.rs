@@ -56,7 +56,8 @@ use crate::render::geometry::RenderGeometry;
 use crate::render::integrator::{IntegratorSettings, PathBuffers, PathTracer};
 use crate::render::material::Shading;
 use crate::render::reshade::{
-    PathCache, ReshadeError, Reshaded, TileCache, TileRecorder, paint_is_mirror, reshade,
+    BaseImage, PathCache, ReshadeError, Reshaded, TileCache, TileRecorder, paint_is_mirror,
+    reshade, reshade_prepared,
 };
 use crate::render::sampler::PixelSampler;
 use crate::scene::{Scene, SceneMaterial};
@@ -90,6 +91,8 @@ pub enum EditOutcome {
 struct EditBase {
     film: Film,
     cache: PathCache,
+    /// The film's means and variances, prepared once for every edit's re-shade.
+    image: BaseImage,
 }
 
 /// Why a render could not be set up.
@@ -327,13 +330,16 @@ impl ProgressiveRender {
             // The current image becomes the base: moved, not copied.
             let film = new_film(&self.camera, &self.environment)?;
             let cache = cache_for(&self.tiles);
+            let film = std::mem::replace(&mut self.film, film);
             self.base = Some(EditBase {
-                film: std::mem::replace(&mut self.film, film),
+                image: BaseImage::of(&film),
+                film,
                 cache: std::mem::replace(&mut self.cache, cache),
             });
         }
         let outcome = match &self.base {
-            Some(base) => match reshade(
+            Some(base) => match reshade_prepared(
+                &base.image,
                 &base.film,
                 &base.cache,
                 &self.environment,

@@ -440,6 +440,55 @@ pub struct Reshaded {
     pub variance_y: Vec<f32>,
 }
 
+/// The image a re-shade starts from: per pixel the mean XYZ of the recorded
+/// render and the variance of its Y, in f32. Prepared once per editing session
+/// ([`BaseImage::of`]), so an edit does not walk the film's f64 sums again.
+#[derive(Debug, Clone)]
+pub struct BaseImage {
+    width: u32,
+    height: u32,
+    xyz: Vec<[f32; 3]>,
+    variance_y: Vec<f32>,
+}
+
+impl BaseImage {
+    /// The means and variances of `film` (in parallel over rows).
+    pub fn of(film: &Film) -> Self {
+        let (width, height) = (film.width(), film.height());
+        let rows: Vec<(Vec<[f32; 3]>, Vec<f32>)> = (0..height)
+            .into_par_iter()
+            .map(|y| {
+                (0..width)
+                    .map(|x| {
+                        let m = film.mean_xyz(x, y);
+                        (
+                            [m.x as f32, m.y as f32, m.z as f32],
+                            film.variance_of_mean_xyz(x, y)[1] as f32,
+                        )
+                    })
+                    .unzip()
+            })
+            .collect();
+        let mut xyz = Vec::with_capacity((width * height) as usize);
+        let mut variance_y = Vec::with_capacity((width * height) as usize);
+        for (m, v) in rows {
+            xyz.extend_from_slice(&m);
+            variance_y.extend_from_slice(&v);
+        }
+        Self {
+            width,
+            height,
+            xyz,
+            variance_y,
+        }
+    }
+
+    /// Heap memory held, bytes.
+    pub fn memory_bytes(&self) -> usize {
+        self.xyz.capacity() * size_of::<[f32; 3]>() + self.variance_y.capacity() * size_of::<f32>()
+    }
+}
+
 /// Re-shades `cache` (recorded on `base`, rendered with the old shading, lit by
 /// `environment`) with `shading`. See the module documentation.
 pub fn reshade(
@@ -452,6 +501,29 @@ pub fn reshade(
     if shading.grid() != base.grid() || environment.grid() != base.grid() {
         return Err(ReshadeError::GridChanged);
     }
+    reshade_prepared(
+        &BaseImage::of(base),
+        base,
+        cache,
+        environment,
+        shading,
+        floor,
+    )
+}
+
+/// [`reshade`] from a prepared [`BaseImage`] of `film` (the film supplies only
+/// its colour-matching weights).
+pub fn reshade_prepared(
+    base: &BaseImage,
+    film: &Film,
+    cache: &PathCache,
+    environment: &Environment,
+    shading: &Shading,
+    floor: bool,
+) -> Result<Reshaded, ReshadeError> {
+    if shading.grid() != film.grid() || environment.grid() != film.grid() {
+        return Err(ReshadeError::GridChanged);
+    }
     // A recorded mirror bounce meets a finite lobe in the replay, but a new mirror
     // has no recorded bounce to weigh: refused here, not missed silently.
     if paint_is_mirror(shading) != cache.paint_is_mirror {
@@ -462,30 +534,24 @@ pub fn reshade(
         .filter(|_| floor)
         .map(|f| SimpleMaterial::lambertian(&f.reflectance));
     let k = f64::from(cache.samples_per_pixel.max(1));
-    let (width, height) = (base.width(), base.height());
-    let tiles: Vec<Result<(usize, Vec<DifferenceSums>), ReshadeError>> = cache
-        .tiles
-        .par_iter()
-        .enumerate()
-        .map(|(index, tile)| {
-            replay_tile(tile, base, environment, shading, floor_material.as_ref())
-                .map(|d| (index, d))
-        })
-        .collect();
-    let mut xyz = vec![[0.0f32; 3]; (width * height) as usize];
-    let mut variance_y = vec![0.0f32; (width * height) as usize];
-    for y in 0..height {
-        for x in 0..width {
-            let m = base.mean_xyz(x, y);
-            let i = (y * width + x) as usize;
-            xyz[i] = [m.x as f32, m.y as f32, m.z as f32];
-            variance_y[i] = base.variance_of_mean_xyz(x, y)[1] as f32;
-        }
-    }
-    for result in tiles {
-        let (index, sums) = result?;
-        let tile = &cache.tiles[index];
+    let width = base.width;
+    // The copy of the base overlaps the replay of the tiles.
+    let ((mut xyz, mut variance_y), tiles) = rayon::join(
+        || (base.xyz.clone(), base.variance_y.clone()),
+        || {
+            cache
+                .tiles
+                .par_iter()
+                .map(|tile| replay_tile(tile, film, environment, shading, floor_material.as_ref()))
+                .collect::<Vec<_>>()
+        },
+    );
+    for (tile, result) in cache.tiles.iter().zip(tiles) {
+        let sums = result?;
         for (p, s) in sums.iter().enumerate() {
+            if s[4] == 0.0 && s[1] == 0.0 && s[0] == 0.0 && s[2] == 0.0 {
+                continue;
+            }
             let (tx, ty) = (p as u32 % tile.width, p as u32 / tile.width);
             let i = ((tile.origin[1] + ty) * width + tile.origin[0] + tx) as usize;
             // Mean and variance of the difference over the K recorded samples (the
@@ -502,7 +568,7 @@ pub fn reshade(
     }
     Ok(Reshaded {
         width,
-        height,
+        height: base.height,
         xyz,
         variance_y,
     })
