@@ -10,14 +10,25 @@
 //!     technology sets it) to the UI taking up the first image rendered with it, at
 //!     the default window size (1500×940, preview 640×400, coarse pass 160×100).
 //!
-//! Both for the single view and for Paint vs Phong side by side. Not a timed test:
-//! it prints figures for `docs/benchmarks.md` ("GUI responsiveness").
+//! (c) the real window: the `coatlab` binary started under Xvfb (drawn by Mesa's
+//!     software Vulkan, lavapipe, as on these machines) with `COATLAB_FRAME_LOG`,
+//!     which makes it redraw continuously and log each frame's start and its UI
+//!     pass (`gui/frame_log.rs`), for `--real-window-seconds` while the preview
+//!     renders; frames per second, the worst frame, and the CPU time of each of the
+//!     process's threads (our UI thread, the render threads, lavapipe's).
+//!
+//! (a) and (b) for the single view and for Paint vs Phong side by side, (b) also
+//! for a single view set to Phong (best fit). Not a timed test: it prints figures
+//! for `docs/benchmarks.md` ("GUI responsiveness").
 //!
 //!     cargo bench -p coatlab-app --bench gui_responsiveness
 //!
 //! Options after `--`: `--seconds S` of paced frames per case (default 10),
-//! `--changes N` (default 30).
+//! `--changes N` (default 30), `--real-window-seconds S` (default 20; 0 skips it),
+//! `--only-real-window` (skips (a) and (b)).
 
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use coatlab_app::gui::compare::{CompareLayout, CompareMode};
@@ -168,6 +179,194 @@ fn change_latency(h: &mut Harness<'static, CoatlabApp>, changes: usize, label: &
     );
 }
 
+/// Kills and reaps the child when dropped.
+struct Reaped(Child);
+
+impl Drop for Reaped {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn have(tool: &str) -> bool {
+    Command::new("sh")
+        .args(["-c", &format!("command -v {tool}")])
+        .stdout(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+/// CPU seconds (user + system) per thread name of a running process, largest first.
+fn thread_cpu_seconds(pid: u32) -> Vec<(String, f64)> {
+    // Clock ticks per second: 100 on Linux for /proc's stat fields.
+    const TICKS: f64 = 100.0;
+    let mut by_name: Vec<(String, f64)> = Vec::new();
+    let Ok(tasks) = std::fs::read_dir(format!("/proc/{pid}/task")) else {
+        return by_name;
+    };
+    for task in tasks.filter_map(Result::ok) {
+        let Ok(stat) = std::fs::read_to_string(task.path().join("stat")) else {
+            continue;
+        };
+        // "tid (comm) state ...": the name may hold spaces; fields follow the last ')'.
+        let (Some(open), Some(close)) = (stat.find('('), stat.rfind(')')) else {
+            continue;
+        };
+        // Thread names differ only by a trailing index (llvmpipe-0, -1...): group them.
+        let name = stat[open + 1..close].trim_end_matches(|c: char| c.is_ascii_digit());
+        let fields: Vec<&str> = stat[close + 1..].split_whitespace().collect();
+        let ticks = |i: usize| {
+            fields
+                .get(i)
+                .and_then(|f| f.parse::<f64>().ok())
+                .unwrap_or(0.0)
+        };
+        // utime and stime are fields 14 and 15 of stat, 12 and 13 after the ')'.
+        let cpu = (ticks(11) + ticks(12)) / TICKS;
+        match by_name.iter_mut().find(|(n, _)| n == name) {
+            Some((_, c)) => *c += cpu,
+            None => by_name.push((name.to_owned(), cpu)),
+        }
+    }
+    by_name.sort_by(|a, b| b.1.total_cmp(&a.1));
+    by_name
+}
+
+/// (c): the real binary in a real window under Xvfb, frames logged by the app.
+fn real_window(seconds: f64) {
+    if !have("Xvfb") {
+        println!("[real window] skipped: Xvfb is not installed");
+        return;
+    }
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/gui-bench");
+    let runtime = dir.join("runtime");
+    let state = dir.join("state");
+    let _ = std::fs::remove_dir_all(&state);
+    if let Err(e) = std::fs::create_dir_all(&runtime) {
+        println!(
+            "[real window] skipped: cannot create {}: {e}",
+            runtime.display()
+        );
+        return;
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let _ = std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700));
+    }
+    let frames_path: PathBuf = dir.join("frames.log");
+    let _ = std::fs::remove_file(&frames_path);
+    let display = format!(":{}", 300 + std::process::id() % 500);
+    let Ok(xvfb) = Command::new("Xvfb")
+        .args([
+            display.as_str(),
+            "-screen",
+            "0",
+            "1600x1000x24",
+            "-nolisten",
+            "tcp",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+    else {
+        println!("[real window] skipped: Xvfb did not start");
+        return;
+    };
+    let _xvfb = Reaped(xvfb);
+    let socket = PathBuf::from(format!("/tmp/.X11-unix/X{}", &display[1..]));
+    let start = Instant::now();
+    while !socket.exists() && start.elapsed() < Duration::from_secs(10) {
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let Ok(log) = std::fs::File::create(dir.join("coatlab.log")) else {
+        println!("[real window] skipped: cannot create the app's log");
+        return;
+    };
+    let Ok(err) = log.try_clone() else { return };
+    let load_before = load_average();
+    let Ok(child) = Command::new(env!("CARGO_BIN_EXE_coatlab"))
+        .env("DISPLAY", &display)
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .env("COATLAB_STATE_DIR", &state)
+        .env("COATLAB_FRAME_LOG", &frames_path)
+        .env_remove("WAYLAND_DISPLAY")
+        .stdout(log)
+        .stderr(err)
+        .spawn()
+    else {
+        println!("[real window] skipped: coatlab did not start");
+        return;
+    };
+    let mut app = Reaped(child);
+    // The first frames build pipelines and fonts (seconds on lavapipe): not counted.
+    let warm_up = 5.0;
+    std::thread::sleep(Duration::from_secs_f64(warm_up + seconds));
+    let threads = thread_cpu_seconds(app.0.id());
+    let exited = app.0.try_wait().ok().flatten();
+    drop(app);
+    let load_after = load_average();
+    if let Some(status) = exited {
+        println!(
+            "[real window] coatlab exited early ({status}); see {}",
+            dir.join("coatlab.log").display()
+        );
+        return;
+    }
+    let text = std::fs::read_to_string(&frames_path).unwrap_or_default();
+    let frames: Vec<(f64, f64)> = text
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .filter_map(|l| {
+            let mut f = l.split_whitespace().map(|v| v.parse::<f64>());
+            Some((f.next()?.ok()?, f.next()?.ok()?))
+        })
+        .collect();
+    let Some(&(first, _)) = frames.first() else {
+        println!("[real window] no frames logged");
+        return;
+    };
+    let counted: Vec<(f64, f64)> = frames
+        .iter()
+        .copied()
+        .filter(|(t, _)| *t >= first + warm_up)
+        .collect();
+    if counted.len() < 2 {
+        println!(
+            "[real window] only {} frames after the warm-up",
+            counted.len()
+        );
+        return;
+    }
+    let span = counted[counted.len() - 1].0 - counted[0].0;
+    let intervals: Vec<f64> = counted
+        .windows(2)
+        .map(|w| (w[1].0 - w[0].0) * 1e3)
+        .collect();
+    let over = intervals.iter().filter(|&&ms| ms > 1000.0 / 30.0).count();
+    println!(
+        "[real window] load average before {load_before}, after {load_after}; {} frames in \
+         {span:.1} s after a {warm_up} s warm-up: {:.1} frames/s, {over} of {} intervals \
+         over 33.3 ms",
+        counted.len(),
+        (counted.len() - 1) as f64 / span,
+        intervals.len()
+    );
+    summary("[real window] frame interval", intervals);
+    summary(
+        "[real window] of which our UI pass",
+        counted.iter().map(|(_, ui)| *ui).collect(),
+    );
+    let wall = warm_up + seconds;
+    for (name, cpu) in threads.iter().take(8) {
+        println!(
+            "[real window] thread {name:<20} {cpu:6.2} s CPU in {wall:.0} s ({:.0} % of a core)",
+            100.0 * cpu / wall
+        );
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let option = |name: &str, default: usize| {
@@ -179,6 +378,11 @@ fn main() {
     };
     let seconds = option("--seconds", 10) as f64;
     let changes = option("--changes", 30);
+    let window_seconds = option("--real-window-seconds", 20) as f64;
+    if args.iter().any(|a| a == "--only-real-window") {
+        real_window(window_seconds);
+        return;
+    }
     println!(
         "cores: {}, load average before: {}",
         std::thread::available_parallelism()
@@ -198,6 +402,11 @@ fn main() {
     frame_times(&mut h, seconds, "single view");
     change_latency(&mut h, changes, "single view");
 
+    // The single view set to Phong (best fit): each change refits (ks, m cached).
+    select_model(&mut h, "Phong (best fit)");
+    change_latency(&mut h, changes, "single view, Phong (best fit)");
+    select_model(&mut h, "Paint model");
+
     if let Some(p) = h.state_mut().preview_mut() {
         p.set_compare(CompareMode::Models, CompareLayout::SideBySide);
     }
@@ -209,4 +418,18 @@ fn main() {
     frame_times(&mut h, seconds, "paint vs Phong, side by side");
     change_latency(&mut h, changes, "paint vs Phong, side by side");
     println!("load average after: {}", load_average());
+    if window_seconds > 0.0 {
+        real_window(window_seconds);
+    }
+}
+
+/// Picks the single view's model by its selectable label.
+fn select_model(h: &mut Harness<'static, CoatlabApp>, label: &str) {
+    let node = h.get_all_by_label(label).next();
+    match node {
+        Some(node) => node.click(),
+        None => panic!("no \"{label}\" to click in the preview's toolbar"),
+    }
+    h.step();
+    settle(h);
 }

@@ -12,6 +12,7 @@
 //! | [`storage`] | recent files, autosave and crash recovery |
 //! | [`dialogs`] | choosing files: the system file dialog (rfd, XDG portal or zenity) on its own thread, else the in-app browser |
 //! | [`file_browser`] | the in-app open/save browser |
+//! | [`frame_log`] | per-frame timestamps of the real window (`COATLAB_FRAME_LOG`) |
 //! | [`export`] | readings as CSV and JSON |
 //! | [`preview`] | the live path-traced preview on a background thread; scenes, lighting maps, export |
 //! | [`compare`] | comparison modes and layouts, the ΔE00 map and its legend |
@@ -23,6 +24,7 @@ pub mod curve_editor;
 pub mod dialogs;
 pub mod export;
 pub mod file_browser;
+pub mod frame_log;
 pub mod history;
 pub mod instruments_panel;
 pub mod paint_panel;
@@ -43,10 +45,18 @@ pub fn run(options: AppOptions) -> anyhow::Result<()> {
         renderer: eframe::Renderer::Wgpu,
         ..Default::default()
     };
+    let frame_log = frame_log::FrameLog::from_environment()?;
     eframe::run_native(
         "Coatlab",
         native,
-        Box::new(move |_cc| Ok(Box::new(CoatlabApp::new(options)))),
+        Box::new(move |_cc| {
+            let app = CoatlabApp::new(options);
+            let app: Box<dyn eframe::App> = match frame_log {
+                Some(log) => Box::new(frame_log::FrameLogged::new(app, log)),
+                None => Box::new(app),
+            };
+            Ok(app)
+        }),
     )
     .map_err(|e| anyhow::anyhow!("cannot open the Coatlab window: {e}"))
 }
