@@ -302,8 +302,17 @@ fn real_window(seconds: f64) {
     let mut app = Reaped(child);
     // The first frames build pipelines and fonts (seconds on lavapipe): not counted.
     let warm_up = 5.0;
-    std::thread::sleep(Duration::from_secs_f64(warm_up + seconds));
-    let threads = thread_cpu_seconds(app.0.id());
+    std::thread::sleep(Duration::from_secs_f64(warm_up));
+    let threads_before = thread_cpu_seconds(app.0.id());
+    std::thread::sleep(Duration::from_secs_f64(seconds));
+    // CPU after the warm-up only: lavapipe compiles its pipelines in the first frames.
+    let mut threads = thread_cpu_seconds(app.0.id());
+    for (name, cpu) in &mut threads {
+        if let Some((_, before)) = threads_before.iter().find(|(n, _)| n == name) {
+            *cpu -= before;
+        }
+    }
+    threads.sort_by(|a, b| b.1.total_cmp(&a.1));
     let exited = app.0.try_wait().ok().flatten();
     drop(app);
     let load_after = load_average();
@@ -358,11 +367,13 @@ fn real_window(seconds: f64) {
         "[real window] of which our UI pass",
         counted.iter().map(|(_, ui)| *ui).collect(),
     );
-    let wall = warm_up + seconds;
+    let frames_counted = (counted.len() - 1).max(1) as f64;
     for (name, cpu) in threads.iter().take(8) {
         println!(
-            "[real window] thread {name:<20} {cpu:6.2} s CPU in {wall:.0} s ({:.0} % of a core)",
-            100.0 * cpu / wall
+            "[real window] thread {name:<20} {cpu:6.2} s CPU in {seconds:.0} s ({:.0} % of a \
+             core), {:.1} ms per frame",
+            100.0 * cpu / seconds,
+            1e3 * cpu / frames_counted
         );
     }
 }
