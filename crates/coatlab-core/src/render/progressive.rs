@@ -499,14 +499,13 @@ impl ProgressiveRender {
         let lengths: Vec<[usize; 4]> = self.cache.tiles.iter().map(TileCache::lengths).collect();
         if first_sample < record_below {
             self.cache.paint_is_mirror = paint_is_mirror(&self.shading);
-            // Each tile's share of what the budget leaves beside the base's cache.
+            // What the budget leaves beside the caches held, shared by the tiles.
             let room = self
                 .cache_budget_bytes
-                .saturating_sub(self.base.as_ref().map_or(0, |b| b.cache.memory_bytes()));
-            let pixels = (f64::from(width) * f64::from(self.film.height())).max(1.0);
+                .saturating_sub(self.path_cache_memory_bytes());
+            let pool = Arc::new(std::sync::atomic::AtomicUsize::new(room));
             for cache in &mut self.cache.tiles {
-                let share = f64::from(cache.pixel_count()) / pixels;
-                cache.set_limit((room as f64 * share) as usize);
+                cache.set_pool(pool.clone());
             }
         }
         let rays: u64 = self

@@ -35,6 +35,9 @@
 //! [`PathCache::memory_bytes`]: one [`VertexRecord`] per stored vertex plus one
 //! small header per stored path. See `docs/rendering.md` for measured sizes.
 
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
 use rayon::prelude::*;
 use thiserror::Error;
 
@@ -92,7 +95,7 @@ pub struct TileCache {
     spectra: Vec<f32>,
     /// Heap bytes this tile may hold ([`TileCache::memory_bytes`]); `usize::MAX`:
     /// unbounded.
-    limit_bytes: usize,
+    pool: Option<Arc<AtomicUsize>>,
     /// A path did not fit under the limit in the pass being recorded: the pass's
     /// recordings are rolled back and recording stops (see
     /// [`PathCache::memory_bytes`]).
@@ -122,28 +125,24 @@ impl TileCache {
             origin,
             width,
             height,
-            limit_bytes: usize::MAX,
             ..Self::default()
         }
     }
 
-    /// Bounds this tile's heap memory to `bytes`.
-    pub(crate) fn set_limit(&mut self, bytes: usize) {
-        self.limit_bytes = bytes;
-    }
-
-    /// Pixels of the tile.
-    pub(crate) fn pixel_count(&self) -> u32 {
-        self.width * self.height
+    /// Draws this tile's growth from `pool`, the bytes left in the budget that all
+    /// tiles of a pass share (tiles differ a lot in how many paths touch the
+    /// paint, so a fixed share per tile would stop the recording early).
+    pub(crate) fn set_pool(&mut self, pool: Arc<AtomicUsize>) {
+        self.pool = Some(pool);
     }
 
     pub(crate) fn overflowed(&self) -> bool {
         self.overflowed
     }
 
-    /// Makes room for `extra` more items in the vector `which` picks without the
-    /// tile's memory passing its limit (growth is capped at the limit, so capacity,
-    /// not only length, stays under it). False when they do not fit.
+    /// Makes room for `extra` more items in the vector `which` picks, taking the
+    /// growth from the shared pool (capacity, not only length, is paid for, so the
+    /// heap memory never passes the budget). False when they do not fit.
     fn reserve(&mut self, which: Store, extra: usize) -> bool {
         let (len, capacity, size) = match which {
             Store::Paths => (
@@ -170,13 +169,27 @@ impl TileCache {
         if len + extra <= capacity {
             return true;
         }
-        let others = self.memory_bytes() - capacity * size;
-        let room = self.limit_bytes.saturating_sub(others) / size;
-        let wanted = (len + extra).max(capacity * 2).max(16).min(room);
-        if wanted < len + extra {
-            self.overflowed = true;
-            return false;
-        }
+        let doubled = (len + extra).max(capacity * 2).max(16);
+        let wanted = match &self.pool {
+            None => doubled,
+            Some(pool) => {
+                let take = |items: usize| {
+                    let bytes = (items - capacity) * size;
+                    pool.fetch_update(Ordering::Relaxed, Ordering::Relaxed, |left| {
+                        left.checked_sub(bytes)
+                    })
+                    .is_ok()
+                };
+                if take(doubled) {
+                    doubled
+                } else if take(len + extra) {
+                    len + extra
+                } else {
+                    self.overflowed = true;
+                    return false;
+                }
+            }
+        };
         match which {
             Store::Paths => self.paths.reserve_exact(wanted - len),
             Store::Vertices => self.vertices.reserve_exact(wanted - len),
