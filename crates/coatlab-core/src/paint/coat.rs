@@ -176,6 +176,81 @@ pub fn body_brdf<F: Float>(rho: F, n: F, tau: F, c: F, cos_i: F, cos_o: F) -> F 
     numerator / (n * n * (pi - rho * c))
 }
 
+/// How the renderer's tables obtain C(n, τ): the exact integral, or one of the
+/// shortcuts other renderers take. A speed/accuracy knob measured by
+/// `coatlab bench tradeoff` (docs/tradeoff.md); the tables are rebuilt only when a
+/// design changes, so the shortcuts save no render time, only table time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CoatIntegralMethod {
+    /// [`c_integral`]: closed-form TIR part plus adaptive quadrature, ~1e-13 relative.
+    #[default]
+    Exact,
+    /// A fixed `order`-point Gauss–Legendre rule over the inside cosine u ∈ [0, 1]
+    /// of 2π∫ R_int(u) u e^{−2τ/u} du, blind to the kink at the critical angle.
+    GaussLegendre {
+        /// Number of nodes (≥ 1).
+        order: usize,
+    },
+    /// C = π·F_dr(1/n) with the Egan–Hilgeman (1973) polynomial fit of the
+    /// internal diffuse Fresnel reflectance (Mitsuba's `fresnel_diffuse_reflectance`
+    /// for η < 1); the coat's absorption is ignored inside C, as Mitsuba's
+    /// `plastic` ignores it.
+    FittedFdr,
+}
+
+impl CoatIntegralMethod {
+    /// A short label for tables and the UI.
+    pub fn label(self) -> String {
+        match self {
+            CoatIntegralMethod::Exact => "exact C".to_owned(),
+            CoatIntegralMethod::GaussLegendre { order } => format!("C by {order}-point GL"),
+            CoatIntegralMethod::FittedFdr => "C = π·F_dr fit".to_owned(),
+        }
+    }
+}
+
+/// C(n, τ) by `method` (see [`CoatIntegralMethod`]).
+pub fn c_integral_with(method: CoatIntegralMethod, n: f64, tau: f64) -> f64 {
+    match method {
+        CoatIntegralMethod::Exact => c_integral(n, tau),
+        CoatIntegralMethod::GaussLegendre { order } => c_integral_gauss_legendre(order, n, tau),
+        CoatIntegralMethod::FittedFdr => PI * fitted_diffuse_reflectance(1.0 / n),
+    }
+}
+
+/// 2π∫₀¹ R_int(u) u e^{−2τ/u} du by a plain `order`-point Gauss–Legendre rule in the
+/// inside cosine u; R_int is 1 below the critical cosine (total internal
+/// reflection) and the Fresnel reflectance of the matching outside angle above it.
+pub fn c_integral_gauss_legendre(order: usize, n: f64, tau: f64) -> f64 {
+    if n <= 1.0 {
+        return 0.0;
+    }
+    let rule = crate::quadrature::GaussLegendre::new(order);
+    let integrand = |u: f64| {
+        let sin2_outside = n * n * (1.0 - u * u);
+        let r = if sin2_outside >= 1.0 {
+            1.0
+        } else {
+            reflectance((1.0 - sin2_outside).sqrt(), n)
+        };
+        r * u * attenuation(2.0 * tau, u)
+    };
+    2.0 * PI * rule.integrate(0.0, 1.0, integrand)
+}
+
+/// Hemispherical (cosine-weighted) Fresnel reflectance F_dr for relative index η,
+/// fitted: Egan & Hilgeman (1973) for η < 1, d'Eon & Irving (2011) for η ≥ 1 — the
+/// polynomials Mitsuba 3 and pbrt use. Quoted accuracy ≲ 0.6 % for 1/η up to 2.
+pub fn fitted_diffuse_reflectance(eta: f64) -> f64 {
+    if eta < 1.0 {
+        -1.4399 * eta * eta + 0.7099 * eta + 0.6681 + 0.0636 / eta
+    } else {
+        let i = 1.0 / eta;
+        0.919317 - 3.4793 * i + 6.75335 * i.powi(2) - 7.80989 * i.powi(3) + 4.98554 * i.powi(4)
+            - 1.36881 * i.powi(5)
+    }
+}
+
 /// The coat integrals of one (n, τ): what f_body and its albedo need besides the
 /// angles and ρ. Worth keeping when many evaluations share n and τ (each costs a
 /// few microseconds).
@@ -226,6 +301,43 @@ mod tests {
             assert!(c > previous && c < PI, "C({n}, 0) = {c}");
             previous = c;
         }
+    }
+
+    #[test]
+    fn shortcut_c_methods_have_their_stated_accuracy() {
+        // F_dr fit: within 1 % of the exact C at τ = 0 over paint indices; and it
+        // ignores absorption, so at τ = 0.5 it is far off (the knob's bias).
+        for n in [1.3, 1.45, 1.5, 1.6, 1.8, 2.0] {
+            let exact = c_integral(n, 0.0);
+            let fit = c_integral_with(CoatIntegralMethod::FittedFdr, n, 0.0);
+            assert!(
+                (fit / exact - 1.0).abs() < 0.01,
+                "n {n}: fit {fit} exact {exact}"
+            );
+        }
+        let fit = c_integral_with(CoatIntegralMethod::FittedFdr, 1.5, 0.5);
+        assert!(fit > 2.0 * c_integral(1.5, 0.5));
+        // Gauss–Legendre: converges to the exact C as the order grows, but slowly —
+        // R_int has a square-root kink at the critical angle that no fixed rule
+        // resolves (order 64 is still about 1 % off at n = 1.5).
+        for (n, tau) in [(1.5, 0.0), (1.5, 0.05), (1.3, 0.2)] {
+            let exact = c_integral(n, tau);
+            let error = |order| {
+                (c_integral_with(CoatIntegralMethod::GaussLegendre { order }, n, tau) / exact - 1.0)
+                    .abs()
+            };
+            let (e2, e8, e64) = (error(2), error(8), error(64));
+            assert!(e64 < 0.02, "n {n} τ {tau}: order 64 off by {e64}");
+            assert!(e64 < e8 && e8 < e2, "n {n} τ {tau}: {e2} {e8} {e64}");
+            assert!(
+                e2 > 0.02,
+                "n {n} τ {tau}: order 2 is a visible shortcut ({e2})"
+            );
+        }
+        assert_eq!(
+            c_integral_with(CoatIntegralMethod::Exact, 1.5, 0.1),
+            c_integral(1.5, 0.1)
+        );
     }
 
     #[test]

@@ -29,7 +29,9 @@
 
 use std::f64::consts::PI;
 
-use super::coat::{attenuation, body_brdf, c_integral, escape_integral_scaled};
+use super::coat::{
+    CoatIntegralMethod, attenuation, body_brdf, c_integral_with, escape_integral_scaled,
+};
 use super::fresnel::{cos_refracted, reflectance, reflectance_and_cos_refracted, transmittance};
 use super::gloss::{GlossError, GlossExponent, GlossGeometry, exponent_from_reading};
 use super::lobe::{
@@ -129,6 +131,8 @@ pub struct PaintModel {
     thickness_um: f64,
     gloss: GlossSetting,
     lobe: LobeKind,
+    /// How C is obtained for the tables (exact unless a benchmark asks otherwise).
+    coat_method: CoatIntegralMethod,
     // Derived.
     tau: Vec<f64>,
     c: Vec<f64>,
@@ -269,6 +273,7 @@ impl PaintModel {
             thickness_um: params.thickness_um,
             gloss: params.gloss,
             lobe: params.lobe,
+            coat_method: CoatIntegralMethod::Exact,
             tau: vec![0.0; len],
             c: vec![0.0; len],
             escape: vec![0.0; len],
@@ -361,6 +366,21 @@ impl PaintModel {
         }
     }
 
+    /// Sets how C is computed (a speed/accuracy knob; see [`CoatIntegralMethod`]):
+    /// coat integrals and body factor.
+    pub fn set_coat_integral_method(&mut self, method: CoatIntegralMethod) {
+        if method != self.coat_method {
+            self.coat_method = method;
+            self.derive_coat_integrals();
+            self.derive_body_factor();
+        }
+    }
+
+    /// How C is computed.
+    pub fn coat_integral_method(&self) -> CoatIntegralMethod {
+        self.coat_method
+    }
+
     fn derive_optical_depth(&mut self) {
         for (tau, k) in self.tau.iter_mut().zip(&self.absorption_per_um) {
             *tau = k * self.thickness_um;
@@ -371,7 +391,7 @@ impl PaintModel {
         self.counts.coat_integrals += 1;
         for i in 0..self.grid.len() {
             let (n, tau) = (self.index[i], self.tau[i]);
-            self.c[i] = c_integral(n, tau);
+            self.c[i] = c_integral_with(self.coat_method, n, tau);
             self.escape[i] = escape_integral_scaled(n, tau) * (-tau).exp();
         }
     }

@@ -14,6 +14,7 @@
 //! - [`material`]: the design as paint or Phong, and the scene's simple materials;
 //! - [`integrator`]: the path tracer;
 //! - [`progressive`]: passes over tiles on all cores, restarts, noise estimates;
+//! - [`image_error`]: the error of a render against a reference (ΔE00 as displayed);
 //! - [`reshade`]: a paint edit's picture from the recorded paths, without tracing.
 
 pub mod geometry;
@@ -22,6 +23,7 @@ pub mod sampler;
 pub mod camera;
 pub mod environment;
 pub mod film;
+pub mod image_error;
 pub mod integrator;
 pub mod material;
 pub mod progressive;
