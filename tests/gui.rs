@@ -759,6 +759,58 @@ fn a_scene_opens_through_the_in_app_browser() {
     });
 }
 
+#[test]
+fn choosing_a_quality_preset_sets_the_render_knobs_and_shows_its_measured_figures() {
+    use coatlab_app::gui::quality::QualityPresets;
+    let presets = QualityPresets::embedded().expect("the committed presets parse");
+    // The preset with the coarsest resolution shows the knobs most plainly.
+    let chosen = presets
+        .presets
+        .iter()
+        .max_by_key(|p| (p.resolution_divisor, std::cmp::Reverse(p.samples_per_pixel)))
+        .expect("at least one preset");
+    let mut h = preview_harness(false);
+    wait_until(&mut h, "the first refined image", |app| {
+        app.preview_status().is_some_and(|s| !s.coarse)
+    });
+    let full = {
+        let s = h.state().preview_status().expect("a frame");
+        (s.width, s.height)
+    };
+    h.get_by_role_and_label(Role::ComboBox, "Quality").click();
+    steps(&mut h, 2);
+    h.get_by_label(&chosen.name).click();
+    steps(&mut h, 2);
+    let quality = preview(h.state()).quality();
+    assert_eq!(quality.knobs, chosen.knobs());
+    assert_eq!(
+        quality.preset().map(|p| p.name.as_str()),
+        Some(chosen.name.as_str())
+    );
+    // Its measured error and cost are on screen.
+    h.get_by_label_contains(&format!(
+        "measured ΔE00 mean {:.2}, p95 {:.2}, bias {:.2} · {:.2} s CPU",
+        chosen.mean_delta_e, chosen.p95_delta_e, chosen.bias_delta_e, chosen.cpu_seconds
+    ));
+    // The preview renders at the preset's resolution and stops at its samples.
+    let divided = chosen.knobs().divide(full);
+    wait_until(&mut h, "the preset's image, converged", |app| {
+        app.preview_status().is_some_and(|s| {
+            !s.coarse
+                && (s.width, s.height) == divided
+                && s.samples_per_pixel >= chosen.samples_per_pixel
+        })
+    });
+    steps(&mut h, 20);
+    let s = h.state().preview_status().expect("a frame");
+    assert_eq!(
+        s.samples_per_pixel, chosen.samples_per_pixel,
+        "stops at the preset's spp"
+    );
+    // The status line states the error left: noise plus the measured bias floor.
+    h.get_by_label_contains(&format!("bias floor {:.2}", chosen.bias_delta_e));
+}
+
 /// Stands in for the system's file dialog: answers every request with `outcome`,
 /// after `gate` lets it (a person taking their time), and records the requests.
 struct FakeDialog {

@@ -41,6 +41,9 @@ enum Command {
     Gloss(cmd::gloss::GlossArgs),
     /// Render a design on a car (progressive spectral path tracer) to PNG or EXR.
     Render(cmd::render::RenderArgs),
+    /// Reference renders and the speed/accuracy sweep (docs/tradeoff.md).
+    #[command(subcommand)]
+    Bench(cmd::bench::BenchCommand),
 }
 
 fn main() -> ExitCode {
@@ -57,6 +60,7 @@ fn main() -> ExitCode {
         Command::Measure(args) => cmd::measure::run(args, &mut stdout),
         Command::Gloss(args) => cmd::gloss::run(args, &mut stdout),
         Command::Render(args) => cmd::render::run(args, &mut stdout),
+        Command::Bench(command) => cmd::bench::run(command, &mut stdout),
     }
     .and_then(|()| stdout.flush().map_err(anyhow::Error::from));
     match result {

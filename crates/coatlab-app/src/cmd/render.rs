@@ -78,7 +78,7 @@ fn parse_model(text: &str) -> Result<ShadingModel, String> {
     }
 }
 
-fn parse_size(text: &str) -> Result<(u32, u32), String> {
+pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
     let message = || format!("'{text}' is not a size: use WIDTHxHEIGHT, e.g. 960x540");
     let (w, h) = text.split_once(['x', 'X', '×']).ok_or_else(message)?;
     let w: u32 = w.trim().parse().map_err(|_| message())?;

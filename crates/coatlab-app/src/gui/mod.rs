@@ -15,6 +15,7 @@
 //! | [`frame_log`] | per-frame timestamps of the real window (`COATLAB_FRAME_LOG`) |
 //! | [`export`] | readings as CSV and JSON |
 //! | [`preview`] | the live path-traced preview on a background thread; scenes, lighting maps, export |
+//! | [`quality`] | quality presets from the measured speed/accuracy front (docs/tradeoff.md) |
 //! | [`compare`] | comparison modes and layouts, the ΔE00 map and its legend |
 
 pub mod analysis;
@@ -30,6 +31,7 @@ pub mod instruments_panel;
 pub mod paint_panel;
 pub mod plots;
 pub mod preview;
+pub mod quality;
 pub mod storage;
 
 pub use app::{AppOptions, CoatlabApp};

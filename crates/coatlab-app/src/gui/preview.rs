@@ -43,13 +43,14 @@ use coatlab_core::spectrum::WavelengthGrid;
 use egui::{Color32, RichText, Ui};
 
 use super::compare::{CompareLayout, CompareMode, DeltaEMap, SCALES, legend_ui};
+use super::quality::{QualityKnobs, QualitySelector};
 
 /// Wavelengths per path: as `coatlab render` by default.
-const PREVIEW_WAVELENGTHS: usize = 32;
+pub(super) const PREVIEW_WAVELENGTHS: usize = 32;
 /// The coarse first pass renders at 1/COARSE_FACTOR of the resolution.
 const COARSE_FACTOR: u32 = 4;
 /// Refinement stops here; the image is then as good as the preview gets.
-const MAX_SPP: u32 = 1024;
+pub(super) const MAX_SPP: u32 = 1024;
 /// Samples per pixel whose paths the first view records for re-shading paint
 /// edits (`ProgressiveRender::edit_shading`; memory bounded by the core's
 /// default path-cache budget).
@@ -127,6 +128,7 @@ enum Command {
     Zoom(f32),
     Pan(f32, f32),
     Export(PathBuf),
+    Quality(QualityKnobs),
 }
 
 impl Command {
@@ -237,6 +239,8 @@ pub struct Preview {
     change_sent_at: Option<Instant>,
     last_latency: Option<Duration>,
     events: Vec<PreviewEvent>,
+    /// The quality preset and the knobs it set (see [`super::quality`]).
+    quality: QualitySelector,
 }
 
 impl Preview {
@@ -283,7 +287,13 @@ impl Preview {
             change_sent_at: None,
             last_latency: None,
             events: Vec::new(),
+            quality: QualitySelector::default(),
         }
+    }
+
+    /// The quality choice and the knobs in force.
+    pub fn quality(&self) -> &QualitySelector {
+        &self.quality
     }
 
     fn send(&mut self, command: Command) {
@@ -512,6 +522,13 @@ impl Preview {
         let mut requests = Vec::new();
         self.poll(ui.ctx());
         self.toolbar_ui(ui, presets, &mut requests);
+        if let Some(knobs) = ui
+            .horizontal(|ui| super::quality::quality_ui(ui, &mut self.quality))
+            .inner
+        {
+            self.send(Command::Quality(knobs));
+            self.size = (0, 0);
+        }
         self.scene_ui(ui, &mut requests);
 
         let status_height = 22.0;
@@ -526,7 +543,10 @@ impl Preview {
             _ => rect.size(),
         };
         let ppp = ui.ctx().pixels_per_point();
-        let want = fit(pane_size.x * ppp, pane_size.y * ppp);
+        let want = self
+            .quality
+            .knobs
+            .divide(fit(pane_size.x * ppp, pane_size.y * ppp));
         if want != self.size && want.0 > 16 && want.1 > 16 {
             self.size = want;
             self.send(Command::Resize(want.0, want.1));
@@ -965,6 +985,9 @@ impl Preview {
                 map.mean, map.p95
             );
         }
+        if let Some(left) = self.quality.error_left(s.noise_delta_e) {
+            line += &format!("  ·  {left}");
+        }
         if let Some(l) = self.last_latency {
             line += &format!("  ·  last change shown after {} ms", l.as_millis());
         }
@@ -1076,9 +1099,34 @@ struct State {
     /// The first view's design and its paint model, kept so an edit rebuilds only
     /// the derived tables it touches (`PaintDesign::update_model`).
     paint_a: Option<(PaintDesign, PaintModel)>,
+    /// Wavelengths, sample target and resolution of the quality preset.
+    quality: QualityKnobs,
 }
 
 impl State {
+    /// Applies a quality preset's knobs; a new wavelength count rebuilds the
+    /// lighting and the paint model on the new grid. Says why when it cannot.
+    fn set_quality(&mut self, quality: QualityKnobs) -> Option<String> {
+        self.quality = quality;
+        if quality.wavelengths == self.grid.len() {
+            return None;
+        }
+        let grid = WavelengthGrid::visible(quality.wavelengths).ok()?;
+        match super::quality::environment_on(&self.environment, &grid) {
+            Some(environment) => {
+                self.grid = grid;
+                self.environment = Arc::new(environment);
+                self.image_environment = None;
+                self.paint_a = None;
+                None
+            }
+            None => Some(format!(
+                "quality: an environment map stays at {} wavelengths (choose a built-in lighting to change them)",
+                self.grid.len()
+            )),
+        }
+    }
+
     fn paint_materials(&self) -> Vec<u32> {
         match self.paint_override {
             Some(i) => vec![i],
@@ -1185,6 +1233,7 @@ impl Worker {
             epoch: 0,
             display: DisplaySettings::default(),
             paint_a: None,
+            quality: QualityKnobs::default(),
         };
         let Some(shading) = state.shading_a() else {
             return self.error("preview: the design is invalid".into());
@@ -1208,7 +1257,7 @@ impl Worker {
         loop {
             // Wait for work when converged; otherwise just look for commands.
             let mut pending = Vec::new();
-            if !restart && a.samples_per_pixel() >= MAX_SPP {
+            if !restart && a.samples_per_pixel() >= state.quality.max_spp {
                 match self.commands.recv() {
                     Ok(c) => pending.push(c),
                     Err(_) => return,
@@ -1225,6 +1274,8 @@ impl Worker {
             let mut new_shading = false;
             let mut new_scene = false;
             let mut new_env = false;
+            // A quality preset changed the wavelength count: new renders.
+            let mut new_grid = false;
             // Whether every change was a paint edit that samples of the previous
             // design can show at once (re-shading): not the gloss (a new lobe is
             // covered poorly by the old one's samples), the view, the lighting or
@@ -1232,6 +1283,8 @@ impl Worker {
             let mut reshadeable = true;
             let gloss_before = state.design.gloss;
             for Envelope { epoch, command } in pending {
+                // Lighting is built on the current grid (a quality preset may change it).
+                let grid = state.grid;
                 state.epoch = state.epoch.max(epoch);
                 if command.changes_picture() {
                     restart = true;
@@ -1284,11 +1337,34 @@ impl Worker {
                         new_shading = true;
                     }
                     Command::Resize(w, h) => state.size = (w, h),
+                    Command::Quality(q) => {
+                        if let Some(e) = state.set_quality(q) {
+                            self.error(e);
+                        }
+                        new_grid |= state.grid != grid;
+                        new_shading = true;
+                    }
                     Command::Orbit(yaw, pitch) => state.camera.orbit(yaw, pitch),
                     Command::Zoom(f) => state.camera.zoom(f),
                     Command::Pan(dx, dy) => state.camera.pan(dx, dy),
                     Command::Export(path) => self.export(&path, &a, b.as_ref(), &state.display),
                 }
+            }
+            if new_grid && let Some(shading) = state.shading_a() {
+                match ProgressiveRender::new(
+                    state.scene.clone(),
+                    state.environment.clone(),
+                    shading,
+                    state.camera.clone(),
+                    RenderSettings::default(),
+                ) {
+                    Ok(r) => {
+                        a = r;
+                        a.set_path_cache_samples(RESHADE_SAMPLES);
+                    }
+                    Err(e) => self.error(format!("preview: {e}")),
+                }
+                b = None;
             }
             if new_env {
                 for r in std::iter::once(&mut a).chain(b.as_mut()) {
@@ -1602,7 +1678,7 @@ impl Worker {
         // samples per pixel, which keeps its share of the time small.
         let spp = a.samples_per_pixel();
         let map = match b {
-            Some((b, _)) if coarse || spp.is_power_of_two() || spp >= MAX_SPP => {
+            Some((b, _)) if coarse || spp.is_power_of_two() || spp >= state.quality.max_spp => {
                 DeltaEMap::between(a.film(), b.film(), &display).map(|mut m| {
                     m.samples_per_pixel = spp;
                     m

@@ -1,0 +1,329 @@
+//! Quality presets of the preview, taken from the measured speed/accuracy trade
+//! (docs/tradeoff.md): each preset is a point on the Pareto front that
+//! `coatlab bench tradeoff` measured, stored with its error and cost in
+//! `assets/quality-presets.toml` (written by the bench, embedded here, validated at
+//! start-up). Choosing one sets the preview's wavelength count, sample target and
+//! resolution; the status line then shows the error left: the noise estimate of the
+//! image so far plus the preset's measured bias floor.
+
+use std::sync::OnceLock;
+
+use coatlab_core::render::environment::{Environment, EnvironmentKind};
+use coatlab_core::spectrum::WavelengthGrid;
+use egui::Ui;
+use serde::Deserialize;
+
+/// The presets file, as the bench wrote it.
+pub const PRESETS_TOML: &str = include_str!("../../../../assets/quality-presets.toml");
+
+/// Knobs of the preview that a preset sets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct QualityKnobs {
+    /// Wavelengths per path.
+    pub wavelengths: usize,
+    /// Refinement stops at this many samples per pixel.
+    pub max_spp: u32,
+    /// The preview renders at 1/divisor of its size and is scaled up on screen.
+    pub resolution_divisor: u32,
+}
+
+impl Default for QualityKnobs {
+    /// The preview's behaviour without a preset: 32 wavelengths (as
+    /// `coatlab render`), refinement to 1024 spp, full resolution.
+    fn default() -> Self {
+        Self {
+            wavelengths: super::preview::PREVIEW_WAVELENGTHS,
+            max_spp: super::preview::MAX_SPP,
+            resolution_divisor: 1,
+        }
+    }
+}
+
+impl QualityKnobs {
+    /// The render size for a pane of `size` pixels.
+    pub fn divide(&self, size: (u32, u32)) -> (u32, u32) {
+        let d = self.resolution_divisor.max(1);
+        ((size.0 / d).max(1), (size.1 / d).max(1))
+    }
+}
+
+/// One preset with what the bench measured for it.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+pub struct QualityPreset {
+    pub name: String,
+    pub wavelengths: usize,
+    pub samples_per_pixel: u32,
+    pub resolution_divisor: u32,
+    /// CPU time (both cores) of one protocol-sized image, s.
+    pub cpu_seconds: f64,
+    /// Wall time of one protocol-sized image on the shared 2-core machine, s.
+    pub wall_seconds: f64,
+    /// Mean per-pixel ΔE00 against the reference.
+    pub mean_delta_e: f64,
+    /// 95th percentile of the per-pixel ΔE00.
+    pub p95_delta_e: f64,
+    /// Largest region-mean ΔE00: the error that more samples do not remove.
+    pub bias_delta_e: f64,
+}
+
+impl QualityPreset {
+    /// The preview knobs of this preset.
+    pub fn knobs(&self) -> QualityKnobs {
+        QualityKnobs {
+            wavelengths: self.wavelengths,
+            max_spp: self.samples_per_pixel,
+            resolution_divisor: self.resolution_divisor,
+        }
+    }
+
+    /// The measured figures, in words.
+    pub fn figures(&self, presets: &QualityPresets) -> String {
+        format!(
+            "{}: {} λ, {} spp{} · measured ΔE00 mean {:.2}, p95 {:.2}, bias {:.2} · {:.2} s CPU per {}×{} image",
+            self.name,
+            self.wavelengths,
+            self.samples_per_pixel,
+            if self.resolution_divisor > 1 {
+                format!(", 1/{} resolution", self.resolution_divisor)
+            } else {
+                String::new()
+            },
+            self.mean_delta_e,
+            self.p95_delta_e,
+            self.bias_delta_e,
+            self.cpu_seconds,
+            presets.protocol_width,
+            presets.protocol_height
+        )
+    }
+}
+
+/// The presets file.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+pub struct QualityPresets {
+    /// The protocol case the figures were measured on.
+    pub case: String,
+    pub protocol_width: u32,
+    pub protocol_height: u32,
+    #[serde(rename = "preset")]
+    pub presets: Vec<QualityPreset>,
+}
+
+impl QualityPresets {
+    /// Parses and validates a presets file; errors name the preset and field.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let presets: QualityPresets =
+            toml::from_str(text).map_err(|e| format!("quality presets: {e}"))?;
+        if presets.presets.is_empty() {
+            return Err("quality presets: the file has no [[preset]]".into());
+        }
+        for (i, p) in presets.presets.iter().enumerate() {
+            let bad = |field: &str, why: &str| {
+                Err(format!(
+                    "quality preset {} ('{}'): {field} {why}",
+                    i + 1,
+                    p.name
+                ))
+            };
+            if p.name.trim().is_empty() {
+                return bad("name", "is empty");
+            }
+            if presets.presets[..i].iter().any(|q| q.name == p.name) {
+                return bad("name", "is used twice");
+            }
+            if WavelengthGrid::visible(p.wavelengths).is_err() {
+                return bad("wavelengths", "must be 1 to 401");
+            }
+            if p.samples_per_pixel == 0 {
+                return bad("samples_per_pixel", "must be at least 1");
+            }
+            if !(1..=16).contains(&p.resolution_divisor) {
+                return bad("resolution_divisor", "must be 1 to 16");
+            }
+            for (field, v) in [
+                ("cpu_seconds", p.cpu_seconds),
+                ("wall_seconds", p.wall_seconds),
+                ("mean_delta_e", p.mean_delta_e),
+                ("p95_delta_e", p.p95_delta_e),
+                ("bias_delta_e", p.bias_delta_e),
+            ] {
+                if !(v.is_finite() && v >= 0.0) {
+                    return bad(field, "must be a finite number ≥ 0");
+                }
+            }
+        }
+        Ok(presets)
+    }
+
+    /// The embedded presets (parsed once); the error says what is wrong with the
+    /// committed file.
+    pub fn embedded() -> Result<&'static QualityPresets, &'static str> {
+        static PARSED: OnceLock<Result<QualityPresets, String>> = OnceLock::new();
+        PARSED
+            .get_or_init(|| QualityPresets::parse(PRESETS_TOML))
+            .as_ref()
+            .map_err(String::as_str)
+    }
+}
+
+/// The preview's quality choice: a preset, or the built-in defaults.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct QualitySelector {
+    /// Index into the embedded presets; `None`: the defaults.
+    pub selected: Option<usize>,
+    pub knobs: QualityKnobs,
+}
+
+impl QualitySelector {
+    /// The chosen preset, if any.
+    pub fn preset(&self) -> Option<&'static QualityPreset> {
+        let presets = QualityPresets::embedded().ok()?;
+        presets.presets.get(self.selected?)
+    }
+
+    /// The error left, in words, for the status line: the noise estimate plus the
+    /// preset's measured bias floor (ΔE00 add up at most linearly).
+    pub fn error_left(&self, noise_delta_e: Option<f64>) -> Option<String> {
+        let preset = self.preset()?;
+        Some(match noise_delta_e {
+            Some(noise) => format!(
+                "error left ≈ ΔE00 {:.2} (noise {noise:.2} + {} bias floor {:.2})",
+                noise + preset.bias_delta_e,
+                preset.name,
+                preset.bias_delta_e
+            ),
+            None => format!("{} bias floor ΔE00 {:.2}", preset.name, preset.bias_delta_e),
+        })
+    }
+}
+
+/// The quality selector: a combo box of the presets with each one's measured
+/// figures; returns the knobs to apply when the choice changed.
+pub fn quality_ui(ui: &mut Ui, selector: &mut QualitySelector) -> Option<QualityKnobs> {
+    let presets = match QualityPresets::embedded() {
+        Ok(p) => p,
+        Err(e) => {
+            ui.label(egui::RichText::new(e).color(ui.visuals().error_fg_color));
+            return None;
+        }
+    };
+    let mut selected = selector.selected;
+    let shown = selector
+        .preset()
+        .map(|p| p.name.clone())
+        .unwrap_or_else(|| "Default".to_owned());
+    egui::ComboBox::from_label("Quality")
+        .selected_text(shown)
+        .show_ui(ui, |ui| {
+            ui.selectable_value(&mut selected, None, "Default")
+                .on_hover_text(
+                    "32 wavelengths, refined to 1024 spp, full resolution (not measured)",
+                );
+            for (i, p) in presets.presets.iter().enumerate() {
+                ui.selectable_value(&mut selected, Some(i), &p.name)
+                    .on_hover_text(p.figures(presets));
+            }
+        });
+    if let Some(p) = selector.preset() {
+        ui.label(egui::RichText::new(p.figures(presets)).weak());
+    }
+    if selected == selector.selected {
+        return None;
+    }
+    selector.selected = selected;
+    selector.knobs = selector
+        .preset()
+        .map(QualityPreset::knobs)
+        .unwrap_or_default();
+    Some(selector.knobs)
+}
+
+/// `environment` rebuilt on `grid`, for a change of wavelength count; `None` for
+/// an image map (its file would have to be read again: the caller keeps the grid).
+pub fn environment_on(environment: &Environment, grid: &WavelengthGrid) -> Option<Environment> {
+    Some(match environment.kind() {
+        EnvironmentKind::Studio => Environment::studio(grid),
+        EnvironmentKind::Booth(illuminant) => Environment::booth(illuminant, grid),
+        EnvironmentKind::Outdoor => Environment::outdoor(grid),
+        EnvironmentKind::Uniform => Environment::uniform(grid),
+        EnvironmentKind::Image => return None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_embedded_presets_parse_and_are_ordered_by_cost_and_error() {
+        let presets = QualityPresets::embedded().expect("the committed presets are valid");
+        assert!(presets.presets.len() >= 2);
+        let first = &presets.presets[0];
+        let last = presets.presets.last().unwrap();
+        assert!(first.cpu_seconds <= last.cpu_seconds);
+        assert!(first.mean_delta_e >= last.mean_delta_e);
+    }
+
+    #[test]
+    fn bad_preset_files_are_refused_naming_the_field() {
+        let good = "case = \"c\"\nprotocol_width = 320\nprotocol_height = 180\n[[preset]]\nname = \"A\"\nwavelengths = 8\nsamples_per_pixel = 4\nresolution_divisor = 1\ncpu_seconds = 0.1\nwall_seconds = 0.05\nmean_delta_e = 3.0\np95_delta_e = 6.0\nbias_delta_e = 0.5\n";
+        assert!(QualityPresets::parse(good).is_ok());
+        let e =
+            QualityPresets::parse(&good.replace("wavelengths = 8", "wavelengths = 0")).unwrap_err();
+        assert!(e.contains("'A'") && e.contains("wavelengths"), "{e}");
+        let e = QualityPresets::parse(&good.replace("cpu_seconds = 0.1", "cpu_seconds = -1.0"))
+            .unwrap_err();
+        assert!(e.contains("cpu_seconds"), "{e}");
+        assert!(QualityPresets::parse("case = 1").is_err());
+    }
+
+    /// The presets sit on the Pareto front of the committed table (docs/tradeoff.md):
+    /// no row of the presets' case is both faster and more accurate.
+    #[test]
+    fn each_preset_is_on_the_front_of_the_committed_table() {
+        let presets = QualityPresets::embedded().unwrap();
+        let doc = include_str!("../../../../docs/tradeoff.md");
+        // | case | knobs | λ | spp | CPU s | wall s | mean | p95 | body | top | floor | bias | front |
+        let rows: Vec<(String, usize, u32, f64, f64, bool)> = doc
+            .lines()
+            .filter(|l| l.starts_with(&format!("| {} |", presets.case)))
+            .filter_map(|l| {
+                let c: Vec<&str> = l.split('|').map(str::trim).collect();
+                Some((
+                    c.get(2)?.to_string(),
+                    c.get(3)?.parse().ok()?,
+                    c.get(4)?.parse().ok()?,
+                    c.get(5)?.parse().ok()?,
+                    c.get(7)?.parse().ok()?,
+                    c.get(13)? == &"★",
+                ))
+            })
+            .collect();
+        assert!(
+            rows.len() > 5,
+            "the table of '{}' is in docs/tradeoff.md",
+            presets.case
+        );
+        for p in &presets.presets {
+            let knobs = if p.resolution_divisor > 1 {
+                format!("1/{} res", p.resolution_divisor)
+            } else {
+                "spectral".to_owned()
+            };
+            let row = rows
+                .iter()
+                .find(|r| r.0 == knobs && r.1 == p.wavelengths && r.2 == p.samples_per_pixel)
+                .unwrap_or_else(|| panic!("preset {} is a row of the table", p.name));
+            assert!(row.5, "preset {} is marked on the front", p.name);
+            let dominated = rows
+                .iter()
+                .any(|r| r.3 <= row.3 && r.4 <= row.4 && (r.3 < row.3 || r.4 < row.4));
+            assert!(!dominated, "preset {} is dominated", p.name);
+            assert!(
+                (row.4 - p.mean_delta_e).abs() < 0.01,
+                "preset {} error",
+                p.name
+            );
+        }
+    }
+}
