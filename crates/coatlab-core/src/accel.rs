@@ -11,7 +11,10 @@
 //!   [`TriangleMesh`] plus the triangles copied in slot order (for `Simd8`, lane by
 //!   lane in the packs its leaves point to), with
 //!   [`Accel::closest_hit`] (shading rays, picking) and [`Accel::occluded`] (any hit,
-//!   for shadow rays).
+//!   for shadow rays), and [`Accel::closest_hits`], the same closest-hit queries for a
+//!   slice of rays, which the `Simd8` layout traces several at a time on one thread
+//!   (bit for bit the single-ray results; about 1.5 times the rays per second on
+//!   incoherent rays, see docs/benchmarks.md).
 //!
 //! Layouts ([`BvhLayout`]): the default, `Simd8`, is our own CPU-first 8-wide BVH
 //! (binned-SAH build, f32 child boxes tested 8 at a time, leaves of up to 8

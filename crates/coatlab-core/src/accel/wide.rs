@@ -18,6 +18,9 @@
 //! - **Traversal**: closest hit in front-to-back order (hit children sorted by entry
 //!   distance, the farther ones pushed with their distance so that they are skipped
 //!   once a closer hit is known); any hit without sorting, stopping at the first hit.
+//!   The closest-hit traversal is a resumable state ([`Traversal`]) advanced one node
+//!   or leaf at a time ([`WideBvh::closest_step`]), so that a batch can interleave
+//!   the steps of several rays.
 //!
 //! # Robustness
 //!
