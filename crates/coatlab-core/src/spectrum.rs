@@ -174,6 +174,23 @@ impl WavelengthGrid {
         }
     }
 
+    /// The three linear-sRGB channels R, G, B as a three-sample "grid" (nominal
+    /// wavelengths 1, 2, 3 nm, which no spectral grid uses): the renderer's RGB
+    /// shortcut ([`crate::render::rgb`]); the film, the lighting and the RGB
+    /// upsampler recognise it and work in linear sRGB.
+    pub const fn linear_srgb() -> Self {
+        Self {
+            start_nm: 1.0,
+            step_nm: 1.0,
+            len: 3,
+        }
+    }
+
+    /// Whether this is [`Self::linear_srgb`].
+    pub fn is_linear_srgb(&self) -> bool {
+        *self == Self::linear_srgb()
+    }
+
     /// `count` samples over the visible range: 81 gives [`Self::reference`]; any other
     /// count places the samples at the centres of `count` equal bins tiling
     /// 380–780 nm (3 gives 446.67, 580, 713.33 nm).

@@ -203,12 +203,16 @@ impl Environment {
     /// A paint light booth: an overhead diffuser emitting `illuminant`, mid-grey
     /// walls (ρ = 0.2) lit by it as a dim uniform background, grey floor ρ = 0.2.
     pub fn booth(illuminant: Illuminant, grid: &WavelengthGrid) -> Self {
-        let spectrum: Vec<f32> = illuminant
-            .spd(grid)
-            .values()
-            .iter()
-            .map(|&v| (v / 100.0) as f32)
-            .collect();
+        let spectrum: Vec<f32> = if grid.is_linear_srgb() {
+            rgb_light(illuminant.spd(&WavelengthGrid::reference()).values())
+        } else {
+            illuminant
+                .spd(grid)
+                .values()
+                .iter()
+                .map(|&v| (v / 100.0) as f32)
+                .collect()
+        };
         let (width, height) = (1, 64);
         let mut b = Builder::new(grid, vec![spectrum], width, height);
         for row in 0..height / 2 {
@@ -543,6 +547,15 @@ pub struct RgbUpsampler {
 impl RgbUpsampler {
     /// The bases on `grid`.
     pub fn new(grid: &WavelengthGrid) -> Self {
+        if grid.is_linear_srgb() {
+            // The RGB shortcut: a colour is its own "spectrum"; (1, 1, 1) has
+            // luminance 1 under the sRGB luminance weights.
+            let unit = |i: usize| (0..3).map(|k| if k == i { 1.0 } else { 0.0 }).collect();
+            return Self {
+                reflectance_bases: std::array::from_fn(unit),
+                emission_bases: std::array::from_fn(unit),
+            };
+        }
         let colorimeter = Colorimeter::new(Illuminant::D65, Observer::Cie1931TwoDegree, grid);
         let unit = [
             LinSrgb::new(1.0, 0.0, 0.0),
@@ -1365,6 +1378,9 @@ fn cie_clear_sky(zenith: f64, gamma: f64, zenith_sun: f64) -> f64 {
 /// span if wider), split between the two grid samples around each wavelength
 /// (linear-interpolation hats, the end hats extended), normalised to sum 1.
 pub fn luminance_weights(grid: &WavelengthGrid) -> Vec<f32> {
+    if grid.is_linear_srgb() {
+        return crate::render::rgb::LUMINANCE.to_vec();
+    }
     let n = grid.len();
     let mut w = vec![0.0f64; n];
     let first = 380.0f64.min(grid.start_nm()).floor() as i32;
@@ -1389,10 +1405,21 @@ pub fn luminance_weights(grid: &WavelengthGrid) -> Vec<f32> {
 }
 
 fn daylight_on_grid(cct_k: f64, grid: &WavelengthGrid) -> Vec<f32> {
-    daylight_spd(cct_k)
-        .expect("the CCT constants are in the CIE daylight range")
-        .to_grid(grid)
+    let spd = daylight_spd(cct_k).expect("the CCT constants are in the CIE daylight range");
+    if grid.is_linear_srgb() {
+        return rgb_light(spd.to_grid(&WavelengthGrid::reference()).values());
+    }
+    spd.to_grid(grid)
         .values()
+        .iter()
+        .map(|&v| (v / 100.0) as f32)
+        .collect()
+}
+
+/// A light's relative spectrum on the reference grid (100 at 560 nm) as the linear
+/// sRGB triple of the RGB shortcut, scaled like the spectra (1 at 560 nm).
+fn rgb_light(reference_values: &[f64]) -> Vec<f32> {
+    crate::render::rgb::reduce_emission(reference_values)
         .iter()
         .map(|&v| (v / 100.0) as f32)
         .collect()

@@ -132,6 +132,17 @@ impl Weights {
     /// illuminant left out: each 5 nm table row's x̄, ȳ, z̄ splits between the two grid
     /// samples around it, the end samples' hats extended as constants.
     fn new(grid: WavelengthGrid) -> Self {
+        if grid.is_linear_srgb() {
+            // The RGB shortcut: channels are linear sRGB, XYZ by the sRGB matrix.
+            let rows = crate::render::rgb::xyz_rows();
+            let row = |r: usize| rows[r].iter().map(|&v| v as f32).collect();
+            return Self {
+                grid,
+                x: row(0),
+                y: row(1),
+                z: row(2),
+            };
+        }
         let observer = Observer::Cie1931TwoDegree;
         let [x, y, z] = hat_weighted_cmfs(observer, &grid, |_| 1.0);
         // ∫ȳ over 380–780 nm: every table row's hat shares sum to 1, so the ȳ

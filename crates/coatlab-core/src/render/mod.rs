@@ -15,6 +15,7 @@
 //! - [`integrator`]: the path tracer;
 //! - [`progressive`]: passes over tiles on all cores, restarts, noise estimates;
 //! - [`image_error`]: the error of a render against a reference (ΔE00 as displayed);
+//! - [`rgb`]: the RGB shortcut (three linear-sRGB channels instead of wavelengths);
 //! - [`reshade`]: a paint edit's picture from the recorded paths, without tracing.
 
 pub mod geometry;
@@ -28,3 +29,4 @@ pub mod integrator;
 pub mod material;
 pub mod progressive;
 pub mod reshade;
+pub mod rgb;
