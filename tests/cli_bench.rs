@@ -46,6 +46,10 @@ fn a_quick_tradeoff_writes_the_table_plot_and_presets_and_reuses_its_reference()
         text.contains("| default car, studio | spectral | 8 | 4 |"),
         "{text}"
     );
+    assert!(
+        text.contains("| default car, studio | RGB | 3 | 4 |"),
+        "{text}"
+    );
     assert!(text.contains('★'), "a Pareto front is marked");
     let svg = std::fs::read_to_string(dir.join("tradeoff.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("<circle"), "{svg}");

@@ -25,6 +25,7 @@ use coatlab_core::render::film::DisplaySettings;
 use coatlab_core::render::image_error::{ImageError, Region, RegionMasks, XyzImage, image_error};
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
+use coatlab_core::render::rgb;
 use coatlab_core::spectrum::WavelengthGrid;
 
 use super::render::{environment, scene};
@@ -204,6 +205,8 @@ struct Setting {
     lobe: Option<LobeKind>,
     /// Render at 1/scale of the protocol size, then upsample.
     scale: u32,
+    /// The RGB shortcut (`render::rgb`) instead of `wavelengths` wavelengths.
+    rgb: bool,
 }
 
 impl Setting {
@@ -214,17 +217,28 @@ impl Setting {
             coat: CoatIntegralMethod::Exact,
             lobe: None,
             scale: 1,
+            rgb: false,
+        }
+    }
+
+    fn rgb(spp: u32) -> Self {
+        Self {
+            rgb: true,
+            ..Self::spectral(3, spp)
         }
     }
 
     /// Whether the app's quality presets can apply this setting (they change
     /// samples, wavelengths and resolution, never the model).
     fn app_applicable(&self) -> bool {
-        self.coat == CoatIntegralMethod::Exact && self.lobe.is_none()
+        self.coat == CoatIntegralMethod::Exact && self.lobe.is_none() && !self.rgb
     }
 
     fn knob_label(&self) -> String {
         let mut parts = Vec::new();
+        if self.rgb {
+            parts.push("RGB".to_owned());
+        }
         if self.coat != CoatIntegralMethod::Exact {
             parts.push(self.coat.label());
         }
@@ -252,6 +266,9 @@ fn default_settings() -> Vec<Setting> {
         for spp in [4, 16, 64] {
             settings.push(Setting::spectral(wavelengths, spp));
         }
+    }
+    for spp in [4, 16, 64] {
+        settings.push(Setting::rgb(spp));
     }
     for coat in [
         CoatIntegralMethod::GaussLegendre { order: 2 },
@@ -283,6 +300,7 @@ fn quick_settings() -> Vec<Setting> {
         Setting::spectral(8, 1),
         Setting::spectral(8, 4),
         Setting::spectral(3, 4),
+        Setting::rgb(4),
         Setting {
             coat: CoatIntegralMethod::FittedFdr,
             ..Setting::spectral(8, 4)
@@ -456,12 +474,19 @@ fn render(
 ) -> anyhow::Result<(XyzImage, Cost)> {
     let start = Instant::now();
     let cpu_start = process_cpu_seconds();
-    let grid = WavelengthGrid::visible(setting.wavelengths)
-        .with_context(|| format!("{} wavelengths", setting.wavelengths))?;
-    let mut model = prepared
-        .design
-        .model(grid)
-        .context("cannot build the paint model")?;
+    let (grid, model) = if setting.rgb {
+        let model = rgb::paint_model(&prepared.design).context("cannot reduce the paint to RGB")?;
+        (WavelengthGrid::linear_srgb(), model)
+    } else {
+        let grid = WavelengthGrid::visible(setting.wavelengths)
+            .with_context(|| format!("{} wavelengths", setting.wavelengths))?;
+        let model = prepared
+            .design
+            .model(grid)
+            .context("cannot build the paint model")?;
+        (grid, model)
+    };
+    let mut model = model;
     model.set_coat_integral_method(setting.coat);
     if let Some(lobe) = setting.lobe {
         model.set_lobe(lobe);
