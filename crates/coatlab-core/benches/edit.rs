@@ -32,7 +32,9 @@ use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{
     EditOutcome, ProgressiveRender, RenderScene, RenderSettings,
 };
-use coatlab_core::render::reshade::{BaseImage, Reshaded, reshade_prepared};
+use coatlab_core::render::reshade::{
+    BaseImage, Reshaded, reshade_prepared, reshade_prepared_samples,
+};
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::spectrum::{TabulatedSpectrum, WavelengthGrid};
@@ -247,6 +249,54 @@ fn main() {
                 cpu_ms() - c
             );
         }
+        // A first image from only the first m of the K = 4 recorded samples per
+        // pixel, against all of them, interleaved in one run so that the load
+        // varies alike for both: re-shade, the copy `edit_estimate` makes, the
+        // conversion to display pixels.
+        let shadings: Vec<_> = edits.iter().map(|(_, d)| setup.shading(d)).collect();
+        let mut totals = [[0.0f64; 2]; 3];
+        let rounds = 3;
+        for round in 0..rounds {
+            for (name, shading) in edits.iter().map(|(n, _)| n).zip(&shadings) {
+                for (slot, m) in [1u32, 2, 4].into_iter().enumerate() {
+                    let t = Instant::now();
+                    let c = cpu_ms();
+                    let image = reshade_prepared_samples(
+                        &base_image,
+                        render.film(),
+                        render.path_cache(),
+                        &setup.environment,
+                        shading,
+                        true,
+                        m,
+                    )
+                    .expect("reshade");
+                    let reshade_cpu = cpu_ms() - c;
+                    let shown = image.xyz.clone();
+                    let pixels = display_xyz(&shown, &display);
+                    std::hint::black_box((image, pixels));
+                    let (wall, cpu) = (ms(t), cpu_ms() - c);
+                    totals[slot][0] += wall;
+                    totals[slot][1] += cpu;
+                    if round == 0 {
+                        println!(
+                            "parts: {name}: first image from {m} of 4 recorded samples {wall:.1} ms wall, {cpu:.1} ms CPU (re-shade {reshade_cpu:.1} ms CPU); load {}",
+                            load()
+                        );
+                    }
+                }
+            }
+        }
+        let runs = (rounds * edits.len()) as f64;
+        for (slot, m) in [1u32, 2, 4].into_iter().enumerate() {
+            println!(
+                "parts: first image from {m} of 4 samples, mean of {runs} (rho, k, h, n x {rounds}): {:.1} ms wall, {:.1} ms CPU, CPU ratio to all 4: {:.2}",
+                totals[slot][0] / runs,
+                totals[slot][1] / runs,
+                totals[slot][1] / totals[2][1]
+            );
+        }
+        println!("parts: load {}", load());
         let mut film = render.film().clone();
         let t = Instant::now();
         let c = cpu_ms();

@@ -13,7 +13,7 @@ use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{
     EditOutcome, FRESH_ONLY_WEIGHT, ProgressiveRender, RenderScene, RenderSettings,
 };
-use coatlab_core::render::reshade::{ReshadeError, Reshaded};
+use coatlab_core::render::reshade::{BaseImage, ReshadeError, Reshaded, reshade_prepared_samples};
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::spectrum::{TabulatedSpectrum, WavelengthGrid};
@@ -467,4 +467,110 @@ fn design_edits_recompute_only_what_they_touch() {
     assert_eq!(a.coat_integrals, b.coat_integrals, "gloss recomputed C");
     assert_eq!(a.angular_tables, b.angular_tables);
     assert_eq!(a.exponent, b.exponent + 1);
+}
+
+/// A re-shade from only the first m recorded samples per pixel
+/// (`reshade_prepared_samples`) is unbiased: after an edit it agrees with a fresh
+/// render of the edited design within the noise of both, and its reported
+/// variance covers its extra noise.
+#[test]
+fn partial_reshades_agree_with_fresh_renders() {
+    let base = red();
+    let (render, scene) = render(&base, ShadingModel::Paint, 5, 64, 4);
+    let mut edited = base.clone();
+    edited
+        .set_albedo(base.albedo().iter().map(|r| r * 0.5).collect())
+        .expect("albedo");
+    let edited_shading = shading(&scene, &edited, ShadingModel::Paint);
+    let image = BaseImage::of(render.film());
+    let environment = Environment::studio(&grid());
+    let (fresh, _) = self::render(&edited, ShadingModel::Paint, 99, 64, 0);
+    let full = render.reshade(&edited_shading).expect("reshade");
+    let mean_variance =
+        |r: &Reshaded| r.variance_y.iter().map(|&v| f64::from(v)).sum::<f64>() / r.xyz.len() as f64;
+    for m in [1, 2] {
+        let partial = reshade_prepared_samples(
+            &image,
+            render.film(),
+            render.path_cache(),
+            &environment,
+            &edited_shading,
+            true,
+            m,
+        )
+        .expect("reshade");
+        let (outliers, total_z) = compare(&partial, &fresh);
+        println!(
+            "first {m} of 4: beyond 4σ {:.2} %, total Z {total_z:.2}, mean variance {:.3e} (all 4: {:.3e})",
+            outliers * 100.0,
+            mean_variance(&partial),
+            mean_variance(&full)
+        );
+        assert!(
+            outliers < 0.01,
+            "m = {m}: {:.2} % beyond 4σ",
+            outliers * 100.0
+        );
+        assert!(total_z.abs() < 4.0, "m = {m}: total Z {total_z}");
+        assert!(
+            mean_variance(&partial) > mean_variance(&full),
+            "m = {m}: fewer samples must report more noise"
+        );
+        // Not the full re-shade under another name.
+        assert_ne!(partial.xyz, full.xyz, "m = {m}");
+    }
+    // m at or beyond K is the full re-shade, exactly.
+    let all = reshade_prepared_samples(
+        &image,
+        render.film(),
+        render.path_cache(),
+        &environment,
+        &edited_shading,
+        true,
+        9,
+    )
+    .expect("reshade");
+    assert_eq!(all.xyz, full.xyz);
+    assert_eq!(all.variance_y, full.variance_y);
+}
+
+/// Which recorded sample a path belongs to does not depend on how the samples were
+/// split into passes: recorded in passes of 1 or of 3 + 1, the re-shades from the
+/// first m samples are identical (the sampler is deterministic per pixel sample).
+#[test]
+fn partial_reshades_do_not_depend_on_the_pass_sizes() {
+    let base = red();
+    let mut edited = base.clone();
+    edited.set_thickness(80.0).expect("thickness");
+    let environment = Environment::studio(&grid());
+    let reshaded = |passes: &[u32]| {
+        let (mut render, scene) = render(&base, ShadingModel::Paint, 7, 0, 4);
+        for &samples in passes {
+            render.render_pass(samples);
+        }
+        assert_eq!(render.path_cache().samples_per_pixel(), 4);
+        let image = BaseImage::of(render.film());
+        let shading = shading(&scene, &edited, ShadingModel::Paint);
+        (1..=4)
+            .map(|m| {
+                reshade_prepared_samples(
+                    &image,
+                    render.film(),
+                    render.path_cache(),
+                    &environment,
+                    &shading,
+                    true,
+                    m,
+                )
+                .expect("reshade")
+            })
+            .collect::<Vec<_>>()
+    };
+    let ones = reshaded(&[1, 1, 1, 1, 1, 1]);
+    let threes = reshaded(&[3, 1, 2]);
+    for (m, (a, b)) in ones.iter().zip(&threes).enumerate() {
+        assert_eq!(a.xyz, b.xyz, "first {} samples", m + 1);
+        assert_eq!(a.variance_y, b.variance_y, "first {} samples", m + 1);
+    }
+    assert_ne!(ones[0].xyz, ones[3].xyz);
 }

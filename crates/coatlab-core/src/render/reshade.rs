@@ -30,6 +30,14 @@
 //! cache). A change of gloss between finite lobes is unbiased but noisy (the old
 //! lobe's samples cover a new, sharper lobe poorly): the application traces fresh.
 //!
+//! # A first image from fewer samples
+//!
+//! The mean over any fixed subset of the K recorded samples is as unbiased as
+//! the mean over all K, so [`reshade_prepared_samples`] re-shades only the first
+//! m of them (each stored path knows its pixel sample's index) for a first image
+//! at about m/K of the replay's cost, with a correspondingly larger variance;
+//! the full re-shade or fresh passes refine it.
+//!
 //! # Memory
 //!
 //! [`PathCache::memory_bytes`]: one [`VertexRecord`] per stored vertex plus one
@@ -75,6 +83,9 @@ pub enum ReshadeError {
 struct CachedPath {
     /// Pixel index within the tile.
     pixel: u32,
+    /// Index of the pixel sample it was traced for (for a re-shade from the first
+    /// samples only, [`reshade_prepared_samples`]).
+    sample: u32,
     first_vertex: u32,
     vertex_count: u32,
     escaped: bool,
@@ -100,6 +111,12 @@ pub struct TileCache {
     /// recordings are rolled back and recording stops (see
     /// [`PathCache::memory_bytes`]).
     overflowed: bool,
+    /// Samples per pixel recorded into this tile so far (the next pass's first
+    /// sample index, which the recorder is not told).
+    samples: u32,
+    /// [`Self::lengths`] and [`Self::samples`] when the pass being recorded began,
+    /// so that rolling the pass back also rolls back the sample count.
+    pass_start: Option<([usize; 4], u32)>,
 }
 
 /// A path whose only painted vertex is its first, the common case (the camera
@@ -109,6 +126,8 @@ pub struct TileCache {
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct CompactPath {
     pixel: u32,
+    /// Index of the pixel sample it was traced for.
+    sample: u32,
     /// Index of its first spectrum in [`TileCache::spectra`].
     spectra: u32,
     wo: [f32; 3],
@@ -205,6 +224,8 @@ impl TileCache {
         self.compact.clear();
         self.spectra.clear();
         self.overflowed = false;
+        self.samples = 0;
+        self.pass_start = None;
     }
 
     /// What is stored, to roll back a cancelled pass.
@@ -218,6 +239,13 @@ impl TileCache {
     }
 
     pub(crate) fn truncate(&mut self, lengths: [usize; 4]) {
+        // Called with the lengths from before a pass (cancelled or over the
+        // budget): that pass's samples are not recorded.
+        if let Some((start, samples)) = self.pass_start
+            && start == lengths
+        {
+            self.samples = samples;
+        }
         self.paths.truncate(lengths[0]);
         self.vertices.truncate(lengths[1]);
         self.compact.truncate(lengths[2]);
@@ -257,6 +285,11 @@ pub(crate) struct TileRecorder<'a> {
     tracer: &'a PathTracer<'a>,
     buffers: ReplayBuffers,
     start: usize,
+    /// The tile's recorded samples per pixel when this pass began.
+    first_sample: u32,
+    /// The last pixel finished (tile index) and its sample's offset in this pass:
+    /// a pass traces all its samples of a pixel in a row.
+    last: Option<(u32, u32)>,
     painted_vertices: u32,
     first_painted: bool,
     escaped: bool,
@@ -265,11 +298,15 @@ pub(crate) struct TileRecorder<'a> {
 impl<'a> TileRecorder<'a> {
     pub(crate) fn new(cache: &'a mut TileCache, tracer: &'a PathTracer<'a>) -> Self {
         let start = cache.vertices.len();
+        let first_sample = cache.samples;
+        cache.pass_start = Some((cache.lengths(), first_sample));
         Self {
             cache,
             tracer,
             buffers: ReplayBuffers::new(tracer.len()),
             start,
+            first_sample,
+            last: None,
             painted_vertices: 0,
             first_painted: false,
             escaped: false,
@@ -288,17 +325,24 @@ impl<'a> TileRecorder<'a> {
     /// contributed `xyz`: kept if it touched the paint.
     pub(crate) fn finish(&mut self, x: u32, y: u32, xyz: Xyz) {
         let start = self.start;
+        let pixel = (y - self.cache.origin[1]) * self.cache.width + (x - self.cache.origin[0]);
+        let offset = match self.last {
+            Some((last, offset)) if last == pixel => offset + 1,
+            _ => 0,
+        };
+        self.last = Some((pixel, offset));
+        let sample = self.first_sample + offset;
+        self.cache.samples = self.cache.samples.max(sample + 1);
         if self.painted_vertices == 0 || self.cache.overflowed {
             self.cache.vertices.truncate(start);
             return;
         }
-        let pixel = (y - self.cache.origin[1]) * self.cache.width + (x - self.cache.origin[0]);
         let xyz = [xyz.x as f32, xyz.y as f32, xyz.z as f32];
         if self.painted_vertices == 1 && self.first_painted {
             let len = self.tracer.len();
             if self.cache.reserve(Store::Compact, 1) && self.cache.reserve(Store::Spectra, 2 * len)
             {
-                self.store_compact(pixel, xyz);
+                self.store_compact(pixel, sample, xyz);
             }
             self.cache.vertices.truncate(start);
             return;
@@ -309,6 +353,7 @@ impl<'a> TileRecorder<'a> {
         }
         self.cache.paths.push(CachedPath {
             pixel,
+            sample,
             first_vertex: start as u32,
             vertex_count: (self.cache.vertices.len() - start) as u32,
             escaped: self.escaped,
@@ -318,7 +363,7 @@ impl<'a> TileRecorder<'a> {
 
     /// Stores the path begun at `self.start` (painted at its first vertex only) in
     /// compact form.
-    fn store_compact(&mut self, pixel: u32, xyz: [f32; 3]) {
+    fn store_compact(&mut self, pixel: u32, sample: u32, xyz: [f32; 3]) {
         let environment = self.tracer.environment();
         let shading = self.tracer.shading();
         let floor = self.tracer.floor_material();
@@ -367,6 +412,7 @@ impl<'a> TileRecorder<'a> {
             .extend_from_slice(&self.buffers.out[..len]);
         self.cache.compact.push(CompactPath {
             pixel,
+            sample,
             spectra: offset as u32,
             wo: first.wo,
             light_wi: first.light.map(|l| l.wi),
@@ -534,6 +580,37 @@ pub fn reshade_prepared(
     shading: &Shading,
     floor: bool,
 ) -> Result<Reshaded, ReshadeError> {
+    reshade_prepared_samples(
+        base,
+        film,
+        cache,
+        environment,
+        shading,
+        floor,
+        cache.samples_per_pixel,
+    )
+}
+
+/// [`reshade_prepared`] from only the first `samples` recorded samples of every
+/// pixel (clamped to 1 ..= [`PathCache::samples_per_pixel`]): about
+/// `samples`/K of the work, for a first image the moment an edit arrives.
+///
+/// Each recorded sample alone gives an unbiased estimate of the difference the
+/// edit makes, so the mean over the first `samples` of them does too, only
+/// noisier; the image from all K (or fresh passes, which the editing flow blends
+/// in) follows. The variance of Y it reports covers that noise: with two or more
+/// samples their sample variance over `samples`; from a single sample, where no
+/// variance can be estimated, the squared difference itself (its expectation is
+/// the variance plus the squared mean: an overestimate, never an underestimate).
+pub fn reshade_prepared_samples(
+    base: &BaseImage,
+    film: &Film,
+    cache: &PathCache,
+    environment: &Environment,
+    shading: &Shading,
+    floor: bool,
+    samples: u32,
+) -> Result<Reshaded, ReshadeError> {
     if shading.grid() != film.grid() || environment.grid() != film.grid() {
         return Err(ReshadeError::GridChanged);
     }
@@ -546,41 +623,85 @@ pub fn reshade_prepared(
         .floor()
         .filter(|_| floor)
         .map(|f| SimpleMaterial::lambertian(&f.reflectance));
-    let k = f64::from(cache.samples_per_pixel.max(1));
-    let width = base.width;
-    // The copy of the base overlaps the replay of the tiles.
-    let ((mut xyz, mut variance_y), tiles) = rayon::join(
-        || (base.xyz.clone(), base.variance_y.clone()),
-        || {
-            cache
-                .tiles
-                .par_iter()
-                .map(|tile| replay_tile(tile, film, environment, shading, floor_material.as_ref()))
-                .collect::<Vec<_>>()
-        },
-    );
-    for (tile, result) in cache.tiles.iter().zip(tiles) {
-        let sums = result?;
-        for (p, s) in sums.iter().enumerate() {
-            if s[4] == 0.0 && s[1] == 0.0 && s[0] == 0.0 && s[2] == 0.0 {
-                continue;
-            }
-            let (tx, ty) = (p as u32 % tile.width, p as u32 / tile.width);
-            let i = ((tile.origin[1] + ty) * width + tile.origin[0] + tx) as usize;
-            // Mean and variance of the difference over the K recorded samples (the
-            // paths not stored have a difference of exactly 0).
-            for c in 0..3 {
-                xyz[i][c] += (s[c] / k) as f32;
-            }
-            if k > 1.0 {
-                let mean = s[1] / k;
-                let var = ((s[4] - k * mean * mean) / (k - 1.0)).max(0.0) / k;
-                variance_y[i] += var as f32;
-            }
-        }
+    let used = samples.clamp(1, cache.samples_per_pixel.max(1));
+    let k = f64::from(used);
+    let width = base.width as usize;
+    let mut xyz = vec![[0.0f32; 3]; base.xyz.len()];
+    let mut variance_y = vec![0.0f32; base.variance_y.len()];
+    // Work by strips of tiles (runs of tiles on the same rows, in the order of
+    // `Film::tiles`): each strip owns its rows of the output, copies the base into
+    // them and adds its tiles' differences, with one tile-sized scratch of sums
+    // per strip. (Image-sized f64 sums and a serial merge were a third of the
+    // re-shade's time.)
+    let mut strips: Vec<Strip<'_>> = Vec::new();
+    let (mut xyz_rest, mut var_rest) = (&mut xyz[..], &mut variance_y[..]);
+    let mut tiles = &cache.tiles[..];
+    let mut row = 0usize;
+    while let Some(first) = tiles.first() {
+        let run = tiles
+            .iter()
+            .take_while(|t| t.origin[1] == first.origin[1] && t.height == first.height)
+            .count();
+        assert_eq!(
+            first.origin[1] as usize, row,
+            "path cache tiles are not in row-major strips"
+        );
+        let rows = first.height as usize;
+        let (x, x_rest) = std::mem::take(&mut xyz_rest).split_at_mut(rows * width);
+        let (v, v_rest) = std::mem::take(&mut var_rest).split_at_mut(rows * width);
+        strips.push((&tiles[..run], x, v, row));
+        (xyz_rest, var_rest, tiles) = (x_rest, v_rest, &tiles[run..]);
+        row += rows;
     }
+    // Rows no tile covers (an empty cache): the base as it is.
+    let covered = row * width;
+    xyz_rest.copy_from_slice(&base.xyz[covered..]);
+    var_rest.copy_from_slice(&base.variance_y[covered..]);
+    strips
+        .into_par_iter()
+        .try_for_each(|(tiles, xyz_rows, var_rows, row)| {
+            let start = row * width;
+            xyz_rows.copy_from_slice(&base.xyz[start..start + xyz_rows.len()]);
+            var_rows.copy_from_slice(&base.variance_y[start..start + var_rows.len()]);
+            let mut buffers = ReplayBuffers::new(shading.len());
+            let mut sums: Vec<DifferenceSums> = Vec::new();
+            for tile in tiles {
+                sums.clear();
+                sums.resize((tile.width * tile.height) as usize, [0.0; 4]);
+                replay_tile(
+                    tile,
+                    film,
+                    environment,
+                    shading,
+                    floor_material.as_ref(),
+                    used,
+                    &mut buffers,
+                    &mut sums,
+                )?;
+                for (p, s) in sums.iter().enumerate() {
+                    if s[3] == 0.0 && s[1] == 0.0 && s[0] == 0.0 && s[2] == 0.0 {
+                        continue;
+                    }
+                    let (tx, ty) = (p % tile.width as usize, p / tile.width as usize);
+                    let i = ty * width + tile.origin[0] as usize + tx;
+                    let (v, var) = (&mut xyz_rows[i], &mut var_rows[i]);
+                    // Mean and variance of the difference over the samples used (the
+                    // paths not stored have a difference of exactly 0).
+                    for c in 0..3 {
+                        v[c] += (s[c] / k) as f32;
+                    }
+                    if used > 1 {
+                        let mean = s[1] / k;
+                        *var += (((s[3] - k * mean * mean) / (k - 1.0)).max(0.0) / k) as f32;
+                    } else if cache.samples_per_pixel > 1 {
+                        *var += s[3] as f32;
+                    }
+                }
+            }
+            Ok::<(), ReshadeError>(())
+        })?;
     Ok(Reshaded {
-        width,
+        width: base.width,
         height: base.height,
         xyz,
         variance_y,
@@ -593,20 +714,27 @@ pub(crate) fn paint_is_mirror(shading: &Shading) -> bool {
     shading.design().delta_reflectance([0.0, 0.0, 1.0], &mut f)
 }
 
-/// Per pixel: Σ ΔX, Σ ΔY, Σ ΔZ, Σ ΔX², Σ ΔY², Σ ΔZ² over its stored paths.
-type DifferenceSums = [f64; 6];
+/// A run of tiles on the same rows, the output rows they cover (XYZ, variance of
+/// Y) and the first of those rows.
+type Strip<'a> = (&'a [TileCache], &'a mut [[f32; 3]], &'a mut [f32], usize);
 
-/// The [`DifferenceSums`] of every pixel of a tile.
+/// Per pixel: Σ ΔX, Σ ΔY, Σ ΔZ, Σ ΔY² over its stored paths.
+type DifferenceSums = [f64; 4];
+
+/// Adds the [`DifferenceSums`] of every pixel of a tile, from the paths of its
+/// first `samples` samples, into `sums` (one per pixel of the tile).
+#[allow(clippy::too_many_arguments)]
 fn replay_tile(
     tile: &TileCache,
     film: &Film,
     environment: &Environment,
     shading: &Shading,
     floor: Option<&SimpleMaterial>,
-) -> Result<Vec<DifferenceSums>, ReshadeError> {
+    samples: u32,
+    buffers: &mut ReplayBuffers,
+    sums: &mut [DifferenceSums],
+) -> Result<(), ReshadeError> {
     let len = shading.len();
-    let mut sums = vec![[0.0f64; 6]; (tile.width * tile.height) as usize];
-    let mut buffers = ReplayBuffers::new(len);
     let mut add = |pixel: u32, new: Xyz, old: [f32; 3]| {
         let d = [
             new.x - f64::from(old[0]),
@@ -616,14 +744,14 @@ fn replay_tile(
         let s = &mut sums[pixel as usize];
         for c in 0..3 {
             s[c] += d[c];
-            s[c + 3] += d[c] * d[c];
         }
+        s[3] += d[1] * d[1];
     };
-    for path in &tile.compact {
+    for path in tile.compact.iter().filter(|p| p.sample < samples) {
         let spectra = &tile.spectra[path.spectra as usize..][..2 * len];
         let (light, rest) = spectra.split_at(len);
         let material = shading.design();
-        let ReplayBuffers { out, f, .. } = &mut buffers;
+        let ReplayBuffers { out, f, .. } = &mut *buffers;
         match path.light_wi {
             Some(wi) => {
                 material.eval(wi, path.wo, f);
@@ -649,20 +777,13 @@ fn replay_tile(
         }
         add(path.pixel, film.xyz_of(out), path.xyz);
     }
-    for path in &tile.paths {
+    for path in tile.paths.iter().filter(|p| p.sample < samples) {
         let vertices = &tile.vertices
             [path.first_vertex as usize..(path.first_vertex + path.vertex_count) as usize];
-        replay_path(
-            vertices,
-            path.escaped,
-            environment,
-            shading,
-            floor,
-            &mut buffers,
-        )?;
+        replay_path(vertices, path.escaped, environment, shading, floor, buffers)?;
         add(path.pixel, film.xyz_of(&buffers.out), path.xyz);
     }
-    Ok(sums)
+    Ok(())
 }
 
 struct ReplayBuffers {
