@@ -1000,3 +1000,89 @@ fn the_real_system_dialog_falls_back_where_the_machine_has_none() {
     });
     assert!(has_notice(h.state(), false, "No system file dialog ("));
 }
+
+/// The comparison shares the work: the second view is the first view's paths
+/// re-shaded, the window says so, and a design compared with itself shows no
+/// difference at all (not noise), while paint against Phong still differs.
+#[test]
+fn the_comparison_re_shades_the_first_views_paths() {
+    use coatlab_app::gui::compare::{CompareLayout, CompareMode};
+    use coatlab_app::gui::preview::SecondSource;
+    let mut h = preview_harness(false);
+    steps(&mut h, 2);
+    h.state_mut()
+        .preview_mut()
+        .expect("preview")
+        .set_compare(CompareMode::Models, CompareLayout::DeltaE);
+    wait_until(&mut h, "paint and Phong from shared samples", |app| {
+        compared(app, 4)
+    });
+    steps(&mut h, 2);
+    let p = preview(h.state());
+    assert!(
+        matches!(
+            p.second_status().and_then(|s| s.source.clone()),
+            Some(SecondSource::Shared { recorded_spp }) if recorded_spp >= 1
+        ),
+        "{:?}",
+        p.second_status()
+    );
+    h.get_by_label_contains("Shared samples: the second view re-shades");
+    let map = preview(h.state()).delta_e_map().expect("map").clone();
+    assert!(map.p95 > 0.5, "paint and Phong differ: p95 {}", map.p95);
+
+    // The current design as the second design: the same paths with the same
+    // shading, so the map is zero everywhere, from the first pass on.
+    let design = h.state().design().clone();
+    let epoch = preview(h.state()).status().map(|s| s.epoch).unwrap_or(0);
+    {
+        let p = h.state_mut().preview_mut().expect("preview");
+        p.set_second_design("Itself", &design);
+        p.set_compare(CompareMode::Designs, CompareLayout::DeltaE);
+    }
+    wait_until(&mut h, "the design against itself", |app| {
+        compared(app, 2)
+            && preview(app).status().is_some_and(|s| s.epoch > epoch)
+            && preview(app)
+                .second_design()
+                .is_some_and(|(l, _)| l == "Itself")
+    });
+    let map = preview(h.state()).delta_e_map().expect("map");
+    assert_eq!(
+        (map.mean, map.max),
+        (0.0, 0.0),
+        "a design against itself from shared samples"
+    );
+    h.get_by_label_contains("difference ΔE00 mean 0.00, 95 % 0.00");
+}
+
+/// An ideal-mirror paint cannot be re-shaded into Phong (a delta bounce has no
+/// lobe to re-weight): the comparison falls back to two renders and says why.
+#[test]
+fn a_mirror_paint_is_compared_through_independent_renders() {
+    use coatlab_app::gui::compare::{CompareLayout, CompareMode};
+    use coatlab_app::gui::preview::SecondSource;
+    use coatlab_core::paint::gloss::GlossExponent;
+    let mut h = preview_harness(false);
+    steps(&mut h, 2);
+    let mut mirror = h.state().design().clone();
+    mirror.gloss.gu = 1000.0;
+    assert!(matches!(mirror.exponent(), Ok(GlossExponent::Mirror)));
+    h.state_mut().set_design(mirror);
+    steps(&mut h, 2);
+    h.state_mut()
+        .preview_mut()
+        .expect("preview")
+        .set_compare(CompareMode::Models, CompareLayout::SideBySide);
+    wait_until(&mut h, "the mirror against Phong, rendered apart", |app| {
+        compared(app, 2)
+            && preview(app).second_status().is_some_and(|s| {
+                matches!(&s.source, Some(SecondSource::Independent { reason })
+                    if reason.contains("ideal-mirror"))
+            })
+    });
+    steps(&mut h, 2);
+    h.get_by_label_contains("Independent renders (same camera and seed): an ideal-mirror");
+    let map = preview(h.state()).delta_e_map().expect("map");
+    assert!(map.p95 > 0.5, "a mirror is not Phong: p95 {}", map.p95);
+}

@@ -2,8 +2,8 @@
 //! panes are laid out, and the ΔE00 map between them (per-pixel CIEDE2000 of the
 //! displayed colours, as a false-colour image with its scale).
 
-use coatlab_core::colour::ciede2000;
-use coatlab_core::render::film::{DisplaySettings, Film};
+use coatlab_core::colour::{Xyz, ciede2000};
+use coatlab_core::render::film::{DisplaySettings, Film, display_lab_of_xyz};
 use egui::{Color32, Ui};
 use rayon::prelude::*;
 
@@ -94,6 +94,46 @@ impl DeltaEMap {
                 })
             })
             .collect();
+        Self::of_values(width, height, values)
+    }
+
+    /// [`Self::between`] for two images given as mean XYZ per pixel (row-major,
+    /// `width` × `height`): the comparison's panes re-shaded from one set of paths.
+    pub fn between_xyz(
+        width: u32,
+        height: u32,
+        a: &[[f32; 3]],
+        b: &[[f32; 3]],
+        display: &DisplaySettings,
+    ) -> Option<DeltaEMap> {
+        let n = (width as usize) * (height as usize);
+        if a.len() != n || b.len() != n || n == 0 {
+            return None;
+        }
+        let lab = |v: [f32; 3]| {
+            display_lab_of_xyz(
+                Xyz::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2])),
+                display,
+            )
+        };
+        let values: Vec<f32> = a
+            .par_iter()
+            .zip(b.par_iter())
+            .map(|(&va, &vb)| {
+                if va == vb {
+                    // The same paths with the same value (the backdrop, or a design
+                    // against itself): 0 without two colour conversions.
+                    0.0
+                } else {
+                    ciede2000(lab(va), lab(vb)) as f32
+                }
+            })
+            .collect();
+        Self::of_values(width, height, values)
+    }
+
+    /// The map of per-pixel `values` with its statistics.
+    fn of_values(width: u32, height: u32, values: Vec<f32>) -> Option<DeltaEMap> {
         let mut sorted: Vec<f32> = values.iter().copied().filter(|v| v.is_finite()).collect();
         if sorted.is_empty() {
             return None;

@@ -10,10 +10,15 @@
 //! bytes) in a shared slot and asks egui for a repaint; the UI uploads the newest
 //! images when there are some.
 //!
-//! Comparisons render a second view with the same scene, lighting, camera and seed
-//! (so the random numbers of a pixel's samples are the same in both views and the
-//! difference comes from the models or designs, not from noise), one pass of each
-//! in turn, shown with the same exposure. Files (glTF scenes, environment maps) are
+//! Comparisons share the work: the first view records its paths
+//! ([`COMPARE_CACHE_SAMPLES`] samples per pixel, within the core's path-cache
+//! budget) and the second view is those same paths re-shaded with the second
+//! model or design (`ProgressiveRender::reshade_recorded`), so the difference
+//! between the panes carries only the noise of the difference, not that of two
+//! renders. Where re-shading cannot apply (a paint that is an ideal mirror on
+//! one side only) the second view is rendered on its own with the same scene,
+//! lighting, camera and seed, one pass of each in turn, and the UI says so. Both
+//! are shown with the same exposure. Files (glTF scenes, environment maps) are
 //! read on the render thread too; what happens is reported back as events the app
 //! shows in its notice bar.
 
@@ -36,6 +41,7 @@ use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{
     EditOutcome, PassStats, ProgressiveRender, RenderScene, RenderSettings,
 };
+use coatlab_core::render::reshade::{ReshadeError, Reshaded};
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
 use coatlab_core::scene::{Scene, SceneMaterial};
@@ -55,6 +61,11 @@ pub(super) const MAX_SPP: u32 = 1024;
 /// edits (`ProgressiveRender::edit_shading`; memory bounded by the core's
 /// default path-cache budget).
 const RESHADE_SAMPLES: u32 = 4;
+/// Samples per pixel the first view records in a comparison, for the second
+/// view to be re-shaded from: the difference between the panes has the noise
+/// of this many samples of the difference. The core's memory budget
+/// (`DEFAULT_PATH_CACHE_BUDGET_BYTES`) stops the recording earlier if it must.
+pub(super) const COMPARE_CACHE_SAMPLES: u32 = 16;
 /// The preview's largest size in pixels (it renders at most this, scaled up on screen):
 /// the default keeps the first image within reach of a 2-core machine.
 const MAX_PREVIEW_PIXELS: (u32, u32) = (640, 400);
@@ -163,6 +174,33 @@ pub struct PreviewFrame {
     pub reshaded: Option<f64>,
     /// The last change this image shows (see [`Preview::last_change_latency`]).
     pub epoch: u64,
+    /// The second view of a comparison: how it was made. `None` for the first.
+    pub source: Option<SecondSource>,
+}
+
+/// How the second view of a comparison is made.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SecondSource {
+    /// Re-shaded from the first view's recorded paths (this many samples per
+    /// pixel): both panes show the same samples.
+    Shared { recorded_spp: u32 },
+    /// Rendered on its own (same camera and seed), for the reason given.
+    Independent { reason: String },
+}
+
+impl SecondSource {
+    /// The line the preview shows under a comparison.
+    pub fn label(&self) -> String {
+        match self {
+            SecondSource::Shared { recorded_spp } => format!(
+                "Shared samples: the second view re-shades the first view's paths \
+                 ({recorded_spp} spp recorded), so the difference shows the models, not noise"
+            ),
+            SecondSource::Independent { reason } => {
+                format!("Independent renders (same camera and seed): {reason}")
+            }
+        }
+    }
 }
 
 /// The scene being rendered, as the UI shows it.
@@ -597,6 +635,11 @@ impl Preview {
             }
         }
         ui.label(RichText::new(self.status_line()).weak());
+        if self.compare != CompareMode::Off
+            && let Some(source) = self.status[1].as_ref().and_then(|f| f.source.as_ref())
+        {
+            ui.label(RichText::new(source.label()).weak());
+        }
         requests
     }
 
@@ -1253,6 +1296,12 @@ impl Worker {
         // The second view's shading being built, and whether it is for a new scene.
         let mut b_job: Option<JoinHandle<Option<Arc<Shading>>>> = None;
         let mut b_new_scene = false;
+        // The second view's shading while it is re-shaded from the first view's
+        // paths (`b` is then `None`); and why it is not, when it is rendered apart.
+        let mut b_shared: Option<Arc<Shading>> = None;
+        let mut b_reason = String::new();
+        // The first view's recording target: more samples while comparing.
+        let mut cache_samples = RESHADE_SAMPLES;
         let mut restart = true;
         loop {
             // Wait for work when converged; otherwise just look for commands.
@@ -1347,7 +1396,9 @@ impl Worker {
                     Command::Orbit(yaw, pitch) => state.camera.orbit(yaw, pitch),
                     Command::Zoom(f) => state.camera.zoom(f),
                     Command::Pan(dx, dy) => state.camera.pan(dx, dy),
-                    Command::Export(path) => self.export(&path, &a, b.as_ref(), &state.display),
+                    Command::Export(path) => {
+                        self.export(&path, &a, b.as_ref(), b_shared.as_deref(), &state.display)
+                    }
                 }
             }
             if new_grid && let Some(shading) = state.shading_a() {
@@ -1360,7 +1411,7 @@ impl Worker {
                 ) {
                     Ok(r) => {
                         a = r;
-                        a.set_path_cache_samples(RESHADE_SAMPLES);
+                        a.set_path_cache_samples(cache_samples);
                     }
                     Err(e) => self.error(format!("preview: {e}")),
                 }
@@ -1409,9 +1460,22 @@ impl Worker {
                 if let Err(e) = result {
                     self.error(format!("preview: {e}"));
                 }
+                // A comparison records more of the first view's paths, for the
+                // second view to be re-shaded from (restarts the first view, which
+                // the new shading did anyway).
+                let wanted = if state.views.b.is_some() {
+                    COMPARE_CACHE_SAMPLES
+                } else {
+                    RESHADE_SAMPLES
+                };
+                if wanted != cache_samples {
+                    cache_samples = wanted;
+                    a.set_path_cache_samples(wanted);
+                }
                 // A job still running for an older change finishes unobserved.
                 b_job = state.spawn_second_shading();
                 b_new_scene |= new_scene;
+                b_shared = None;
                 if state.views.b.is_none() {
                     b = None;
                     b_new_scene = false;
@@ -1447,15 +1511,49 @@ impl Worker {
                     self.publish(&mut state, &a, None, stats_a, coarse, true);
                 }
                 match job.join().ok().flatten() {
-                    Some(shading) => {
-                        b = self.second_view(b.take(), &state, shading, b_new_scene);
-                        b_new_scene = false;
-                    }
+                    // Shared samples where the first view's paths can be re-shaded
+                    // with the second shading; a render of its own where not.
+                    Some(shading) => match a.reshade_recorded(&shading) {
+                        Ok(_) => {
+                            b_shared = Some(shading);
+                            b = None;
+                            b_new_scene = false;
+                        }
+                        Err(e) => {
+                            b_reason = independent_reason(&e);
+                            b = self.second_view(b.take(), &state, shading, b_new_scene);
+                            b_new_scene = false;
+                        }
+                    },
                     None => {
                         self.error("preview: the second design is invalid".into());
                         b = None;
                     }
                 }
+            }
+            if let Some(shading_b) = b_shared.clone() {
+                // Both panes from the first view's paths: re-shaded (two replays)
+                // when the map is due, the first view alone in between.
+                let spp = a.samples_per_pixel();
+                if coarse || spp.is_power_of_two() || spp >= state.quality.max_spp {
+                    match (
+                        a.reshade_recorded(a.shading()),
+                        a.reshade_recorded(&shading_b),
+                    ) {
+                        (Ok(ra), Ok(rb)) => {
+                            self.publish_shared(&mut state, &a, &ra, &rb, stats_a, coarse)
+                        }
+                        (Err(e), _) | (_, Err(e)) => {
+                            b_reason = independent_reason(&e);
+                            b_shared = None;
+                            b = self.second_view(None, &state, shading_b, false);
+                            restart = true;
+                        }
+                    }
+                } else {
+                    self.publish(&mut state, &a, None, stats_a, coarse, true);
+                }
+                continue;
             }
             let Some(r) = b.as_mut() else {
                 if a.is_reshaded() {
@@ -1483,7 +1581,14 @@ impl Worker {
                 restart = true;
                 continue;
             };
-            self.publish(&mut state, &a, Some((&*r, stats_b)), stats_a, coarse, false);
+            self.publish(
+                &mut state,
+                &a,
+                Some((&*r, stats_b, &b_reason)),
+                stats_a,
+                coarse,
+                false,
+            );
         }
     }
 
@@ -1579,6 +1684,7 @@ impl Worker {
         path: &Path,
         a: &ProgressiveRender,
         b: Option<&ProgressiveRender>,
+        b_shared: Option<&Shading>,
         display: &DisplaySettings,
     ) {
         let ext = path
@@ -1607,8 +1713,30 @@ impl Worker {
                 Err(e) => return self.error(format!("Could not export the preview: {e}")),
             }
         }
+        let mut note = String::new();
+        if let Some(shading) = b_shared {
+            // The second view has no film of its own: its re-shaded image, as shown.
+            let target = second_path(path);
+            match (ext.as_deref(), a.reshade_recorded(shading)) {
+                (Some("png"), Ok(image)) => {
+                    let pixels = display_xyz(&image.xyz, display);
+                    match write_png_rgb(&target, image.width, image.height, &pixels) {
+                        Ok(()) => written.push(target.display().to_string()),
+                        Err(e) => {
+                            return self.error(format!("Could not export the second view: {e}"));
+                        }
+                    }
+                }
+                (_, Ok(_)) => {
+                    note = "; the second view is re-shaded from the first view's samples \
+                            and is exported as .png only"
+                        .to_owned();
+                }
+                (_, Err(e)) => note = format!("; the second view could not be re-shaded ({e})"),
+            }
+        }
         self.event(PreviewEvent::Info(format!(
-            "Exported the preview ({} spp) to {}",
+            "Exported the preview ({} spp) to {}{note}",
             a.samples_per_pixel(),
             written.join(" and ")
         )));
@@ -1632,6 +1760,7 @@ impl Worker {
             coarse: false,
             reshaded: Some(fresh_weight),
             epoch: state.epoch,
+            source: None,
         };
         {
             let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
@@ -1643,11 +1772,66 @@ impl Worker {
         self.ctx.request_repaint();
     }
 
+    /// Publishes both views of a comparison made from the first view's paths: `ra`
+    /// and `rb` are those paths re-shaded with each view's shading (the first is
+    /// the film itself up to rounding), so where the two shadings agree the panes
+    /// are equal, and the ΔE00 map shows the models, not noise.
+    fn publish_shared(
+        &self,
+        state: &mut State,
+        a: &ProgressiveRender,
+        ra: &Reshaded,
+        rb: &Reshaded,
+        stats_a: PassStats,
+        coarse: bool,
+    ) {
+        let display = DisplaySettings {
+            exposure_stops: a.film().auto_exposure(),
+            ..DisplaySettings::default()
+        };
+        state.display = display;
+        let spp = a.samples_per_pixel();
+        let recorded_spp = a.path_cache().samples_per_pixel();
+        let frame = |image: &Reshaded, source: Option<SecondSource>| PreviewFrame {
+            width: image.width,
+            height: image.height,
+            pixels: display_xyz(&image.xyz, &display),
+            samples_per_pixel: spp,
+            samples_per_second: stats_a.samples_per_second(),
+            noise_delta_e: if coarse {
+                None
+            } else {
+                a.noise_estimate(&display).map(|n| n.mean_delta_e)
+            },
+            coarse,
+            reshaded: None,
+            epoch: state.epoch,
+            source,
+        };
+        let frames = [
+            Some(frame(ra, None)),
+            Some(frame(rb, Some(SecondSource::Shared { recorded_spp }))),
+        ];
+        let map =
+            DeltaEMap::between_xyz(ra.width, ra.height, &ra.xyz, &rb.xyz, &display).map(|mut m| {
+                m.samples_per_pixel = spp;
+                m
+            });
+        {
+            let mut shared = self.shared.lock().unwrap_or_else(|p| p.into_inner());
+            shared.frames = frames;
+            shared.fresh = true;
+            shared.delta_e = map;
+            shared.fresh_map = true;
+        }
+        self.ctx.request_repaint();
+    }
+
     fn publish(
         &self,
         state: &mut State,
         a: &ProgressiveRender,
-        b: Option<(&ProgressiveRender, PassStats)>,
+        b: Option<(&ProgressiveRender, PassStats, &str)>,
         stats_a: PassStats,
         coarse: bool,
         b_pending: bool,
@@ -1672,13 +1856,22 @@ impl Worker {
             coarse,
             reshaded: None,
             epoch: state.epoch,
+            source: None,
         };
-        let frames = [Some(frame(a, stats_a)), b.map(|(r, s)| frame(r, s))];
+        let frames = [
+            Some(frame(a, stats_a)),
+            b.map(|(r, s, reason)| PreviewFrame {
+                source: Some(SecondSource::Independent {
+                    reason: reason.to_owned(),
+                }),
+                ..frame(r, s)
+            }),
+        ];
         // The map costs about as much as a pass at 640×400: made at 1, 2, 4, 8, …
         // samples per pixel, which keeps its share of the time small.
         let spp = a.samples_per_pixel();
         let map = match b {
-            Some((b, _)) if coarse || spp.is_power_of_two() || spp >= state.quality.max_spp => {
+            Some((b, _, _)) if coarse || spp.is_power_of_two() || spp >= state.quality.max_spp => {
                 DeltaEMap::between(a.film(), b.film(), &display).map(|mut m| {
                     m.samples_per_pixel = spp;
                     m
@@ -1705,6 +1898,17 @@ impl Worker {
     }
 }
 
+/// Why the second view cannot be re-shaded from the first view's paths, as the
+/// user reads it.
+fn independent_reason(e: &ReshadeError) -> String {
+    match e {
+        ReshadeError::DeltaChanged => "an ideal-mirror paint cannot be re-shaded into the other \
+             view (a mirror bounce has no lobe to re-weight)"
+            .to_owned(),
+        other => format!("the first view's paths cannot be re-shaded ({other})"),
+    }
+}
+
 fn scene_info(scene: &Scene, path: Option<&Path>) -> SceneInfo {
     SceneInfo {
         name: path.map(file_name).unwrap_or_else(|| "Built-in car".into()),
@@ -1719,6 +1923,33 @@ fn file_name(path: &Path) -> String {
     path.file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| path.display().to_string())
+}
+
+/// Writes 8-bit sRGB `pixels` (RGBA, alpha ignored) as a PNG at `path`, through a
+/// temporary file beside it so a failure leaves no half-written file.
+fn write_png_rgb(path: &Path, width: u32, height: u32, pixels: &[[u8; 4]]) -> Result<(), String> {
+    let rgb: Vec<u8> = pixels.iter().flat_map(|&[r, g, b, _]| [r, g, b]).collect();
+    let mut encoded = Vec::new();
+    let mut encoder = png::Encoder::new(&mut encoded, width, height);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    let mut writer = encoder
+        .write_header()
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    writer
+        .write_image_data(&rgb)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    writer
+        .finish()
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    let temporary = path.with_extension("png.partial");
+    std::fs::write(&temporary, &encoded)
+        .and_then(|()| std::fs::rename(&temporary, path))
+        .map_err(|e| {
+            let _ = std::fs::remove_file(&temporary);
+            format!("{}: {e}", path.display())
+        })
 }
 
 /// Where the second view of a comparison is exported: NAME-b.EXT beside NAME.EXT.

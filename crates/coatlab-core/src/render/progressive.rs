@@ -468,6 +468,31 @@ impl ProgressiveRender {
         )
     }
 
+    /// [`Self::reshade`] that also works while the cache is still recording, as long
+    /// as it holds every sample the film does: then the control variate's base and
+    /// its recorded paths are the same samples, and the result is simply those
+    /// paths evaluated with `shading` (exact re-weighting). Once the cache stops
+    /// growing (its target or the memory budget reached) it is [`Self::reshade`].
+    /// What the comparison view's second pane is made of (`docs/rendering.md`,
+    /// "Comparison panes from one set of paths").
+    pub fn reshade_recorded(&self, shading: &Shading) -> Result<Reshaded, ReshadeError> {
+        let recorded = self.cache.samples_per_pixel();
+        if self.cache_complete() || (recorded > 0 && recorded == self.samples_per_pixel) {
+            reshade(
+                &self.film,
+                &self.cache,
+                &self.environment,
+                shading,
+                self.scene.geometry().has_floor(),
+            )
+        } else {
+            Err(ReshadeError::NotReady {
+                recorded,
+                wanted: self.path_cache_target(),
+            })
+        }
+    }
+
     /// Adds `samples` samples to every pixel. Returns what the pass did.
     pub fn render_pass(&mut self, samples: u32) -> PassStats {
         let never = AtomicBool::new(false);
