@@ -36,7 +36,8 @@
 //!   two-threaded; ray batches with throughput in rays).
 //! - `ACCEL_BATCH=1 cargo bench -p coatlab-core --bench accel` compares, on one
 //!   thread and in per-thread CPU time (robust to other processes on the machine),
-//!   single-ray queries with batches of 2–16 rays in flight.
+//!   single-ray queries with batches of 2–32 rays in flight, for trees built with
+//!   each `ReferenceSplits` setting (with the build's CPU time).
 
 use std::f32::consts::PI;
 use std::hint::black_box;
@@ -44,7 +45,7 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use coatlab_core::accel::{
-    Accel, BuildOptions, BuildQuality, BvhLayout, Hit, RayQuery, offset_ray_origin,
+    Accel, BuildOptions, BuildQuality, BvhLayout, Hit, RayQuery, ReferenceSplits, offset_ray_origin,
 };
 use coatlab_core::scene::TriangleMesh;
 use coatlab_core::scene::car::{CarParameters, generate};
@@ -70,6 +71,7 @@ const ALL_CONFIGS: [(&str, BuildOptions); 5] = [
         BuildOptions {
             layout: BvhLayout::Simd8,
             quality: BuildQuality::Fastest,
+            reference_splits: ReferenceSplits::LargeTriangles,
             threads: 0,
         },
     ),
@@ -78,6 +80,7 @@ const ALL_CONFIGS: [(&str, BuildOptions); 5] = [
         BuildOptions {
             layout: BvhLayout::Simd8,
             quality: BuildQuality::Fast,
+            reference_splits: ReferenceSplits::LargeTriangles,
             threads: 0,
         },
     ),
@@ -86,6 +89,7 @@ const ALL_CONFIGS: [(&str, BuildOptions); 5] = [
         BuildOptions {
             layout: BvhLayout::Simd8,
             quality: BuildQuality::Medium,
+            reference_splits: ReferenceSplits::LargeTriangles,
             threads: 0,
         },
     ),
@@ -94,6 +98,7 @@ const ALL_CONFIGS: [(&str, BuildOptions); 5] = [
         BuildOptions {
             layout: BvhLayout::Wide8,
             quality: BuildQuality::Fast,
+            reference_splits: ReferenceSplits::LargeTriangles,
             threads: 0,
         },
     ),
@@ -102,6 +107,7 @@ const ALL_CONFIGS: [(&str, BuildOptions); 5] = [
         BuildOptions {
             layout: BvhLayout::Binary,
             quality: BuildQuality::Fast,
+            reference_splits: ReferenceSplits::LargeTriangles,
             threads: 0,
         },
     ),
@@ -521,9 +527,11 @@ fn thread_cpu_time() -> Duration {
 }
 
 /// Incoherent rays through `closest_hit` one by one and through `closest_hits` with
-/// 2, 4, 8, 12, 16 and 32 rays in flight, on this thread, `Simd8/Fast`: M rays per CPU-second
-/// (best of 5 interleaved rounds) and the ratio to one by one; the batch results
-/// are checked against the single-ray ones bit for bit.
+/// 2, 4, 8, 12, 16 and 32 rays in flight, on this thread, `Simd8/Fast` built with
+/// each `ReferenceSplits` setting: M rays per CPU-second (best of 5 interleaved
+/// rounds), the ratio to one by one and to the default setting, and the build's
+/// CPU time (best of 3); every result is checked against the default tree's
+/// single-ray ones bit for bit.
 fn batch_comparison() {
     let options = BuildOptions {
         threads: 1,
@@ -556,8 +564,11 @@ fn batch_comparison() {
         }),
         ("closest_hits", |a, r, h| a.closest_hits(r, h)),
     ];
+    let splits = [
+        ("large triangles", ReferenceSplits::LargeTriangles),
+        ("spatial", ReferenceSplits::Spatial),
+    ];
     for (name, mesh) in meshes() {
-        let accel = Accel::build_with(&mesh, &options).expect("build");
         let rays: Vec<RayQuery> = incoherent_rays(&mesh, INCOHERENT_RAYS, 7)
             .into_iter()
             .map(|(origin, dir)| RayQuery {
@@ -567,26 +578,56 @@ fn batch_comparison() {
             })
             .collect();
         eprintln!("{name}: load average before: {}", load_average());
+        // Builds on this thread, best of 3 CPU times, for each split placement.
+        let mut build = [Duration::MAX; 2];
+        let mut accels = Vec::new();
+        for (s, &(_, reference_splits)) in splits.iter().enumerate() {
+            let options = BuildOptions {
+                reference_splits,
+                ..options
+            };
+            for _ in 0..3 {
+                let start = thread_cpu_time();
+                let accel = Accel::build_with(&mesh, &options).expect("build");
+                build[s] = build[s].min(thread_cpu_time() - start);
+                if accels.len() == s {
+                    accels.push(accel);
+                }
+            }
+        }
         let mut reference = vec![None; rays.len()];
-        variants[0].1(&accel, &rays, &mut reference);
-        let mut best = [Duration::MAX; 8];
+        variants[0].1(&accels[0], &rays, &mut reference);
+        let mut best = [[Duration::MAX; 8]; 2];
         let mut hits = vec![None; rays.len()];
         for _ in 0..5 {
-            for (i, (label, trace)) in variants.iter().enumerate() {
-                let start = thread_cpu_time();
-                trace(&accel, &rays, &mut hits);
-                best[i] = best[i].min(thread_cpu_time() - start);
-                assert!(hits == reference, "{name}: {label} differs from one by one");
+            for (s, accel) in accels.iter().enumerate() {
+                for (i, (label, trace)) in variants.iter().enumerate() {
+                    let start = thread_cpu_time();
+                    trace(accel, &rays, &mut hits);
+                    best[s][i] = best[s][i].min(thread_cpu_time() - start);
+                    // Splits change which references a ray meets, never the
+                    // closest triangle or its distance.
+                    assert!(hits == reference, "{name}: {label} differs from one by one");
+                }
             }
         }
         eprintln!("{name}: load average after: {}", load_average());
         let rate = |t: Duration| rays.len() as f64 / t.as_secs_f64() / 1e6;
-        for (i, (label, _)) in variants.iter().enumerate() {
+        for (s, (split, _)) in splits.iter().enumerate() {
             println!(
-                "| {name} | {label} | {:.2} | ×{:.2} |",
-                rate(best[i]),
-                best[0].as_secs_f64() / best[i].as_secs_f64()
+                "| {name} | {split} | build {:.1} ms CPU, {} references, {} nodes | |",
+                build[s].as_secs_f64() * 1e3,
+                accels[s].bvh().len(),
+                accels[s].bvh().node_count()
             );
+            for (i, (label, _)) in variants.iter().enumerate() {
+                println!(
+                    "| {name} | {split} | {label} | {:.2} | ×{:.2} | ×{:.2} vs large triangles only |",
+                    rate(best[s][i]),
+                    best[s][0].as_secs_f64() / best[s][i].as_secs_f64(),
+                    best[0][i].as_secs_f64() / best[s][i].as_secs_f64()
+                );
+            }
         }
     }
 }

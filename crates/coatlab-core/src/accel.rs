@@ -182,11 +182,29 @@ impl BuildQuality {
     }
 }
 
+/// Which triangles [`Accel`] cuts into several references for `Simd8`
+/// (`accel/split.rs`; measured in docs/benchmarks.md, "Acceleration structure").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ReferenceSplits {
+    /// Triangles far larger than the average, halved at the middle of the widest
+    /// axis until small enough (the default: almost free to build).
+    LargeTriangles,
+    /// As `LargeTriangles`, then spatial splits where the SAH prefers them to the
+    /// best object split, down to nodes of 64 references, at most 30 % more
+    /// references (SBVH-style). On the Lamborghini ×1.17–1.19 the rays per
+    /// second, but 8–11 times the build time (not within the 150 ms target);
+    /// ×0.93 on the default car.
+    Spatial,
+}
+
 /// How to build a [`Bvh`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct BuildOptions {
     pub layout: BvhLayout,
     pub quality: BuildQuality,
+    /// Which triangles are cut into several references (`Simd8` through
+    /// [`Accel`] only).
+    pub reference_splits: ReferenceSplits,
     /// Threads for the `Simd8` build (scoped threads of its own, each subtree of
     /// 4096 or more primitives split between two); 0 for
     /// `std::thread::available_parallelism`. The obvhs layouts build on rayon's
@@ -210,6 +228,7 @@ impl Default for BuildOptions {
         BuildOptions {
             layout: BvhLayout::Simd8,
             quality: BuildQuality::Fast,
+            reference_splits: ReferenceSplits::LargeTriangles,
             threads: 0,
         }
     }
@@ -632,7 +651,8 @@ impl Accel {
         if options.layout == BvhLayout::Simd8 {
             let vertices: Vec<[[f32; 3]; 3]> =
                 triangles.iter().map(|t| t.map(Into::into)).collect();
-            (boxes, reference_triangle) = split::split_references(&vertices, &boxes);
+            (boxes, reference_triangle) =
+                split::split_references(&vertices, &boxes, options.reference_splits);
         }
         let bvh = Bvh::build(&boxes, options)?;
         // Slot → index into `triangles`.
@@ -921,7 +941,8 @@ impl Accel {
         }
         let vertices: Vec<[[f32; 3]; 3]> = unique.iter().map(|(_, t)| t.map(Into::into)).collect();
         let boxes: Vec<Bounds> = unique.iter().map(|(_, t)| triangle_bounds(t)).collect();
-        let (reference_boxes, reference_triangle) = split::split_references(&vertices, &boxes);
+        let (reference_boxes, reference_triangle) =
+            split::split_references(&vertices, &boxes, self.bvh.options().reference_splits);
         let order = self.bvh.primitive_order();
         if reference_boxes.len() != order.len() {
             return Err(format!(

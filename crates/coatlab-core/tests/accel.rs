@@ -5,8 +5,8 @@ use std::f32::consts::PI;
 use std::path::Path;
 
 use coatlab_core::accel::{
-    Accel, AccelError, BuildOptions, BuildQuality, BvhLayout, Hit, RayQuery, intersect_triangle,
-    offset_ray_origin,
+    Accel, AccelError, BuildOptions, BuildQuality, BvhLayout, Hit, RayQuery, ReferenceSplits,
+    intersect_triangle, offset_ray_origin,
 };
 use coatlab_core::scene::TriangleMesh;
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
@@ -18,35 +18,47 @@ const LAMBORGHINI: &str = concat!(
     "/../../../shared/testdata/gltf/LamborghiniHuracanGT3/LamborghiniHuracanGT3.glb"
 );
 
-const ALL_OPTIONS: [BuildOptions; 6] = [
+const ALL_OPTIONS: [BuildOptions; 7] = [
     BuildOptions {
         layout: BvhLayout::Simd8,
         quality: BuildQuality::Fast,
+        reference_splits: ReferenceSplits::LargeTriangles,
         threads: 0,
     },
     BuildOptions {
         layout: BvhLayout::Wide8,
         quality: BuildQuality::Fast,
+        reference_splits: ReferenceSplits::LargeTriangles,
         threads: 0,
     },
     BuildOptions {
         layout: BvhLayout::Binary,
         quality: BuildQuality::Medium,
+        reference_splits: ReferenceSplits::LargeTriangles,
         threads: 0,
     },
     BuildOptions {
         layout: BvhLayout::Wide8,
         quality: BuildQuality::Fastest,
+        reference_splits: ReferenceSplits::LargeTriangles,
         threads: 0,
     },
     BuildOptions {
         layout: BvhLayout::Wide8,
         quality: BuildQuality::Slow,
+        reference_splits: ReferenceSplits::LargeTriangles,
         threads: 0,
     },
     BuildOptions {
         layout: BvhLayout::Simd8,
         quality: BuildQuality::Fastest,
+        reference_splits: ReferenceSplits::LargeTriangles,
+        threads: 0,
+    },
+    BuildOptions {
+        layout: BvhLayout::Simd8,
+        quality: BuildQuality::Fast,
+        reference_splits: ReferenceSplits::Spatial,
         threads: 0,
     },
 ];
@@ -277,6 +289,7 @@ fn default_build_is_simd8_and_fast() {
         BuildOptions {
             layout: BvhLayout::Simd8,
             quality: BuildQuality::Fast,
+            reference_splits: ReferenceSplits::LargeTriangles,
             threads: 0,
         }
     );
