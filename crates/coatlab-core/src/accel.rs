@@ -191,9 +191,9 @@ pub enum ReferenceSplits {
     LargeTriangles,
     /// As `LargeTriangles`, then spatial splits where the SAH prefers them to the
     /// best object split, down to nodes of 64 references, at most 30 % more
-    /// references (SBVH-style). On the Lamborghini ×1.17–1.19 the rays per
-    /// second, but 8–11 times the build time (not within the 150 ms target);
-    /// ×0.93 on the default car.
+    /// references (SBVH-style). On the Lamborghini ×1.19–1.21 the rays per
+    /// second, but about 5 times the build time (not within the 150 ms target);
+    /// no gain on the default car or the torus.
     Spatial,
 }
 
