@@ -286,6 +286,26 @@ fn an_edit_is_reshaded_then_refined_to_the_fresh_render() {
         outliers * 100.0
     );
     assert!(outliers < 0.01 && z.abs() < 4.0, "{outliers} {z}");
+    // The first image came from one recorded sample per pixel; refining re-shades
+    // from all of them, once, and is less noisy (both carry the base image's own
+    // noise, so the drop is partial).
+    assert!(render.refine_edit(), "nothing to refine after an edit");
+    assert!(!render.refine_edit(), "refined twice");
+    let (refined, w) = render.edit_estimate().expect("re-shaded image");
+    assert_eq!(w, 0.0);
+    let mean_variance = |r: &Reshaded| r.variance_y.iter().map(|&v| f64::from(v)).sum::<f64>();
+    assert!(
+        mean_variance(&refined) < 0.9 * mean_variance(&first),
+        "refining did not reduce the noise: {} vs {}",
+        mean_variance(&refined),
+        mean_variance(&first)
+    );
+    let (outliers, z) = compare_film(&refined, &fresh);
+    println!(
+        "refined: beyond 4σ {:.2} %, total Z {z:.2}",
+        outliers * 100.0
+    );
+    assert!(outliers < 0.01 && z.abs() < 4.0, "{outliers} {z}");
     // Blended with fresh passes of the new design.
     render.render_pass(16);
     let (blend, w) = render.edit_estimate().expect("still blended");

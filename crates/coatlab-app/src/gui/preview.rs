@@ -1500,6 +1500,13 @@ impl Worker {
                     continue;
                 }
             }
+            // An edit's first image was re-shaded from one recorded sample per pixel;
+            // with no further edit waiting (the commands were just read), the
+            // re-shade from all of them comes before fresh passes.
+            if a.refine_edit() {
+                self.publish_edit(&state, &a, PassStats::default());
+                continue;
+            }
             let Some(stats_a) = a.render_pass_cancellable(1, &self.cancel) else {
                 restart = true;
                 continue;

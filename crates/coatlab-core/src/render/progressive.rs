@@ -57,7 +57,7 @@ use crate::render::integrator::{IntegratorSettings, PathBuffers, PathTracer};
 use crate::render::material::Shading;
 use crate::render::reshade::{
     BaseImage, PathCache, ReshadeError, Reshaded, TileCache, TileRecorder, paint_is_mirror,
-    reshade, reshade_prepared,
+    reshade, reshade_prepared, reshade_prepared_samples,
 };
 use crate::render::sampler::PixelSampler;
 use crate::scene::{Scene, SceneMaterial};
@@ -75,6 +75,13 @@ pub const DEFAULT_PATH_CACHE_BUDGET_BYTES: usize = 320 << 20;
 /// The fresh film's weight in the blend above which a re-shaded estimate is
 /// dropped (see the module documentation).
 pub const FRESH_ONLY_WEIGHT: f64 = 0.98;
+
+/// Recorded samples per pixel an edit's first image is re-shaded from. One of the
+/// K recorded samples is already an unbiased estimate of the edit's difference and
+/// costs about 1/K of the replay (docs/benchmarks.md, "Re-shading after a paint
+/// edit"): while a slider moves, every step gets an image this fast, and the full
+/// re-shade follows in [`ProgressiveRender::refine_edit`] once the slider rests.
+pub const EDIT_FIRST_IMAGE_SAMPLES: u32 = 1;
 
 /// How [`ProgressiveRender::edit_shading`] shows the new shading.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -249,6 +256,8 @@ pub struct ProgressiveRender {
     base: Option<EditBase>,
     /// The re-shaded image of the current shading, while it still helps.
     reshaded: Option<Reshaded>,
+    /// Recorded samples per pixel `reshaded` was made from.
+    reshaded_samples: u32,
 }
 
 impl ProgressiveRender {
@@ -281,6 +290,7 @@ impl ProgressiveRender {
             cache_budget_bytes: DEFAULT_PATH_CACHE_BUDGET_BYTES,
             base: None,
             reshaded: None,
+            reshaded_samples: 0,
         })
     }
 
@@ -338,16 +348,19 @@ impl ProgressiveRender {
             });
         }
         let outcome = match &self.base {
-            Some(base) => match reshade_prepared(
+            Some(base) => match reshade_prepared_samples(
                 &base.image,
                 &base.film,
                 &base.cache,
                 &self.environment,
                 &shading,
                 self.scene.geometry().has_floor(),
+                EDIT_FIRST_IMAGE_SAMPLES,
             ) {
                 Ok(image) => {
                     self.reshaded = Some(image);
+                    self.reshaded_samples =
+                        EDIT_FIRST_IMAGE_SAMPLES.min(base.cache.samples_per_pixel);
                     EditOutcome::Reshaded
                 }
                 Err(e) => {
@@ -366,6 +379,35 @@ impl ProgressiveRender {
         self.shading = shading;
         self.restart_samples();
         Ok(outcome)
+    }
+
+    /// Re-shades the last edit from all recorded samples where its image came from
+    /// fewer ([`EDIT_FIRST_IMAGE_SAMPLES`]): the step between an edit's first image
+    /// and fresh passes, for the render loop to take when no further edit is
+    /// waiting. Returns whether it replaced the image (false: nothing to refine, or
+    /// the re-shade is no longer possible, in which case the image stays).
+    pub fn refine_edit(&mut self) -> bool {
+        let (Some(base), Some(_)) = (&self.base, &self.reshaded) else {
+            return false;
+        };
+        if self.reshaded_samples >= base.cache.samples_per_pixel {
+            return false;
+        }
+        match reshade_prepared(
+            &base.image,
+            &base.film,
+            &base.cache,
+            &self.environment,
+            &self.shading,
+            self.scene.geometry().has_floor(),
+        ) {
+            Ok(image) => {
+                self.reshaded_samples = base.cache.samples_per_pixel;
+                self.reshaded = Some(image);
+                true
+            }
+            Err(_) => false,
+        }
     }
 
     /// Whether the picture is still partly the re-shaded estimate of an edit.
