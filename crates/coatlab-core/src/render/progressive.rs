@@ -258,6 +258,13 @@ pub struct ProgressiveRender {
     reshaded: Option<Reshaded>,
     /// Recorded samples per pixel `reshaded` was made from.
     reshaded_samples: u32,
+    /// A cleared film of the current size and grid, made during a pass once the
+    /// cache is complete, so that an edit does not allocate (and fault in) the new
+    /// film of its editing session on the edit's own time.
+    spare_film: Option<Film>,
+    /// An edit base replaced by a newer one: freed at the next pass rather than
+    /// on the edit's time (its cache is a hundred MB of small vectors).
+    retired_base: Option<EditBase>,
 }
 
 impl ProgressiveRender {
@@ -291,6 +298,8 @@ impl ProgressiveRender {
             base: None,
             reshaded: None,
             reshaded_samples: 0,
+            spare_film: None,
+            retired_base: None,
         })
     }
 
@@ -338,10 +347,19 @@ impl ProgressiveRender {
             .unwrap_or(0);
         if self.cache_complete() && u64::from(self.samples_per_pixel) >= base_samples {
             // The current image becomes the base: moved, not copied.
-            let film = new_film(&self.camera, &self.environment)?;
+            let film = match self.spare_film.take() {
+                Some(spare)
+                    if (spare.width(), spare.height())
+                        == (self.camera.width(), self.camera.height())
+                        && spare.grid() == self.environment.grid() =>
+                {
+                    spare
+                }
+                _ => new_film(&self.camera, &self.environment)?,
+            };
             let cache = cache_for(&self.tiles);
             let film = std::mem::replace(&mut self.film, film);
-            self.base = Some(EditBase {
+            self.retired_base = self.base.replace(EditBase {
                 image: BaseImage::of(&film),
                 film,
                 cache: std::mem::replace(&mut self.cache, cache),
@@ -622,6 +640,19 @@ impl ProgressiveRender {
             self.film.merge(tile);
         }
         self.samples_per_pixel += samples;
+        self.retired_base = None;
+        let spare_fits = self.spare_film.as_ref().is_some_and(|f| {
+            (f.width(), f.height()) == (self.film.width(), self.film.height())
+                && f.grid() == self.film.grid()
+        });
+        if !spare_fits
+            && self.cache_complete()
+            && let Ok(mut spare) = new_film(&self.camera, &self.environment)
+        {
+            // Written once, so its pages are in memory before an edit needs them.
+            spare.clear();
+            self.spare_film = Some(spare);
+        }
         if let Some(reshaded) = &self.reshaded
             && self.fresh_weight(reshaded) > FRESH_ONLY_WEIGHT
         {
@@ -685,6 +716,7 @@ impl ProgressiveRender {
     /// Forgets every sample, the edit base's too.
     pub fn restart(&mut self) {
         self.base = None;
+        self.spare_film = None;
         self.reshaded = None;
         self.restart_samples();
     }
