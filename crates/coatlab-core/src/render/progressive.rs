@@ -265,6 +265,10 @@ pub struct ProgressiveRender {
     /// An edit base replaced by a newer one: freed at the next pass rather than
     /// on the edit's time (its cache is a hundred MB of small vectors).
     retired_base: Option<EditBase>,
+    /// The film's prepared means and variances after the last pass (and its
+    /// samples per pixel), made while the cache is complete: the next editing
+    /// session's base image, ready before the edit (≈ 3 % of a 960×540 pass).
+    prepared_base: Option<(u32, BaseImage)>,
 }
 
 impl ProgressiveRender {
@@ -300,6 +304,7 @@ impl ProgressiveRender {
             reshaded_samples: 0,
             spare_film: None,
             retired_base: None,
+            prepared_base: None,
         })
     }
 
@@ -359,8 +364,12 @@ impl ProgressiveRender {
             };
             let cache = cache_for(&self.tiles);
             let film = std::mem::replace(&mut self.film, film);
+            let image = match self.prepared_base.take() {
+                Some((spp, image)) if spp == self.samples_per_pixel => image,
+                _ => BaseImage::of(&film),
+            };
             self.retired_base = self.base.replace(EditBase {
-                image: BaseImage::of(&film),
+                image,
                 film,
                 cache: std::mem::replace(&mut self.cache, cache),
             });
@@ -641,6 +650,9 @@ impl ProgressiveRender {
         }
         self.samples_per_pixel += samples;
         self.retired_base = None;
+        self.prepared_base = self
+            .cache_complete()
+            .then(|| (self.samples_per_pixel, BaseImage::of(&self.film)));
         let spare_fits = self.spare_film.as_ref().is_some_and(|f| {
             (f.width(), f.height()) == (self.film.width(), self.film.height())
                 && f.grid() == self.film.grid()
@@ -724,6 +736,7 @@ impl ProgressiveRender {
     /// Forgets the samples of the current shading (and its re-shaded image unless
     /// set anew): what an edit does; the edit base stays.
     fn restart_samples(&mut self) {
+        self.prepared_base = None;
         self.film.clear();
         self.samples_per_pixel = 0;
         self.totals = PassStats::default();
