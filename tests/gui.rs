@@ -541,6 +541,10 @@ fn two_designs_side_by_side_from_a_preset_and_from_a_file() {
     // difference anywhere (same camera, same seed).
     let file = dir.join("same.toml");
     h.state().design().save(&file).expect("save");
+    // Read before the change: the render thread may publish the change's first
+    // image while the steps below run (it did, under load, and the wait for a
+    // later epoch then never ended).
+    let epoch = preview(h.state()).status().map(|s| s.epoch).unwrap_or(0);
     h.state_mut().open_second_design(&file);
     steps(&mut h, 2);
     assert!(
@@ -549,7 +553,6 @@ fn two_designs_side_by_side_from_a_preset_and_from_a_file() {
             .is_some_and(|(l, _)| l.contains("same.toml"))
     );
     h.get_by_label_contains("Preview pane: Signal red (");
-    let epoch = preview(h.state()).status().map(|s| s.epoch).unwrap_or(0);
     wait_until(&mut h, "the file's design beside the current one", |app| {
         compared(app, 1) && preview(app).status().is_some_and(|s| s.epoch > epoch)
     });
