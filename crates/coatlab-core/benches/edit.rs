@@ -351,7 +351,10 @@ fn main() {
             .expect("edit again");
         let t = Instant::now();
         while t.elapsed().as_secs_f64() < follow_s {
-            render.render_pass(1);
+            // As the preview does: the full re-shade first, then fresh passes.
+            if !render.refine_edit() {
+                render.render_pass(1);
+            }
             let xyz = match render.edit_estimate() {
                 Some((image, _)) => image.xyz,
                 None => film_xyz(&render),
