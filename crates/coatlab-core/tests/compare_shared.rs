@@ -6,97 +6,26 @@
 use std::sync::Arc;
 
 use coatlab_core::colour::{Xyz, ciede2000};
-use coatlab_core::design::presets;
 use coatlab_core::paint::phong::PhongVariant;
-use coatlab_core::render::environment::Environment;
 use coatlab_core::render::film::{DisplaySettings, display_lab_of_xyz};
 use coatlab_core::render::material::{Shading, ShadingModel};
-use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
-use coatlab_core::render::reshade::{ReshadeError, Reshaded};
+use coatlab_core::render::progressive::ProgressiveRender;
+use coatlab_core::render::reshade::ReshadeError;
 use coatlab_core::scene::Scene;
-use coatlab_core::scene::car::{CarParameters, generate};
-use coatlab_core::spectrum::WavelengthGrid;
 
-const WIDTH: u32 = 64;
-const HEIGHT: u32 = 36;
+#[path = "support/car_render.rs"]
+mod car_render;
+use car_render::{film_estimate, red, z_test};
+
 const PHONG: ShadingModel = ShadingModel::Phong(PhongVariant::BestFit);
 
-fn grid() -> WavelengthGrid {
-    WavelengthGrid::visible(16).expect("grid")
+/// The default car in the studio, signal red, shaded by `which`.
+fn render(which: ShadingModel, seed: u64, spp: u32, recorded: u32) -> (ProgressiveRender, Scene) {
+    car_render::render(&red(), which, seed, spp, recorded)
 }
 
 fn shading(scene: &Scene, which: ShadingModel) -> Arc<Shading> {
-    let design = presets::all().into_iter().next().expect("preset").design;
-    let model = design.model(grid()).expect("model");
-    Arc::new(Shading::new(
-        &model,
-        which,
-        &scene.materials,
-        &scene.paint_materials,
-    ))
-}
-
-/// The default car in the studio with `which`, `spp` samples per pixel, the
-/// first `recorded` of them recorded.
-fn render(which: ShadingModel, seed: u64, spp: u32, recorded: u32) -> (ProgressiveRender, Scene) {
-    let scene = generate(&CarParameters::default());
-    let render_scene = RenderScene::new(scene.clone()).expect("scene");
-    let camera = render_scene.default_camera(WIDTH, HEIGHT);
-    let mut render = ProgressiveRender::new(
-        Arc::new(render_scene),
-        Arc::new(Environment::studio(&grid())),
-        shading(&scene, which),
-        camera,
-        RenderSettings {
-            seed,
-            ..RenderSettings::default()
-        },
-    )
-    .expect("render");
-    render.set_path_cache_samples(recorded);
-    while render.samples_per_pixel() < spp {
-        render.render_pass(4.min(spp - render.samples_per_pixel()));
-    }
-    (render, scene)
-}
-
-/// The film's means as the re-shade stores them (f32 XYZ per pixel).
-fn film_xyz(render: &ProgressiveRender) -> Vec<[f32; 3]> {
-    let film = render.film();
-    let mut out = Vec::new();
-    for y in 0..HEIGHT {
-        for x in 0..WIDTH {
-            let m = film.mean_xyz(x, y);
-            out.push([m.x as f32, m.y as f32, m.z as f32]);
-        }
-    }
-    out
-}
-
-/// Z-test of Y between an estimate and an independent render: (share of pixels
-/// beyond 4σ, total Z over the image).
-fn z_test(estimate: &Reshaded, fresh: &ProgressiveRender) -> (f64, f64) {
-    let film = fresh.film();
-    let (mut outliers, mut diff, mut var) = (0usize, 0.0, 0.0);
-    for y in 0..HEIGHT {
-        for x in 0..WIDTH {
-            let i = (y * WIDTH + x) as usize;
-            let a = f64::from(estimate.xyz[i][1]);
-            let b = film.mean_xyz(x, y).y;
-            let v = f64::from(estimate.variance_y[i]) + film.variance_of_mean_xyz(x, y)[1];
-            if v <= 0.0 {
-                outliers += usize::from((a - b).abs() > 1e-5 * b.abs().max(1.0));
-                continue;
-            }
-            outliers += usize::from(((a - b) / v.sqrt()).abs() > 4.0);
-            diff += a - b;
-            var += v;
-        }
-    }
-    (
-        outliers as f64 / f64::from(WIDTH * HEIGHT),
-        diff / var.sqrt(),
-    )
+    car_render::shading(scene, &red(), which)
 }
 
 /// Per-pixel Y of `b` − `a`.
@@ -200,7 +129,7 @@ fn shared_samples_leave_only_the_noise_of_the_difference() {
         .expect("second pane");
     let shared_same = mean_delta_e(&first.xyz, &second.xyz);
     let (other, _) = render(ShadingModel::Paint, 2, SPP, 0);
-    let independent_same = mean_delta_e(&film_xyz(&a), &film_xyz(&other));
+    let independent_same = mean_delta_e(&film_estimate(&a).xyz, &film_estimate(&other).xyz);
     println!(
         "same design, {SPP} spp: mean ΔE00 shared {shared_same:.2e}, independent {independent_same:.3}"
     );
@@ -222,7 +151,7 @@ fn shared_samples_leave_only_the_noise_of_the_difference() {
     let independent_difference = |seed: u64| {
         let (ra, _) = render(ShadingModel::Paint, seed, SPP, 0);
         let (rb, _) = render(PHONG, seed + 1, SPP, 0);
-        difference_y(&film_xyz(&ra), &film_xyz(&rb))
+        difference_y(&film_estimate(&ra).xyz, &film_estimate(&rb).xyz)
     };
     let (s1, s2) = (shared_difference(1), shared_difference(2));
     let (i1, i2) = (independent_difference(3), independent_difference(5));

@@ -9,89 +9,16 @@ use coatlab_core::paint::gloss::GlossExponent;
 use coatlab_core::paint::model::{GlossSetting, PaintModel, PaintParams};
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::environment::Environment;
-use coatlab_core::render::material::{Shading, ShadingModel};
+use coatlab_core::render::material::ShadingModel;
 use coatlab_core::render::progressive::{
-    EditOutcome, FRESH_ONLY_WEIGHT, ProgressiveRender, RenderScene, RenderSettings,
+    EditOutcome, FRESH_ONLY_WEIGHT, ProgressiveRender, RenderSettings,
 };
 use coatlab_core::render::reshade::{BaseImage, ReshadeError, Reshaded, reshade_prepared_samples};
-use coatlab_core::scene::Scene;
-use coatlab_core::scene::car::{CarParameters, generate};
-use coatlab_core::spectrum::{TabulatedSpectrum, WavelengthGrid};
+use coatlab_core::spectrum::TabulatedSpectrum;
 
-const WIDTH: u32 = 64;
-const HEIGHT: u32 = 36;
-
-fn grid() -> WavelengthGrid {
-    WavelengthGrid::visible(16).expect("grid")
-}
-
-fn red() -> PaintModel {
-    let design = presets::all().into_iter().next().expect("preset").design;
-    design.model(grid()).expect("model")
-}
-
-fn shading(scene: &Scene, model: &PaintModel, which: ShadingModel) -> Arc<Shading> {
-    Arc::new(Shading::new(
-        model,
-        which,
-        &scene.materials,
-        &scene.paint_materials,
-    ))
-}
-
-/// A render of the default car in the studio with `model`, `spp` samples, the
-/// first `cached` of them recorded.
-fn render(
-    model: &PaintModel,
-    which: ShadingModel,
-    seed: u64,
-    spp: u32,
-    cached: u32,
-) -> (ProgressiveRender, Scene) {
-    let scene = generate(&CarParameters::default());
-    let render_scene = RenderScene::new(scene.clone()).expect("scene");
-    let camera = render_scene.default_camera(WIDTH, HEIGHT);
-    let mut render = ProgressiveRender::new(
-        Arc::new(render_scene),
-        Arc::new(Environment::studio(&grid())),
-        shading(&scene, model, which),
-        camera,
-        RenderSettings {
-            seed,
-            ..RenderSettings::default()
-        },
-    )
-    .expect("render");
-    render.set_path_cache_samples(cached);
-    while render.samples_per_pixel() < spp {
-        render.render_pass(4.min(spp - render.samples_per_pixel()));
-    }
-    (render, scene)
-}
-
-/// Z-scores of Y between a re-shaded image and a fresh render: (share beyond 4σ,
-/// total Z).
-fn compare(reshaded: &Reshaded, fresh: &ProgressiveRender) -> (f64, f64) {
-    let film = fresh.film();
-    let (mut outliers, mut count, mut diff, mut var) = (0usize, 0usize, 0.0, 0.0);
-    for y in 0..HEIGHT {
-        for x in 0..WIDTH {
-            let i = (y * WIDTH + x) as usize;
-            let a = f64::from(reshaded.xyz[i][1]);
-            let b = film.mean_xyz(x, y).y;
-            let v = f64::from(reshaded.variance_y[i]) + film.variance_of_mean_xyz(x, y)[1];
-            count += 1;
-            if v <= 0.0 {
-                outliers += usize::from((a - b).abs() > 1e-5 * b.abs().max(1.0));
-                continue;
-            }
-            outliers += usize::from(((a - b) / v.sqrt()).abs() > 4.0);
-            diff += a - b;
-            var += v;
-        }
-    }
-    (outliers as f64 / count as f64, diff / var.sqrt())
-}
+#[path = "support/car_render.rs"]
+mod car_render;
+use car_render::{HEIGHT, WIDTH, film_estimate, grid, red, render, shading, z_test};
 
 #[test]
 fn re_shading_with_the_same_paint_gives_the_image_back() {
@@ -152,7 +79,7 @@ fn re_shaded_edits_match_fresh_renders() {
             .reshade(&shading(&scene, edited, ShadingModel::Paint))
             .expect("reshade");
         let (fresh, _) = self::render(edited, ShadingModel::Paint, 99, 64, 0);
-        let (outliers, total_z) = compare(&reshaded, &fresh);
+        let (outliers, total_z) = z_test(&reshaded, &fresh);
         println!(
             "{name}: beyond 4σ {:.2} %, total Z {total_z:.2}",
             outliers * 100.0
@@ -170,7 +97,7 @@ fn re_shaded_edits_match_fresh_renders() {
         .reshade(&shading(&scene, &base, phong))
         .expect("reshade");
     let (fresh, _) = self::render(&base, phong, 99, 64, 0);
-    let (outliers, total_z) = compare(&reshaded, &fresh);
+    let (outliers, total_z) = z_test(&reshaded, &fresh);
     println!(
         "phong fit: beyond 4σ {:.2} %, total Z {total_z:.2}",
         outliers * 100.0
@@ -181,7 +108,7 @@ fn re_shaded_edits_match_fresh_renders() {
         .reshade(&shading(&scene, &base, ShadingModel::Paint))
         .expect("reshade");
     let (fresh, _) = self::render(&edits[0].1, ShadingModel::Paint, 99, 64, 0);
-    let (_, total_z) = compare(&unedited, &fresh);
+    let (_, total_z) = z_test(&unedited, &fresh);
     assert!(
         total_z.abs() > 5.0,
         "an unedited image passed for the edit: Z {total_z}"
@@ -231,32 +158,6 @@ fn re_shading_refuses_what_it_cannot_do() {
     assert_eq!(render.path_cache().samples_per_pixel(), 1);
 }
 
-/// Z-scores of Y between an estimate (mean XYZ and variance of Y per pixel) and a
-/// film: (share beyond 4σ, total Z).
-fn compare_film(estimate: &Reshaded, film_of: &ProgressiveRender) -> (f64, f64) {
-    compare(estimate, film_of)
-}
-
-/// The current film of a render as an estimate, for [`compare`].
-fn film_estimate(render: &ProgressiveRender) -> Reshaded {
-    let film = render.film();
-    let mut xyz = Vec::new();
-    let mut variance_y = Vec::new();
-    for y in 0..HEIGHT {
-        for x in 0..WIDTH {
-            let m = film.mean_xyz(x, y);
-            xyz.push([m.x as f32, m.y as f32, m.z as f32]);
-            variance_y.push(film.variance_of_mean_xyz(x, y)[1] as f32);
-        }
-    }
-    Reshaded {
-        width: WIDTH,
-        height: HEIGHT,
-        xyz,
-        variance_y,
-    }
-}
-
 /// An edit session: ρ halved is shown re-shaded at once, then blended with fresh
 /// passes, then the fresh film alone; at every stage the picture agrees with an
 /// independent fresh render of the new design, and the scene, lighting and BVH
@@ -280,7 +181,7 @@ fn an_edit_is_reshaded_then_refined_to_the_fresh_render() {
     let (fresh, _) = self::render(&edited, ShadingModel::Paint, 99, 256, 0);
     let (first, w) = render.edit_estimate().expect("re-shaded image");
     assert_eq!(w, 0.0);
-    let (outliers, z) = compare_film(&first, &fresh);
+    let (outliers, z) = z_test(&first, &fresh);
     println!(
         "re-shaded: beyond 4σ {:.2} %, total Z {z:.2}",
         outliers * 100.0
@@ -300,7 +201,7 @@ fn an_edit_is_reshaded_then_refined_to_the_fresh_render() {
         mean_variance(&refined),
         mean_variance(&first)
     );
-    let (outliers, z) = compare_film(&refined, &fresh);
+    let (outliers, z) = z_test(&refined, &fresh);
     println!(
         "refined: beyond 4σ {:.2} %, total Z {z:.2}",
         outliers * 100.0
@@ -310,7 +211,7 @@ fn an_edit_is_reshaded_then_refined_to_the_fresh_render() {
     render.render_pass(16);
     let (blend, w) = render.edit_estimate().expect("still blended");
     assert!(w > 0.2 && w < FRESH_ONLY_WEIGHT, "fresh weight {w}");
-    let (outliers, z) = compare_film(&blend, &fresh);
+    let (outliers, z) = z_test(&blend, &fresh);
     println!(
         "blend (w {w:.2}): beyond 4σ {:.2} %, total Z {z:.2}",
         outliers * 100.0
@@ -323,13 +224,13 @@ fn an_edit_is_reshaded_then_refined_to_the_fresh_render() {
         render.render_pass(64);
     }
     println!("film alone from {} spp", render.samples_per_pixel());
-    let (outliers, z) = compare_film(&film_estimate(&render), &fresh);
+    let (outliers, z) = z_test(&film_estimate(&render), &fresh);
     println!("film: beyond 4σ {:.2} %, total Z {z:.2}", outliers * 100.0);
     assert!(outliers < 0.01 && z.abs() < 4.0, "{outliers} {z}");
     assert!(Arc::ptr_eq(render.scene(), &scene_before));
     // Negative control: the old design's image is not taken for the new one.
     let (old, _) = self::render(&base, ShadingModel::Paint, 7, 64, 0);
-    let (_, z) = compare_film(&film_estimate(&old), &fresh);
+    let (_, z) = z_test(&film_estimate(&old), &fresh);
     assert!(z.abs() > 5.0, "the unedited image passed: Z {z}");
 }
 
@@ -519,7 +420,7 @@ fn partial_reshades_agree_with_fresh_renders() {
             m,
         )
         .expect("reshade");
-        let (outliers, total_z) = compare(&partial, &fresh);
+        let (outliers, total_z) = z_test(&partial, &fresh);
         println!(
             "first {m} of 4: beyond 4σ {:.2} %, total Z {total_z:.2}, mean variance {:.3e} (all 4: {:.3e})",
             outliers * 100.0,
