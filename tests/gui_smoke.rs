@@ -9,26 +9,12 @@
 //! (set by CI), where missing tools are a failure.
 
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Command;
+use std::time::Duration;
 
-/// Kills and reaps the child when dropped, so a failing assertion leaves nothing behind.
-struct Reaped(Child);
-
-impl Drop for Reaped {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn have(tool: &str) -> bool {
-    Command::new("sh")
-        .args(["-c", &format!("command -v {tool}")])
-        .stdout(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success())
-}
+#[path = "common/xvfb.rs"]
+mod xvfb;
+use xvfb::{Reaped, app_dirs, have, start_xvfb};
 
 fn out_dir() -> PathBuf {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/gui-smoke");
@@ -93,38 +79,8 @@ fn the_binary_opens_its_window_under_xvfb() {
         return;
     }
     let dir = out_dir();
-    let runtime = dir.join("runtime");
-    let state = dir.join("state");
-    let _ = std::fs::remove_dir_all(&state);
-    std::fs::create_dir_all(&runtime).expect("runtime dir");
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        let _ = std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700));
-    }
-    // A display number of our own, so parallel runs do not meet.
-    let display = format!(":{}", 200 + std::process::id() % 500);
-    let xvfb = Reaped(
-        Command::new("Xvfb")
-            .args([
-                display.as_str(),
-                "-screen",
-                "0",
-                "1600x1000x24",
-                "-nolisten",
-                "tcp",
-            ])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start Xvfb"),
-    );
-    let socket = PathBuf::from(format!("/tmp/.X11-unix/X{}", &display[1..]));
-    let start = Instant::now();
-    while !socket.exists() && start.elapsed() < Duration::from_secs(10) {
-        std::thread::sleep(Duration::from_millis(100));
-    }
-    assert!(socket.exists(), "Xvfb did not start on {display}");
+    let (runtime, state) = app_dirs(&dir).expect("runtime dir");
+    let (xvfb, display) = start_xvfb(200).unwrap_or_else(|e| panic!("{e}"));
 
     let log = std::fs::File::create(dir.join("coatlab.log")).expect("log file");
     let mut app = Reaped(

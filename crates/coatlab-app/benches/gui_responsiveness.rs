@@ -28,7 +28,7 @@
 //! `--only-real-window` (skips (a) and (b)).
 
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 use coatlab_app::gui::compare::{CompareLayout, CompareMode};
@@ -37,6 +37,10 @@ use coatlab_app::gui::{AppOptions, CoatlabApp};
 use egui::accesskit::Role;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
+
+#[path = "../../../tests/common/xvfb.rs"]
+mod xvfb;
+use xvfb::{Reaped, app_dirs, have, start_xvfb};
 
 fn harness() -> Harness<'static, CoatlabApp> {
     Harness::builder()
@@ -179,24 +183,6 @@ fn change_latency(h: &mut Harness<'static, CoatlabApp>, changes: usize, label: &
     );
 }
 
-/// Kills and reaps the child when dropped.
-struct Reaped(Child);
-
-impl Drop for Reaped {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn have(tool: &str) -> bool {
-    Command::new("sh")
-        .args(["-c", &format!("command -v {tool}")])
-        .stdout(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success())
-}
-
 /// CPU seconds (user + system) per thread name of a running process, largest first.
 fn thread_cpu_seconds(pid: u32) -> Vec<(String, f64)> {
     // Clock ticks per second: 100 on Linux for /proc's stat fields.
@@ -240,46 +226,25 @@ fn real_window(seconds: f64) {
         return;
     }
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/gui-bench");
-    let runtime = dir.join("runtime");
-    let state = dir.join("state");
-    let _ = std::fs::remove_dir_all(&state);
-    if let Err(e) = std::fs::create_dir_all(&runtime) {
-        println!(
-            "[real window] skipped: cannot create {}: {e}",
-            runtime.display()
-        );
-        return;
-    }
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        let _ = std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o700));
-    }
+    let (runtime, state) = match app_dirs(&dir) {
+        Ok(dirs) => dirs,
+        Err(e) => {
+            println!(
+                "[real window] skipped: cannot create {}: {e}",
+                dir.display()
+            );
+            return;
+        }
+    };
     let frames_path: PathBuf = dir.join("frames.log");
     let _ = std::fs::remove_file(&frames_path);
-    let display = format!(":{}", 300 + std::process::id() % 500);
-    let Ok(xvfb) = Command::new("Xvfb")
-        .args([
-            display.as_str(),
-            "-screen",
-            "0",
-            "1600x1000x24",
-            "-nolisten",
-            "tcp",
-        ])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-    else {
-        println!("[real window] skipped: Xvfb did not start");
-        return;
+    let (_xvfb, display) = match start_xvfb(300) {
+        Ok(server) => server,
+        Err(e) => {
+            println!("[real window] skipped: {e}");
+            return;
+        }
     };
-    let _xvfb = Reaped(xvfb);
-    let socket = PathBuf::from(format!("/tmp/.X11-unix/X{}", &display[1..]));
-    let start = Instant::now();
-    while !socket.exists() && start.elapsed() < Duration::from_secs(10) {
-        std::thread::sleep(Duration::from_millis(100));
-    }
     let Ok(log) = std::fs::File::create(dir.join("coatlab.log")) else {
         println!("[real window] skipped: cannot create the app's log");
         return;
