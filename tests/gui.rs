@@ -377,6 +377,22 @@ fn wait_until(
     }
 }
 
+/// Types `path` into the open in-app browser's file name field (its last text
+/// field, which takes an absolute path) and presses Open.
+fn open_in_browser(h: &mut Harness<'static, CoatlabApp>, path: &Path) {
+    h.get_all_by_role(Role::TextInput)
+        .last()
+        .expect("file name field")
+        .focus();
+    steps(h, 1);
+    h.get_all_by_role(Role::TextInput)
+        .last()
+        .expect("file name field")
+        .type_text(&path.display().to_string());
+    steps(h, 1);
+    h.get_by_label("Open").click();
+}
+
 fn steps(h: &mut Harness<'static, CoatlabApp>, n: usize) {
     for _ in 0..n {
         h.step();
@@ -743,18 +759,7 @@ fn a_scene_opens_through_the_in_app_browser() {
         .join("../../assets/default-car.glb")
         .canonicalize()
         .expect("the default car");
-    // The file name field (the browser's last text field) takes an absolute path.
-    h.get_all_by_role(Role::TextInput)
-        .last()
-        .expect("file name field")
-        .focus();
-    steps(&mut h, 1);
-    h.get_all_by_role(Role::TextInput)
-        .last()
-        .expect("file name field")
-        .type_text(&glb.display().to_string());
-    steps(&mut h, 1);
-    h.get_by_label("Open").click();
+    open_in_browser(&mut h, &glb);
     wait_until(&mut h, "the scene from the browser", |app| {
         app.preview()
             .and_then(|p| p.scene())
@@ -963,17 +968,7 @@ fn without_a_system_dialog_the_in_app_browser_opens_and_says_why_once() {
     let dir = temp_dir("fallback");
     let file = dir.join("blue.toml");
     deep_blue().save(&file).expect("save");
-    h.get_all_by_role(Role::TextInput)
-        .last()
-        .expect("file name field")
-        .focus();
-    steps(&mut h, 1);
-    h.get_all_by_role(Role::TextInput)
-        .last()
-        .expect("file name field")
-        .type_text(&file.display().to_string());
-    steps(&mut h, 1);
-    h.get_by_label("Open").click();
+    open_in_browser(&mut h, &file);
     wait_until(&mut h, "the design from the browser", |app| {
         app.design() == &deep_blue()
     });
