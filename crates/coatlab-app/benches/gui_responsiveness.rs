@@ -17,6 +17,12 @@
 //!     renders; frames per second, the worst frame, and the CPU time of each of the
 //!     process's threads (our UI thread, the render threads, lavapipe's).
 //!
+//! (d) what the window sends to the GPU each frame (`--only-tessellation`): the app
+//!     drawn through a plain egui context while the preview renders, each frame
+//!     tessellated as eframe does; meshes, vertices, triangles (and how many are
+//!     thinner than a pixel), the pixels they cover per clip rectangle (overdraw
+//!     included), texture updates, and how often the app asked for a repaint.
+//!
 //! (a) and (b) for the single view and for Paint vs Phong side by side, (b) also
 //! for a single view set to Phong (best fit). Not a timed test: it prints figures
 //! for `docs/benchmarks.md` ("GUI responsiveness").
@@ -25,7 +31,8 @@
 //!
 //! Options after `--`: `--seconds S` of paced frames per case (default 10),
 //! `--changes N` (default 30), `--real-window-seconds S` (default 20; 0 skips it),
-//! `--only-real-window` (skips (a) and (b)).
+//! `--only-real-window` (skips (a) and (b)), `--only-tessellation` (only (d);
+//! `--frames N`, default 60).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -343,6 +350,123 @@ fn real_window(seconds: f64) {
     }
 }
 
+/// (d): what the window sends to the GPU per frame: the app drawn through a plain
+/// egui context at the window's size (1500×940 points, 1 pixel per point) while the
+/// preview renders, each frame tessellated as eframe does. Per clip rectangle (a
+/// panel, a plot, the preview): meshes, vertices, triangles, the triangles' summed
+/// area (pixels shaded, overdraw included) and how many are thinner than a pixel
+/// (lavapipe's cost per triangle is its set-up, not its area); the texture updates;
+/// the repaint delay the app asked for.
+fn tessellation(frames: usize) {
+    let ctx = egui::Context::default();
+    let mut app = CoatlabApp::new(AppOptions {
+        storage: Storage::none(),
+        open: None,
+        preview: true,
+    });
+    let screen = egui::Rect::from_min_size(egui::Pos2::ZERO, egui::vec2(1500.0, 940.0));
+    let start = Instant::now();
+    let input = |t: f64| egui::RawInput {
+        screen_rect: Some(screen),
+        time: Some(t),
+        ..Default::default()
+    };
+    // Until the preview shows a refined image (the steady state while it renders).
+    while !app.preview().is_some_and(|p| {
+        p.status()
+            .is_some_and(|s| !s.coarse && s.samples_per_pixel >= 2)
+    }) {
+        assert!(start.elapsed().as_secs() < 120, "no refined preview image");
+        let _ = ctx.run_ui(input(start.elapsed().as_secs_f64()), |ui| app.show(ui));
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    #[derive(Default)]
+    struct Region {
+        meshes: usize,
+        vertices: usize,
+        triangles: usize,
+        area: f64,
+        thin: usize,
+    }
+    let mut regions: Vec<(egui::Rect, Region)> = Vec::new();
+    let (mut uploads, mut upload_texels, mut repaint_now) = (0usize, 0usize, 0usize);
+    for _ in 0..frames {
+        std::thread::sleep(Duration::from_millis(33));
+        let out = ctx.run_ui(input(start.elapsed().as_secs_f64()), |ui| app.show(ui));
+        for deltas in out.textures_delta.set.values() {
+            for d in deltas {
+                uploads += 1;
+                upload_texels += d.image.width() * d.image.height();
+            }
+        }
+        if out
+            .viewport_output
+            .values()
+            .any(|v| v.repaint_delay < Duration::from_millis(100))
+        {
+            repaint_now += 1;
+        }
+        for prim in ctx.tessellate(out.shapes, out.pixels_per_point) {
+            let egui::epaint::Primitive::Mesh(mesh) = prim.primitive else {
+                continue;
+            };
+            let clip = prim.clip_rect.intersect(screen);
+            let region = match regions.iter_mut().find(|(r, _)| *r == clip) {
+                Some((_, r)) => r,
+                None => {
+                    regions.push((clip, Region::default()));
+                    &mut regions.last_mut().expect("just pushed").1
+                }
+            };
+            region.meshes += 1;
+            region.vertices += mesh.vertices.len();
+            for tri in mesh.indices.chunks_exact(3) {
+                let [a, b, c] = [0, 1, 2].map(|k| mesh.vertices[tri[k] as usize].pos);
+                let area = 0.5 * ((b - a).x * (c - a).y - (b - a).y * (c - a).x).abs();
+                region.triangles += 1;
+                region.area += f64::from(area);
+                // Thinner than a pixel: area below half the longest edge.
+                let longest = (b - a).length().max((c - b).length()).max((a - c).length());
+                if area < 0.5 * longest {
+                    region.thin += 1;
+                }
+            }
+        }
+    }
+    let n = frames as f64;
+    regions.sort_by_key(|(_, r)| std::cmp::Reverse(r.triangles));
+    let total = |f: &dyn Fn(&Region) -> f64| regions.iter().map(|(_, r)| f(r)).sum::<f64>() / n;
+    println!(
+        "[tessellation] per frame over {frames} frames: {:.0} meshes, {:.0} vertices, {:.0} \
+         triangles ({:.0} thinner than a pixel), {:.2} Mpx of triangle area ({:.2}× the \
+         window); {:.2} texture updates ({:.0} texels); {repaint_now} of {frames} frames \
+         asked for a repaint within 100 ms",
+        total(&|r| r.meshes as f64),
+        total(&|r| r.vertices as f64),
+        total(&|r| r.triangles as f64),
+        total(&|r| r.thin as f64),
+        total(&|r| r.area) / 1e6,
+        total(&|r| r.area) / f64::from(screen.area()),
+        uploads as f64 / n,
+        upload_texels as f64 / n,
+    );
+    for (rect, r) in regions.iter().take(12) {
+        println!(
+            "[tessellation]   clip ({:4.0},{:4.0})–({:4.0},{:4.0}): {:5.1} meshes {:7.0} vertices \
+             {:7.0} triangles ({:6.0} thin), {:6.3} Mpx",
+            rect.min.x,
+            rect.min.y,
+            rect.max.x,
+            rect.max.y,
+            r.meshes as f64 / n,
+            r.vertices as f64 / n,
+            r.triangles as f64 / n,
+            r.thin as f64 / n,
+            r.area / n / 1e6
+        );
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let option = |name: &str, default: usize| {
@@ -355,6 +479,10 @@ fn main() {
     let seconds = option("--seconds", 10) as f64;
     let changes = option("--changes", 30);
     let window_seconds = option("--real-window-seconds", 20) as f64;
+    if args.iter().any(|a| a == "--only-tessellation") {
+        tessellation(option("--frames", 60));
+        return;
+    }
     if args.iter().any(|a| a == "--only-real-window") {
         real_window(window_seconds);
         return;

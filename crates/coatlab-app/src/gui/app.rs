@@ -616,7 +616,15 @@ impl CoatlabApp {
                 });
             });
         self.update_analysis();
-        egui::CentralPanel::default().show(ui, |ui| {
+        // The central panel's background is filled by us, around the preview's
+        // images rather than under them (see `central_background`).
+        let frame = egui::Frame::central_panel(ui.style());
+        let panel_fill = frame.fill;
+        let margin = frame.inner_margin;
+        let frame = frame.fill(Color32::TRANSPARENT);
+        egui::CentralPanel::default().frame(frame).show(ui, |ui| {
+            let background = ui.painter().add(egui::Shape::Noop);
+            let panel_rect = ui.max_rect() + margin;
             self.recovery_ui(ui);
             ui.horizontal(|ui| {
                 ui.selectable_value(&mut self.tab, Tab::Preview, "Preview");
@@ -659,6 +667,14 @@ impl CoatlabApp {
                     }
                 }
             }
+            let covered = match (self.tab, &self.preview) {
+                (Tab::Preview, Some(p)) => p.opaque_rects(),
+                _ => &[],
+            };
+            ui.painter().set(
+                background,
+                central_background(panel_rect, covered, panel_fill),
+            );
         });
 
         for event in self.dialogs.show(&ctx) {
@@ -914,6 +930,19 @@ impl CoatlabApp {
             self.info("Recovered the autosaved design.");
         }
     }
+}
+
+/// The central panel's fill: `panel` less the preview's opaque images. A software
+/// rasteriser (lavapipe) shades every pixel of every shape, hidden or not, so a
+/// fill under a picture that covers it costs as much as the picture; with the
+/// preview shown, this halves the pixels drawn in the central panel.
+fn central_background(panel: egui::Rect, covered: &[egui::Rect], fill: Color32) -> egui::Shape {
+    egui::Shape::Vec(
+        super::preview::uncovered(panel, covered)
+            .into_iter()
+            .map(|r| egui::Shape::rect_filled(r, 0.0, fill))
+            .collect(),
+    )
 }
 
 fn drop_overlay(ctx: &egui::Context) {

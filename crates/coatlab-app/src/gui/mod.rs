@@ -15,6 +15,7 @@
 //! | [`frame_log`] | per-frame timestamps of the real window (`COATLAB_FRAME_LOG`) |
 //! | [`export`] | readings as CSV and JSON |
 //! | [`preview`] | the live path-traced preview on a background thread; scenes, lighting maps, export |
+//! | [`priority`] | the render threads at a lower OS priority than the window |
 //! | [`quality`] | quality presets from the measured speed/accuracy front (docs/tradeoff.md) |
 //! | [`compare`] | comparison modes and layouts, the ΔE00 map and its legend |
 
@@ -31,6 +32,7 @@ pub mod instruments_panel;
 pub mod paint_panel;
 pub mod plots;
 pub mod preview;
+pub mod priority;
 pub mod quality;
 pub mod storage;
 
@@ -48,6 +50,10 @@ pub fn run(options: AppOptions) -> anyhow::Result<()> {
         ..Default::default()
     };
     let frame_log = frame_log::FrameLog::from_environment()?;
+    // Before anything uses rayon: the render threads yield the CPU to the window.
+    if let Err(e) = priority::install_render_pool(priority::RENDER_NICE) {
+        eprintln!("coatlab: {e}");
+    }
     eframe::run_native(
         "Coatlab",
         native,

@@ -279,6 +279,8 @@ pub struct Preview {
     events: Vec<PreviewEvent>,
     /// The quality preset and the knobs it set (see [`super::quality`]).
     quality: QualitySelector,
+    /// Where the last frame drew opaque images (the panels behind need no fill there).
+    opaque: Vec<egui::Rect>,
 }
 
 impl Preview {
@@ -296,7 +298,10 @@ impl Preview {
         let initial = design.clone();
         let thread = std::thread::Builder::new()
             .name("coatlab-preview".into())
-            .spawn(move || worker.run(initial))
+            .spawn(move || {
+                super::priority::lower_render_thread();
+                worker.run(initial)
+            })
             .ok();
         Self {
             commands: tx,
@@ -326,6 +331,7 @@ impl Preview {
             last_latency: None,
             events: Vec::new(),
             quality: QualitySelector::default(),
+            opaque: Vec::new(),
         }
     }
 
@@ -554,6 +560,12 @@ impl Preview {
         }
     }
 
+    /// The rectangles the last [`Self::ui`] covered with opaque images: what lies
+    /// behind them is never seen, so the window does not fill it.
+    pub fn opaque_rects(&self) -> &[egui::Rect] {
+        &self.opaque
+    }
+
     /// Draws the preview with its controls; mouse drags orbit (left) or pan (right or
     /// middle), the wheel zooms, in either pane of a comparison (both follow).
     pub fn ui(&mut self, ui: &mut Ui, presets: &[Preset]) -> Vec<PreviewRequest> {
@@ -589,7 +601,11 @@ impl Preview {
             self.size = want;
             self.send(Command::Resize(want.0, want.1));
         }
-        ui.painter().rect_filled(rect, 0.0, Color32::from_gray(20));
+        // The dark background goes only where no opaque image covers it (filled in
+        // below, once the images' rectangles are known): a software rasteriser
+        // shades every pixel of every shape, hidden or not.
+        let background = ui.painter().add(egui::Shape::Noop);
+        let mut covered: Vec<egui::Rect> = Vec::new();
         let labels = self.view_labels();
         match (two, self.layout) {
             (false, _) => {
@@ -599,7 +615,7 @@ impl Preview {
                     egui::Sense::click_and_drag(),
                 );
                 named(&r, "Preview pane");
-                self.image_ui(ui, 0, rect, None);
+                covered.extend(self.image_ui(ui, 0, rect, None));
                 self.camera_input(ui, &r);
             }
             (true, CompareLayout::SideBySide) => {
@@ -614,11 +630,11 @@ impl Preview {
                         egui::Sense::click_and_drag(),
                     );
                     named(&r, &format!("Preview pane: {label}"));
-                    self.image_ui(ui, i, pane, Some(label));
+                    covered.extend(self.image_ui(ui, i, pane, Some(label)));
                     self.camera_input(ui, &r);
                 }
             }
-            (true, CompareLayout::Split) => self.split_ui(ui, rect, &labels),
+            (true, CompareLayout::Split) => covered.extend(self.split_ui(ui, rect, &labels)),
             (true, CompareLayout::DeltaE) => {
                 let map_rect = egui::Rect::from_min_size(rect.min, pane_size);
                 let r = ui.interact(
@@ -627,13 +643,24 @@ impl Preview {
                     egui::Sense::click_and_drag(),
                 );
                 named(&r, "ΔE00 map");
-                self.map_ui(ui, map_rect, &r, &labels);
+                covered.extend(self.map_ui(ui, map_rect, &r, &labels));
                 self.camera_input(ui, &r);
                 let legend =
                     egui::Rect::from_min_max(egui::pos2(map_rect.right(), rect.top()), rect.max);
                 legend_ui(ui, legend.shrink2(egui::vec2(4.0, 20.0)), self.map_scale);
             }
         }
+        let fill = Color32::from_gray(20);
+        ui.painter().set(
+            background,
+            egui::Shape::Vec(
+                uncovered(rect, &covered)
+                    .into_iter()
+                    .map(|r| egui::Shape::rect_filled(r, 0.0, fill))
+                    .collect(),
+            ),
+        );
+        self.opaque = covered;
         ui.label(RichText::new(self.status_line()).weak());
         if self.compare != CompareMode::Off
             && let Some(source) = self.status[1].as_ref().and_then(|f| f.source.as_ref())
@@ -844,12 +871,21 @@ impl Preview {
         });
     }
 
-    /// Draws view `i`'s image letterboxed in `rect`, with a label.
-    fn image_ui(&self, ui: &Ui, i: usize, rect: egui::Rect, label: Option<&str>) {
+    /// Draws view `i`'s image letterboxed in `rect`, with a label; returns where the
+    /// (opaque) image went.
+    fn image_ui(
+        &self,
+        ui: &Ui,
+        i: usize,
+        rect: egui::Rect,
+        label: Option<&str>,
+    ) -> Option<egui::Rect> {
+        let mut drawn = None;
         match &self.textures[i] {
             Some(t) => {
                 let shown = letterbox(rect, t.size_vec2());
                 ui.painter().image(t.id(), shown, full_uv(), Color32::WHITE);
+                drawn = Some(shown);
             }
             None => {
                 ui.painter().text(
@@ -869,9 +905,16 @@ impl Preview {
                 label,
             );
         }
+        drawn
     }
 
-    fn split_ui(&mut self, ui: &mut Ui, rect: egui::Rect, labels: &[String; 2]) {
+    /// The split view; returns the part of `rect` its two images cover.
+    fn split_ui(
+        &mut self,
+        ui: &mut Ui,
+        rect: egui::Rect,
+        labels: &[String; 2],
+    ) -> Option<egui::Rect> {
         let r = ui.interact(
             rect,
             ui.scope_id().with("pane-split"),
@@ -884,6 +927,7 @@ impl Preview {
             .unwrap_or(egui::vec2(16.0, 10.0));
         let shown = letterbox(rect, size);
         let x = shown.left() + self.divider * shown.width();
+        let drawn = self.textures.iter().all(Option::is_some).then_some(shown);
         for (i, t) in self.textures.iter().enumerate() {
             let Some(t) = t else { continue };
             let (part, uv) = if i == 0 {
@@ -941,9 +985,17 @@ impl Preview {
         if !d.dragged() {
             self.camera_input(ui, &r);
         }
+        drawn
     }
 
-    fn map_ui(&self, ui: &Ui, rect: egui::Rect, response: &egui::Response, labels: &[String; 2]) {
+    /// The ΔE00 map; returns where its (opaque) image went.
+    fn map_ui(
+        &self,
+        ui: &Ui,
+        rect: egui::Rect,
+        response: &egui::Response,
+        labels: &[String; 2],
+    ) -> Option<egui::Rect> {
         let (Some(t), Some(map)) = (&self.map_texture, &self.delta_e) else {
             ui.painter().text(
                 rect.center(),
@@ -952,7 +1004,7 @@ impl Preview {
                 egui::FontId::proportional(16.0),
                 ui.visuals().weak_text_color(),
             );
-            return;
+            return None;
         };
         let shown = letterbox(rect, t.size_vec2());
         ui.painter().image(t.id(), shown, full_uv(), Color32::WHITE);
@@ -982,6 +1034,7 @@ impl Preview {
                 );
             }
         }
+        Some(shown)
     }
 
     fn camera_input(&mut self, ui: &Ui, response: &egui::Response) {
@@ -1077,6 +1130,51 @@ fn full_uv() -> egui::Rect {
 }
 
 /// The largest rectangle of `size`'s aspect centred in `rect`.
+/// The parts of `rect` outside every rectangle of `covered`, as disjoint rectangles
+/// (horizontal bands between the covered rectangles' edges, split at their sides).
+pub(super) fn uncovered(rect: egui::Rect, covered: &[egui::Rect]) -> Vec<egui::Rect> {
+    let covered: Vec<egui::Rect> = covered
+        .iter()
+        .map(|c| c.intersect(rect))
+        .filter(|c| c.is_positive())
+        .collect();
+    let mut ys: Vec<f32> = vec![rect.top(), rect.bottom()];
+    ys.extend(covered.iter().flat_map(|c| [c.top(), c.bottom()]));
+    ys.sort_by(f32::total_cmp);
+    ys.dedup();
+    let mut out = Vec::new();
+    for band in ys.windows(2) {
+        let (top, bottom) = (band[0], band[1]);
+        if bottom <= top {
+            continue;
+        }
+        // The covered x-intervals of this band, left to right.
+        let mut spans: Vec<(f32, f32)> = covered
+            .iter()
+            .filter(|c| c.top() <= top && c.bottom() >= bottom)
+            .map(|c| (c.left(), c.right()))
+            .collect();
+        spans.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut x = rect.left();
+        for (left, right) in spans {
+            if left > x {
+                out.push(egui::Rect::from_min_max(
+                    egui::pos2(x, top),
+                    egui::pos2(left, bottom),
+                ));
+            }
+            x = x.max(right);
+        }
+        if x < rect.right() {
+            out.push(egui::Rect::from_min_max(
+                egui::pos2(x, top),
+                egui::pos2(rect.right(), bottom),
+            ));
+        }
+    }
+    out
+}
+
 fn letterbox(rect: egui::Rect, size: egui::Vec2) -> egui::Rect {
     let scale = (rect.width() / size.x.max(1.0)).min(rect.height() / size.y.max(1.0));
     egui::Rect::from_center_size(rect.center(), size * scale)
@@ -1206,7 +1304,10 @@ impl State {
         let (grid, materials, paint) = (self.grid, self.materials.clone(), self.paint_materials());
         std::thread::Builder::new()
             .name("coatlab-preview-shading".into())
-            .spawn(move || shading_of(&design, model, grid, &materials, &paint))
+            .spawn(move || {
+                super::priority::lower_render_thread();
+                shading_of(&design, model, grid, &materials, &paint)
+            })
             .ok()
     }
 }
@@ -1970,4 +2071,62 @@ pub fn second_path(path: &Path) -> PathBuf {
         None => format!("{stem}-b"),
     };
     path.with_file_name(name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn r(x0: f32, y0: f32, x1: f32, y1: f32) -> egui::Rect {
+        egui::Rect::from_min_max(egui::pos2(x0, y0), egui::pos2(x1, y1))
+    }
+
+    fn area(rects: &[egui::Rect]) -> f32 {
+        rects.iter().map(|r| r.area()).sum()
+    }
+
+    fn overlap(a: egui::Rect, b: egui::Rect) -> bool {
+        let i = a.intersect(b);
+        i.width() > 1e-3 && i.height() > 1e-3
+    }
+
+    /// The background fill and the images tile the preview area exactly: every
+    /// point is painted once, by the fill or by an image.
+    #[test]
+    fn the_background_covers_exactly_what_the_images_leave() {
+        let rect = r(0.0, 0.0, 1000.0, 800.0);
+        let cases: Vec<Vec<egui::Rect>> = vec![
+            vec![],
+            vec![letterbox(rect, egui::vec2(532.0, 400.0))],
+            vec![letterbox(rect, egui::vec2(200.0, 400.0))],
+            // Side by side, with a gap between the panes.
+            vec![r(0.0, 200.0, 495.0, 600.0), r(505.0, 190.0, 1000.0, 610.0)],
+            // Reaching outside the area (clipped) and touching its corner.
+            vec![
+                r(-50.0, -50.0, 100.0, 100.0),
+                r(900.0, 700.0, 1100.0, 900.0),
+            ],
+        ];
+        for covered in cases {
+            let fill = uncovered(rect, &covered);
+            let inside: Vec<egui::Rect> = covered.iter().map(|c| c.intersect(rect)).collect();
+            let total = area(&fill) + area(&inside);
+            assert!(
+                (total - rect.area()).abs() < 1e-3 * rect.area(),
+                "{covered:?}: fill {} + images {} != {}",
+                area(&fill),
+                area(&inside),
+                rect.area()
+            );
+            for (i, a) in fill.iter().enumerate() {
+                assert!(a.is_positive() && rect.contains_rect(*a), "{a:?}");
+                for c in &inside {
+                    assert!(!overlap(*a, *c), "{a:?} overlaps {c:?}");
+                }
+                for b in &fill[i + 1..] {
+                    assert!(!overlap(*a, *b), "{a:?} overlaps {b:?}");
+                }
+            }
+        }
+    }
 }
