@@ -377,17 +377,7 @@ impl Environment {
     /// # Panics
     /// If `out.len()` differs from the grid's length.
     pub fn radiance(&self, dir: [f32; 3], out: &mut [f32]) {
-        assert_eq!(out.len(), self.grid.len(), "radiance buffer length");
-        out.fill(0.0);
-        let Some(d) = normalised(dir) else { return };
-        self.map.add_radiance(d, out);
-        for patch in &self.patches {
-            if patch.shape.contains(d) {
-                for (o, r) in out.iter_mut().zip(&patch.radiance) {
-                    *o += r;
-                }
-            }
-        }
+        self.radiance_and_pdf(dir, out);
     }
 
     /// Density (per unit solid angle) with which [`Self::sample`] returns `dir`.
@@ -395,7 +385,19 @@ impl Environment {
         let Some(d) = normalised(dir) else {
             return 0.0;
         };
-        self.pdf_f64(d) as f32
+        self.evaluate(&mut Query::new(d), None) as f32
+    }
+
+    /// [`Self::radiance`] and [`Self::pdf`] of one direction together: the texel and
+    /// the emitters containing `dir` are found once (a path that escapes needs both).
+    ///
+    /// # Panics
+    /// If `out.len()` differs from the grid's length.
+    pub fn radiance_and_pdf(&self, dir: [f32; 3], out: &mut [f32]) -> f32 {
+        assert_eq!(out.len(), self.grid.len(), "radiance buffer length");
+        out.fill(0.0);
+        let Some(d) = normalised(dir) else { return 0.0 };
+        self.evaluate(&mut Query::new(d), Some(out)) as f32
     }
 
     /// A direction toward the light for the two uniform numbers `u` in [0, 1)²:
@@ -415,22 +417,55 @@ impl Environment {
             self.map.sample([u0, u1])?
         };
         let dir = d.map(|v| v as f32);
-        let pdf = self.pdf(dir);
+        // Radiance and density of the direction as returned (rounded to f32), the
+        // same function of `dir` that `radiance`, `pdf` and a re-shading replay of
+        // the recorded `dir` evaluate.
+        let pdf = self.radiance_and_pdf(dir, out);
         if !(pdf > 0.0 && pdf.is_finite()) {
             return None;
         }
-        self.radiance(dir, out);
         Some(EnvSample { dir, pdf })
     }
 
-    fn pdf_f64(&self, d: [f64; 3]) -> f64 {
-        let mut pdf = self.components.probability(self.patches.len()) * self.map.pdf(d);
+    /// The density of `q` (f64), and its radiance added to `out` when given: one
+    /// texel look-up and one containment test per emitter.
+    fn evaluate(&self, q: &mut Query, mut out: Option<&mut [f32]>) -> f64 {
+        let texel = self.map.texel(q);
+        let mut pdf = self.components.probability(self.patches.len()) * self.map.pdf(texel);
+        if let Some(out) = out.as_deref_mut() {
+            self.map.add_radiance(texel, out);
+        }
         for (k, patch) in self.patches.iter().enumerate() {
-            if patch.shape.contains(d) {
+            if patch.shape.contains(q) {
                 pdf += self.components.probability(k) / patch.solid_angle;
+                if let Some(out) = out.as_deref_mut() {
+                    for (o, r) in out.iter_mut().zip(&patch.radiance) {
+                        *o += r;
+                    }
+                }
             }
         }
         pdf
+    }
+}
+
+/// A unit direction being looked up, with its azimuth computed at most once (an
+/// `atan2`, shared by the map's column and every emitter's azimuth test).
+struct Query {
+    d: [f64; 3],
+    azimuth: Option<f64>,
+}
+
+impl Query {
+    fn new(d: [f64; 3]) -> Self {
+        Self { d, azimuth: None }
+    }
+
+    /// φ = atan2(x, z), in [−π, π].
+    fn azimuth(&mut self) -> f64 {
+        *self
+            .azimuth
+            .get_or_insert_with(|| self.d[0].atan2(self.d[2]))
     }
 }
 
@@ -1015,17 +1050,16 @@ impl Shape {
         }
     }
 
-    fn contains(&self, d: [f64; 3]) -> bool {
+    fn contains(&self, q: &mut Query) -> bool {
         match self {
             Shape::LatLong { azimuth, y } => {
-                (y[0]..=y[1]).contains(&d[1])
-                    && (azimuth[0]..=azimuth[1]).contains(&d[0].atan2(d[2]))
+                (y[0]..=y[1]).contains(&q.d[1]) && (azimuth[0]..=azimuth[1]).contains(&q.azimuth())
             }
             Shape::Cap {
                 axis,
                 one_minus_cos,
                 ..
-            } => 1.0 - dot(d, *axis) <= *one_minus_cos,
+            } => 1.0 - dot(q.d, *axis) <= *one_minus_cos,
         }
     }
 
@@ -1074,47 +1108,85 @@ struct RadianceMap {
     /// cos θ at the row boundaries, from 1 (zenith) to −1.
     row_cos: Vec<f64>,
     channels: Vec<Vec<f32>>,
-    /// Per texel, one coefficient per channel.
-    coeffs: Vec<f32>,
+    /// Per texel, its coefficients and density together (16 bytes, one cache
+    /// line's quarter): a look-up of a map far larger than the caches (an image
+    /// map of 1024 × 512 texels) costs one memory access, not one for the
+    /// coefficients and two for the sampling tables.
+    texels: Vec<Texel>,
     rows: Distribution1D,
-    columns: Vec<Distribution1D>,
     /// Sum of all texel weights.
     total_weight: f64,
 }
 
+/// One texel of a [`RadianceMap`].
+#[derive(Debug, Clone, Copy, Default)]
+struct Texel {
+    /// One coefficient per channel (at most [`MAX_MAP_CHANNELS`]; unused ones 0).
+    coeffs: [f32; MAX_MAP_CHANNELS],
+    /// The map's sampling density in the texel, per unit solid angle:
+    /// P(row) × P(column | row) / the texel's solid angle.
+    pdf: f32,
+    /// The row's alias table: the probability that a draw landing on this column
+    /// keeps it, else it takes `alias` (a column of the same row).
+    keep: f32,
+    alias: u32,
+}
+
+/// Channels (basis spectra) a map's texels combine: 3 for an RGB image.
+const MAX_MAP_CHANNELS: usize = 3;
+
 impl RadianceMap {
-    fn texel(&self, d: [f64; 3]) -> (usize, usize) {
-        let theta = d[1].clamp(-1.0, 1.0).acos();
-        let row = ((theta / PI * self.height as f64) as usize).min(self.height - 1);
-        let u = 0.5 - d[0].atan2(d[2]) / (2.0 * PI);
-        let col = ((u * self.width as f64) as usize).min(self.width - 1);
-        (row, col)
+    /// The texel (row-major index) holding `q`: row r holds cos θ in
+    /// (row_cos[r + 1], row_cos[r]] (the same rows as ⌊θ/π · height⌋, found by
+    /// comparing cos θ with the row boundaries instead of an `acos`), the column
+    /// from the azimuth (no `atan2` for a map one texel wide).
+    fn texel(&self, q: &mut Query) -> usize {
+        let y = q.d[1].clamp(-1.0, 1.0);
+        // A first guess from a cheap arccosine (error below 1e-4 rad, a row is
+        // π/height wide), then the exact boundaries decide.
+        let guess = (acos_approx(y) * (self.height as f64 / PI)) as usize;
+        let mut row = guess.min(self.height - 1);
+        while row > 0 && y > self.row_cos[row] {
+            row -= 1;
+        }
+        while row + 1 < self.height && y <= self.row_cos[row + 1] {
+            row += 1;
+        }
+        let col = if self.width == 1 {
+            0
+        } else {
+            let u = 0.5 - q.azimuth() / (2.0 * PI);
+            ((u * self.width as f64) as usize).min(self.width - 1)
+        };
+        row * self.width + col
     }
 
-    fn texel_solid_angle(&self, row: usize) -> f64 {
-        2.0 * PI / self.width as f64 * (self.row_cos[row] - self.row_cos[row + 1])
-    }
-
-    fn add_radiance(&self, d: [f64; 3], out: &mut [f32]) {
-        let (row, col) = self.texel(d);
-        let n = self.channels.len();
-        let coeffs = &self.coeffs[(row * self.width + col) * n..][..n];
-        for (channel, &c) in self.channels.iter().zip(coeffs) {
-            if c != 0.0 {
-                for (o, s) in out.iter_mut().zip(channel) {
-                    *o += c * s;
+    fn add_radiance(&self, texel: usize, out: &mut [f32]) {
+        let coeffs = self.texels[texel].coeffs;
+        match &self.channels[..] {
+            // Image maps: three bases, one pass over the spectrum.
+            [a, b, c] => {
+                let [ca, cb, cc] = coeffs;
+                for (((o, a), b), c) in out.iter_mut().zip(a).zip(b).zip(c) {
+                    *o += ca * a + cb * b + cc * c;
+                }
+            }
+            channels => {
+                for (channel, &c) in channels.iter().zip(&coeffs) {
+                    if c != 0.0 {
+                        for (o, s) in out.iter_mut().zip(channel) {
+                            *o += c * s;
+                        }
+                    }
                 }
             }
         }
     }
 
-    fn pdf(&self, d: [f64; 3]) -> f64 {
-        if self.total_weight <= 0.0 {
-            return 0.0;
-        }
-        let (row, col) = self.texel(d);
-        self.rows.probability(row) * self.columns[row].probability(col)
-            / self.texel_solid_angle(row)
+    /// Density of the map's own sampling at a direction in `texel`, per unit solid
+    /// angle.
+    fn pdf(&self, texel: usize) -> f64 {
+        f64::from(self.texels[texel].pdf)
     }
 
     fn sample(&self, u: [f64; 2]) -> Option<[f64; 3]> {
@@ -1122,7 +1194,21 @@ impl RadianceMap {
             return None;
         }
         let (row, v) = self.rows.sample(u[0]);
-        let (col, w) = self.columns[row].sample(u[1]);
+        // The column by the row's alias table (Walker; Vose's construction): u's
+        // column, kept with its texel's probability, else its alias; what is left
+        // of u places the direction inside the texel. The one texel record read
+        // here is the one the radiance look-up reads next.
+        let x = u[1] * self.width as f64;
+        let first = (x as usize).min(self.width - 1);
+        let frac = (x - first as f64).clamp(0.0, ONE_BELOW);
+        let texel = &self.texels[row * self.width + first];
+        let keep = f64::from(texel.keep);
+        let (col, w) = if frac < keep {
+            (first, frac / keep)
+        } else {
+            (texel.alias as usize, (frac - keep) / (1.0 - keep))
+        };
+        let w = w.clamp(0.0, ONE_BELOW);
         let y = self.row_cos[row] + v * (self.row_cos[row + 1] - self.row_cos[row]);
         let azimuth = azimuth_of_column(col as f64 + w, self.width);
         Some(direction_from_azimuth_y(azimuth, y))
@@ -1135,6 +1221,12 @@ impl RadianceMap {
 struct Distribution1D {
     /// cdf[i] = sum of the first i weights; cdf[n] = total.
     cdf: Vec<f64>,
+    /// Guide table (Chen & Asau's cut-point method): entry j is the index where
+    /// the search for a target in the j-th of `guide.len()` equal parts of
+    /// [0, total) starts, so a sample costs a step or two instead of a binary
+    /// search through a cdf that is not in cache. The search from there gives
+    /// exactly the binary search's answer.
+    guide: Vec<u32>,
 }
 
 impl Distribution1D {
@@ -1146,7 +1238,14 @@ impl Distribution1D {
             sum += w.max(0.0);
             cdf.push(sum);
         }
-        Self { cdf }
+        let parts = weights.len().max(1);
+        let guide = (0..parts)
+            .map(|j| {
+                let target = j as f64 / parts as f64 * sum;
+                cdf.partition_point(|&c| c <= target) as u32
+            })
+            .collect();
+        Self { cdf, guide }
     }
 
     fn total(&self) -> f64 {
@@ -1162,10 +1261,32 @@ impl Distribution1D {
         }
     }
 
+    /// The first index p with cdf[p] > target (`cdf.len()` if none): what
+    /// `cdf.partition_point(|&c| c <= target)` returns, started from the guide.
+    fn upper_bound(&self, target: f64) -> usize {
+        let total = self.total();
+        let parts = self.guide.len();
+        let part = if total > 0.0 {
+            ((target / total * parts as f64) as usize).min(parts - 1)
+        } else {
+            0
+        };
+        let mut p = self.guide[part] as usize;
+        // The cdf is non-decreasing, so walking to the boundary from any start
+        // ends where the binary search does.
+        while p > 0 && self.cdf[p - 1] > target {
+            p -= 1;
+        }
+        while p < self.cdf.len() && self.cdf[p] <= target {
+            p += 1;
+        }
+        p
+    }
+
     fn sample(&self, u: f64) -> (usize, f64) {
         let n = self.cdf.len() - 1;
         let target = u.clamp(0.0, ONE_BELOW) * self.total();
-        let mut i = (self.cdf.partition_point(|&c| c <= target).max(1) - 1).min(n - 1);
+        let mut i = (self.upper_bound(target).max(1) - 1).min(n - 1);
         // Never land on an empty bin (possible only at the very top).
         while i > 0 && self.cdf[i + 1] <= self.cdf[i] {
             i -= 1;
@@ -1178,6 +1299,36 @@ impl Distribution1D {
         };
         (i, frac)
     }
+}
+
+/// Walker's alias table of `weights` (Vose's construction, in f64): per index, the
+/// probability of keeping it and the index that takes the rest. Index i is drawn
+/// with probability (keep_i + Σ_{j: alias_j = i} (1 − keep_j)) / n = w_i / Σw.
+/// Negative weights count as 0; all-zero weights give the uniform table.
+fn alias_table(weights: &[f64]) -> Vec<(f32, u32)> {
+    let n = weights.len();
+    let total: f64 = weights.iter().map(|w| w.max(0.0)).sum();
+    let mut scaled: Vec<f64> = if total > 0.0 {
+        weights
+            .iter()
+            .map(|w| w.max(0.0) * n as f64 / total)
+            .collect()
+    } else {
+        vec![1.0; n]
+    };
+    let mut table: Vec<(f32, u32)> = (0..n as u32).map(|i| (1.0, i)).collect();
+    let (mut small, mut large): (Vec<usize>, Vec<usize>) = (0..n).partition(|&i| scaled[i] < 1.0);
+    while let (Some(&s), Some(&l)) = (small.last(), large.last()) {
+        small.pop();
+        table[s] = (scaled[s] as f32, l as u32);
+        scaled[l] -= 1.0 - scaled[s];
+        if scaled[l] < 1.0 {
+            large.pop();
+            small.push(l);
+        }
+    }
+    // What is left holds 1 up to rounding: kept always.
+    table
 }
 
 /// Assembles an environment in arbitrary units, then normalises it.
@@ -1196,6 +1347,10 @@ struct Builder {
 
 impl Builder {
     fn new(grid: &WavelengthGrid, channels: Vec<Vec<f32>>, width: usize, height: usize) -> Self {
+        assert!(
+            (1..=MAX_MAP_CHANNELS).contains(&channels.len()),
+            "a map combines 1 to {MAX_MAP_CHANNELS} channel spectra"
+        );
         let luminance_weights = luminance_weights(grid);
         let channel_luminance = channels
             .iter()
@@ -1288,7 +1443,7 @@ impl Builder {
         }
         // Texel weights: (luminance + a little of the peak) × solid angle.
         let mut row_weights = vec![0.0; self.height];
-        let mut columns = Vec::with_capacity(self.height);
+        let mut column_weights = Vec::with_capacity(self.height);
         let mut texel_spectrum = vec![0.0f32; self.grid.len()];
         for (row, row_weight) in row_weights.iter_mut().enumerate() {
             let solid_angle =
@@ -1314,20 +1469,43 @@ impl Builder {
                         * ground
                 })
                 .collect();
-            let distribution = Distribution1D::new(&weights);
-            *row_weight = distribution.total();
-            columns.push(distribution);
+            *row_weight = weights.iter().map(|w| w.max(0.0)).sum();
+            column_weights.push(weights);
         }
         let rows = Distribution1D::new(&row_weights);
         let total_weight = rows.total();
+        let mut texels = vec![Texel::default(); self.width * self.height];
+        for (row, weights) in column_weights.iter().enumerate() {
+            let texels = &mut texels[row * self.width..(row + 1) * self.width];
+            let solid_angle =
+                2.0 * PI / self.width as f64 * (self.row_cos[row] - self.row_cos[row + 1]);
+            let row_probability = if total_weight > 0.0 {
+                rows.probability(row)
+            } else {
+                0.0
+            };
+            let row_weight = row_weights[row];
+            for (col, (texel, &weight)) in texels.iter_mut().zip(weights).enumerate() {
+                let texel_index = row * self.width + col;
+                texel.coeffs[..n]
+                    .copy_from_slice(&self.coeffs[texel_index * n..(texel_index + 1) * n]);
+                if row_weight > 0.0 {
+                    texel.pdf =
+                        (row_probability * weight.max(0.0) / row_weight / solid_angle) as f32;
+                }
+            }
+            for (texel, (keep, alias)) in texels.iter_mut().zip(alias_table(weights)) {
+                texel.keep = keep;
+                texel.alias = alias;
+            }
+        }
         let map = RadianceMap {
             width: self.width,
             height: self.height,
             row_cos: self.row_cos,
             channels: self.channels,
-            coeffs: self.coeffs,
+            texels,
             rows,
-            columns,
             total_weight,
         };
         // Emitters by power: luminance (plus a little of the peak) × solid angle.
@@ -1425,6 +1603,15 @@ fn rgb_light(reference_values: &[f64]) -> Vec<f32> {
         .collect()
 }
 
+/// arccos(x) for x in [−1, 1] within 7e-5 rad (Abramowitz & Stegun 4.4.45): only a
+/// first guess of a map row, which the row boundaries then correct.
+fn acos_approx(x: f64) -> f64 {
+    let a = x.abs();
+    let r = (1.0 - a).max(0.0).sqrt()
+        * (1.570_728_8 + a * (-0.212_114_4 + a * (0.074_261_0 - a * 0.018_729_3)));
+    if x < 0.0 { PI - r } else { r }
+}
+
 fn azimuth_of_column(column: f64, width: usize) -> f64 {
     (0.5 - column / width as f64) * 2.0 * PI
 }
@@ -1465,4 +1652,178 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 
 fn dot_f32(a: &[f32], b: &[f32]) -> f32 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small deterministic generator for the tests (SplitMix64).
+    fn uniform(state: &mut u64) -> f64 {
+        *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = *state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    #[test]
+    fn the_guided_search_answers_as_the_binary_search_does() {
+        let mut state = 1;
+        // Uneven weights with empty bins, runs of them and a single heavy bin.
+        let weights: Vec<f64> = (0..1000)
+            .map(|i| match i % 7 {
+                0 | 1 => 0.0,
+                2 => 50.0 * uniform(&mut state),
+                _ => uniform(&mut state),
+            })
+            .collect();
+        for w in [
+            &weights[..],
+            &[0.0, 0.0, 3.0][..],
+            &[1.0][..],
+            &[0.0, 1.0, 0.0][..],
+        ] {
+            let d = Distribution1D::new(w);
+            let total = d.total();
+            let mut targets: Vec<f64> = (0..20_000).map(|_| uniform(&mut state) * total).collect();
+            // Exactly on the cdf's steps, and the ends.
+            targets.extend(d.cdf.iter().copied());
+            targets.extend([0.0, total, total * ONE_BELOW]);
+            for t in targets {
+                assert_eq!(
+                    d.upper_bound(t),
+                    d.cdf.partition_point(|&c| c <= t),
+                    "target {t} of total {total}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn texels_found_without_acos_are_those_of_the_polar_angle() {
+        let map = Environment::outdoor(&WavelengthGrid::new(380.0, 50.0, 9).unwrap()).map;
+        let mut state = 7;
+        let mut agree = 0;
+        let n = 200_000;
+        for _ in 0..n {
+            let y = 2.0 * uniform(&mut state) - 1.0;
+            let a = (2.0 * uniform(&mut state) - 1.0) * PI;
+            let d = direction_from_azimuth_y(a, y);
+            let theta = d[1].clamp(-1.0, 1.0).acos();
+            let row = ((theta / PI * map.height as f64) as usize).min(map.height - 1);
+            let u = 0.5 - d[0].atan2(d[2]) / (2.0 * PI);
+            let col = ((u * map.width as f64) as usize).min(map.width - 1);
+            let texel = map.texel(&mut Query::new(d));
+            // Only a direction within rounding of a row boundary may differ.
+            if texel == row * map.width + col {
+                agree += 1;
+            } else {
+                let found = texel / map.width;
+                assert!(found.abs_diff(row) == 1, "row {found} for {row}");
+                let boundary = map.row_cos[found.max(row)];
+                assert!(
+                    (d[1] - boundary).abs() < 1e-12,
+                    "y {} boundary {boundary}",
+                    d[1]
+                );
+            }
+        }
+        assert!(agree >= n - 2, "{agree} of {n}");
+        // Poles, horizon, row boundaries themselves.
+        for (r, &c) in map.row_cos.iter().enumerate() {
+            let t = map.texel(&mut Query::new(direction_from_azimuth_y(0.3, c)));
+            assert_eq!(t / map.width, r.min(map.height - 1), "boundary {r}");
+        }
+    }
+    #[test]
+    fn alias_tables_draw_each_index_with_its_weights_share() {
+        let mut state = 3;
+        let mut weights: Vec<f64> = (0..777).map(|_| uniform(&mut state).powi(4)).collect();
+        weights[5] = 0.0;
+        weights[100] = 300.0;
+        weights[101] = -1.0;
+        for w in [
+            &weights[..],
+            &[0.0, 0.0][..],
+            &[2.0][..],
+            &[1.0, 0.0, 3.0][..],
+        ] {
+            let table = alias_table(w);
+            let n = w.len() as f64;
+            let mut implied = vec![0.0; w.len()];
+            for (i, &(keep, alias)) in table.iter().enumerate() {
+                implied[i] += f64::from(keep) / n;
+                implied[alias as usize] += (1.0 - f64::from(keep)) / n;
+            }
+            let total: f64 = w.iter().map(|v| v.max(0.0)).sum();
+            for (i, (p, v)) in implied.iter().zip(w).enumerate() {
+                let want = if total > 0.0 {
+                    v.max(0.0) / total
+                } else {
+                    1.0 / n
+                };
+                assert!(
+                    (p - want).abs() < 1e-6 * want.max(1.0 / n),
+                    "{i}: {p} vs {want}"
+                );
+            }
+        }
+    }
+
+    /// The map's sampling, with its alias tables, against its own density: texel
+    /// counts agree with P(texel) (per-texel Z), and the estimate of ∫ g dω with
+    /// g(d) = 1 + d_x + d_y² (4π + 4π/3) agrees within its standard error.
+    #[test]
+    fn map_samples_follow_the_density_the_map_reports() {
+        let (width, height) = (16, 8);
+        let mut state = 11;
+        let pixels: Vec<[f32; 3]> = (0..width * height)
+            .map(|i| {
+                let v = if i % 5 == 0 {
+                    0.0
+                } else {
+                    uniform(&mut state).powi(3) as f32
+                };
+                [v, 0.5 * v, uniform(&mut state) as f32]
+            })
+            .collect();
+        let image = RgbImage::new(width, height, pixels).unwrap();
+        let grid = WavelengthGrid::new(380.0, 50.0, 9).unwrap();
+        let env = Environment::from_rgb_image(&image, "test", &grid).unwrap();
+        let n = 400_000;
+        let mut counts = vec![0u64; width * height];
+        let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+        let mut out = vec![0.0; grid.len()];
+        for _ in 0..n {
+            let u = [uniform(&mut state) as f32, uniform(&mut state) as f32];
+            let sample = env.sample(u, &mut out).expect("a sample");
+            let d = sample.dir.map(f64::from);
+            counts[env.map.texel(&mut Query::new(d))] += 1;
+            let g = 1.0 + d[0] + d[1] * d[1];
+            let x = g / f64::from(sample.pdf);
+            sum += x;
+            sum2 += x * x;
+        }
+        let nf = n as f64;
+        for (texel, &count) in counts.iter().enumerate() {
+            let (row, col) = (texel / width, texel % width);
+            let solid_angle =
+                2.0 * PI / width as f64 * (env.map.row_cos[row] - env.map.row_cos[row + 1]);
+            let p = env.map.pdf(texel) * solid_angle;
+            let expected = p * nf;
+            let z = (count as f64 - expected) / expected.max(1e-9).sqrt();
+            assert!(
+                z.abs() < 5.0,
+                "texel ({row}, {col}): {count} for {expected:.1}"
+            );
+        }
+        let mean = sum / nf;
+        let error = ((sum2 / nf - mean * mean) / nf).sqrt();
+        let want = 4.0 * PI + 4.0 * PI / 3.0;
+        assert!(
+            (mean - want).abs() < 5.0 * error,
+            "{mean} ± {error} vs {want}"
+        );
+    }
 }

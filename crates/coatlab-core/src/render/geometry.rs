@@ -1,7 +1,7 @@
 //! The scene as the tracer sees it: the triangle mesh in its BVH, the analytic
 //! floor plane y = 0 of the lighting setup, and the local shading frame at a hit.
 
-use crate::accel::{Accel, AccelError, offset_ray_origin};
+use crate::accel::{Accel, AccelError, Hit, RayQuery, offset_ray_origin};
 use crate::scene::TriangleMesh;
 
 /// What a ray hit.
@@ -29,6 +29,15 @@ pub enum Surface {
     },
     /// The floor plane y = 0.
     Floor,
+}
+
+/// Reusable buffers of [`RenderGeometry::intersect_batch`] and
+/// [`RenderGeometry::occluded_batch`].
+#[derive(Debug, Clone, Default)]
+pub struct BatchScratch {
+    queries: Vec<RayQuery>,
+    hits: Vec<Option<Hit>>,
+    lanes: Vec<u32>,
 }
 
 /// The tracer's geometry.
@@ -72,61 +81,144 @@ impl RenderGeometry {
         t_max: f32,
         floor: bool,
     ) -> Option<SurfaceHit> {
-        let mut best: Option<SurfaceHit> = None;
-        let mut limit = t_max;
-        if floor && dir[1] < 0.0 && origin[1] > 0.0 {
+        let mut best = if floor {
+            Self::floor_hit(origin, dir, t_max)
+        } else {
+            None
+        };
+        let limit = best.map_or(t_max, |f| f.t);
+        if let Some(hit) = self.accel.closest_hit(origin, dir, limit) {
+            best = Some(self.mesh_hit(origin, dir, hit));
+        }
+        best
+    }
+
+    /// The floor's hit on a ray when nearer than `t_max`: the hit and its distance.
+    fn floor_hit(origin: [f32; 3], dir: [f32; 3], t_max: f32) -> Option<SurfaceHit> {
+        if dir[1] < 0.0 && origin[1] > 0.0 {
             let t = -origin[1] / dir[1];
-            if t > 0.0 && t < limit {
-                limit = t;
-                let position = [origin[0] + t * dir[0], 0.0, origin[2] + t * dir[2]];
-                best = Some(SurfaceHit {
+            if t > 0.0 && t < t_max {
+                return Some(SurfaceHit {
                     t,
-                    position,
+                    position: [origin[0] + t * dir[0], 0.0, origin[2] + t * dir[2]],
                     geometric_normal: [0.0, 1.0, 0.0],
                     shading_normal: [0.0, 1.0, 0.0],
                     surface: Surface::Floor,
                 });
             }
         }
-        if let Some(hit) = self.accel.closest_hit(origin, dir, limit) {
-            let tri = self.mesh.triangles[hit.triangle as usize];
-            let [a, b, c] = tri.map(|i| self.mesh.positions[i as usize]);
-            let e1 = sub(b, a);
-            let e2 = sub(c, a);
-            let mut ng = normalize(cross(e1, e2));
-            let [u, v] = hit.barycentric;
-            let w = 1.0 - u - v;
-            let [na, nb, nc] = tri.map(|i| self.mesh.normals[i as usize]);
-            let mut ns = normalize([
-                w * na[0] + u * nb[0] + v * nc[0],
-                w * na[1] + u * nb[1] + v * nc[1],
-                w * na[2] + u * nb[2] + v * nc[2],
-            ]);
-            // Face the ray: the film and the tracer treat surfaces as two-sided.
-            if dot(ng, dir) > 0.0 {
-                ng = neg(ng);
+        None
+    }
+
+    /// [`Self::intersect_with_floor`] for a batch of rays (each `t_max` as given),
+    /// the mesh traced by [`Accel::closest_hits`], several rays in flight: the same
+    /// hits bit for bit. `scratch` holds the batch's queries and mesh hits between
+    /// calls, so a batch allocates nothing once it has grown.
+    ///
+    /// # Panics
+    /// If `hits` is not as long as `rays`.
+    pub fn intersect_batch(
+        &self,
+        rays: &[RayQuery],
+        floor: bool,
+        hits: &mut [Option<SurfaceHit>],
+        scratch: &mut BatchScratch,
+    ) {
+        assert_eq!(rays.len(), hits.len(), "intersect_batch: rays and hits");
+        scratch.queries.clear();
+        for (ray, hit) in rays.iter().zip(hits.iter_mut()) {
+            *hit = None;
+            let mut query = *ray;
+            if floor && let Some(f) = Self::floor_hit(ray.origin, ray.dir, ray.t_max) {
+                query.t_max = f.t;
+                *hit = Some(f);
             }
-            if dot(ns, ng) < 0.0 {
-                ns = neg(ns);
-            }
-            if !ns.iter().all(|x| x.is_finite()) {
-                ns = ng;
-            }
-            best = Some(SurfaceHit {
-                t: hit.t,
-                position: [
-                    origin[0] + hit.t * dir[0],
-                    origin[1] + hit.t * dir[1],
-                    origin[2] + hit.t * dir[2],
-                ],
-                geometric_normal: ng,
-                shading_normal: ns,
-                surface: Surface::Mesh {
-                    material: self.mesh.triangle_material[hit.triangle as usize],
-                },
-            });
+            scratch.queries.push(query);
         }
-        best
+        scratch.hits.clear();
+        scratch.hits.resize(rays.len(), None);
+        self.accel.closest_hits(&scratch.queries, &mut scratch.hits);
+        for ((ray, mesh), hit) in rays.iter().zip(&scratch.hits).zip(hits.iter_mut()) {
+            if let Some(mesh) = mesh {
+                *hit = Some(self.mesh_hit(ray.origin, ray.dir, *mesh));
+            }
+        }
+    }
+
+    /// [`Self::occluded_with_floor`] for a batch of shadow rays, the mesh traced by
+    /// [`Accel::closest_hits`] (which agrees with [`Accel::occluded`]): rays the
+    /// floor blocks are not traced.
+    ///
+    /// # Panics
+    /// If `occluded` is not as long as `rays`.
+    pub fn occluded_batch(
+        &self,
+        rays: &[RayQuery],
+        floor: bool,
+        occluded: &mut [bool],
+        scratch: &mut BatchScratch,
+    ) {
+        assert_eq!(
+            rays.len(),
+            occluded.len(),
+            "occluded_batch: rays and results"
+        );
+        scratch.queries.clear();
+        scratch.lanes.clear();
+        for (i, (ray, blocked)) in rays.iter().zip(occluded.iter_mut()).enumerate() {
+            let [o, d] = [ray.origin, ray.dir];
+            *blocked = floor && d[1] < 0.0 && o[1] > 0.0 && -o[1] / d[1] < ray.t_max;
+            if !*blocked {
+                scratch.queries.push(*ray);
+                scratch.lanes.push(i as u32);
+            }
+        }
+        scratch.hits.clear();
+        scratch.hits.resize(scratch.queries.len(), None);
+        self.accel.closest_hits(&scratch.queries, &mut scratch.hits);
+        for (&lane, hit) in scratch.lanes.iter().zip(&scratch.hits) {
+            occluded[lane as usize] = hit.is_some();
+        }
+    }
+
+    /// The shading data of a mesh hit on the ray `origin + t·dir`.
+    fn mesh_hit(&self, origin: [f32; 3], dir: [f32; 3], hit: Hit) -> SurfaceHit {
+        let tri = self.mesh.triangles[hit.triangle as usize];
+        let [a, b, c] = tri.map(|i| self.mesh.positions[i as usize]);
+        let e1 = sub(b, a);
+        let e2 = sub(c, a);
+        let mut ng = normalize(cross(e1, e2));
+        let [u, v] = hit.barycentric;
+        let w = 1.0 - u - v;
+        let [na, nb, nc] = tri.map(|i| self.mesh.normals[i as usize]);
+        let mut ns = normalize([
+            w * na[0] + u * nb[0] + v * nc[0],
+            w * na[1] + u * nb[1] + v * nc[1],
+            w * na[2] + u * nb[2] + v * nc[2],
+        ]);
+        // Face the ray: the film and the tracer treat surfaces as two-sided.
+        if dot(ng, dir) > 0.0 {
+            ng = neg(ng);
+        }
+        if dot(ns, ng) < 0.0 {
+            ns = neg(ns);
+        }
+        if !ns.iter().all(|x| x.is_finite()) {
+            ns = ng;
+        }
+        SurfaceHit {
+            t: hit.t,
+            position: [
+                origin[0] + hit.t * dir[0],
+                origin[1] + hit.t * dir[1],
+                origin[2] + hit.t * dir[2],
+            ],
+            geometric_normal: ng,
+            shading_normal: ns,
+            surface: Surface::Mesh {
+                material: self.mesh.triangle_material[hit.triangle as usize],
+            },
+        }
     }
 
     /// Whether anything blocks the segment from `origin` along unit `dir` up to `t_max`.

@@ -21,9 +21,10 @@
 //! Surfaces reflect only (no transmission): the car's glass is a dark, glossy
 //! reflector, which is how it reads in a paint preview. Every surface is two-sided.
 
+use crate::accel::{BATCH_LANES, RayQuery};
 use crate::paint::model::SpectralBsdf;
-use crate::render::environment::Environment;
-use crate::render::geometry::{Frame, RenderGeometry, Surface, dot};
+use crate::render::environment::{EnvSample, Environment};
+use crate::render::geometry::{BatchScratch, Frame, RenderGeometry, Surface, SurfaceHit, dot};
 use crate::render::material::{Shading, SimpleMaterial};
 use crate::render::sampler::PixelSampler;
 
@@ -46,25 +47,85 @@ impl Default for IntegratorSettings {
     }
 }
 
-/// Per-thread scratch spectra, so tracing a path allocates nothing.
+/// Paths a [`PathTracer::radiance_wave`] traces together: each bounce's rays of
+/// all of them go to the BVH as one batch ([`crate::accel::Accel::closest_hits`],
+/// which keeps this many rays in flight), and so do their shadow rays.
+pub const WAVE_PATHS: usize = BATCH_LANES;
+
+/// Per-thread scratch, so tracing paths allocates nothing once it has grown.
 #[derive(Debug, Clone)]
 pub struct PathBuffers {
+    len: usize,
+    /// Per path: the throughput.
     throughput: Vec<f32>,
+    /// Per path: the light sample's contribution, added once its shadow ray is
+    /// known to be clear.
+    pending: Vec<f32>,
     bsdf: Vec<f32>,
+    /// Per path: the environment's radiance along its light sample or its escape.
     light: Vec<f32>,
+    /// Per ray of the batch: the light sample drawn at its hit, or the escape's
+    /// density (its radiance is in `light`).
+    looked_up: Vec<LookUp>,
     weight: Vec<f32>,
+    lanes: Vec<Lane>,
+    rays: Vec<RayQuery>,
+    ray_lanes: Vec<usize>,
+    hits: Vec<Option<SurfaceHit>>,
+    shadow_rays: Vec<RayQuery>,
+    shadow_lanes: Vec<usize>,
+    blocked: Vec<bool>,
+    scratch: BatchScratch,
 }
 
 impl PathBuffers {
     /// Buffers for `len` wavelengths.
     pub fn new(len: usize) -> Self {
         Self {
-            throughput: vec![0.0; len],
+            len,
+            throughput: Vec::new(),
+            pending: Vec::new(),
             bsdf: vec![0.0; len],
-            light: vec![0.0; len],
+            light: Vec::new(),
+            looked_up: Vec::new(),
             weight: vec![0.0; len],
+            lanes: Vec::new(),
+            rays: Vec::new(),
+            ray_lanes: Vec::new(),
+            hits: Vec::new(),
+            shadow_rays: Vec::new(),
+            shadow_lanes: Vec::new(),
+            blocked: Vec::new(),
+            scratch: BatchScratch::default(),
         }
     }
+}
+
+/// What the environment look-ups of a batch found for one ray.
+#[derive(Debug, Clone, Copy)]
+enum LookUp {
+    /// The path ends here without looking at the light.
+    Nothing,
+    /// The ray escaped; the environment's density in its direction.
+    Escape { pdf: f32 },
+    /// The ray hit a surface, where this light sample was drawn (`None`: the
+    /// sample carried no density).
+    Light(Option<EnvSample>),
+}
+
+/// The state of one path of a wave between bounces.
+#[derive(Debug, Clone, Copy)]
+struct Lane {
+    origin: [f32; 3],
+    dir: [f32; 3],
+    /// The density with which the previous bounce chose `dir`; a delta (or the
+    /// camera) gives the environment its full weight.
+    previous_pdf: f32,
+    previous_delta: bool,
+    bounce: u32,
+    alive: bool,
+    /// The vertex being shaded, told to the recorder once its shadow ray is known.
+    record: Option<VertexRecord>,
 }
 
 /// The tracer for one scene, lighting and shading.
@@ -204,6 +265,22 @@ impl<'a> PathTracer<'a> {
         self.len() == 0
     }
 
+    /// The BSDF at a hit; `None` for the floor when the lighting has none (the
+    /// geometry reports it only when asked to).
+    fn material(&self, hit: &SurfaceHit) -> Option<&dyn SpectralBsdf> {
+        match (hit.surface, &self.floor) {
+            (Surface::Floor, Some(floor)) => Some(floor),
+            (Surface::Mesh { material }, _) => Some(self.shading.material(material)),
+            (Surface::Floor, None) => None,
+        }
+    }
+
+    /// Whether the path shades its hit (draws a light sample and a bounce) rather
+    /// than ending there: not after its last bounce, not on a missing floor.
+    fn shades(&self, hit: &SurfaceHit, lane: &Lane) -> bool {
+        lane.bounce < self.settings.max_bounces && self.material(hit).is_some()
+    }
+
     /// Spectral radiance arriving at `origin` from direction `-dir` (the camera ray
     /// `origin + t·dir`, `dir` a unit vector), one estimate, written to `out`.
     /// Random numbers come from `sampler` in a fixed order, so the estimate is a
@@ -230,94 +307,193 @@ impl<'a> PathTracer<'a> {
         recorder: &mut impl PathRecorder,
     ) -> PathStats {
         let len = self.len();
-        let out = &mut out[..len];
+        self.radiance_wave(
+            &[(origin, dir)],
+            std::slice::from_mut(sampler),
+            buffers,
+            &mut out[..len],
+            std::slice::from_mut(recorder),
+        )
+    }
+
+    /// [`Self::radiance_recorded`] for several paths at once (at most
+    /// [`WAVE_PATHS`] for the batches to pay): camera ray `rays[i]` with
+    /// `samplers[i]`, its radiance to `out[i·len..(i+1)·len]`, its decisions to
+    /// `recorders[i]`. Each path draws the same random numbers, meets the same
+    /// surfaces and adds up its radiance in the same order as it would alone, so
+    /// the result is bit for bit that of tracing the paths one by one; only the
+    /// rays go to the BVH together (each bounce's closest-hit rays as one batch,
+    /// then the shadow rays of the light samples as another).
+    ///
+    /// # Panics
+    /// If the slices' lengths disagree.
+    pub fn radiance_wave<R: PathRecorder>(
+        &self,
+        rays: &[([f32; 3], [f32; 3])],
+        samplers: &mut [PixelSampler],
+        buffers: &mut PathBuffers,
+        out: &mut [f32],
+        recorders: &mut [R],
+    ) -> PathStats {
+        let len = self.len();
+        let paths = rays.len();
+        assert_eq!(
+            buffers.len, len,
+            "path buffers for another wavelength count"
+        );
+        assert_eq!(samplers.len(), paths, "one sampler per path");
+        assert_eq!(recorders.len(), paths, "one recorder per path");
+        assert_eq!(out.len(), paths * len, "one spectrum per path");
         let PathBuffers {
             throughput,
+            pending,
             bsdf: f,
-            light,
+            light: lights,
+            looked_up,
             weight,
+            lanes,
+            rays: queries,
+            ray_lanes,
+            hits,
+            shadow_rays,
+            shadow_lanes,
+            blocked,
+            scratch,
+            ..
         } = buffers;
         out.fill(0.0);
-        throughput.fill(1.0);
+        throughput.clear();
+        throughput.resize(paths * len, 1.0);
+        pending.clear();
+        pending.resize(paths * len, 0.0);
+        lights.clear();
+        lights.resize(paths * len, 0.0);
+        lanes.clear();
+        lanes.extend(rays.iter().map(|&(origin, dir)| Lane {
+            origin,
+            dir,
+            previous_pdf: 0.0,
+            previous_delta: true,
+            bounce: 0,
+            alive: true,
+            record: None,
+        }));
         let use_floor = self.floor.is_some();
         let mut stats = PathStats::default();
-        let (mut ray_origin, mut ray_dir) = (origin, dir);
-        // The density with which the previous bounce chose `ray_dir`; a delta (or the
-        // camera) gives the environment its full weight.
-        let mut previous_pdf = 0.0f32;
-        let mut previous_delta = true;
-        for bounce in 0..=self.settings.max_bounces {
-            stats.rays += 1;
-            let Some(hit) =
-                self.geometry
-                    .intersect_with_floor(ray_origin, ray_dir, f32::INFINITY, use_floor)
-            else {
-                self.environment.radiance(ray_dir, light);
-                let mis = if previous_delta {
-                    1.0
-                } else {
-                    power_heuristic(previous_pdf, self.environment.pdf(ray_dir))
-                };
-                for ((o, t), l) in out.iter_mut().zip(throughput.iter()).zip(light.iter()) {
-                    *o += t * l * mis;
-                }
-                recorder.escape(ray_dir);
-                break;
-            };
-            if bounce == self.settings.max_bounces {
+        loop {
+            // One batch of closest-hit rays: the next segment of every live path.
+            queries.clear();
+            ray_lanes.clear();
+            for (i, lane) in lanes.iter().enumerate().filter(|(_, l)| l.alive) {
+                queries.push(RayQuery {
+                    origin: lane.origin,
+                    dir: lane.dir,
+                    t_max: f32::INFINITY,
+                });
+                ray_lanes.push(i);
+            }
+            if queries.is_empty() {
                 break;
             }
-            let material: &dyn SpectralBsdf = match (hit.surface, &self.floor) {
-                (Surface::Floor, Some(floor)) => floor,
-                (Surface::Mesh { material }, _) => self.shading.material(material),
-                // The geometry reports the floor only when asked to.
-                (Surface::Floor, None) => break,
-            };
-            let to_viewer = [-ray_dir[0], -ray_dir[1], -ray_dir[2]];
-            // Interpolated normals can face away from the viewer near silhouettes;
-            // shading with them would put ωo below the surface.
-            let normal = if dot(hit.shading_normal, to_viewer) > 0.0 {
-                hit.shading_normal
-            } else {
-                hit.geometric_normal
-            };
-            let frame = Frame::from_normal(normal);
-            let wo = frame.to_local(to_viewer);
-            let mut record = VertexRecord {
-                surface: hit.surface,
-                wo,
-                light: None,
-                next: None,
-            };
+            stats.rays += queries.len() as u32;
+            hits.clear();
+            hits.resize(queries.len(), None);
+            self.geometry
+                .intersect_batch(queries, use_floor, hits, scratch);
+            // The environment look-ups of the whole batch first, in a loop of their
+            // own: each reads a texel of a map that may be far larger than the
+            // caches, and with nothing between them the processor waits for
+            // several of these reads at once instead of one after another. A
+            // path's random numbers are drawn in the same order as alone.
+            looked_up.clear();
+            for (&i, hit) in ray_lanes.iter().zip(hits.iter()) {
+                let light = &mut lights[i * len..(i + 1) * len];
+                looked_up.push(match hit {
+                    None => LookUp::Escape {
+                        pdf: self.environment.radiance_and_pdf(lanes[i].dir, light),
+                    },
+                    Some(hit) if self.shades(hit, &lanes[i]) => {
+                        LookUp::Light(self.environment.sample(samplers[i].next_2d(), light))
+                    }
+                    Some(_) => LookUp::Nothing,
+                });
+            }
+            shadow_rays.clear();
+            shadow_lanes.clear();
+            for ((&i, hit), &found) in ray_lanes.iter().zip(hits.iter()).zip(looked_up.iter()) {
+                let lane = &mut lanes[i];
+                let sampler = &mut samplers[i];
+                let recorder = &mut recorders[i];
+                let out = &mut out[i * len..(i + 1) * len];
+                let throughput = &mut throughput[i * len..(i + 1) * len];
+                let light = &lights[i * len..(i + 1) * len];
+                let ray_dir = lane.dir;
+                let Some(hit) = hit else {
+                    let LookUp::Escape { pdf: light_pdf } = found else {
+                        unreachable!("an escape's look-up")
+                    };
+                    let mis = if lane.previous_delta {
+                        1.0
+                    } else {
+                        power_heuristic(lane.previous_pdf, light_pdf)
+                    };
+                    for ((o, t), l) in out.iter_mut().zip(throughput.iter()).zip(light.iter()) {
+                        *o += t * l * mis;
+                    }
+                    recorder.escape(ray_dir);
+                    lane.alive = false;
+                    continue;
+                };
+                let (LookUp::Light(light_sample), Some(material)) = (found, self.material(hit))
+                else {
+                    // The last bounce's hit, or a floor this lighting has not.
+                    lane.alive = false;
+                    continue;
+                };
+                let to_viewer = [-ray_dir[0], -ray_dir[1], -ray_dir[2]];
+                // Interpolated normals can face away from the viewer near silhouettes;
+                // shading with them would put ωo below the surface.
+                let normal = if dot(hit.shading_normal, to_viewer) > 0.0 {
+                    hit.shading_normal
+                } else {
+                    hit.geometric_normal
+                };
+                let frame = Frame::from_normal(normal);
+                let wo = frame.to_local(to_viewer);
+                let mut record = VertexRecord {
+                    surface: hit.surface,
+                    wo,
+                    light: None,
+                    next: None,
+                };
 
-            // Next-event estimation.
-            let u_light = sampler.next_2d();
-            if let Some(light_sample) = self.environment.sample(u_light, light)
-                && dot(light_sample.dir, hit.geometric_normal) > 0.0
-            {
-                let wi = frame.to_local(light_sample.dir);
-                if wi[2] > 0.0 {
-                    material.eval(wi, wo, f);
-                    let bsdf_pdf = material.pdf(wo, wi);
-                    let mis = power_heuristic(light_sample.pdf, bsdf_pdf);
-                    let scale = wi[2] * mis / light_sample.pdf;
-                    if scale > 0.0 {
-                        stats.rays += 1;
-                        let shadow_origin = RenderGeometry::spawn_origin(&hit, light_sample.dir);
-                        if !self.geometry.occluded_with_floor(
-                            shadow_origin,
-                            light_sample.dir,
-                            f32::INFINITY,
-                            use_floor,
-                        ) {
-                            for (((o, t), fv), l) in out
+                // Next-event estimation: the contribution waits in `pending` for
+                // its shadow ray, which goes out with the other paths' ones.
+                if let Some(light_sample) = light_sample
+                    && dot(light_sample.dir, hit.geometric_normal) > 0.0
+                {
+                    let wi = frame.to_local(light_sample.dir);
+                    if wi[2] > 0.0 {
+                        material.eval(wi, wo, f);
+                        let bsdf_pdf = material.pdf(wo, wi);
+                        let mis = power_heuristic(light_sample.pdf, bsdf_pdf);
+                        let scale = wi[2] * mis / light_sample.pdf;
+                        if scale > 0.0 {
+                            let pending = &mut pending[i * len..(i + 1) * len];
+                            for (((p, t), fv), l) in pending
                                 .iter_mut()
                                 .zip(throughput.iter())
                                 .zip(f.iter())
                                 .zip(light.iter())
                             {
-                                *o += t * fv * l * scale;
+                                *p = t * fv * l * scale;
                             }
+                            shadow_rays.push(RayQuery {
+                                origin: RenderGeometry::spawn_origin(hit, light_sample.dir),
+                                dir: light_sample.dir,
+                                t_max: f32::INFINITY,
+                            });
+                            shadow_lanes.push(i);
                             record.light = Some(LightRecord {
                                 wi,
                                 dir: light_sample.dir,
@@ -327,52 +503,78 @@ impl<'a> PathTracer<'a> {
                         }
                     }
                 }
+                lane.record = Some(record);
+
+                // The BSDF sample continues the path.
+                let u_bsdf = [sampler.next_1d(), sampler.next_1d(), sampler.next_1d()];
+                let u_roulette = sampler.next_1d();
+                lane.alive = false;
+                let Some(sample) = material.sample(wo, u_bsdf, weight) else {
+                    continue;
+                };
+                let next_dir = frame.to_world(sample.wi);
+                // A direction above the shading normal but below the geometric surface
+                // would pass through it.
+                if dot(next_dir, hit.geometric_normal) <= 0.0 {
+                    continue;
+                }
+                let mut largest = 0.0f32;
+                for (t, w) in throughput.iter_mut().zip(weight.iter()) {
+                    *t *= w;
+                    largest = largest.max(*t);
+                }
+                if !(largest > 0.0 && largest.is_finite()) {
+                    continue;
+                }
+                let mut survive = 1.0;
+                if lane.bounce + 1 >= self.settings.roulette_start {
+                    survive = largest.min(0.95);
+                    if u_roulette >= survive {
+                        continue;
+                    }
+                    throughput.iter_mut().for_each(|t| *t /= survive);
+                }
+                if let Some(record) = &mut lane.record {
+                    record.next = Some(NextRecord {
+                        wi: sample.wi,
+                        dir: next_dir,
+                        pdf: sample.pdf,
+                        delta: sample.delta,
+                        survive,
+                    });
+                }
+                lane.alive = true;
+                lane.previous_pdf = sample.pdf;
+                lane.previous_delta = sample.delta;
+                lane.origin = RenderGeometry::spawn_origin(hit, next_dir);
+                lane.dir = next_dir;
+                lane.bounce += 1;
             }
 
-            // The BSDF sample continues the path.
-            let u_bsdf = [sampler.next_1d(), sampler.next_1d(), sampler.next_1d()];
-            let u_roulette = sampler.next_1d();
-            let Some(sample) = material.sample(wo, u_bsdf, weight) else {
-                recorder.vertex(&record);
-                break;
-            };
-            let next_dir = frame.to_world(sample.wi);
-            // A direction above the shading normal but below the geometric surface
-            // would pass through it.
-            if dot(next_dir, hit.geometric_normal) <= 0.0 {
-                recorder.vertex(&record);
-                break;
-            }
-            let mut largest = 0.0f32;
-            for (t, w) in throughput.iter_mut().zip(weight.iter()) {
-                *t *= w;
-                largest = largest.max(*t);
-            }
-            if !(largest > 0.0 && largest.is_finite()) {
-                recorder.vertex(&record);
-                break;
-            }
-            let mut survive = 1.0;
-            if bounce + 1 >= self.settings.roulette_start {
-                survive = largest.min(0.95);
-                if u_roulette >= survive {
-                    recorder.vertex(&record);
-                    break;
+            // One batch of shadow rays; a clear one adds its light sample.
+            stats.rays += shadow_rays.len() as u32;
+            blocked.clear();
+            blocked.resize(shadow_rays.len(), false);
+            self.geometry
+                .occluded_batch(shadow_rays, use_floor, blocked, scratch);
+            for (&i, &is_blocked) in shadow_lanes.iter().zip(blocked.iter()) {
+                let lane = &mut lanes[i];
+                if is_blocked {
+                    if let Some(record) = &mut lane.record {
+                        record.light = None;
+                    }
+                } else {
+                    let out = &mut out[i * len..(i + 1) * len];
+                    for (o, p) in out.iter_mut().zip(&pending[i * len..(i + 1) * len]) {
+                        *o += p;
+                    }
                 }
-                throughput.iter_mut().for_each(|t| *t /= survive);
             }
-            record.next = Some(NextRecord {
-                wi: sample.wi,
-                dir: next_dir,
-                pdf: sample.pdf,
-                delta: sample.delta,
-                survive,
-            });
-            recorder.vertex(&record);
-            previous_pdf = sample.pdf;
-            previous_delta = sample.delta;
-            ray_origin = RenderGeometry::spawn_origin(&hit, next_dir);
-            ray_dir = next_dir;
+            for (lane, recorder) in lanes.iter_mut().zip(recorders.iter_mut()) {
+                if let Some(record) = lane.record.take() {
+                    recorder.vertex(&record);
+                }
+            }
         }
         stats
     }
@@ -391,6 +593,107 @@ pub(crate) fn power_heuristic(a: f32, b: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::design::presets;
+    use crate::render::camera::Camera;
+    use crate::render::material::ShadingModel;
+    use crate::scene::car::{CarParameters, generate};
+    use crate::spectrum::WavelengthGrid;
+
+    /// Records every call, to compare two tracings' decisions.
+    #[derive(Debug, Default, Clone, PartialEq)]
+    struct Log(Vec<String>);
+
+    impl PathRecorder for Log {
+        fn vertex(&mut self, vertex: &VertexRecord) {
+            self.0.push(format!("{vertex:?}"));
+        }
+        fn escape(&mut self, dir: [f32; 3]) {
+            self.0.push(format!("escape {dir:?}"));
+        }
+    }
+
+    #[test]
+    fn paths_traced_in_waves_equal_paths_traced_alone_bit_for_bit() {
+        let grid = WavelengthGrid::visible(16).unwrap();
+        let design = presets::all().into_iter().next().unwrap().design;
+        let model = design.model(grid).unwrap();
+        let scene = generate(&CarParameters::default());
+        let shading = Shading::new(
+            &model,
+            ShadingModel::Paint,
+            &scene.materials,
+            &scene.paint_materials,
+        );
+        let (width, height) = (24, 14);
+        let camera = Camera::framing(scene.mesh.bounds().unwrap(), width, height);
+        let geometry = RenderGeometry::new(scene.mesh, true).unwrap();
+        let environment = Environment::studio(&grid);
+        let tracer = PathTracer::new(
+            &geometry,
+            &environment,
+            &shading,
+            IntegratorSettings::default(),
+        );
+        let len = tracer.len();
+        let mut jobs = Vec::new();
+        for y in 0..height {
+            for x in 0..width {
+                for s in 0..2 {
+                    let mut sampler = PixelSampler::new(5, y * width + x, s);
+                    let [jx, jy] = sampler.next_2d();
+                    jobs.push((camera.ray(x as f32 + jx, y as f32 + jy), sampler));
+                }
+            }
+        }
+        let mut buffers = PathBuffers::new(len);
+        let (mut alone, mut alone_logs, mut alone_rays) = (Vec::new(), Vec::new(), 0);
+        for ((origin, dir), sampler) in &jobs {
+            let mut out = vec![0.0; len];
+            let mut log = Log::default();
+            let stats = tracer.radiance_recorded(
+                *origin,
+                *dir,
+                &mut sampler.clone(),
+                &mut buffers,
+                &mut out,
+                &mut log,
+            );
+            alone.extend(out);
+            alone_logs.push(log);
+            alone_rays += stats.rays;
+        }
+        // Waves of other sizes, and the odd remainder: no path's result or decisions
+        // may depend on which others share its batches.
+        for paths in [1, 3, WAVE_PATHS] {
+            let (mut waves, mut logs, mut rays) = (Vec::new(), Vec::new(), 0);
+            for chunk in jobs.chunks(paths) {
+                let camera_rays: Vec<_> = chunk.iter().map(|(r, _)| *r).collect();
+                let mut samplers: Vec<_> = chunk.iter().map(|(_, s)| s.clone()).collect();
+                let mut out = vec![0.0; len * chunk.len()];
+                let mut chunk_logs = vec![Log::default(); chunk.len()];
+                let stats = tracer.radiance_wave(
+                    &camera_rays,
+                    &mut samplers,
+                    &mut buffers,
+                    &mut out,
+                    &mut chunk_logs,
+                );
+                waves.extend(out);
+                logs.extend(chunk_logs);
+                rays += stats.rays;
+            }
+            let same_bits = alone
+                .iter()
+                .zip(&waves)
+                .all(|(a, b)| a.to_bits() == b.to_bits());
+            assert!(same_bits && alone.len() == waves.len(), "waves of {paths}");
+            assert!(logs == alone_logs, "recorded decisions, waves of {paths}");
+            assert_eq!(rays, alone_rays, "rays, waves of {paths}");
+        }
+        // The scene is not trivial: paths hit the car, the floor and the light.
+        assert!(alone.iter().any(|&v| v > 0.0));
+        assert!(alone_rays as usize > 2 * jobs.len());
+    }
 
     #[test]
     fn power_heuristic_weights_sum_to_one() {

@@ -53,7 +53,9 @@ use crate::render::camera::Camera;
 use crate::render::environment::Environment;
 use crate::render::film::{DisplaySettings, Film, NoiseEstimate};
 use crate::render::geometry::RenderGeometry;
-use crate::render::integrator::{IntegratorSettings, PathBuffers, PathTracer};
+use crate::render::integrator::{
+    IntegratorSettings, NoRecord, PathBuffers, PathTracer, WAVE_PATHS,
+};
 use crate::render::material::Shading;
 use crate::render::reshade::{
     BaseImage, PathCache, ReshadeError, Reshaded, TileCache, TileRecorder, paint_is_mirror,
@@ -815,10 +817,13 @@ struct TileJob<'a> {
 
 impl TileJob<'_> {
     /// Renders the tile; with a recorder, samples below its limit are recorded.
-    /// Returns the rays traced.
+    /// Returns the rays traced. Samples that are not recorded are traced
+    /// [`WAVE_PATHS`] at a time ([`PathTracer::radiance_wave`], bit for bit the
+    /// same radiance as one by one) and added to the tile in the same order.
     fn render(&self, tile: &mut Film, mut recorder: Option<(&mut TileRecorder<'_>, u32)>) -> u64 {
         let mut buffers = PathBuffers::new(self.len);
-        let mut radiance = vec![0.0f32; self.len];
+        let mut radiance = vec![0.0f32; self.len * WAVE_PATHS];
+        let mut wave = Wave::default();
         let [x0, y0] = tile.origin();
         let mut rays = 0u64;
         for y in y0..y0 + tile.height() {
@@ -827,36 +832,76 @@ impl TileJob<'_> {
                 for sample in self.first_sample..self.first_sample + self.samples {
                     let mut sampler = PixelSampler::new(self.seed, pixel_index, sample);
                     let [jx, jy] = sampler.next_2d();
-                    let (origin, dir) = self.camera.ray(x as f32 + jx, y as f32 + jy);
-                    let stats = match &mut recorder {
+                    let ray = self.camera.ray(x as f32 + jx, y as f32 + jy);
+                    match &mut recorder {
                         Some((recorder, below)) if sample < *below => {
+                            rays += self.trace_wave(&mut wave, tile, &mut buffers, &mut radiance);
                             recorder.begin();
                             let stats = self.tracer.radiance_recorded(
-                                origin,
-                                dir,
+                                ray.0,
+                                ray.1,
                                 &mut sampler,
                                 &mut buffers,
-                                &mut radiance,
+                                &mut radiance[..self.len],
                                 *recorder,
                             );
-                            recorder.finish(x, y, tile.xyz_of(&radiance));
-                            stats
+                            recorder.finish(x, y, tile.xyz_of(&radiance[..self.len]));
+                            rays += u64::from(stats.rays);
+                            tile.add_sample(x, y, &radiance[..self.len]);
                         }
-                        _ => self.tracer.radiance(
-                            origin,
-                            dir,
-                            &mut sampler,
-                            &mut buffers,
-                            &mut radiance,
-                        ),
-                    };
-                    rays += u64::from(stats.rays);
-                    tile.add_sample(x, y, &radiance);
+                        _ => {
+                            wave.pixels.push([x, y]);
+                            wave.rays.push(ray);
+                            wave.samplers.push(sampler);
+                            if wave.rays.len() == WAVE_PATHS {
+                                rays +=
+                                    self.trace_wave(&mut wave, tile, &mut buffers, &mut radiance);
+                            }
+                        }
+                    }
                 }
             }
         }
-        rays
+        rays + self.trace_wave(&mut wave, tile, &mut buffers, &mut radiance)
     }
+
+    /// Traces the paths waiting in `wave`, adds them to the tile in order and
+    /// empties it. Returns the rays traced.
+    fn trace_wave(
+        &self,
+        wave: &mut Wave,
+        tile: &mut Film,
+        buffers: &mut PathBuffers,
+        radiance: &mut [f32],
+    ) -> u64 {
+        let paths = wave.rays.len();
+        if paths == 0 {
+            return 0;
+        }
+        let radiance = &mut radiance[..paths * self.len];
+        let stats = self.tracer.radiance_wave(
+            &wave.rays,
+            &mut wave.samplers,
+            buffers,
+            radiance,
+            &mut [NoRecord; WAVE_PATHS][..paths],
+        );
+        for (&[x, y], spectrum) in wave.pixels.iter().zip(radiance.chunks_exact(self.len)) {
+            tile.add_sample(x, y, spectrum);
+        }
+        wave.pixels.clear();
+        wave.rays.clear();
+        wave.samplers.clear();
+        u64::from(stats.rays)
+    }
+}
+
+/// Pixel samples waiting to be traced together.
+#[derive(Default)]
+struct Wave {
+    pixels: Vec<[u32; 2]>,
+    rays: Vec<([f32; 3], [f32; 3])>,
+    samplers: Vec<PixelSampler>,
 }
 
 /// Empty path caches aligned with `tiles`.
