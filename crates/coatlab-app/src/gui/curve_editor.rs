@@ -247,7 +247,9 @@ impl CurveEditor<'_> {
             }
             let active = response.hovered() || response.dragged() || response.has_focus();
             let radius = if active { 5.5 } else { 4.0 };
-            painter.circle(
+            draw_marker(
+                ui,
+                &painter,
                 centre,
                 radius,
                 visuals.extreme_bg_color,
@@ -285,6 +287,75 @@ impl CurveEditor<'_> {
             }
         }
     }
+}
+
+/// A control point: a disc of `fill` with a ring of `stroke` just outside it, as
+/// `painter.circle` draws it, but from two small pre-rendered textures (4
+/// triangles) instead of a tessellated, feathered circle (≈ 100 triangles, most
+/// thinner than a pixel). A software rasteriser pays per triangle: the editors'
+/// 37 points were ~5 k of the window's 12 k triangles a frame
+/// (docs/benchmarks.md, "GUI responsiveness").
+fn draw_marker(
+    ui: &Ui,
+    painter: &egui::Painter,
+    centre: Pos2,
+    radius: f32,
+    fill: Color32,
+    stroke: Stroke,
+) {
+    let ppp = ui.ctx().pixels_per_point();
+    let key = egui::Id::unique((
+        "curve-marker",
+        radius.to_bits(),
+        stroke.width.to_bits(),
+        ppp.to_bits(),
+    ));
+    // Not created inside `memory_mut`: loading a texture locks the context too.
+    let cached: Option<[egui::TextureHandle; 2]> = ui.ctx().data(|d| d.get_temp(key));
+    let [disc, ring] = match cached {
+        Some(textures) => textures,
+        None => {
+            let textures = marker_images(radius, stroke.width, ppp).map(|image| {
+                ui.ctx()
+                    .load_texture("curve-marker", image, egui::TextureOptions::LINEAR)
+            });
+            ui.ctx().data_mut(|d| d.insert_temp(key, textures.clone()));
+            textures
+        }
+    };
+    // The textures' pixels are the screen's: the quad is their size in points.
+    let side = disc.size()[0] as f32 / ppp;
+    let rect = Rect::from_center_size(centre, Vec2::splat(side));
+    let uv = Rect::from_min_max(pos2(0.0, 0.0), pos2(1.0, 1.0));
+    painter.image(disc.id(), rect, uv, fill);
+    painter.image(ring.id(), rect, uv, stroke.color);
+}
+
+/// The coverage masks (white, alpha = the share of each screen pixel covered) of a
+/// marker's disc (radius `radius` points) and of its ring (`width` points wide,
+/// outside the disc, as egui strokes a circle), `ppp` pixels per point, with a pixel's margin for the
+/// edges' anti-aliasing.
+fn marker_images(radius: f32, width: f32, ppp: f32) -> [egui::ColorImage; 2] {
+    let outer = radius + width;
+    let n = (2.0 * outer * ppp).ceil() as usize + 2;
+    let half = n as f32 / 2.0;
+    // Coverage of "distance < edge" for a pixel at `d` pixels from the centre.
+    let inside = |edge: f32, d: f32| (edge * ppp - d + 0.5).clamp(0.0, 1.0);
+    let mut disc = Vec::with_capacity(n * n);
+    let mut ring = Vec::with_capacity(n * n);
+    for y in 0..n {
+        for x in 0..n {
+            let d = (x as f32 + 0.5 - half).hypot(y as f32 + 0.5 - half);
+            let a_disc = inside(radius, d);
+            let a_ring = inside(outer, d) - inside(radius, d);
+            disc.push(Color32::from_white_alpha((a_disc * 255.0).round() as u8));
+            ring.push(Color32::from_white_alpha((a_ring * 255.0).round() as u8));
+        }
+    }
+    [
+        egui::ColorImage::new([n, n], disc),
+        egui::ColorImage::new([n, n], ring),
+    ]
 }
 
 fn nice_step(raw: f64) -> f64 {
@@ -344,6 +415,44 @@ mod tests {
         let moved = move_control_point(&t, 550.0, 25.0, 1e-3, log);
         assert!((moved.value_at_nm(550.0) - 1e-3).abs() < 1e-12);
         assert!(moved.values().iter().all(|v| *v >= 1e-5 && *v <= 1.0));
+    }
+
+    /// The marker's masks cover what a circle of that radius and a ring of that
+    /// width cover: areas within half a pixel's rim, and the ring hollow.
+    #[test]
+    fn a_marker_covers_its_disc_and_ring() {
+        for (radius, width, ppp) in [(4.0f32, 2.0f32, 1.0f32), (5.5, 2.0, 1.0), (4.0, 2.0, 2.0)] {
+            let [disc, ring] = marker_images(radius, width, ppp);
+            let area = |img: &egui::ColorImage| {
+                img.pixels
+                    .iter()
+                    .map(|c| f32::from(c.a()) / 255.0)
+                    .sum::<f32>()
+            };
+            let r = radius * ppp;
+            let w = width * ppp;
+            let want_disc = std::f32::consts::PI * r * r;
+            let want_ring = std::f32::consts::PI * ((r + w).powi(2) - r * r);
+            // The rim's anti-aliasing is exact to about a tenth of the perimeter in pixels.
+            let tol = |rr: f32| 0.1 * 2.0 * std::f32::consts::PI * rr;
+            assert!(
+                (area(&disc) - want_disc).abs() < tol(r),
+                "disc {} vs {want_disc}",
+                area(&disc)
+            );
+            assert!(
+                (area(&ring) - want_ring).abs() < tol(r + w) + tol(r),
+                "ring {} vs {want_ring}",
+                area(&ring)
+            );
+            // The centre of the ring's mask is empty, the disc's full.
+            let n = disc.size[0];
+            let centre = n / 2 * n + n / 2;
+            assert_eq!(disc.pixels[centre].a(), 255);
+            assert_eq!(ring.pixels[centre].a(), 0);
+            // The whole ring fits, with a transparent border for the edge.
+            assert!(ring.pixels[..n].iter().all(|c| c.a() == 0));
+        }
     }
 
     #[test]
