@@ -80,7 +80,7 @@ fn the_binary_opens_its_window_under_xvfb() {
     }
     let dir = out_dir();
     let (runtime, state) = app_dirs(&dir).expect("runtime dir");
-    let (xvfb, display) = start_xvfb(200).unwrap_or_else(|e| panic!("{e}"));
+    let (xvfb, display) = start_xvfb().unwrap_or_else(|e| panic!("{e}"));
 
     let log = std::fs::File::create(dir.join("coatlab.log")).expect("log file");
     let mut app = Reaped(

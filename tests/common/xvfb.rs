@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Kills and reaps the child when dropped, so a failing assertion leaves nothing behind.
 pub struct Reaped(pub Child);
@@ -40,32 +40,49 @@ pub fn app_dirs(dir: &Path) -> std::io::Result<(PathBuf, PathBuf)> {
     Ok((runtime, state))
 }
 
-/// Starts Xvfb (1600×1000×24) on a display number of our own, `base` + the process
-/// id modulo 500, so parallel runs do not meet, and waits up to 10 s for its
-/// socket. Returns the server and its `DISPLAY`.
-pub fn start_xvfb(base: u32) -> Result<(Reaped, String), String> {
-    let display = format!(":{}", base + std::process::id() % 500);
-    let xvfb = Command::new("Xvfb")
+/// Starts Xvfb (1600×1000×24) on a display number it picks itself and returns the
+/// server and its `DISPLAY` once it accepts connections.
+///
+/// `-displayfd` makes Xvfb choose a free display and write its number to our pipe
+/// only when it is listening. Choosing a number ourselves and waiting for its
+/// socket file raced: servers killed by an earlier run leave `/tmp/.X11-unix/XN`
+/// behind, the file "exists" before the new server listens, and the app then
+/// failed with "Failed to open connection to X server" (seen in a CI run).
+pub fn start_xvfb() -> Result<(Reaped, String), String> {
+    use std::io::BufRead;
+    let mut child = Command::new("Xvfb")
         .args([
-            display.as_str(),
+            "-displayfd",
+            "1",
             "-screen",
             "0",
             "1600x1000x24",
             "-nolisten",
             "tcp",
         ])
-        .stdout(Stdio::null())
+        .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
-        .map(Reaped)
         .map_err(|e| format!("cannot start Xvfb: {e}"))?;
-    let socket = PathBuf::from(format!("/tmp/.X11-unix/X{}", &display[1..]));
-    let start = Instant::now();
-    while !socket.exists() && start.elapsed() < Duration::from_secs(10) {
-        std::thread::sleep(Duration::from_millis(100));
+    let stdout = child.stdout.take();
+    let xvfb = Reaped(child);
+    let Some(stdout) = stdout else {
+        return Err("Xvfb's standard output is not a pipe".into());
+    };
+    // Read on a thread so a server that never answers costs a timeout, not a hang;
+    // the thread ends when the server is killed and its pipe closes.
+    let (sender, receiver) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut line = String::new();
+        let read = std::io::BufReader::new(stdout).read_line(&mut line);
+        let _ = sender.send(read.map(|_| line));
+    });
+    match receiver.recv_timeout(Duration::from_secs(20)) {
+        Ok(Ok(line)) => match line.trim().parse::<u32>() {
+            Ok(number) => Ok((xvfb, format!(":{number}"))),
+            Err(_) => Err(format!("Xvfb wrote {line:?} instead of its display number")),
+        },
+        Ok(Err(e)) => Err(format!("cannot read Xvfb's display number: {e}")),
+        Err(_) => Err("Xvfb did not report a display within 20 s".into()),
     }
-    if !socket.exists() {
-        return Err(format!("Xvfb did not start on {display}"));
-    }
-    Ok((xvfb, display))
 }

@@ -245,7 +245,7 @@ fn real_window(seconds: f64) {
     };
     let frames_path: PathBuf = dir.join("frames.log");
     let _ = std::fs::remove_file(&frames_path);
-    let (_xvfb, display) = match start_xvfb(300) {
+    let (_xvfb, display) = match start_xvfb() {
         Ok(server) => server,
         Err(e) => {
             println!("[real window] skipped: {e}");

@@ -397,7 +397,7 @@ fn save_and_open_through_the_real_zenity_dialog() {
     blue.save(&blue_path).expect("write the design to open");
     let start_design = presets::all().swap_remove(0).design;
 
-    let (xvfb, display) = start_xvfb(700).unwrap_or_else(|e| panic!("{e}"));
+    let (xvfb, display) = start_xvfb().unwrap_or_else(|e| panic!("{e}"));
     let log = dir.join("coatlab.log");
     let log_file = std::fs::File::create(&log).expect("log file");
     let app = Command::new(env!("CARGO_BIN_EXE_coatlab"))
