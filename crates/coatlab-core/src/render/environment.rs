@@ -409,12 +409,42 @@ impl Environment {
     /// # Panics
     /// If `out.len()` differs from the grid's length.
     pub fn sample(&self, u: [f32; 2], out: &mut [f32]) -> Option<EnvSample> {
+        self.finish_sample(&self.begin_sample(u), out)
+    }
+
+    /// [`Self::sample`] in two steps, for a batch of paths: this one draws what the
+    /// numbers decide without the map's texel records (the emitter, the map's row
+    /// and the column u lands on) and starts reading that record into the cache;
+    /// [`Self::finish_sample`], called after the batch's other look-ups have been
+    /// begun, completes the draw. The result is bit for bit `sample(u, out)`.
+    pub(crate) fn begin_sample(&self, u: [f32; 2]) -> SampleLookUp {
         let (component, u0) = self.components.sample(f64::from(u[0]));
         let u1 = f64::from(u[1]).clamp(0.0, ONE_BELOW);
-        let d = if component < self.patches.len() {
-            self.patches[component].shape.sample([u0, u1])
+        let draw = if component < self.patches.len() {
+            None
         } else {
-            self.map.sample([u0, u1])?
+            let draw = self.map.begin_sample([u0, u1]);
+            if let Some(draw) = &draw {
+                prefetch(&self.map.texels[draw.row * self.map.width + draw.first]);
+            }
+            draw
+        };
+        SampleLookUp {
+            component,
+            u: [u0, u1],
+            draw,
+        }
+    }
+
+    /// The second step of [`Self::begin_sample`].
+    ///
+    /// # Panics
+    /// If `out.len()` differs from the grid's length.
+    pub(crate) fn finish_sample(&self, begun: &SampleLookUp, out: &mut [f32]) -> Option<EnvSample> {
+        let d = if begun.component < self.patches.len() {
+            self.patches[begun.component].shape.sample(begun.u)
+        } else {
+            self.map.finish_sample(begun.draw?)
         };
         let dir = d.map(|v| v as f32);
         // Radiance and density of the direction as returned (rounded to f32), the
@@ -427,10 +457,48 @@ impl Environment {
         Some(EnvSample { dir, pdf })
     }
 
+    /// [`Self::radiance_and_pdf`] in two steps, for a batch of escapes: this one
+    /// finds the direction's texel and starts reading its record into the cache;
+    /// [`Self::finish_radiance_and_pdf`] returns what `radiance_and_pdf` does, bit
+    /// for bit. Begun for a whole batch first, the batch's cache misses overlap.
+    pub(crate) fn begin_radiance_and_pdf(&self, dir: [f32; 3]) -> DirectionLookUp {
+        let Some(d) = normalised(dir) else {
+            return DirectionLookUp {
+                query: None,
+                texel: 0,
+            };
+        };
+        let mut query = Query::new(d);
+        let texel = self.map.texel(&mut query);
+        prefetch(&self.map.texels[texel]);
+        DirectionLookUp {
+            query: Some(query),
+            texel,
+        }
+    }
+
+    /// The second step of [`Self::begin_radiance_and_pdf`].
+    ///
+    /// # Panics
+    /// If `out.len()` differs from the grid's length.
+    pub(crate) fn finish_radiance_and_pdf(&self, begun: &DirectionLookUp, out: &mut [f32]) -> f32 {
+        assert_eq!(out.len(), self.grid.len(), "radiance buffer length");
+        out.fill(0.0);
+        let Some(mut query) = begun.query else {
+            return 0.0;
+        };
+        self.evaluate_texel(begun.texel, &mut query, Some(out)) as f32
+    }
+
     /// The density of `q` (f64), and its radiance added to `out` when given: one
     /// texel look-up and one containment test per emitter.
-    fn evaluate(&self, q: &mut Query, mut out: Option<&mut [f32]>) -> f64 {
+    fn evaluate(&self, q: &mut Query, out: Option<&mut [f32]>) -> f64 {
         let texel = self.map.texel(q);
+        self.evaluate_texel(texel, q, out)
+    }
+
+    /// [`Self::evaluate`] with the map's texel of `q` already found.
+    fn evaluate_texel(&self, texel: usize, q: &mut Query, mut out: Option<&mut [f32]>) -> f64 {
         let mut pdf = self.components.probability(self.patches.len()) * self.map.pdf(texel);
         if let Some(out) = out.as_deref_mut() {
             self.map.add_radiance(texel, out);
@@ -449,8 +517,57 @@ impl Environment {
     }
 }
 
+/// A light sample begun by [`Environment::begin_sample`].
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct SampleLookUp {
+    component: usize,
+    /// The numbers left for the component's own draw.
+    u: [f64; 2],
+    /// The map's part of the draw when the component is the map (`None` also for
+    /// a map without light, which draws nothing).
+    draw: Option<MapDraw>,
+}
+
+/// An escape's look-up begun by [`Environment::begin_radiance_and_pdf`].
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct DirectionLookUp {
+    /// `None` for a direction that cannot be normalised (radiance and density 0).
+    query: Option<Query>,
+    texel: usize,
+}
+
+/// What a map sample's numbers decide before its texel record is read.
+#[derive(Debug, Clone, Copy)]
+struct MapDraw {
+    row: usize,
+    /// Where the row's number fell within the row, in [0, 1).
+    v: f64,
+    /// The column u lands on, before its alias table decides.
+    first: usize,
+    /// Where u fell within that column, in [0, 1).
+    frac: f64,
+}
+
+/// Starts reading the cache line of `item` (a hint: no effect on any result).
+#[inline(always)]
+fn prefetch<T>(item: &T) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        // SAFETY: a prefetch never faults and reads nothing the program sees; the
+        // address is that of a live reference.
+        #[allow(unused_unsafe)]
+        unsafe {
+            _mm_prefetch::<_MM_HINT_T0>((item as *const T).cast::<i8>())
+        };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = item;
+}
+
 /// A unit direction being looked up, with its azimuth computed at most once (an
 /// `atan2`, shared by the map's column and every emitter's azimuth test).
+#[derive(Debug, Clone, Copy)]
 struct Query {
     d: [f64; 3],
     azimuth: Option<f64>,
@@ -1108,10 +1225,10 @@ struct RadianceMap {
     /// cos θ at the row boundaries, from 1 (zenith) to −1.
     row_cos: Vec<f64>,
     channels: Vec<Vec<f32>>,
-    /// Per texel, its coefficients and density together (16 bytes, one cache
-    /// line's quarter): a look-up of a map far larger than the caches (an image
-    /// map of 1024 × 512 texels) costs one memory access, not one for the
-    /// coefficients and two for the sampling tables.
+    /// Per texel, its coefficients and density together (24 bytes): a look-up of a
+    /// map far larger than the caches (an image map of 1024 × 512 texels) costs
+    /// one memory access, not one for the coefficients and two for the sampling
+    /// tables.
     texels: Vec<Texel>,
     rows: Distribution1D,
     /// Sum of all texel weights.
@@ -1189,18 +1306,36 @@ impl RadianceMap {
         f64::from(self.texels[texel].pdf)
     }
 
-    fn sample(&self, u: [f64; 2]) -> Option<[f64; 3]> {
+    /// The part of a sample the numbers decide alone (the row by its cdf, the
+    /// column u lands on); `None` if the map has no light.
+    fn begin_sample(&self, u: [f64; 2]) -> Option<MapDraw> {
         if self.total_weight <= 0.0 {
             return None;
         }
         let (row, v) = self.rows.sample(u[0]);
+        let x = u[1] * self.width as f64;
+        let first = (x as usize).min(self.width - 1);
+        let frac = (x - first as f64).clamp(0.0, ONE_BELOW);
+        Some(MapDraw {
+            row,
+            v,
+            first,
+            frac,
+        })
+    }
+
+    /// The direction of a sample begun by [`Self::begin_sample`].
+    fn finish_sample(&self, draw: MapDraw) -> [f64; 3] {
+        let MapDraw {
+            row,
+            v,
+            first,
+            frac,
+        } = draw;
         // The column by the row's alias table (Walker; Vose's construction): u's
         // column, kept with its texel's probability, else its alias; what is left
         // of u places the direction inside the texel. The one texel record read
         // here is the one the radiance look-up reads next.
-        let x = u[1] * self.width as f64;
-        let first = (x as usize).min(self.width - 1);
-        let frac = (x - first as f64).clamp(0.0, ONE_BELOW);
         let texel = &self.texels[row * self.width + first];
         let keep = f64::from(texel.keep);
         let (col, w) = if frac < keep {
@@ -1211,7 +1346,7 @@ impl RadianceMap {
         let w = w.clamp(0.0, ONE_BELOW);
         let y = self.row_cos[row] + v * (self.row_cos[row + 1] - self.row_cos[row]);
         let azimuth = azimuth_of_column(col as f64 + w, self.width);
-        Some(direction_from_azimuth_y(azimuth, y))
+        direction_from_azimuth_y(azimuth, y)
     }
 }
 
@@ -1767,6 +1902,47 @@ mod tests {
                     (p - want).abs() < 1e-6 * want.max(1.0 / n),
                     "{i}: {p} vs {want}"
                 );
+            }
+        }
+    }
+
+    /// The look-ups in two steps (begun for a batch, then finished) return what the
+    /// one-step calls do, bit for bit: light samples (map texels and emitters) and
+    /// escapes (including a direction that cannot be normalised).
+    #[test]
+    fn look_ups_in_two_steps_are_those_in_one() {
+        let (width, height) = (64, 32);
+        let mut state = 17;
+        let pixels: Vec<[f32; 3]> = (0..width * height)
+            .map(|_| [0, 1, 2].map(|_| uniform(&mut state).powi(6) as f32 * 50.0))
+            .collect();
+        let image = RgbImage::new(width, height, pixels).unwrap();
+        let grid = WavelengthGrid::new(380.0, 10.0, 33).unwrap();
+        let image_env = Environment::from_rgb_image(&image, "test", &grid).unwrap();
+        let mut a = vec![0.0f32; grid.len()];
+        let mut b = vec![0.0f32; grid.len()];
+        for env in [
+            image_env,
+            Environment::studio(&grid),
+            Environment::outdoor(&grid),
+        ] {
+            for _ in 0..20_000 {
+                let u = [uniform(&mut state) as f32, uniform(&mut state) as f32];
+                let one = env.sample(u, &mut a);
+                let two = env.finish_sample(&env.begin_sample(u), &mut b);
+                assert_eq!(
+                    one.map(|s| (s.dir.map(f32::to_bits), s.pdf.to_bits())),
+                    two.map(|s| (s.dir.map(f32::to_bits), s.pdf.to_bits())),
+                    "sample {u:?}"
+                );
+                assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+                let d = [0, 1, 2].map(|_| (2.0 * uniform(&mut state) - 1.0) as f32 * 3.0);
+                for dir in [d, [0.0; 3]] {
+                    let one = env.radiance_and_pdf(dir, &mut a);
+                    let two = env.finish_radiance_and_pdf(&env.begin_radiance_and_pdf(dir), &mut b);
+                    assert_eq!(one.to_bits(), two.to_bits(), "direction {dir:?}");
+                    assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+                }
             }
         }
     }

@@ -23,7 +23,7 @@
 
 use crate::accel::{BATCH_LANES, RayQuery};
 use crate::paint::model::SpectralBsdf;
-use crate::render::environment::{EnvSample, Environment};
+use crate::render::environment::{DirectionLookUp, EnvSample, Environment, SampleLookUp};
 use crate::render::geometry::{BatchScratch, Frame, RenderGeometry, Surface, SurfaceHit, dot};
 use crate::render::material::{Shading, SimpleMaterial};
 use crate::render::sampler::PixelSampler;
@@ -67,6 +67,8 @@ pub struct PathBuffers {
     /// Per ray of the batch: the light sample drawn at its hit, or the escape's
     /// density (its radiance is in `light`).
     looked_up: Vec<LookUp>,
+    /// Per ray of the batch: its look-up begun (texel record being fetched).
+    begun: Vec<Begun>,
     weight: Vec<f32>,
     lanes: Vec<Lane>,
     rays: Vec<RayQuery>,
@@ -88,6 +90,7 @@ impl PathBuffers {
             bsdf: vec![0.0; len],
             light: Vec::new(),
             looked_up: Vec::new(),
+            begun: Vec::new(),
             weight: vec![0.0; len],
             lanes: Vec::new(),
             rays: Vec::new(),
@@ -99,6 +102,15 @@ impl PathBuffers {
             scratch: BatchScratch::default(),
         }
     }
+}
+
+/// An environment look-up of one ray of a batch, begun: what needs no texel
+/// record is done and the record is on its way into the cache.
+#[derive(Debug, Clone, Copy)]
+enum Begun {
+    Nothing,
+    Escape(DirectionLookUp),
+    Light(SampleLookUp),
 }
 
 /// What the environment look-ups of a batch found for one ray.
@@ -350,6 +362,7 @@ impl<'a> PathTracer<'a> {
             bsdf: f,
             light: lights,
             looked_up,
+            begun,
             weight,
             lanes,
             rays: queries,
@@ -400,22 +413,35 @@ impl<'a> PathTracer<'a> {
             hits.resize(queries.len(), None);
             self.geometry
                 .intersect_batch(queries, use_floor, hits, scratch);
-            // The environment look-ups of the whole batch first, in a loop of their
-            // own: each reads a texel of a map that may be far larger than the
-            // caches, and with nothing between them the processor waits for
-            // several of these reads at once instead of one after another. A
-            // path's random numbers are drawn in the same order as alone.
-            looked_up.clear();
+            // The environment look-ups of the whole batch first, in two loops of
+            // their own: each reads a texel record of a map that may be far larger
+            // than the caches. The first loop finds every ray's texel (an escape's
+            // direction, a light sample's row and column) and prefetches its
+            // record, the second reads them, so the batch's cache misses overlap
+            // instead of following one another. A path's random numbers are drawn
+            // in the same order as alone, and the results are bit for bit those
+            // of `Environment::radiance_and_pdf` and `Environment::sample`.
+            begun.clear();
             for (&i, hit) in ray_lanes.iter().zip(hits.iter()) {
-                let light = &mut lights[i * len..(i + 1) * len];
-                looked_up.push(match hit {
-                    None => LookUp::Escape {
-                        pdf: self.environment.radiance_and_pdf(lanes[i].dir, light),
-                    },
+                begun.push(match hit {
+                    None => Begun::Escape(self.environment.begin_radiance_and_pdf(lanes[i].dir)),
                     Some(hit) if self.shades(hit, &lanes[i]) => {
-                        LookUp::Light(self.environment.sample(samplers[i].next_2d(), light))
+                        Begun::Light(self.environment.begin_sample(samplers[i].next_2d()))
                     }
-                    Some(_) => LookUp::Nothing,
+                    Some(_) => Begun::Nothing,
+                });
+            }
+            looked_up.clear();
+            for (&i, started) in ray_lanes.iter().zip(begun.iter()) {
+                let light = &mut lights[i * len..(i + 1) * len];
+                looked_up.push(match started {
+                    Begun::Escape(begun) => LookUp::Escape {
+                        pdf: self.environment.finish_radiance_and_pdf(begun, light),
+                    },
+                    Begun::Light(begun) => {
+                        LookUp::Light(self.environment.finish_sample(begun, light))
+                    }
+                    Begun::Nothing => LookUp::Nothing,
                 });
             }
             shadow_rays.clear();
