@@ -159,6 +159,13 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
         let err = stderr_of_failure(&output);
         assert!(err.contains(expected), "{args:?}: {err}");
         assert!(!err.contains("panicked"), "{args:?}: {err}");
+        // Each cause once: a message that names its cause must not get it appended
+        // again (`cannot read F: No such file or directory: No such file or directory`).
+        let parts: Vec<&str> = err.trim().split(": ").collect();
+        assert!(
+            parts.windows(2).all(|pair| pair[0] != pair[1]),
+            "{args:?}: a cause is repeated in {err}"
+        );
     }
     let output = render_to(&out_path("image.jpg"), &["--size", "8x8", "--spp", "1"]);
     assert!(stderr_of_failure(&output).contains(".png or .exr"));
