@@ -69,7 +69,7 @@ fn main() -> ExitCode {
         Err(err) if is_broken_pipe(&err) => ExitCode::SUCCESS,
         Err(err) => {
             drop(stdout);
-            eprintln!("coatlab: {}", coatlab_app::error_text(&err));
+            eprintln!("coatlab: {err:#}");
             ExitCode::FAILURE
         }
     }
@@ -84,7 +84,7 @@ fn run_gui(design: Option<std::path::PathBuf>) -> ExitCode {
     match coatlab_app::gui::run(options) {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("coatlab: {}", coatlab_app::error_text(&err));
+            eprintln!("coatlab: {err:#}");
             ExitCode::FAILURE
         }
     }

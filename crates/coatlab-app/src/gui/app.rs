@@ -107,7 +107,7 @@ impl CoatlabApp {
             Err(e) => {
                 notices.push(Notice {
                     is_error: true,
-                    text: crate::error_text(&e),
+                    text: format!("{e:#}"),
                 });
                 None
             }
@@ -343,7 +343,7 @@ impl CoatlabApp {
     fn remember(&mut self, path: &Path) {
         match self.storage.add_recent(path) {
             Ok(list) => self.recent = list,
-            Err(e) => self.error(crate::error_text(&e)),
+            Err(e) => self.error(format!("{e:#}")),
         }
     }
 
@@ -471,7 +471,7 @@ impl CoatlabApp {
         };
         match export::write_measurement(path, analysis, &self.design.name, self.path.as_deref()) {
             Ok(()) => self.info(format!("Exported readings to {}", path.display())),
-            Err(e) => self.error(crate::error_text(&e)),
+            Err(e) => self.error(format!("{e:#}")),
         }
     }
 
@@ -533,7 +533,7 @@ impl CoatlabApp {
         }
         match self.storage.autosave(&self.design, self.path.as_deref()) {
             Ok(()) => self.autosaved = Some(self.design.clone()),
-            Err(e) => self.error(format!("Autosave failed: {}", crate::error_text(&e))),
+            Err(e) => self.error(format!("Autosave failed: {e:#}")),
         }
     }
 
@@ -542,10 +542,7 @@ impl CoatlabApp {
     pub fn shutdown(&mut self) {
         if self.is_dirty() && self.design.validate().is_ok() {
             if let Err(e) = self.storage.autosave(&self.design, self.path.as_deref()) {
-                eprintln!(
-                    "coatlab: autosave on exit failed: {}",
-                    crate::error_text(&e)
-                );
+                eprintln!("coatlab: autosave on exit failed: {e:#}");
             }
         } else if !self.is_dirty() {
             self.storage.clear_autosave();

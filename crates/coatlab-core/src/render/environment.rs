@@ -84,12 +84,8 @@ const MAX_VALUE_SAMPLING_WEIGHT: f64 = 0.05;
 #[derive(Debug, Error)]
 pub enum EnvironmentError {
     /// The file could not be read.
-    #[error("{path}: cannot read the environment map: {source}")]
-    Io {
-        path: String,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error("{path}: cannot read the environment map: {error}")]
+    Io { path: String, error: std::io::Error },
     /// The header is not that of a Radiance RGBE (.hdr) picture we can read.
     #[error("{path}: not a readable Radiance .hdr file: {reason}")]
     BadHeader { path: String, reason: String },
@@ -862,8 +858,8 @@ fn sigmoid(x: f64) -> f64 {
 pub fn read_exr(path: &Path) -> Result<RgbImage, EnvironmentError> {
     use exr::prelude::{Vec2, read_first_rgba_layer_from_file};
     let name = path.display().to_string();
-    if let Err(source) = std::fs::metadata(path) {
-        return Err(EnvironmentError::Io { path: name, source });
+    if let Err(error) = std::fs::metadata(path) {
+        return Err(EnvironmentError::Io { path: name, error });
     }
     type Pixels = (usize, Vec<[f32; 3]>);
     let image = read_first_rgba_layer_from_file(
@@ -893,9 +889,9 @@ pub fn read_exr(path: &Path) -> Result<RgbImage, EnvironmentError> {
 /// decodes it; EXPOSURE lines are ignored (environments are normalised anyway).
 pub fn read_hdr(path: &Path) -> Result<RgbImage, EnvironmentError> {
     let name = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| EnvironmentError::Io {
+    let bytes = std::fs::read(path).map_err(|error| EnvironmentError::Io {
         path: name.clone(),
-        source,
+        error,
     })?;
     decode_hdr(&bytes, &name)
 }

@@ -51,17 +51,15 @@ const ENCODE_LUT_LEN: usize = 1 << 16;
 /// What went wrong writing an image; each names the file.
 #[derive(Debug, Error)]
 pub enum FilmError {
-    #[error("writing {}: {source}", path.display())]
+    #[error("writing {}: {error}", path.display())]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        error: std::io::Error,
     },
-    #[error("encoding PNG {}: {source}", path.display())]
+    #[error("encoding PNG {}: {error}", path.display())]
     Png {
         path: PathBuf,
-        #[source]
-        source: png::EncodingError,
+        error: png::EncodingError,
     },
     #[error("{}: cannot write a {width}×{height} image (needs at least 1×1)", path.display())]
     EmptyImage {
@@ -547,9 +545,9 @@ impl Film {
             .into_iter()
             .flat_map(|[r, g, b, _]| [r, g, b])
             .collect();
-        let png_error = |source| FilmError::Png {
+        let png_error = |error| FilmError::Png {
             path: path.to_owned(),
-            source,
+            error,
         };
         // Encoded in memory, so a failure cannot leave half a file behind.
         let mut encoded = Vec::new();
@@ -561,9 +559,9 @@ impl Film {
         writer.write_image_data(&rgb).map_err(png_error)?;
         writer.finish().map_err(png_error)?;
         write_atomically(path, |mut file| {
-            file.write_all(&encoded).map_err(|source| FilmError::Io {
+            file.write_all(&encoded).map_err(|error| FilmError::Io {
                 path: path.to_owned(),
-                source,
+                error,
             })
         })
     }
@@ -635,9 +633,9 @@ impl Film {
         let block_bytes = 8 + line_bytes;
         let first_block = header.len() + 8 * height;
         write_atomically(path, |file| {
-            let io_error = |source| FilmError::Io {
+            let io_error = |error| FilmError::Io {
                 path: path.to_owned(),
-                source,
+                error,
             };
             let mut out = BufWriter::new(file);
             out.write_all(&header).map_err(io_error)?;
@@ -834,9 +832,9 @@ fn write_atomically(
     path: &Path,
     write: impl FnOnce(File) -> Result<(), FilmError>,
 ) -> Result<(), FilmError> {
-    let io_error = |source| FilmError::Io {
+    let io_error = |error| FilmError::Io {
         path: path.to_owned(),
-        source,
+        error,
     };
     let name = path.file_name().ok_or_else(|| {
         io_error(std::io::Error::new(

@@ -51,12 +51,8 @@ pub enum ImageErrorError {
     #[error("{len} pixels do not make a {width}×{height} image")]
     BadBuffer { width: u32, height: u32, len: usize },
     /// Reading or writing a file.
-    #[error("{path}: {source}")]
-    Io {
-        path: String,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error("{path}: {error}")]
+    Io { path: String, error: std::io::Error },
     /// A file that is not an XYZ image of this format.
     #[error("{path}: not a Coatlab XYZ image: {reason}")]
     BadFile { path: String, reason: String },
@@ -167,9 +163,9 @@ impl XyzImage {
 
     /// Writes the image (see [`MAGIC`]); creates the folder.
     pub fn write(&self, path: &Path) -> Result<(), ImageErrorError> {
-        let io = |source| ImageErrorError::Io {
+        let io = |error| ImageErrorError::Io {
             path: path.display().to_string(),
-            source,
+            error,
         };
         if let Some(parent) = path.parent() {
             std::fs::create_dir_all(parent).map_err(io)?;
@@ -195,9 +191,9 @@ impl XyzImage {
         let mut bytes = Vec::new();
         std::fs::File::open(path)
             .and_then(|mut f| f.read_to_end(&mut bytes))
-            .map_err(|source| ImageErrorError::Io {
+            .map_err(|error| ImageErrorError::Io {
                 path: name.clone(),
-                source,
+                error,
             })?;
         let bad = |reason: String| ImageErrorError::BadFile {
             path: name.clone(),

@@ -1033,8 +1033,8 @@ impl WheelShape {
 #[derive(Debug, thiserror::Error)]
 pub enum GlbWriteError {
     /// The JSON chunk could not be serialised.
-    #[error("glTF JSON serialisation failed: {0}")]
-    Json(#[from] gltf::json::Error),
+    #[error("glTF JSON serialisation failed: {error}")]
+    Json { error: gltf::json::Error },
     /// The file would exceed the 4 GiB that a GLB header can describe.
     #[error("scene too large for binary glTF: {0} bytes (the format's limit is 4 GiB)")]
     TooLarge(usize),
@@ -1239,7 +1239,9 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, GlbWriteError> {
     root.scene = Some(scene_index);
 
     // GLB: 12-byte header, JSON chunk padded with spaces, BIN chunk padded with zeros.
-    let mut json_chunk = root.to_vec()?;
+    let mut json_chunk = root
+        .to_vec()
+        .map_err(|error| GlbWriteError::Json { error })?;
     json_chunk.resize(json_chunk.len().next_multiple_of(4), b' ');
     bin.resize(bin.len().next_multiple_of(4), 0);
     let total = 12 + 8 + json_chunk.len() + 8 + bin.len();

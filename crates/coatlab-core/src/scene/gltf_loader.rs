@@ -95,12 +95,13 @@ pub struct LoadOptions {
 /// Why a scene could not be loaded. Every variant names the file.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    /// The file (or one it references) could not be read.
-    #[error("cannot read {}: {source}", file.display())]
+    /// The file (or one it references) could not be read. The cause is part of
+    /// the message, not a `source()`, as in every core error that names it: an
+    /// error chain printed with `{:#}` would otherwise name it twice.
+    #[error("cannot read {}: {error}", file.display())]
     Io {
         file: PathBuf,
-        #[source]
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// Not valid glTF 2.0: truncated GLB, invalid JSON, failed validation, cyclic nodes.
     #[error("{}: not a valid glTF 2.0 file: {details}", file.display())]
@@ -170,9 +171,9 @@ fn quoted_list(names: &[String]) -> String {
 
 /// Loads a `.glb` or `.gltf` file as a normalised [`Scene`].
 pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
-    let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
+    let bytes = std::fs::read(path).map_err(|error| SceneError::Io {
         file: path.to_path_buf(),
-        source,
+        error,
     })?;
     load_from_bytes(path, &bytes, options)
 }
@@ -563,10 +564,10 @@ fn resolve_buffers(
                             path: buffer_path,
                         });
                     }
-                    Err(source) => {
+                    Err(error) => {
                         return Err(SceneError::Io {
                             file: buffer_path,
-                            source,
+                            error,
                         });
                     }
                 }
