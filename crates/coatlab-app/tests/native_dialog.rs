@@ -36,19 +36,7 @@ use xvfb::{Reaped, app_dirs, have, start_xvfb};
 // zenity's command line and answers (no tools needed)
 
 fn request(purpose: FilePurpose, directory: &Path, file_name: &str) -> DialogRequest {
-    DialogRequest {
-        purpose,
-        title: purpose.title().to_owned(),
-        filter_name: purpose.filter_name().to_owned(),
-        extensions: purpose
-            .extensions()
-            .iter()
-            .map(|e| (*e).to_owned())
-            .collect(),
-        directory: directory.to_owned(),
-        file_name: file_name.to_owned(),
-        save: purpose.is_save(),
-    }
+    DialogRequest::for_purpose(purpose, directory.to_owned(), file_name.to_owned())
 }
 
 fn args(request: &DialogRequest) -> Vec<String> {

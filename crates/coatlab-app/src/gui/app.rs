@@ -432,19 +432,7 @@ impl CoatlabApp {
             FilePurpose::ExportPreviewImage => format!("{}.png", slug(&self.design.name)),
             _ => String::new(),
         };
-        let request = DialogRequest {
-            purpose,
-            title: purpose.title().to_owned(),
-            filter_name: purpose.filter_name().to_owned(),
-            extensions: purpose
-                .extensions()
-                .iter()
-                .map(|e| (*e).to_owned())
-                .collect(),
-            directory: dir,
-            file_name: name,
-            save: purpose.is_save(),
-        };
+        let request = DialogRequest::for_purpose(purpose, dir, name);
         if let Some(text) = self.dialogs.request(self.ctx.as_ref(), request) {
             self.info(text);
         }

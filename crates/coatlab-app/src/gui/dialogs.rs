@@ -45,6 +45,26 @@ pub struct DialogRequest {
     pub save: bool,
 }
 
+impl DialogRequest {
+    /// The dialog for `purpose` (its title, filter and kind), starting in
+    /// `directory` with `file_name` suggested.
+    pub fn for_purpose(purpose: FilePurpose, directory: PathBuf, file_name: String) -> Self {
+        Self {
+            purpose,
+            title: purpose.title().to_owned(),
+            filter_name: purpose.filter_name().to_owned(),
+            extensions: purpose
+                .extensions()
+                .iter()
+                .map(|e| (*e).to_owned())
+                .collect(),
+            directory,
+            file_name,
+            save: purpose.is_save(),
+        }
+    }
+}
+
 /// How a file dialog ended.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum DialogOutcome {

@@ -530,6 +530,11 @@ impl ProgressiveRender {
                 wanted: self.path_cache_target(),
             });
         }
+        self.reshade_cached(shading)
+    }
+
+    /// The re-shade of the film from the cache, whatever the cache holds.
+    fn reshade_cached(&self, shading: &Shading) -> Result<Reshaded, ReshadeError> {
         reshade(
             &self.film,
             &self.cache,
@@ -549,13 +554,7 @@ impl ProgressiveRender {
     pub fn reshade_recorded(&self, shading: &Shading) -> Result<Reshaded, ReshadeError> {
         let recorded = self.cache.samples_per_pixel();
         if self.cache_complete() || (recorded > 0 && recorded == self.samples_per_pixel) {
-            reshade(
-                &self.film,
-                &self.cache,
-                &self.environment,
-                shading,
-                self.scene.geometry().has_floor(),
-            )
+            self.reshade_cached(shading)
         } else {
             Err(ReshadeError::NotReady {
                 recorded,

@@ -53,25 +53,21 @@ fn to_linear_srgb(xyz: [f64; 3]) -> [f64; 3] {
 /// The linear sRGB of an emission spectrum on the reference grid, with the film's
 /// scale (Y = ∫ L ȳ dλ / ∫ ȳ dλ): the triple whose film XYZ equals the spectrum's.
 pub fn reduce_emission(reference_values: &[f64]) -> [f64; 3] {
-    let grid = WavelengthGrid::reference();
-    let [x, y, z] = hat_weighted_cmfs(Observer::Cie1931TwoDegree, &grid, |_| 1.0);
-    let norm: f64 = y.iter().sum();
-    let dot = |w: &[f64]| {
-        w.iter()
-            .zip(reference_values)
-            .map(|(a, b)| a * b)
-            .sum::<f64>()
-            / norm
-    };
-    to_linear_srgb([dot(&x), dot(&y), dot(&z)])
+    linear_srgb_weighted(reference_values, |_| 1.0)
 }
 
 /// The linear sRGB under D65 of a spectrum on the reference grid, white-normalised
 /// (a constant c gives (c, c, c)): how ρ, and likewise n and k, become three values.
 pub fn reduce_reflectance(reference_values: &[f64]) -> [f64; 3] {
-    let grid = WavelengthGrid::reference();
     let d65 = Illuminant::D65;
-    let [x, y, z] = hat_weighted_cmfs(Observer::Cie1931TwoDegree, &grid, |nm| d65.spd_at_nm(nm));
+    // The white of D65 at Y = 1 is the sRGB white: no adaptation, only the matrix.
+    linear_srgb_weighted(reference_values, |nm| d65.spd_at_nm(nm))
+}
+
+/// Linear sRGB of XYZ = ∫ values·w·(x̄, ȳ, z̄) dλ / ∫ w·ȳ dλ on the reference grid.
+fn linear_srgb_weighted(reference_values: &[f64], weight: impl Fn(f64) -> f64) -> [f64; 3] {
+    let grid = WavelengthGrid::reference();
+    let [x, y, z] = hat_weighted_cmfs(Observer::Cie1931TwoDegree, &grid, weight);
     let norm: f64 = y.iter().sum();
     let dot = |w: &[f64]| {
         w.iter()
@@ -80,7 +76,6 @@ pub fn reduce_reflectance(reference_values: &[f64]) -> [f64; 3] {
             .sum::<f64>()
             / norm
     };
-    // The white of D65 at Y = 1 is the sRGB white: no adaptation, only the matrix.
     to_linear_srgb([dot(&x), dot(&y), dot(&z)])
 }
 
