@@ -437,20 +437,67 @@ impl Environment {
     /// # Panics
     /// If `out.len()` differs from the grid's length.
     pub(crate) fn finish_sample(&self, begun: &SampleLookUp, out: &mut [f32]) -> Option<EnvSample> {
-        let d = if begun.component < self.patches.len() {
-            self.patches[begun.component].shape.sample(begun.u)
+        self.finish_located_sample(&self.locate_sample(begun)?, out)
+    }
+
+    /// [`Self::finish_sample`]'s first half, for a batch: the sample's direction
+    /// and the texel it lies in, whose record it starts reading into the cache
+    /// (for a map sample that took its column's alias, not the record
+    /// [`Self::begin_sample`] fetched). `None` where `finish_sample` returns
+    /// `None` without writing `out` (a map without light).
+    pub(crate) fn locate_sample(&self, begun: &SampleLookUp) -> Option<LocatedSample> {
+        let (d, drawn) = if begun.component < self.patches.len() {
+            (self.patches[begun.component].shape.sample(begun.u), None)
         } else {
-            self.map.finish_sample(begun.draw?)
+            let (d, drawn) = self.map.finish_sample(begun.draw?);
+            (d, Some(drawn))
         };
         let dir = d.map(|v| v as f32);
         // Radiance and density of the direction as returned (rounded to f32), the
         // same function of `dir` that `radiance`, `pdf` and a re-shading replay of
-        // the recorded `dir` evaluate.
-        let pdf = self.radiance_and_pdf(dir, out);
+        // the recorded `dir` evaluate: the texel is that of the rounded direction.
+        // The drawn texel is that texel unless the rounding could have moved the
+        // direction across one of its boundaries; only then is it searched for
+        // (an `atan2` and a row search saved on all but a few samples in 10⁴).
+        let look_up = match normalised(dir) {
+            None => DirectionLookUp {
+                query: None,
+                texel: 0,
+            },
+            Some(d) => {
+                let mut query = Query::new(d);
+                let texel = match drawn {
+                    Some(drawn) if self.map.surely_holds(&drawn, &query) => drawn.texel,
+                    _ => self.map.texel(&mut query),
+                };
+                prefetch(&self.map.texels[texel]);
+                DirectionLookUp {
+                    query: Some(query),
+                    texel,
+                }
+            }
+        };
+        Some(LocatedSample { dir, look_up })
+    }
+
+    /// [`Self::finish_sample`]'s second half: the radiance (to `out`) and density
+    /// of a located sample.
+    ///
+    /// # Panics
+    /// If `out.len()` differs from the grid's length.
+    pub(crate) fn finish_located_sample(
+        &self,
+        located: &LocatedSample,
+        out: &mut [f32],
+    ) -> Option<EnvSample> {
+        let pdf = self.finish_radiance_and_pdf(&located.look_up, out);
         if !(pdf > 0.0 && pdf.is_finite()) {
             return None;
         }
-        Some(EnvSample { dir, pdf })
+        Some(EnvSample {
+            dir: located.dir,
+            pdf,
+        })
     }
 
     /// [`Self::radiance_and_pdf`] in two steps, for a batch of escapes: this one
@@ -522,6 +569,14 @@ pub(crate) struct SampleLookUp {
     /// The map's part of the draw when the component is the map (`None` also for
     /// a map without light, which draws nothing).
     draw: Option<MapDraw>,
+}
+
+/// A light sample located by [`Environment::locate_sample`]: its direction, and
+/// the radiance look-up of that direction begun.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LocatedSample {
+    dir: [f32; 3],
+    look_up: DirectionLookUp,
 }
 
 /// An escape's look-up begun by [`Environment::begin_radiance_and_pdf`].
@@ -1320,8 +1375,31 @@ impl RadianceMap {
         })
     }
 
-    /// The direction of a sample begun by [`Self::begin_sample`].
-    fn finish_sample(&self, draw: MapDraw) -> [f64; 3] {
+    /// Whether a direction `q` (the f32 rounding of the one drawn as `drawn`) is
+    /// certainly in the drawn texel, so that [`Self::texel`] would return it. The
+    /// row is checked exactly, against the same boundaries `texel` compares with.
+    /// The column is not looked up: rounding each coordinate of a direction to f32
+    /// turns its azimuth by at most √2·2⁻²⁴ rad (≈ 8.4e-8, whatever the distance
+    /// from the pole, since x and z round relative to themselves), and the f64
+    /// `sin_cos`, normalisation and `atan2` add errors near 1e-15; a drawn azimuth
+    /// [`AZIMUTH_SLACK`] or more inside its column stays there. Rows of texels
+    /// that close to a column edge (a few in 10⁴ draws) answer `false`.
+    fn surely_holds(&self, drawn: &DrawnTexel, q: &Query) -> bool {
+        let row = drawn.texel / self.width;
+        let y = q.d[1].clamp(-1.0, 1.0);
+        let in_row = (row == 0 || y <= self.row_cos[row])
+            && (row + 1 == self.height || y > self.row_cos[row + 1]);
+        // At a pole (x = z = 0) the azimuth is atan2's convention, not the drawn one.
+        let off_pole = q.d[0] != 0.0 || q.d[2] != 0.0;
+        let in_column = self.width == 1
+            || drawn.within_column.min(1.0 - drawn.within_column) * (2.0 * PI / self.width as f64)
+                > AZIMUTH_SLACK;
+        in_row && off_pole && in_column
+    }
+
+    /// The direction of a sample begun by [`Self::begin_sample`], and the texel it
+    /// was drawn in.
+    fn finish_sample(&self, draw: MapDraw) -> ([f64; 3], DrawnTexel) {
         let MapDraw {
             row,
             v,
@@ -1342,9 +1420,25 @@ impl RadianceMap {
         let w = w.clamp(0.0, ONE_BELOW);
         let y = self.row_cos[row] + v * (self.row_cos[row + 1] - self.row_cos[row]);
         let azimuth = azimuth_of_column(col as f64 + w, self.width);
-        direction_from_azimuth_y(azimuth, y)
+        let drawn = DrawnTexel {
+            texel: row * self.width + col,
+            within_column: w,
+        };
+        (direction_from_azimuth_y(azimuth, y), drawn)
     }
 }
+
+/// The texel a map sample was drawn in, and where within its column (in [0, 1)).
+#[derive(Debug, Clone, Copy)]
+struct DrawnTexel {
+    texel: usize,
+    within_column: f64,
+}
+
+/// How far inside its column (radians of azimuth) a drawn direction must be for
+/// its texel to be taken without a look-up: 12× the most that rounding the
+/// direction to f32 can turn it ([`RadianceMap::surely_holds`]).
+const AZIMUTH_SLACK: f64 = 1e-6;
 
 /// A discrete distribution with continuous inversion: `sample(u)` gives the index
 /// and where u fell within its share, in [0, 1).
@@ -1932,6 +2026,7 @@ mod tests {
                     "sample {u:?}"
                 );
                 assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+                sample_is_its_directions_look_up(&env, u, &mut a, &mut b);
                 let d = [0, 1, 2].map(|_| (2.0 * uniform(&mut state) - 1.0) as f32 * 3.0);
                 for dir in [d, [0.0; 3]] {
                     let one = env.radiance_and_pdf(dir, &mut a);
@@ -1940,6 +2035,57 @@ mod tests {
                     assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
                 }
             }
+        }
+    }
+
+    /// A light sample's radiance and density are, bit for bit, those that
+    /// `radiance_and_pdf` finds for its direction (the sample's texel is taken
+    /// from the draw, without a look-up, when the direction is surely in it).
+    fn sample_is_its_directions_look_up(
+        env: &Environment,
+        u: [f32; 2],
+        a: &mut [f32],
+        b: &mut [f32],
+    ) {
+        let Some(sample) = env.sample(u, a) else {
+            return;
+        };
+        let pdf = env.radiance_and_pdf(sample.dir, b);
+        assert_eq!(sample.pdf.to_bits(), pdf.to_bits(), "sample {u:?}");
+        assert!(
+            a.iter()
+                .zip(b.iter())
+                .all(|(x, y)| x.to_bits() == y.to_bits())
+        );
+    }
+
+    /// Map samples drawn at and near column edges (where the drawn texel is not
+    /// trusted) and a little further in (where it is) still find their
+    /// direction's texel, on a map as large as the side-by-side's.
+    #[test]
+    fn map_samples_near_column_edges_find_their_directions_texel() {
+        let (width, height) = (1024, 512);
+        let mut state = 5;
+        let pixels: Vec<[f32; 3]> = (0..width * height)
+            .map(|_| [0, 1, 2].map(|_| uniform(&mut state).powi(4) as f32 * 20.0))
+            .collect();
+        let image = RgbImage::new(width, height, pixels).unwrap();
+        let grid = WavelengthGrid::new(380.0, 10.0, 33).unwrap();
+        let env = Environment::from_rgb_image(&image, "test", &grid).unwrap();
+        let mut a = vec![0.0f32; grid.len()];
+        let mut b = vec![0.0f32; grid.len()];
+        let offsets = [0.0, 1e-9, 1e-7, 1e-6, 5e-6, 1e-5, 2e-5, 1e-4, 0.5];
+        for _ in 0..2_000 {
+            let u0 = uniform(&mut state) as f32;
+            let column = (uniform(&mut state) * width as f64) as usize;
+            for offset in offsets {
+                for edge in [column as f64 + offset, (column + 1) as f64 - offset] {
+                    let u1 = (edge / width as f64).min(ONE_BELOW) as f32;
+                    sample_is_its_directions_look_up(&env, [u0, u1], &mut a, &mut b);
+                }
+            }
+            let u = [uniform(&mut state) as f32, uniform(&mut state) as f32];
+            sample_is_its_directions_look_up(&env, u, &mut a, &mut b);
         }
     }
 
