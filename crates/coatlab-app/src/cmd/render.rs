@@ -10,6 +10,7 @@ use anyhow::{Context, bail};
 use coatlab_core::cie::Illuminant;
 use coatlab_core::design::{PaintDesign, presets};
 use coatlab_core::paint::phong::PhongVariant;
+use coatlab_core::render::adaptive::AdaptiveSampling;
 use coatlab_core::render::environment::Environment;
 use coatlab_core::render::film::DisplaySettings;
 use coatlab_core::render::material::{Shading, ShadingModel};
@@ -62,9 +63,39 @@ pub struct RenderArgs {
     /// Exposure in stops (the lighting setups are normalised so 0 suits them all).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub exposure: f32,
+    /// Adaptive sampling: after the first uniform samples, each pass spends its
+    /// samples on the pixels by their noise (on or off); --spp is then the mean
+    /// over the image.
+    #[arg(
+        long,
+        default_value = DEFAULT_ADAPTIVE,
+        value_parser = parse_on_off,
+        action = clap::ArgAction::Set
+    )]
+    pub adaptive: bool,
+    /// Adaptive sampling: samples per pixel taken uniformly first (at least 2).
+    #[arg(long, default_value_t = AdaptiveSampling::default().uniform_samples)]
+    pub adaptive_uniform_spp: u32,
+    /// Adaptive sampling: the least share of a pixel, relative to the mean, in (0, 1].
+    #[arg(long, default_value_t = AdaptiveSampling::default().floor)]
+    pub adaptive_floor: f32,
+    /// Adaptive sampling: samples follow the per-sample noise to this power (0–4).
+    #[arg(long, default_value_t = AdaptiveSampling::default().exponent)]
+    pub adaptive_exponent: f32,
     /// Output: .png (sRGB, tone mapped) or .exr (linear sRGB, half floats).
     #[arg(long)]
     pub out: PathBuf,
+}
+
+/// `--adaptive` unless given: see docs/tradeoff.md, "Adaptive sampling".
+pub const DEFAULT_ADAPTIVE: &str = "off";
+
+fn parse_on_off(text: &str) -> Result<bool, String> {
+    match text {
+        "on" => Ok(true),
+        "off" => Ok(false),
+        other => Err(format!("'{other}': use on or off")),
+    }
 }
 
 fn parse_model(text: &str) -> Result<ShadingModel, String> {
@@ -166,6 +197,14 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
     if spp == 0 {
         bail!("--spp 0: at least one sample per pixel is needed");
     }
+    let adaptive = AdaptiveSampling {
+        uniform_samples: args.adaptive_uniform_spp,
+        floor: args.adaptive_floor,
+        exponent: args.adaptive_exponent,
+    };
+    if args.adaptive {
+        adaptive.validate().map_err(anyhow::Error::msg)?;
+    }
     let grid = WavelengthGrid::visible(args.wavelengths)
         .with_context(|| format!("--wavelengths {}", args.wavelengths))?;
 
@@ -196,6 +235,7 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
         camera,
         RenderSettings {
             seed: args.seed,
+            adaptive: args.adaptive.then_some(adaptive),
             ..RenderSettings::default()
         },
     )?;
@@ -244,10 +284,11 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
         .unwrap_or_default();
     writeln!(
         out,
-        "wrote {} ({width}x{height}, {} spp, {} wavelengths, {}{noise}) in {:.1} s: \
+        "wrote {} ({width}x{height}, {} spp{}, {} wavelengths, {}{noise}) in {:.1} s: \
          {:.3} M samples/s, {:.2} M rays/s",
         args.out.display(),
         render.samples_per_pixel(),
+        if args.adaptive { " mean, adaptive" } else { "" },
         grid.len(),
         args.model.label(),
         totals.seconds,

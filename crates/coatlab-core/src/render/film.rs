@@ -536,6 +536,50 @@ impl Film {
         })
     }
 
+    /// The perceptual noise of one sample, per pixel of this film's region (row
+    /// major): √n times the CIEDE2000 between the displayed colour of the pixel's
+    /// mean of n samples and that of the mean moved by one standard error in X, Y
+    /// and Z, up or down, whichever moves it more (a mean moved up may be clipped
+    /// white already; one moved down is held at 0). So the error of the mean after
+    /// n samples is about this over √n, the slope of ΔE00 taken at the current
+    /// error rather than at a whole sample's deviation, which would saturate for
+    /// the rare bright samples of a caustic (a deviation many times the mean).
+    /// What adaptive sampling ([`crate::render::adaptive`]) spends samples by.
+    /// `f32::INFINITY` where a pixel has fewer than two samples (no estimate yet).
+    /// Pixels in parallel; the result does not depend on the thread count.
+    pub fn sample_delta_e(&self, settings: &DisplaySettings) -> Vec<f32> {
+        use rayon::prelude::*;
+        let m = display_matrix(settings.adapt_white, settings.exposure_stops);
+        let tone_mapping = settings.tone_mapping;
+        self.pixels
+            .par_iter()
+            .zip(self.squares.par_iter())
+            .map(|(p, squares)| {
+                if p.count < 2 {
+                    return f32::INFINITY;
+                }
+                let n = p.count as f64;
+                let mean = p.sum.map(|s| s / n);
+                let se = std::array::from_fn::<f64, 3, _>(|k| {
+                    ((squares[k] - p.sum[k] * mean[k]) / (n - 1.0) / n)
+                        .max(0.0)
+                        .sqrt()
+                });
+                let at = |sign: f64| {
+                    let v: [f64; 3] = std::array::from_fn(|k| (mean[k] + sign * se[k]).max(0.0));
+                    display_lab_of(&m, tone_mapping, Xyz::new(v[0], v[1], v[2]))
+                };
+                let centre = at(0.0);
+                let delta = ciede2000(centre, at(1.0)).max(ciede2000(centre, at(-1.0)));
+                if delta.is_finite() {
+                    (delta * n.sqrt()) as f32
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    }
+
     /// Writes [`Self::to_display`] as an 8-bit sRGB PNG (with an sRGB chunk),
     /// atomically (a temporary file in the same folder, then a rename).
     pub fn write_png(&self, path: &Path, settings: &DisplaySettings) -> Result<(), FilmError> {

@@ -14,6 +14,7 @@
 //! - [`material`]: the design as paint or Phong, and the scene's simple materials;
 //! - [`integrator`]: the path tracer;
 //! - [`progressive`]: passes over tiles on all cores, restarts, noise estimates;
+//! - [`adaptive`]: adaptive sampling, a pass's samples spent by each pixel's noise;
 //! - [`image_error`]: the error of a render against a reference (ΔE00 as displayed);
 //! - [`rgb`]: the RGB shortcut (three linear-sRGB channels instead of wavelengths);
 //! - [`reshade`]: a paint edit's picture from the recorded paths, without tracing.
@@ -21,6 +22,7 @@
 pub mod geometry;
 pub mod sampler;
 
+pub mod adaptive;
 pub mod camera;
 pub mod environment;
 pub mod film;

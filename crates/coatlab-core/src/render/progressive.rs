@@ -8,6 +8,15 @@
 //! same samples in the same order whatever the thread count: a render is
 //! bit-for-bit the same for a seed (tested).
 //!
+//! With [`RenderSettings::adaptive`] set, passes after the first few uniform ones
+//! spread their samples over the pixels by each pixel's estimated noise
+//! ([`crate::render::adaptive`]): a pass of s samples per pixel then takes s ×
+//! the pixel count samples in all, some pixels more, some fewer, and
+//! [`ProgressiveRender::samples_per_pixel`] is the mean over the image. A pixel's
+//! k-th sample is still keyed by (seed, pixel, k), and the allocation is computed
+//! in a fixed order from the film, so adaptive renders are deterministic for a
+//! seed too.
+//!
 //! What lives how long, so a change recomputes only what it touches:
 //!
 //! | value | rebuilt when | cost (default car) |
@@ -49,6 +58,7 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use crate::accel::AccelError;
+use crate::render::adaptive::{AdaptiveSampling, RECOMPUTE_GROWTH, allocate};
 use crate::render::camera::Camera;
 use crate::render::environment::Environment;
 use crate::render::film::{DisplaySettings, Film, NoiseEstimate};
@@ -187,7 +197,7 @@ impl RenderScene {
 
 /// The knobs of a progressive render that are not the scene, lighting, shading or
 /// view.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RenderSettings {
     /// Seed of every random number: the same seed gives the same image.
     pub seed: u64,
@@ -195,6 +205,9 @@ pub struct RenderSettings {
     pub integrator: IntegratorSettings,
     /// Tile side, pixels.
     pub tile_size: u32,
+    /// Adaptive sampling (see [`crate::render::adaptive`]); `None`: every pass
+    /// gives every pixel the same samples (the default).
+    pub adaptive: Option<AdaptiveSampling>,
 }
 
 impl Default for RenderSettings {
@@ -203,6 +216,7 @@ impl Default for RenderSettings {
             seed: 0,
             integrator: IntegratorSettings::default(),
             tile_size: DEFAULT_TILE_SIZE,
+            adaptive: None,
         }
     }
 }
@@ -271,6 +285,11 @@ pub struct ProgressiveRender {
     /// samples per pixel), made while the cache is complete: the next editing
     /// session's base image, ready before the edit (≈ 3 % of a 960×540 pass).
     prepared_base: Option<(u32, BaseImage)>,
+    /// Adaptive sampling's per-pixel weights (mean 1, row major) and the samples
+    /// per pixel they were computed at; `None` until the first adaptive pass.
+    adaptive_weights: Option<(u32, Vec<f32>)>,
+    /// Adaptive passes since the last restart (each draws its own rounding offset).
+    adaptive_passes: u32,
 }
 
 impl ProgressiveRender {
@@ -307,6 +326,8 @@ impl ProgressiveRender {
             spare_film: None,
             retired_base: None,
             prepared_base: None,
+            adaptive_weights: None,
+            adaptive_passes: 0,
         })
     }
 
@@ -563,7 +584,9 @@ impl ProgressiveRender {
         }
     }
 
-    /// Adds `samples` samples to every pixel. Returns what the pass did.
+    /// Adds `samples` samples to every pixel (with adaptive sampling, `samples` ×
+    /// the pixel count samples spread by the pixels' noise). Returns what the pass
+    /// did.
     pub fn render_pass(&mut self, samples: u32) -> PassStats {
         let never = AtomicBool::new(false);
         self.render_pass_cancellable(samples, &never)
@@ -580,6 +603,8 @@ impl ProgressiveRender {
     ) -> Option<PassStats> {
         let start = Instant::now();
         let first_sample = self.samples_per_pixel;
+        // The noise map and the allocation count as the pass's time.
+        let counts = self.adaptive_counts(samples, self.path_cache_target());
         let tracer = PathTracer::new(
             self.scene.geometry(),
             &self.environment,
@@ -592,6 +617,16 @@ impl ProgressiveRender {
         let len = self.shading.len();
         let record_below = self.path_cache_target();
         let lengths: Vec<[usize; 4]> = self.cache.tiles.iter().map(TileCache::lengths).collect();
+        let plan = match &counts {
+            Some(counts) => Plan::Adaptive {
+                film: &self.film,
+                counts,
+            },
+            None => Plan::Uniform {
+                first: first_sample,
+                samples,
+            },
+        };
         if first_sample < record_below {
             self.cache.paint_is_mirror = paint_is_mirror(&self.shading);
             // What the budget leaves beside the caches held, shared by the tiles.
@@ -617,11 +652,10 @@ impl ProgressiveRender {
                     camera,
                     seed,
                     image_width: width,
-                    first_sample,
-                    samples,
+                    plan,
                     len,
                 };
-                if first_sample < record_below {
+                if counts.is_none() && first_sample < record_below {
                     let mut recorder = TileRecorder::new(cache, &tracer);
                     job.render(tile, Some((&mut recorder, record_below)))
                 } else {
@@ -648,6 +682,9 @@ impl ProgressiveRender {
         }
         for tile in &self.tiles {
             self.film.merge(tile);
+        }
+        if counts.is_some() {
+            self.adaptive_passes += 1;
         }
         self.samples_per_pixel += samples;
         self.retired_base = None;
@@ -678,6 +715,35 @@ impl ProgressiveRender {
         };
         self.totals.add(stats);
         Some(stats)
+    }
+
+    /// The per-pixel sample counts of the next pass when it is adaptive: with
+    /// adaptive sampling on, once every pixel has its uniform samples and the path
+    /// cache (which records uniform samples) is complete. Recomputes the weights
+    /// when the samples per pixel have grown by [`RECOMPUTE_GROWTH`].
+    fn adaptive_counts(&mut self, samples: u32, record_below: u32) -> Option<Vec<u32>> {
+        let adaptive = self.settings.adaptive?;
+        let spp = self.samples_per_pixel;
+        if spp < adaptive.uniform_samples.max(2) || spp < record_below || samples == 0 {
+            return None;
+        }
+        let stale = match &self.adaptive_weights {
+            Some((at, _)) => f64::from(spp) >= f64::from(*at) * RECOMPUTE_GROWTH,
+            None => true,
+        };
+        if stale {
+            // The noise as the default display shows it: the render does not know
+            // the viewer's exposure, and the defaults suit every lighting setup.
+            let weights = adaptive.weights(&self.film, &DisplaySettings::default());
+            self.adaptive_weights = Some((spp, weights));
+        }
+        let (_, weights) = self.adaptive_weights.as_ref()?;
+        Some(allocate(
+            weights,
+            samples,
+            self.settings.seed,
+            self.adaptive_passes,
+        ))
     }
 
     /// The accumulated image.
@@ -744,6 +810,8 @@ impl ProgressiveRender {
         self.cache.tiles.iter_mut().for_each(TileCache::clear);
         self.cache.samples_per_pixel = 0;
         self.cache_capped = false;
+        self.adaptive_weights = None;
+        self.adaptive_passes = 0;
     }
 
     /// A new view (and possibly a new image size); restarts.
@@ -803,14 +871,37 @@ impl ProgressiveRender {
     }
 }
 
+/// Which samples a pass takes of each pixel.
+#[derive(Clone, Copy)]
+enum Plan<'a> {
+    /// Samples `first .. first + samples` of every pixel.
+    Uniform { first: u32, samples: u32 },
+    /// `counts[i]` samples of image pixel i (row major), from the next of its own
+    /// (the count `film` holds).
+    Adaptive { film: &'a Film, counts: &'a [u32] },
+}
+
+impl Plan<'_> {
+    /// The first sample index and the number of samples of pixel (`x`, `y`).
+    #[inline]
+    fn samples_of(&self, x: u32, y: u32, pixel_index: u32) -> (u32, u32) {
+        match *self {
+            Plan::Uniform { first, samples } => (first, samples),
+            Plan::Adaptive { film, counts } => {
+                let done = u32::try_from(film.sample_count(x, y)).unwrap_or(u32::MAX);
+                (done, counts[pixel_index as usize])
+            }
+        }
+    }
+}
+
 /// What a tile needs to render its share of a pass.
 struct TileJob<'a> {
     tracer: &'a PathTracer<'a>,
     camera: &'a Camera,
     seed: u64,
     image_width: u32,
-    first_sample: u32,
-    samples: u32,
+    plan: Plan<'a>,
     len: usize,
 }
 
@@ -828,7 +919,8 @@ impl TileJob<'_> {
         for y in y0..y0 + tile.height() {
             for x in x0..x0 + tile.width() {
                 let pixel_index = y * self.image_width + x;
-                for sample in self.first_sample..self.first_sample + self.samples {
+                let (first, count) = self.plan.samples_of(x, y, pixel_index);
+                for sample in first..first.saturating_add(count) {
                     let mut sampler = PixelSampler::new(self.seed, pixel_index, sample);
                     let [jx, jy] = sampler.next_2d();
                     let ray = self.camera.ray(x as f32 + jx, y as f32 + jy);

@@ -1,0 +1,200 @@
+//! Adaptive sampling (`render::adaptive`) in a whole render: deterministic for a
+//! seed on any thread count, samples go to the noisy pixels and every pixel keeps
+//! its floor, and the image is the uniform render's within the noise (Z-tests of
+//! pixels, regions and the image total against a uniform render of four times the
+//! samples).
+//!
+//! The scene is the built-in car with a mirror-gloss grey coat in the studio: the
+//! coat reflects the softboxes onto the floor, the caustics adaptive sampling is
+//! for.
+
+use std::sync::Arc;
+
+use coatlab_core::paint::gloss::GlossExponent;
+use coatlab_core::paint::model::{GlossSetting, PaintModel, PaintParams};
+use coatlab_core::render::adaptive::AdaptiveSampling;
+use coatlab_core::render::camera::Camera;
+use coatlab_core::render::environment::Environment;
+use coatlab_core::render::film::{DisplaySettings, Film};
+use coatlab_core::render::material::{Shading, ShadingModel};
+use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
+use coatlab_core::scene::car::{CarParameters, generate};
+use coatlab_core::spectrum::WavelengthGrid;
+
+const WIDTH: u32 = 64;
+const HEIGHT: u32 = 36;
+
+fn mirror_car(grid: WavelengthGrid) -> (Arc<RenderScene>, Shading, Camera) {
+    let model = PaintModel::new(PaintParams::grey(
+        grid,
+        0.3,
+        1.5,
+        0.0,
+        40.0,
+        GlossSetting::Exponent(GlossExponent::Mirror),
+    ))
+    .expect("model");
+    let scene = generate(&CarParameters::default());
+    let camera = Camera::framing(scene.mesh.bounds().expect("bounds"), WIDTH, HEIGHT);
+    let shading = Shading::new(
+        &model,
+        ShadingModel::Paint,
+        &scene.materials,
+        &scene.paint_materials,
+    );
+    let scene = RenderScene::new(scene).expect("scene");
+    (Arc::new(scene), shading, camera)
+}
+
+/// Renders `spp` samples per pixel (on average) in passes of 8.
+fn render(seed: u64, adaptive: Option<AdaptiveSampling>, spp: u32, tile_size: u32) -> Film {
+    let grid = WavelengthGrid::visible(8).expect("grid");
+    let (scene, shading, camera) = mirror_car(grid);
+    let mut render = ProgressiveRender::new(
+        scene,
+        Arc::new(Environment::studio(&grid)),
+        Arc::new(shading),
+        camera,
+        RenderSettings {
+            seed,
+            tile_size,
+            adaptive,
+            ..RenderSettings::default()
+        },
+    )
+    .expect("render");
+    while render.samples_per_pixel() < spp {
+        render.render_pass(8.min(spp - render.samples_per_pixel()));
+    }
+    assert_eq!(render.samples_per_pixel(), spp);
+    let total: u64 = (0..HEIGHT)
+        .flat_map(|y| (0..WIDTH).map(move |x| (x, y)))
+        .map(|(x, y)| render.film().sample_count(x, y))
+        .sum();
+    assert_eq!(
+        total,
+        u64::from(spp) * u64::from(WIDTH * HEIGHT),
+        "a pass takes exactly its samples per pixel over the image"
+    );
+    render.film().clone()
+}
+
+fn adaptive() -> Option<AdaptiveSampling> {
+    Some(AdaptiveSampling::default())
+}
+
+/// The same seed gives the same adaptive image, sample counts included, on one
+/// thread and on three (and with other tiles).
+#[test]
+fn an_adaptive_render_is_the_same_on_any_number_of_threads() {
+    let run = |threads: usize, tile: u32| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool")
+            .install(|| render(5, adaptive(), 24, tile))
+    };
+    let (one, three) = (run(1, 8), run(3, 13));
+    let mut uneven = false;
+    for y in 0..HEIGHT {
+        for x in 0..WIDTH {
+            assert_eq!(one.sample_count(x, y), three.sample_count(x, y));
+            assert_eq!(one.mean_xyz(x, y), three.mean_xyz(x, y), "pixel {x},{y}");
+            assert_eq!(
+                one.variance_of_mean_xyz(x, y),
+                three.variance_of_mean_xyz(x, y)
+            );
+            uneven |= one.sample_count(x, y) != 24;
+        }
+    }
+    assert!(uneven, "the adaptive passes gave every pixel the same samples");
+}
+
+/// Samples go where the noise is: ranked by the per-sample noise of an independent
+/// uniform render (its 3 × 3 maximum, as the allocation sees it), the noisiest tenth
+/// of the pixels gets at least twice the samples of the quieter half; and no pixel
+/// gets fewer than its uniform samples plus the floor of every adaptive pass.
+#[test]
+fn samples_go_to_the_noisy_pixels_and_every_pixel_keeps_its_floor() {
+    let settings = AdaptiveSampling::default();
+    let film = render(7, Some(settings), 64, 32);
+    // Passes of 8: the first is uniform (8 ≥ the uniform samples), then 7 adaptive.
+    let uniform = 8u64;
+    let adaptive_passes = 7u64;
+    let floor_share = (8.0 * settings.floor / (1.0 + settings.floor)).floor() as u64;
+    let least = (0..HEIGHT)
+        .flat_map(|y| (0..WIDTH).map(move |x| (x, y)))
+        .map(|(x, y)| film.sample_count(x, y))
+        .min()
+        .expect("pixels");
+    println!("least samples of a pixel: {least} (floor {floor_share} a pass)");
+    assert!(least >= uniform + adaptive_passes * floor_share);
+
+    let reference = render(8, None, 64, 32);
+    let noise = reference.sample_delta_e(&DisplaySettings::default());
+    let (w, h) = (WIDTH as usize, HEIGHT as usize);
+    let mut ranked: Vec<(f32, u64)> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let mut m = 0.0f32;
+            for yy in y.saturating_sub(1)..=(y + 1).min(h - 1) {
+                for xx in x.saturating_sub(1)..=(x + 1).min(w - 1) {
+                    m = m.max(noise[yy * w + xx]);
+                }
+            }
+            (m, film.sample_count(x as u32, y as u32))
+        })
+        .collect();
+    ranked.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let mean = |s: &[(f32, u64)]| s.iter().map(|&(_, c)| c as f64).sum::<f64>() / s.len() as f64;
+    let (noisiest, quietest) = (mean(&ranked[..w * h / 10]), mean(&ranked[w * h / 2..]));
+    println!("mean samples: noisiest tenth {noisiest:.1}, quieter half {quietest:.1}");
+    assert!(
+        noisiest > 2.0 * quietest,
+        "noisiest tenth {noisiest:.1} against quieter half {quietest:.1}"
+    );
+}
+
+/// The adaptive image estimates the uniform one: per-pixel luminance within the
+/// noise, no shift of the image total or of the floor's and the body's totals (Z of
+/// Σ difference over √Σ variance), against a uniform render of 4× the samples.
+#[test]
+fn an_adaptive_render_is_unbiased_against_a_uniform_one() {
+    let a = render(21, adaptive(), 64, 32);
+    let u = render(22, None, 256, 32);
+    let (mut outliers, mut count) = (0usize, 0usize);
+    // Regions: the image, its lower third (floor and caustics), its middle (body).
+    let mut totals = [(0.0f64, 0.0f64); 3];
+    for y in 0..HEIGHT {
+        for x in 0..WIDTH {
+            let (ma, mu) = (a.mean_xyz(x, y).y, u.mean_xyz(x, y).y);
+            let var = a.variance_of_mean_xyz(x, y)[1] + u.variance_of_mean_xyz(x, y)[1];
+            if var <= 0.0 {
+                continue;
+            }
+            count += 1;
+            outliers += usize::from(((ma - mu) / var.sqrt()).abs() > 4.0);
+            let region = [
+                true,
+                y >= 2 * HEIGHT / 3,
+                (HEIGHT / 3..2 * HEIGHT / 3).contains(&y),
+            ];
+            for (total, inside) in totals.iter_mut().zip(region) {
+                if inside {
+                    total.0 += ma - mu;
+                    total.1 += var;
+                }
+            }
+        }
+    }
+    let z: Vec<f64> = totals.iter().map(|(d, v)| d / v.sqrt()).collect();
+    println!(
+        "adaptive vs uniform: |Z| > 4 in {outliers} of {count} pixels; Z of totals: image {:.2}, \
+         floor {:.2}, body {:.2}",
+        z[0], z[1], z[2]
+    );
+    assert!((outliers as f64) < 0.005 * count as f64 + 1.0);
+    for (name, z) in ["image", "lower third", "middle third"].iter().zip(&z) {
+        assert!(z.abs() < 4.0, "{name}: Z of the total {z:.2}");
+    }
+}
