@@ -191,9 +191,10 @@ pub enum ReferenceSplits {
     LargeTriangles,
     /// As `LargeTriangles`, then spatial splits where the SAH prefers them to the
     /// best object split, down to nodes of 64 references, at most 30 % more
-    /// references (SBVH-style). On the Lamborghini ×1.19–1.21 the rays per
-    /// second, but about 5 times the build time (not within the 150 ms target);
-    /// no gain on the default car or the torus.
+    /// references (SBVH-style, on `threads` threads, the same result for any
+    /// count). On the Lamborghini ×1.13–1.15 the rays per CPU-second, at about
+    /// 2.2 times the build's CPU time (not yet shown within the 150 ms target on
+    /// two threads); no gain on the default car or the torus.
     Spatial,
 }
 
@@ -651,8 +652,12 @@ impl Accel {
         if options.layout == BvhLayout::Simd8 {
             let vertices: Vec<[[f32; 3]; 3]> =
                 triangles.iter().map(|t| t.map(Into::into)).collect();
-            (boxes, reference_triangle) =
-                split::split_references(&vertices, &boxes, options.reference_splits);
+            (boxes, reference_triangle) = split::split_references(
+                &vertices,
+                &boxes,
+                options.reference_splits,
+                options.build_threads(),
+            );
         }
         let bvh = Bvh::build(&boxes, options)?;
         // Slot → index into `triangles`.
@@ -941,8 +946,12 @@ impl Accel {
         }
         let vertices: Vec<[[f32; 3]; 3]> = unique.iter().map(|(_, t)| t.map(Into::into)).collect();
         let boxes: Vec<Bounds> = unique.iter().map(|(_, t)| triangle_bounds(t)).collect();
-        let (reference_boxes, reference_triangle) =
-            split::split_references(&vertices, &boxes, self.bvh.options().reference_splits);
+        let (reference_boxes, reference_triangle) = split::split_references(
+            &vertices,
+            &boxes,
+            self.bvh.options().reference_splits,
+            self.bvh.options().build_threads(),
+        );
         let order = self.bvh.primitive_order();
         if reference_boxes.len() != order.len() {
             return Err(format!(

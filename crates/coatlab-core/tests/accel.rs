@@ -330,6 +330,43 @@ fn parallel_and_serial_simd8_builds_are_identical() {
     }
 }
 
+#[test]
+fn spatial_splits_do_not_depend_on_the_thread_count() {
+    // The spatial pass runs its subtrees on other threads and shares the budget of
+    // new references by size, not by which thread gets there first: the same
+    // references in the same order, so the same tree, for any thread count. The
+    // Lamborghini has splits the SAH takes (the torus has none).
+    let Some(mesh) = lamborghini() else { return };
+    let build = |reference_splits, threads| {
+        Accel::build_with(
+            &mesh,
+            &BuildOptions {
+                reference_splits,
+                threads,
+                ..BuildOptions::default()
+            },
+        )
+        .expect("build")
+    };
+    let large = build(ReferenceSplits::LargeTriangles, 1);
+    let serial = build(ReferenceSplits::Spatial, 1);
+    assert!(
+        serial.bvh().len() > large.bvh().len() + large.bvh().len() / 20,
+        "expected spatial splits: {} references against {}",
+        serial.bvh().len(),
+        large.bvh().len()
+    );
+    for threads in [2, 3, 8] {
+        let parallel = build(ReferenceSplits::Spatial, threads);
+        parallel.validate().expect("valid tree");
+        assert_eq!(parallel.bvh().node_count(), serial.bvh().node_count());
+        assert_eq!(
+            parallel.bvh().primitive_order(),
+            serial.bvh().primitive_order()
+        );
+    }
+}
+
 /// Any hit over every triangle, with the accel's own triangle test.
 fn brute_force_any(mesh: &TriangleMesh, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
     mesh.triangles.iter().any(|tri| {

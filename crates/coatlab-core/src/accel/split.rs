@@ -18,9 +18,10 @@
 //! a split plane belongs to both closed halves.
 //!
 //! With `ReferenceSplits::Spatial` the references then go through an SBVH-style
-//! pass (module `spatial` below): ×1.19–1.21 rays per second on the Lamborghini,
-//! ×1.01–1.02 on the default car and the torus, at 4.6–5.3 times the build time
-//! (over the 150 ms target), so it is not the default.
+//! pass (module `spatial` below): ×1.13–1.15 rays per CPU-second on the
+//! Lamborghini, none on the default car and the torus, at about 2.2 times the
+//! build's CPU time (203 against 91 ms on one thread under load); not the
+//! default while its two-thread build is not shown within the 150 ms target.
 
 use super::{Bounds, ReferenceSplits};
 
@@ -37,11 +38,13 @@ fn half_area(b: &Bounds) -> f32 {
 }
 
 /// The references for `triangles` (vertices; `boxes` their boxes): for each, its
-/// box and the index of its triangle, in triangle order.
+/// box and the index of its triangle, in triangle order (`Spatial`: in the order
+/// of its pass), the same for any number of `threads`.
 pub(super) fn split_references(
     triangles: &[[[f32; 3]; 3]],
     boxes: &[Bounds],
     planes: ReferenceSplits,
+    threads: usize,
 ) -> (Vec<Bounds>, Vec<u32>) {
     let average = boxes.iter().map(half_area).sum::<f32>() / boxes.len().max(1) as f32;
     let threshold = SPLIT_AREA_FACTOR * average;
@@ -60,7 +63,7 @@ pub(super) fn split_references(
         });
     }
     if planes == ReferenceSplits::Spatial {
-        return spatial::presplit(triangles, out_boxes, out_triangle);
+        return spatial::presplit(triangles, out_boxes, out_triangle, threads);
     }
     (out_boxes, out_triangle)
 }
@@ -159,8 +162,18 @@ fn split(
 /// split cuts the references that straddle its plane into a piece on each side.
 /// Only the references come out; the ordinary builder then builds the tree over
 /// them, where a cut piece no longer straddles the plane.
+///
+/// **Cost.** The pass is built to stay within the build target (docs/benchmarks.md,
+/// "Spatial splits"): the chopped binning clips a straddling reference's *box* to
+/// each bin it spans (only `cut` clips triangles, in fixed arrays, no allocation),
+/// the object bins of all three axes are filled in one pass, a subtree stops as
+/// soon as it is too small for any spatial split to be tried in it (a child
+/// overlap is never larger than its node), and the two subtrees of a large node
+/// run on two threads. The result does not depend on the thread count: each
+/// subtree gets a fixed share of the budget of new references (by its number of
+/// references), and the subtrees' references are concatenated in tree order.
 mod spatial {
-    use super::{Bounds, clip, half_area, outer_bounds};
+    use super::{Bounds, half_area};
 
     /// Bins per axis for both kinds of split.
     const BINS: usize = 16;
@@ -175,10 +188,96 @@ mod spatial {
     const MIN_NODE: usize = 64;
     /// Triangles per pack: the SAH counts packs, as the ordinary build does.
     const PACK: usize = 8;
+    /// Fewest references for which a node's second subtree goes to another thread.
+    const PARALLEL_MIN: usize = 4096;
+    /// Vertices a clipped polygon can hold: a triangle cut by the six planes of a
+    /// box has at most 9; the rest is margin for rounding (a polygon that would
+    /// exceed it is replaced by its box, which is conservative).
+    const MAX_POINTS: usize = 16;
 
+    #[derive(Clone, Copy)]
     struct Reference {
         bounds: Bounds,
         triangle: u32,
+    }
+
+    /// A convex polygon in f64, in fixed storage; `overflow` when a clip produced
+    /// more than [`MAX_POINTS`] vertices (then only its box is meaningful).
+    #[derive(Clone, Copy)]
+    struct Polygon {
+        points: [[f64; 3]; MAX_POINTS],
+        len: usize,
+        overflow: bool,
+    }
+
+    impl Polygon {
+        fn new() -> Polygon {
+            Polygon {
+                points: [[0.0; 3]; MAX_POINTS],
+                len: 0,
+                overflow: false,
+            }
+        }
+
+        fn push(&mut self, p: [f64; 3]) {
+            if self.len < MAX_POINTS {
+                self.points[self.len] = p;
+                self.len += 1;
+            } else {
+                self.overflow = true;
+            }
+        }
+
+        fn points(&self) -> &[[f64; 3]] {
+            &self.points[..self.len]
+        }
+
+        /// Has area (three or more vertices), or may have (overflowed).
+        fn is_piece(&self) -> bool {
+            self.overflow || self.len >= 3
+        }
+
+        /// The parts on each closed side of the plane `p[axis] = plane`, in one
+        /// pass (Sutherland–Hodgman for both sides; a vertex on the plane goes to
+        /// both).
+        fn split(&self, axis: usize, plane: f64) -> (Polygon, Polygon) {
+            let (mut below, mut above) = (Polygon::new(), Polygon::new());
+            below.overflow = self.overflow;
+            above.overflow = self.overflow;
+            let points = self.points();
+            for (i, &a) in points.iter().enumerate() {
+                let b = points[(i + 1) % points.len()];
+                if a[axis] <= plane {
+                    below.push(a);
+                }
+                if a[axis] >= plane {
+                    above.push(a);
+                }
+                if (a[axis] < plane && b[axis] > plane) || (a[axis] > plane && b[axis] < plane) {
+                    let t = (plane - a[axis]) / (b[axis] - a[axis]);
+                    let mut p: [f64; 3] = std::array::from_fn(|k| a[k] + t * (b[k] - a[k]));
+                    p[axis] = plane;
+                    below.push(p);
+                    above.push(p);
+                }
+            }
+            (below, above)
+        }
+
+        /// The part on one closed side of the plane.
+        fn clip(&self, axis: usize, plane: f64, below: bool) -> Polygon {
+            let (lower, upper) = self.split(axis, plane);
+            if below { lower } else { upper }
+        }
+
+        /// Bounds rounded outwards to f32 and intersected with `within` (just
+        /// `within` for an overflowed polygon, which lies inside it).
+        fn outer_bounds(&self, within: &Bounds) -> Bounds {
+            if self.overflow {
+                return *within;
+            }
+            super::outer_bounds(self.points(), within)
+        }
     }
 
     fn empty() -> Bounds {
@@ -207,166 +306,231 @@ mod spatial {
         n.div_ceil(PACK) as f32
     }
 
+    fn centre(b: &Bounds, axis: usize) -> f32 {
+        0.5 * (b.min[axis] + b.max[axis])
+    }
+
+    /// The best binned object split of a node.
+    #[derive(Clone, Copy)]
+    struct ObjectSplit {
+        cost: f32,
+        axis: usize,
+        /// The first bin of the right side.
+        bin: usize,
+        /// Half area of the intersection of the two sides' boxes.
+        overlap: f32,
+    }
+
     struct Context<'a> {
         triangles: &'a [[[f32; 3]; 3]],
         root_area: f32,
-        budget: usize,
     }
 
     impl Context<'_> {
-        /// The triangle of `r` clipped to `r`'s box (f64).
-        fn polygon(&self, r: &Reference) -> Vec<[f64; 3]> {
+        /// The triangle of `r` clipped to `r`'s box (only on the planes where the
+        /// box is tighter than the triangle's own).
+        fn polygon(&self, r: &Reference) -> Polygon {
             let t = &self.triangles[r.triangle as usize];
-            let mut polygon: Vec<[f64; 3]> = t.iter().map(|v| v.map(f64::from)).collect();
+            let mut polygon = Polygon::new();
+            for v in t {
+                polygon.push(v.map(f64::from));
+            }
             for k in 0..3 {
                 let lo = t.iter().map(|v| v[k]).fold(f32::INFINITY, f32::min);
                 let hi = t.iter().map(|v| v[k]).fold(f32::NEG_INFINITY, f32::max);
-                if r.bounds.min[k] > lo && polygon.len() >= 3 {
-                    polygon = clip(&polygon, k, f64::from(r.bounds.min[k]), false);
+                if r.bounds.min[k] > lo && polygon.is_piece() {
+                    polygon = polygon.clip(k, f64::from(r.bounds.min[k]), false);
                 }
-                if r.bounds.max[k] < hi && polygon.len() >= 3 {
-                    polygon = clip(&polygon, k, f64::from(r.bounds.max[k]), true);
+                if r.bounds.max[k] < hi && polygon.is_piece() {
+                    polygon = polygon.clip(k, f64::from(r.bounds.max[k]), true);
                 }
             }
             polygon
         }
 
-        /// The box of the part of `r` between `lo` and `hi` on `axis` (`None`
-        /// when that part has no area).
-        fn slab(
+        /// Partitions `refs` recursively with at most `budget` new references,
+        /// appending the final references to `out` as chunks in tree order, on
+        /// up to `threads` threads.
+        fn partition(
             &self,
-            r: &Reference,
-            polygon: &[[f64; 3]],
-            axis: usize,
-            lo: f32,
-            hi: f32,
-        ) -> Option<Bounds> {
-            let mut piece = clip(polygon, axis, f64::from(lo), false);
-            if piece.len() >= 3 {
-                piece = clip(&piece, axis, f64::from(hi), true);
-            }
-            if piece.len() < 3 {
-                return None;
-            }
-            let mut within = r.bounds;
-            within.min[axis] = within.min[axis].max(lo);
-            within.max[axis] = within.max[axis].min(hi);
-            Some(outer_bounds(&piece, &within))
-        }
-
-        /// Partitions `refs` recursively, appending the final references to `out`.
-        fn partition(&mut self, refs: Vec<Reference>, out: &mut Vec<Reference>) {
+            mut refs: Vec<Reference>,
+            budget: usize,
+            threads: usize,
+            out: &mut Vec<Vec<Reference>>,
+        ) {
             if refs.len() < MIN_NODE {
-                out.extend(refs);
+                out.push(refs);
                 return;
             }
             let mut bounds = empty();
             let mut centres = empty();
             for r in &refs {
                 grow(&mut bounds, &r.bounds);
-                let c: [f32; 3] =
-                    std::array::from_fn(|k| 0.5 * (r.bounds.min[k] + r.bounds.max[k]));
+                let c: [f32; 3] = std::array::from_fn(|k| centre(&r.bounds, k));
                 grow(&mut centres, &Bounds { min: c, max: c });
             }
-            let object = object_split(&refs, &centres);
-            let mut best_spatial = None;
-            if let Some((_, _, _, overlap)) = object
-                && overlap > OVERLAP * self.root_area
-                && self.budget > 0
-            {
-                best_spatial = self.spatial_split(&refs, &bounds);
+            // Two children overlap by at most their node's area: below this no
+            // spatial split can be tried, and the ordinary build does the rest.
+            if area(&bounds) <= OVERLAP * self.root_area {
+                out.push(refs);
+                return;
             }
-            match (object, best_spatial) {
-                (_, Some((cost, axis, plane))) if object.is_none_or(|(c, _, _, _)| cost < c) => {
-                    let (left, right) = self.cut(refs, axis, plane);
+            let object = object_split(&refs, &centres);
+            let mut spatial = None;
+            if let Some(o) = object
+                && o.overlap > OVERLAP * self.root_area
+                && budget > 0
+            {
+                spatial = self.spatial_split(&refs, &bounds);
+            }
+            let (left, right, budget) = match (object, spatial) {
+                (_, Some((cost, axis, plane))) if object.is_none_or(|o| cost < o.cost) => {
+                    let (left, right, budget) = self.cut(refs, axis, plane, budget);
                     // A cut that leaves one side empty changed nothing: stop
                     // here rather than recurse on the same references.
                     if left.is_empty() || right.is_empty() {
-                        out.extend(left);
-                        out.extend(right);
+                        out.push(left);
+                        out.push(right);
                         return;
                     }
-                    self.partition(left, out);
-                    self.partition(right, out);
+                    (left, right, budget)
                 }
-                (Some((_, axis, split, _)), _) => {
+                (Some(o), _) => {
                     let scale =
-                        BINS as f32 * (1.0 - 1e-6) / (centres.max[axis] - centres.min[axis]);
-                    let (left, right): (Vec<Reference>, Vec<Reference>) =
-                        refs.into_iter().partition(|r| {
-                            let c = 0.5 * (r.bounds.min[axis] + r.bounds.max[axis]);
-                            ((((c - centres.min[axis]) * scale) as usize).min(BINS - 1)) < split
-                        });
-                    self.partition(left, out);
-                    self.partition(right, out);
+                        BINS as f32 * (1.0 - 1e-6) / (centres.max[o.axis] - centres.min[o.axis]);
+                    let is_left = |r: &Reference| {
+                        let c = centre(&r.bounds, o.axis);
+                        ((((c - centres.min[o.axis]) * scale) as usize).min(BINS - 1)) < o.bin
+                    };
+                    // In place, as the ordinary builder partitions.
+                    let (mut i, mut j) = (0, refs.len());
+                    while i < j {
+                        if is_left(&refs[i]) {
+                            i += 1;
+                        } else {
+                            j -= 1;
+                            refs.swap(i, j);
+                        }
+                    }
+                    let right = refs.split_off(i);
+                    (refs, right, budget)
                 }
-                (None, _) => out.extend(refs),
+                (None, _) => {
+                    out.push(refs);
+                    return;
+                }
+            };
+            // The budget left is shared by size, so that neither the result nor
+            // its order depends on which subtree runs first, or where.
+            let left_budget =
+                (budget as u64 * left.len() as u64 / (left.len() + right.len()) as u64) as usize;
+            let right_budget = budget - left_budget;
+            if threads > 1 && left.len() + right.len() >= PARALLEL_MIN {
+                let half = threads / 2;
+                let mut right_out = Vec::new();
+                std::thread::scope(|scope| {
+                    let handle = scope.spawn(|| {
+                        self.partition(right, right_budget, half, &mut right_out);
+                    });
+                    self.partition(left, left_budget, threads - half, out);
+                    // A panic in the other half is a bug; re-raise it here.
+                    if let Err(payload) = handle.join() {
+                        std::panic::resume_unwind(payload);
+                    }
+                });
+                out.append(&mut right_out);
+            } else {
+                self.partition(left, left_budget, threads, out);
+                self.partition(right, right_budget, threads, out);
             }
         }
 
         /// The best spatial split: (SAH cost, axis, plane).
         fn spatial_split(&self, refs: &[Reference], bounds: &Bounds) -> Option<(f32, usize, f32)> {
-            let mut best: Option<(f32, usize, f32)> = None;
+            let mut bin_bounds = [[empty(); BINS]; 3];
+            let mut entry = [[0usize; BINS]; 3];
+            let mut exit = [[0usize; BINS]; 3];
+            let mut planes = [[0.0f32; BINS + 1]; 3];
+            let mut inverse_width = [0.0f32; 3];
             for axis in 0..3 {
                 let lo = bounds.min[axis];
                 let width = (bounds.max[axis] - lo) / BINS as f32;
-                if width <= 0.0 || !width.is_finite() {
-                    continue;
+                if width > 0.0 && width.is_finite() {
+                    inverse_width[axis] = 1.0 / width;
                 }
-                let planes: [f32; BINS + 1] = std::array::from_fn(|i| {
+                planes[axis] = std::array::from_fn(|i| {
                     if i == BINS {
                         bounds.max[axis]
                     } else {
                         lo + width * i as f32
                     }
                 });
-                let bin_of = |x: f32| planes[1..BINS].partition_point(|&p| p <= x);
-                let mut bin_bounds = [empty(); BINS];
-                let mut entry = [0usize; BINS];
-                let mut exit = [0usize; BINS];
-                for r in refs {
-                    let first = bin_of(r.bounds.min[axis]);
-                    let last = bin_of(r.bounds.max[axis]).max(first);
-                    entry[first] += 1;
-                    exit[last] += 1;
-                    if first == last {
-                        grow(&mut bin_bounds[first], &r.bounds);
+            }
+            for r in refs {
+                for axis in 0..3 {
+                    if inverse_width[axis] == 0.0 {
                         continue;
                     }
-                    let polygon = self.polygon(r);
-                    for (i, bin) in bin_bounds.iter_mut().enumerate().take(last + 1).skip(first) {
-                        if let Some(b) = self.slab(r, &polygon, axis, planes[i], planes[i + 1]) {
-                            grow(bin, &b);
-                        }
+                    // Bins by arithmetic: they only place the estimate; which
+                    // side of a plane a piece ends on is decided by `cut`.
+                    let bin_of = |x: f32| {
+                        (((x - bounds.min[axis]) * inverse_width[axis]).max(0.0) as usize)
+                            .min(BINS - 1)
+                    };
+                    let first = bin_of(r.bounds.min[axis]);
+                    let last = bin_of(r.bounds.max[axis]).max(first);
+                    entry[axis][first] += 1;
+                    exit[axis][last] += 1;
+                    if first == last {
+                        grow(&mut bin_bounds[axis][first], &r.bounds);
+                        continue;
                     }
+                    // Chopped binning with the reference's box clipped to each
+                    // bin rather than its triangle (measured: the same rays per
+                    // second at under half the cost of clipping the polygon to
+                    // every bin; docs/benchmarks.md). `cut` clips exactly.
+                    for i in first..=last {
+                        let mut piece = r.bounds;
+                        piece.min[axis] = piece.min[axis].max(planes[axis][i]);
+                        piece.max[axis] = piece.max[axis].min(planes[axis][i + 1]);
+                        grow(&mut bin_bounds[axis][i], &piece);
+                    }
+                }
+            }
+            let mut best: Option<(f32, usize, f32)> = None;
+            for axis in 0..3 {
+                if inverse_width[axis] == 0.0 {
+                    continue;
                 }
                 let mut right_cost = [0.0f32; BINS];
                 let (mut acc, mut n) = (empty(), 0);
                 for i in (1..BINS).rev() {
-                    grow(&mut acc, &bin_bounds[i]);
-                    n += exit[i];
+                    grow(&mut acc, &bin_bounds[axis][i]);
+                    n += exit[axis][i];
                     right_cost[i] = area(&acc) * blocks(n);
                 }
                 let (mut acc, mut n) = (empty(), 0);
                 for i in 0..BINS - 1 {
-                    grow(&mut acc, &bin_bounds[i]);
-                    n += entry[i];
+                    grow(&mut acc, &bin_bounds[axis][i]);
+                    n += entry[axis][i];
                     let cost = area(&acc) * blocks(n) + right_cost[i + 1];
                     if n > 0 && best.is_none_or(|(c, _, _)| cost < c) {
-                        best = Some((cost, axis, planes[i + 1]));
+                        best = Some((cost, axis, planes[axis][i + 1]));
                     }
                 }
             }
             best
         }
 
-        /// Splits `refs` at `plane` on `axis`, cutting those that straddle it.
+        /// Splits `refs` at `plane` on `axis`, cutting those that straddle it
+        /// while `budget` lasts; returns the two sides and the budget left.
         fn cut(
-            &mut self,
+            &self,
             refs: Vec<Reference>,
             axis: usize,
             plane: f32,
-        ) -> (Vec<Reference>, Vec<Reference>) {
+            mut budget: usize,
+        ) -> (Vec<Reference>, Vec<Reference>, usize) {
             let (mut left, mut right) = (Vec::new(), Vec::new());
             for r in refs {
                 if r.bounds.max[axis] <= plane {
@@ -374,30 +538,34 @@ mod spatial {
                 } else if r.bounds.min[axis] >= plane {
                     right.push(r);
                 } else {
-                    let polygon = self.polygon(&r);
-                    let lower = self.slab(&r, &polygon, axis, f32::NEG_INFINITY, plane);
-                    let upper = self.slab(&r, &polygon, axis, plane, f32::INFINITY);
+                    let (below, above) = self.polygon(&r).split(axis, f64::from(plane));
+                    let (mut lower_box, mut upper_box) = (r.bounds, r.bounds);
+                    lower_box.max[axis] = plane;
+                    upper_box.min[axis] = plane;
+                    let lower = below.is_piece().then(|| below.outer_bounds(&lower_box));
+                    let upper = above.is_piece().then(|| above.outer_bounds(&upper_box));
+                    let triangle = r.triangle;
                     match (lower, upper) {
-                        (Some(l), Some(u)) if self.budget > 0 => {
-                            self.budget -= 1;
+                        (Some(l), Some(u)) if budget > 0 => {
+                            budget -= 1;
                             left.push(Reference {
                                 bounds: l,
-                                triangle: r.triangle,
+                                triangle,
                             });
                             right.push(Reference {
                                 bounds: u,
-                                triangle: r.triangle,
+                                triangle,
                             });
                         }
                         // Only one side holds area: the other touches the plane,
                         // which the kept side's closed box contains.
                         (Some(l), None) => left.push(Reference {
                             bounds: l,
-                            triangle: r.triangle,
+                            triangle,
                         }),
                         (None, Some(u)) => right.push(Reference {
                             bounds: u,
-                            triangle: r.triangle,
+                            triangle,
                         }),
                         // Out of budget (or a degenerate clip): kept whole, on the
                         // side of its centre.
@@ -411,45 +579,53 @@ mod spatial {
                     }
                 }
             }
-            (left, right)
+            (left, right, budget)
         }
     }
 
-    /// The best binned object split: (SAH cost, axis, first bin of the right side,
-    /// overlap area of the two sides); `None` when the centroids fall into one bin.
-    fn object_split(refs: &[Reference], centres: &Bounds) -> Option<(f32, usize, usize, f32)> {
-        let mut best: Option<(f32, usize, usize, f32)> = None;
-        for axis in 0..3 {
-            let extent = centres.max[axis] - centres.min[axis];
-            if extent <= 0.0 {
-                continue;
+    /// The best binned object split, all three axes binned in one pass; `None`
+    /// when the centroids fall into one bin.
+    fn object_split(refs: &[Reference], centres: &Bounds) -> Option<ObjectSplit> {
+        let scale: [f32; 3] = std::array::from_fn(|k| {
+            let extent = centres.max[k] - centres.min[k];
+            if extent > 0.0 {
+                BINS as f32 * (1.0 - 1e-6) / extent
+            } else {
+                0.0
             }
-            let scale = BINS as f32 * (1.0 - 1e-6) / extent;
-            let mut bin_bounds = [empty(); BINS];
-            let mut count = [0usize; BINS];
-            for r in refs {
-                let c = 0.5 * (r.bounds.min[axis] + r.bounds.max[axis]);
-                let i = (((c - centres.min[axis]) * scale) as usize).min(BINS - 1);
-                grow(&mut bin_bounds[i], &r.bounds);
-                count[i] += 1;
+        });
+        let mut bin_bounds = [[empty(); BINS]; 3];
+        let mut count = [[0usize; BINS]; 3];
+        for r in refs {
+            for axis in 0..3 {
+                let c = centre(&r.bounds, axis);
+                let i = (((c - centres.min[axis]) * scale[axis]) as usize).min(BINS - 1);
+                grow(&mut bin_bounds[axis][i], &r.bounds);
+                count[axis][i] += 1;
+            }
+        }
+        let mut best: Option<ObjectSplit> = None;
+        for axis in 0..3 {
+            if scale[axis] == 0.0 {
+                continue;
             }
             let mut right = [(empty(), 0usize); BINS];
             let (mut acc, mut n) = (empty(), 0);
             for i in (1..BINS).rev() {
-                grow(&mut acc, &bin_bounds[i]);
-                n += count[i];
+                grow(&mut acc, &bin_bounds[axis][i]);
+                n += count[axis][i];
                 right[i] = (acc, n);
             }
             let (mut acc, mut n) = (empty(), 0);
             for i in 0..BINS - 1 {
-                grow(&mut acc, &bin_bounds[i]);
-                n += count[i];
+                grow(&mut acc, &bin_bounds[axis][i]);
+                n += count[axis][i];
                 let (r_box, r_n) = right[i + 1];
                 if n == 0 || r_n == 0 {
                     continue;
                 }
                 let cost = area(&acc) * blocks(n) + area(&r_box) * blocks(r_n);
-                if best.is_none_or(|(c, _, _, _)| cost < c) {
+                if best.is_none_or(|o| cost < o.cost) {
                     let overlap = Bounds {
                         min: std::array::from_fn(|k| acc.min[k].max(r_box.min[k])),
                         max: std::array::from_fn(|k| acc.max[k].min(r_box.max[k])),
@@ -459,7 +635,12 @@ mod spatial {
                     } else {
                         0.0
                     };
-                    best = Some((cost, axis, i + 1, overlap));
+                    best = Some(ObjectSplit {
+                        cost,
+                        axis,
+                        bin: i + 1,
+                        overlap,
+                    });
                 }
             }
         }
@@ -467,27 +648,32 @@ mod spatial {
     }
 
     /// Spatially split references for `triangles`: the input references (boxes
-    /// and triangle indices) partitioned as described above, in a deterministic
-    /// order.
+    /// and triangle indices) partitioned as described above on up to `threads`
+    /// threads, in an order that does not depend on `threads`.
     pub(super) fn presplit(
         triangles: &[[[f32; 3]; 3]],
         boxes: Vec<Bounds>,
         triangle: Vec<u32>,
+        threads: usize,
     ) -> (Vec<Bounds>, Vec<u32>) {
         let mut root = empty();
         boxes.iter().for_each(|b| grow(&mut root, b));
-        let mut context = Context {
+        let context = Context {
             triangles,
             root_area: area(&root),
-            budget: (BUDGET * boxes.len() as f32) as usize,
         };
+        let budget = (BUDGET * boxes.len() as f32) as usize;
         let refs: Vec<Reference> = boxes
             .into_iter()
             .zip(triangle)
             .map(|(bounds, triangle)| Reference { bounds, triangle })
             .collect();
-        let mut out = Vec::with_capacity(refs.len() + refs.len() / 4);
-        context.partition(refs, &mut out);
-        out.into_iter().map(|r| (r.bounds, r.triangle)).unzip()
+        let mut chunks = Vec::new();
+        context.partition(refs, budget, threads.max(1), &mut chunks);
+        chunks
+            .into_iter()
+            .flatten()
+            .map(|r| (r.bounds, r.triangle))
+            .unzip()
     }
 }
