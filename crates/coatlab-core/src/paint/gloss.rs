@@ -359,8 +359,11 @@ fn graded_breakpoints(centre: f64, width: f64, half: f64) -> Vec<f64> {
 /// The tabulated lobe fractions F_s(x) for one geometry, x = ln(1 + m).
 struct FractionTable {
     meter: Glossmeter,
-    /// fractions[node][source]
-    fractions: Vec<Vec<f64>>,
+    /// fractions[node][source], each node computed when first read: a node costs
+    /// thousands of receptor quadratures, and a reading needs only the four nodes
+    /// around its x. Converting a mirror-like gloss reads six of the 129 (the
+    /// ends); computing them all took about 0.1 s of every render's start-up.
+    fractions: Vec<OnceLock<Vec<f64>>>,
 }
 
 const TABLE_NODES: usize = 129;
@@ -372,22 +375,24 @@ fn x_max() -> f64 {
 fn fraction_table(geometry: GlossGeometry) -> &'static FractionTable {
     static TABLES: [OnceLock<FractionTable>; 3] =
         [OnceLock::new(), OnceLock::new(), OnceLock::new()];
-    TABLES[geometry.index()].get_or_init(|| {
-        let meter = Glossmeter::new(geometry);
-        let fractions = (0..TABLE_NODES)
-            .map(|j| {
-                let x = x_max() * j as f64 / (TABLE_NODES - 1) as f64;
-                let m = x.exp_m1();
-                (0..meter.sources.len())
-                    .map(|i| meter.lobe_fraction(i, m))
-                    .collect()
-            })
-            .collect();
-        FractionTable { meter, fractions }
+    TABLES[geometry.index()].get_or_init(|| FractionTable {
+        meter: Glossmeter::new(geometry),
+        fractions: (0..TABLE_NODES).map(|_| OnceLock::new()).collect(),
     })
 }
 
 impl FractionTable {
+    /// The lobe fractions of every source ray at node j (m = e^{x_j} − 1).
+    fn node(&self, j: usize) -> &[f64] {
+        self.fractions[j].get_or_init(|| {
+            let x = x_max() * j as f64 / (TABLE_NODES - 1) as f64;
+            let m = x.exp_m1();
+            (0..self.meter.sources.len())
+                .map(|i| self.meter.lobe_fraction(i, m))
+                .collect()
+        })
+    }
+
     /// Reading at x = ln(1+m) for index n: Catmull–Rom in x of the per-node readings.
     fn reading(&self, n: f64, x: f64) -> f64 {
         let weights: Vec<f64> = self
@@ -398,7 +403,7 @@ impl FractionTable {
             .collect();
         let glass = self.meter.mirror_flux(BLACK_GLASS_INDEX);
         let node_reading = |j: usize| -> f64 {
-            let f = &self.fractions[j];
+            let f = self.node(j);
             100.0 * weights.iter().zip(f).map(|(w, f)| w * f).sum::<f64>() / glass
         };
         let last = TABLE_NODES - 1;
