@@ -110,6 +110,22 @@ fn every_model_environment_and_exr_output_works() {
         stdout(&output);
         assert_eq!(png_size(&std::fs::read(&png).expect("png")), (24, 16));
     }
+    // Adaptive sampling: --spp is the mean over the image.
+    let output = render_to(
+        &out_path("adaptive.png"),
+        &[
+            "--size",
+            "24x16",
+            "--spp",
+            "8",
+            "--wavelengths",
+            "4",
+            "--adaptive",
+            "on",
+        ],
+    );
+    let text = stdout(&output);
+    assert!(text.contains("8 spp mean, adaptive"), "{text}");
     // A time budget instead of a sample count.
     let output = render_to(
         &out_path("timed.png"),
@@ -127,6 +143,16 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
         (vec!["--model".into(), "lambert".into()], "phong-naive"),
         (vec!["--wavelengths".into(), "0".into()], "--wavelengths 0"),
         (vec!["--spp".into(), "0".into()], "--spp 0"),
+        (vec!["--adaptive".into(), "maybe".into()], "use on or off"),
+        (
+            vec![
+                "--adaptive".into(),
+                "on".into(),
+                "--adaptive-floor".into(),
+                "0".into(),
+            ],
+            "--adaptive-floor: floor 0: must be in (0, 1]",
+        ),
         (vec!["--seconds".into(), "-1".into()], "--seconds -1"),
         (
             vec!["--environment".into(), "moonlight".into()],

@@ -10,7 +10,7 @@ use anyhow::{Context, bail};
 use coatlab_core::cie::Illuminant;
 use coatlab_core::design::{PaintDesign, presets};
 use coatlab_core::paint::phong::PhongVariant;
-use coatlab_core::render::adaptive::AdaptiveSampling;
+use coatlab_core::render::adaptive::{AdaptiveError, AdaptiveSampling};
 use coatlab_core::render::environment::Environment;
 use coatlab_core::render::film::DisplaySettings;
 use coatlab_core::render::material::{Shading, ShadingModel};
@@ -203,7 +203,14 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
         exponent: args.adaptive_exponent,
     };
     if args.adaptive {
-        adaptive.validate().map_err(anyhow::Error::msg)?;
+        adaptive.validate().map_err(|error| {
+            let flag = match error {
+                AdaptiveError::UniformSamples(_) => "--adaptive-uniform-spp",
+                AdaptiveError::Floor(_) => "--adaptive-floor",
+                AdaptiveError::Exponent(_) => "--adaptive-exponent",
+            };
+            anyhow::anyhow!("{flag}: {error}")
+        })?;
     }
     let grid = WavelengthGrid::visible(args.wavelengths)
         .with_context(|| format!("--wavelengths {}", args.wavelengths))?;

@@ -36,6 +36,8 @@
 //! dependence weak, and the tests compare adaptive renders with uniform ones
 //! (Z-tests of region and image means).
 
+use thiserror::Error;
+
 use crate::render::film::{DisplaySettings, Film};
 use crate::render::sampler::PixelSampler;
 
@@ -51,6 +53,20 @@ pub struct AdaptiveSampling {
     pub floor: f32,
     /// The exponent p of the per-sample noise the share follows.
     pub exponent: f32,
+}
+
+/// An [`AdaptiveSampling`] number out of its range; the message names it.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum AdaptiveError {
+    /// Fewer than two uniform samples per pixel.
+    #[error("{0} uniform samples per pixel: at least 2 are needed for a noise estimate")]
+    UniformSamples(u32),
+    /// A floor outside (0, 1].
+    #[error("floor {0}: must be in (0, 1]")]
+    Floor(f32),
+    /// An exponent outside [0, 4].
+    #[error("exponent {0}: must be in [0, 4]")]
+    Exponent(f32),
 }
 
 /// The noise map is recomputed when the samples per pixel have grown by this factor
@@ -70,26 +86,16 @@ impl Default for AdaptiveSampling {
 
 impl AdaptiveSampling {
     /// Checks the numbers: `uniform_samples` ≥ 2, `floor` in (0, 1], `exponent` in
-    /// [0, 4]. The message names the value and its range.
-    pub fn validate(&self) -> Result<(), String> {
+    /// [0, 4].
+    pub fn validate(&self) -> Result<(), AdaptiveError> {
         if self.uniform_samples < 2 {
-            return Err(format!(
-                "adaptive sampling: {} uniform samples per pixel; at least 2 are needed \
-                 for a noise estimate",
-                self.uniform_samples
-            ));
+            return Err(AdaptiveError::UniformSamples(self.uniform_samples));
         }
         if !(self.floor > 0.0 && self.floor <= 1.0) {
-            return Err(format!(
-                "adaptive sampling: floor {} must be in (0, 1]",
-                self.floor
-            ));
+            return Err(AdaptiveError::Floor(self.floor));
         }
         if !(0.0..=4.0).contains(&self.exponent) {
-            return Err(format!(
-                "adaptive sampling: exponent {} must be in [0, 4]",
-                self.exponent
-            ));
+            return Err(AdaptiveError::Exponent(self.exponent));
         }
         Ok(())
     }
@@ -244,7 +250,7 @@ mod tests {
     #[test]
     fn settings_out_of_range_are_refused_by_name() {
         assert!(AdaptiveSampling::default().validate().is_ok());
-        let bad = |s: AdaptiveSampling| s.validate().unwrap_err();
+        let bad = |s: AdaptiveSampling| s.validate().unwrap_err().to_string();
         assert!(
             bad(AdaptiveSampling {
                 uniform_samples: 1,
@@ -257,14 +263,14 @@ mod tests {
                 floor: 0.0,
                 ..Default::default()
             })
-            .contains("floor")
+            .contains("floor 0")
         );
         assert!(
             bad(AdaptiveSampling {
                 exponent: f32::NAN,
                 ..Default::default()
             })
-            .contains("exponent")
+            .contains("exponent NaN")
         );
     }
 }
