@@ -65,7 +65,16 @@ const HEIGHT: usize = 540;
 const INCOHERENT_RAYS: usize = 1 << 19;
 const SHADOW_T_MAX: f32 = 1.0;
 
-const ALL_CONFIGS: [(&str, BuildOptions); 5] = [
+const ALL_CONFIGS: [(&str, BuildOptions); 6] = [
+    (
+        "Simd8/Fast/Spatial (default)",
+        BuildOptions {
+            layout: BvhLayout::Simd8,
+            quality: BuildQuality::Fast,
+            reference_splits: ReferenceSplits::Spatial,
+            threads: 0,
+        },
+    ),
     (
         "Simd8/Fastest",
         BuildOptions {

@@ -187,14 +187,16 @@ impl BuildQuality {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ReferenceSplits {
     /// Triangles far larger than the average, halved at the middle of the widest
-    /// axis until small enough (the default: almost free to build).
+    /// axis until small enough (almost free to build).
     LargeTriangles,
     /// As `LargeTriangles`, then spatial splits where the SAH prefers them to the
     /// best object split, down to nodes of 64 references, at most 30 % more
     /// references (SBVH-style, on `threads` threads, the same result for any
-    /// count). On the Lamborghini ×1.13–1.15 the rays per CPU-second, at about
-    /// 2.2 times the build's CPU time (121 ms wall on two threads: within the
-    /// 150 ms target); no gain on the default car or the torus.
+    /// count). The default: on the Lamborghini ×1.13–1.16 the rays per
+    /// CPU-second, at about 2.2 times the build's CPU time (121 ms wall on two
+    /// threads: within the 150 ms target); no loss on the default car or the
+    /// torus. Real car models are Lamborghini-like (long, thin, overlapping
+    /// triangles), and a preview traces one tree for seconds to minutes.
     Spatial,
 }
 
@@ -224,12 +226,13 @@ impl BuildOptions {
 }
 
 impl Default for BuildOptions {
-    /// `Simd8` with `Fast`: see docs/benchmarks.md, "Acceleration structure".
+    /// `Simd8` with `Fast` and spatial splits: see docs/benchmarks.md,
+    /// "Acceleration structure".
     fn default() -> Self {
         BuildOptions {
             layout: BvhLayout::Simd8,
             quality: BuildQuality::Fast,
-            reference_splits: ReferenceSplits::LargeTriangles,
+            reference_splits: ReferenceSplits::Spatial,
             threads: 0,
         }
     }

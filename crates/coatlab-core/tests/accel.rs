@@ -289,7 +289,7 @@ fn default_build_is_simd8_and_fast() {
         BuildOptions {
             layout: BvhLayout::Simd8,
             quality: BuildQuality::Fast,
-            reference_splits: ReferenceSplits::LargeTriangles,
+            reference_splits: ReferenceSplits::Spatial,
             threads: 0,
         }
     );
