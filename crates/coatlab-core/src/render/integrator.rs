@@ -558,7 +558,11 @@ impl<'a> PathTracer<'a> {
                 lane.record = Some(record);
 
                 // The BSDF sample continues the path.
-                let u_bsdf = [sampler.next_1d(), sampler.next_1d(), sampler.next_1d()];
+                // The direction as one 2D pair (stratified by the sampler), the
+                // lobe choice and the roulette as 1D numbers of their own.
+                let [u_dir_0, u_dir_1] = sampler.next_2d();
+                let u_lobe = sampler.next_1d();
+                let u_bsdf = [u_lobe, u_dir_0, u_dir_1];
                 let u_roulette = sampler.next_1d();
                 lane.alive = false;
                 let Some(sample) = material.sample(wo, u_bsdf, weight) else {
