@@ -191,7 +191,7 @@ def write_exr(path: Path, rgb: np.ndarray) -> None:
 MITSUBA_PASS_SPP = 64  # wavefront size cap: 64 spp × 320×180 lanes per mi.render call
 
 
-def mitsuba_scene_dict(scene_dir: Path, cfg: dict, mi) -> dict:
+def mitsuba_scene_dict(scene_dir: Path, cfg: dict, mi, sampler: str = "independent") -> dict:
     T = mi.ScalarTransform4f
     cam = cfg["camera"]
     wavelengths = cfg["albedo"]["wavelength_nm"]
@@ -207,7 +207,10 @@ def mitsuba_scene_dict(scene_dir: Path, cfg: dict, mi) -> dict:
             "fov_axis": "y",
             "fov": float(cam["vertical_fov_deg"]),
             "to_world": T().look_at(origin=cam["position"], target=cam["look_at"], up=cam["up"]),
-            "sampler": {"type": "independent", "sample_count": 1},
+            # `independent` by default; `ldsampler` (a scrambled (0, 2)-sequence) or
+            # `multijitter` are Mitsuba's stratified ones (--mitsuba-sampler). A pass
+            # of mi.render(spp=n) is one stratified set of n samples a pixel.
+            "sampler": {"type": sampler, "sample_count": 1},
             "film": {
                 "type": "hdrfilm",
                 "width": int(cfg["width"]),
@@ -256,6 +259,7 @@ def mitsuba_render_main(argv: list[str]) -> None:
     p.add_argument("--seed", type=int, required=True)
     p.add_argument("--out", type=Path, required=True)
     p.add_argument("--pass-spp", type=int, default=MITSUBA_PASS_SPP)
+    p.add_argument("--sampler", default="independent")
     args = p.parse_args(argv)
     import drjit as dr
     import mitsuba as mi
@@ -263,7 +267,7 @@ def mitsuba_render_main(argv: list[str]) -> None:
     mi.set_variant(args.variant)
     t_import = time.perf_counter()
     cfg = json.loads((args.scene_dir / "scene.json").read_text())
-    scene = mi.load_dict(mitsuba_scene_dict(args.scene_dir, cfg, mi))
+    scene = mi.load_dict(mitsuba_scene_dict(args.scene_dir, cfg, mi, args.sampler))
     t_load = time.perf_counter()
     total = None
     done = 0
@@ -311,7 +315,7 @@ def llvm_library() -> str | None:
     return None
 
 
-def run_mitsuba(args, spp: int, seed: int, out: Path) -> dict:
+def run_mitsuba(args, spp: int, seed: int, out: Path, reference: bool = False) -> dict:
     cmd = [
         sys.executable,
         str(Path(__file__).resolve()),
@@ -326,6 +330,9 @@ def run_mitsuba(args, spp: int, seed: int, out: Path) -> dict:
         str(seed),
         "--out",
         str(out),
+        # Only the timed runs: the references stay independent, as cached.
+        "--sampler",
+        "independent" if reference else args.mitsuba_sampler,
     ]
     env = dict(os.environ)
     library = llvm_library()
@@ -336,7 +343,10 @@ def run_mitsuba(args, spp: int, seed: int, out: Path) -> dict:
     wall, cpu = time.perf_counter() - t0, children_cpu_s() - c0
     if proc.returncode != 0:
         raise SystemExit(f"mitsuba render failed ({' '.join(cmd)}):\n{proc.stderr}")
-    inner = json.loads(proc.stdout.strip().splitlines()[-1])
+    # Mitsuba's log can leave a terminal colour code in front of the JSON line
+    # (ldsampler's warnings do): read from its opening brace.
+    last = proc.stdout.strip().splitlines()[-1]
+    inner = json.loads(last[last.find("{") :])
     return {"wall_s": wall, "cpu_s": cpu, **inner, "command": " ".join(cmd)}
 
 
@@ -448,6 +458,11 @@ def main() -> None:
         default="",
         help="more arguments for Coatlab's timed renders, e.g. '--adaptive on' (not for its reference)",
     )
+    p.add_argument(
+        "--mitsuba-sampler",
+        default="independent",
+        help="Mitsuba's sampler in its timed renders: independent, ldsampler, multijitter, ... (not for its reference)",
+    )
     args = p.parse_args()
     args.work = args.work.resolve()
     args.scene_dir = args.work / "scene"
@@ -461,6 +476,7 @@ def main() -> None:
         "size": f"{args.width}x{args.height}",
         "coatlab_wavelengths": args.wavelengths,
         "coatlab_extra_args": args.coatlab_extra_args,
+        "mitsuba_sampler": args.mitsuba_sampler,
         "cpu_count": os.cpu_count(),
         "load_start": load_average(),
         "ciede2000_sharma_worst": worst,
@@ -480,7 +496,7 @@ def main() -> None:
     ref_c, info_c = reference(
         args, "coatlab", lambda spp, seed, out: run_coatlab(args, spp, seed, out, 81, reference=True), args.coatlab_ref_spp
     )
-    ref_m, info_m = reference(args, "mitsuba", lambda spp, seed, out: run_mitsuba(args, spp, seed, out), args.mitsuba_ref_spp)
+    ref_m, info_m = reference(args, "mitsuba", lambda spp, seed, out: run_mitsuba(args, spp, seed, out, reference=True), args.mitsuba_ref_spp)
     results["reference_coatlab"] = info_c
     results["reference_mitsuba"] = info_m
     # The model difference: the two converged images against each other.
