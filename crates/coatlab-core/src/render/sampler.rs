@@ -371,6 +371,32 @@ mod tests {
     }
 
     #[test]
+    fn the_spread_of_a_pixels_samples_over_states_its_error() {
+        // What the film's noise estimate meets (docs/rendering.md, "Sampler"): for an
+        // integrand with an edge (a silhouette), the variance of the mean estimated
+        // from the samples' spread, s²/n, exceeds the true squared error of the mean
+        // over many pixels. With independent numbers the two would agree.
+        let f = |[x, y]: [f32; 2]| f64::from(x * y) + if x + 0.5 * y > 0.6 { 1.0 } else { 0.0 };
+        // ∫∫ x·y = 1/4; the area of x + y/2 > 0.6 in the unit square is 1 − (0.6 − 1/4).
+        let exact = 0.25 + 0.65;
+        let (pixels, n) = (400u32, 64u32);
+        let (mut squared_error, mut estimated) = (0.0f64, 0.0f64);
+        for pixel in 0..pixels {
+            let values: Vec<f64> = points_2d(6, pixel, 3, n).into_iter().map(f).collect();
+            let mean = values.iter().sum::<f64>() / f64::from(n);
+            let spread = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / f64::from(n - 1);
+            squared_error += (mean - exact).powi(2);
+            estimated += spread / f64::from(n);
+        }
+        let ratio = estimated / squared_error;
+        println!("s²/n over the squared error of the mean: {ratio:.1}");
+        assert!(
+            ratio > 2.0,
+            "estimated / true variance of the mean: {ratio}"
+        );
+    }
+
+    #[test]
     fn a_stratified_estimate_beats_independent_numbers() {
         // The point of the sampler: the mean of a smooth integrand over a pixel's
         // first 64 points errs far less than 1/√n. ∫∫ x·y = 1/4; independent
