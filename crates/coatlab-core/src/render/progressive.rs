@@ -938,10 +938,10 @@ impl TileJob<'_> {
                             );
                             recorder.finish(x, y, tile.xyz_of(&radiance[..self.len]));
                             rays += u64::from(stats.rays);
-                            tile.add_sample(x, y, &radiance[..self.len]);
+                            tile.add_sample_indexed(x, y, u64::from(sample), &radiance[..self.len]);
                         }
                         _ => {
-                            wave.pixels.push([x, y]);
+                            wave.pixels.push([x, y, sample]);
                             wave.rays.push(ray);
                             wave.samplers.push(sampler);
                             if wave.rays.len() == WAVE_PATHS {
@@ -977,8 +977,8 @@ impl TileJob<'_> {
             radiance,
             &mut [NoRecord; WAVE_PATHS][..paths],
         );
-        for (&[x, y], spectrum) in wave.pixels.iter().zip(radiance.chunks_exact(self.len)) {
-            tile.add_sample(x, y, spectrum);
+        for (&[x, y, sample], spectrum) in wave.pixels.iter().zip(radiance.chunks_exact(self.len)) {
+            tile.add_sample_indexed(x, y, u64::from(sample), spectrum);
         }
         wave.pixels.clear();
         wave.rays.clear();
@@ -990,7 +990,8 @@ impl TileJob<'_> {
 /// Pixel samples waiting to be traced together.
 #[derive(Default)]
 struct Wave {
-    pixels: Vec<[u32; 2]>,
+    /// Pixel x, y and the sample's index in the pixel's sequence.
+    pixels: Vec<[u32; 3]>,
     rays: Vec<([f32; 3], [f32; 3])>,
     samplers: Vec<PixelSampler>,
 }
