@@ -251,6 +251,14 @@ fn block_of(s: u64) -> u32 {
 impl BlockSums {
     #[inline]
     fn add(&mut self, block: u32, xyz: [f64; 3]) {
+        // Nearly every sample is in the top block (the next block begins only at
+        // the next power of two).
+        if block == self.top {
+            for (sum, v) in self.top_sum.iter_mut().zip(xyz) {
+                *sum += v;
+            }
+            return;
+        }
         self.merge(&BlockSums {
             top: block,
             top_sum: xyz,
