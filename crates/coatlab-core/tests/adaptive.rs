@@ -107,7 +107,10 @@ fn an_adaptive_render_is_the_same_on_any_number_of_threads() {
             uneven |= one.sample_count(x, y) != 24;
         }
     }
-    assert!(uneven, "the adaptive passes gave every pixel the same samples");
+    assert!(
+        uneven,
+        "the adaptive passes gave every pixel the same samples"
+    );
 }
 
 /// Samples go where the noise is: ranked by the per-sample noise of an independent
