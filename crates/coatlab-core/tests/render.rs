@@ -260,14 +260,18 @@ fn luminance_of(film: &Film) -> impl Fn(u32, u32) -> (f64, f64) + '_ {
     |x, y| (film.mean_xyz(x, y).y, film.variance_of_mean_xyz(x, y)[1])
 }
 
-/// Two seeds estimate the same image: per-pixel differences are within their noise.
-#[test]
-fn two_seeds_agree_within_their_noise() {
+/// The image size of [`grey_car_in_the_studio`].
+const GREY_CAR_SIZE: (u32, u32) = (64, 36);
+
+/// Renders of the default car body in gloss-300 grey paint in the studio, 8
+/// wavelengths, at [`GREY_CAR_SIZE`]: `film(seed, spp)`.
+fn grey_car_in_the_studio() -> impl Fn(u64, u32) -> Film {
     let grid = WavelengthGrid::visible(8).expect("grid");
     let model = grey_model(grid, GlossExponent::Finite(300.0));
     let scene = generate(&CarParameters::default());
-    let camera = Camera::framing(scene.mesh.bounds().expect("bounds"), 64, 36);
-    let film = |seed| {
+    let (w, h) = GREY_CAR_SIZE;
+    let camera = Camera::framing(scene.mesh.bounds().expect("bounds"), w, h);
+    move |seed, spp| {
         render(
             scene.clone(),
             Environment::studio(&grid),
@@ -278,10 +282,16 @@ fn two_seeds_agree_within_their_noise() {
                 seed,
                 ..RenderSettings::default()
             },
-            64,
+            spp,
         )
-    };
-    let (a, b) = (film(1), film(2));
+    }
+}
+
+/// Two seeds estimate the same image: per-pixel differences are within their noise.
+#[test]
+fn two_seeds_agree_within_their_noise() {
+    let film = grey_car_in_the_studio();
+    let (a, b) = (film(1, 64), film(2, 64));
     let z = z_scores(&luminance_of(&a), &luminance_of(&b), 64, 36);
     let (worst, outliers, mean_z, total_z) = (z.worst, z.outlier_fraction, z.mean, z.total);
     println!(
@@ -349,25 +359,8 @@ fn noise_estimate_follows_the_error_left() {
     use coatlab_core::colour::Xyz;
     use coatlab_core::colour::ciede2000;
     use coatlab_core::render::film::{DisplaySettings, display_lab_of_xyz};
-    let grid = WavelengthGrid::visible(8).expect("grid");
-    let model = grey_model(grid, GlossExponent::Finite(300.0));
-    let scene = generate(&CarParameters::default());
-    let (w, h) = (64, 36);
-    let camera = Camera::framing(scene.mesh.bounds().expect("bounds"), w, h);
-    let film = |seed, spp| {
-        render(
-            scene.clone(),
-            Environment::studio(&grid),
-            &model,
-            ShadingModel::Paint,
-            camera.clone(),
-            RenderSettings {
-                seed,
-                ..RenderSettings::default()
-            },
-            spp,
-        )
-    };
+    let (w, h) = GREY_CAR_SIZE;
+    let film = grey_car_in_the_studio();
     let display = DisplaySettings::default();
     let reference = film(1000, 1024);
     let reference_estimate = reference.noise_estimate(&display, 1).expect("estimate");

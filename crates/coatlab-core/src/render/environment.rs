@@ -459,24 +459,7 @@ impl Environment {
         // The drawn texel is that texel unless the rounding could have moved the
         // direction across one of its boundaries; only then is it searched for
         // (an `atan2` and a row search saved on all but a few samples in 10⁴).
-        let look_up = match normalised(dir) {
-            None => DirectionLookUp {
-                query: None,
-                texel: 0,
-            },
-            Some(d) => {
-                let mut query = Query::new(d);
-                let texel = match drawn {
-                    Some(drawn) if self.map.surely_holds(&drawn, &query) => drawn.texel,
-                    _ => self.map.texel(&mut query),
-                };
-                prefetch(&self.map.texels[texel]);
-                DirectionLookUp {
-                    query: Some(query),
-                    texel,
-                }
-            }
-        };
+        let look_up = self.begin_look_up(dir, drawn);
         Some(LocatedSample { dir, look_up })
     }
 
@@ -505,6 +488,12 @@ impl Environment {
     /// [`Self::finish_radiance_and_pdf`] returns what `radiance_and_pdf` does, bit
     /// for bit. Begun for a whole batch first, the batch's cache misses overlap.
     pub(crate) fn begin_radiance_and_pdf(&self, dir: [f32; 3]) -> DirectionLookUp {
+        self.begin_look_up(dir, None)
+    }
+
+    /// The look-up of `dir` begun: its texel found (the `drawn` one where `dir`
+    /// surely lies in it) and its record prefetched.
+    fn begin_look_up(&self, dir: [f32; 3], drawn: Option<DrawnTexel>) -> DirectionLookUp {
         let Some(d) = normalised(dir) else {
             return DirectionLookUp {
                 query: None,
@@ -512,7 +501,10 @@ impl Environment {
             };
         };
         let mut query = Query::new(d);
-        let texel = self.map.texel(&mut query);
+        let texel = match drawn {
+            Some(drawn) if self.map.surely_holds(&drawn, &query) => drawn.texel,
+            _ => self.map.texel(&mut query),
+        };
         prefetch(&self.map.texels[texel]);
         DirectionLookUp {
             query: Some(query),
@@ -2115,14 +2107,9 @@ mod tests {
     /// escapes (including a direction that cannot be normalised).
     #[test]
     fn look_ups_in_two_steps_are_those_in_one() {
-        let (width, height) = (64, 32);
         let mut state = 17;
-        let pixels: Vec<[f32; 3]> = (0..width * height)
-            .map(|_| [0, 1, 2].map(|_| uniform(&mut state).powi(6) as f32 * 50.0))
-            .collect();
-        let image = RgbImage::new(width, height, pixels).unwrap();
         let grid = WavelengthGrid::new(380.0, 10.0, 33).unwrap();
-        let image_env = Environment::from_rgb_image(&image, "test", &grid).unwrap();
+        let image_env = random_map(64, 32, 6, 50.0, &mut state, &grid);
         let mut a = vec![0.0f32; grid.len()];
         let mut b = vec![0.0f32; grid.len()];
         for env in [
@@ -2150,6 +2137,23 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A map of random texels, each channel `scale` × a uniform number to the
+    /// `power` (high powers: a few bright texels, as in a studio map).
+    fn random_map(
+        width: usize,
+        height: usize,
+        power: i32,
+        scale: f32,
+        state: &mut u64,
+        grid: &WavelengthGrid,
+    ) -> Environment {
+        let pixels: Vec<[f32; 3]> = (0..width * height)
+            .map(|_| [0, 1, 2].map(|_| uniform(state).powi(power) as f32 * scale))
+            .collect();
+        let image = RgbImage::new(width, height, pixels).unwrap();
+        Environment::from_rgb_image(&image, "test", grid).unwrap()
     }
 
     /// A light sample's radiance and density are, bit for bit, those that
@@ -2180,12 +2184,8 @@ mod tests {
     fn map_samples_near_column_edges_find_their_directions_texel() {
         let (width, height) = (1024, 512);
         let mut state = 5;
-        let pixels: Vec<[f32; 3]> = (0..width * height)
-            .map(|_| [0, 1, 2].map(|_| uniform(&mut state).powi(4) as f32 * 20.0))
-            .collect();
-        let image = RgbImage::new(width, height, pixels).unwrap();
         let grid = WavelengthGrid::new(380.0, 10.0, 33).unwrap();
-        let env = Environment::from_rgb_image(&image, "test", &grid).unwrap();
+        let env = random_map(width, height, 4, 20.0, &mut state, &grid);
         let mut a = vec![0.0f32; grid.len()];
         let mut b = vec![0.0f32; grid.len()];
         let offsets = [0.0, 1e-9, 1e-7, 1e-6, 5e-6, 1e-5, 2e-5, 1e-4, 0.5];

@@ -241,6 +241,20 @@ struct BlockSums {
     below_sum: [f64; 3],
 }
 
+/// The unbiased sample variance over n of a pixel's mean XYZ, per component;
+/// `None` below two samples.
+#[inline]
+fn variance_of_mean(pixel: &PixelSums, squares: &[f64; 3]) -> Option<[f64; 3]> {
+    if pixel.count < 2 {
+        return None;
+    }
+    let n = pixel.count as f64;
+    Some(std::array::from_fn(|k| {
+        let variance = (squares[k] - pixel.sum[k] * pixel.sum[k] / n) / (n - 1.0);
+        variance.max(0.0) / n
+    }))
+}
+
 /// The block of sample index `s`: its bit length (0 for sample 0; samples
 /// 2^(k−1) .. 2^k are block k).
 #[inline]
@@ -494,15 +508,7 @@ impl Film {
     /// variance over n. Infinite below 2 samples (no estimate: sample more).
     pub fn variance_of_mean_xyz(&self, x: u32, y: u32) -> [f64; 3] {
         let index = self.index(x, y);
-        let (p, squares) = (&self.pixels[index], &self.squares[index]);
-        if p.count < 2 {
-            return [f64::INFINITY; 3];
-        }
-        let n = p.count as f64;
-        std::array::from_fn(|k| {
-            let variance = (squares[k] - p.sum[k] * p.sum[k] / n) / (n - 1.0);
-            variance.max(0.0) / n
-        })
+        variance_of_mean(&self.pixels[index], &self.squares[index]).unwrap_or([f64::INFINITY; 3])
     }
 
     /// Number of samples at pixel (`x`, `y`).
@@ -697,16 +703,12 @@ impl Film {
             .par_iter()
             .zip(self.squares.par_iter())
             .map(|(p, squares)| {
-                if p.count < 2 {
+                let Some(variance) = variance_of_mean(p, squares) else {
                     return f32::INFINITY;
-                }
+                };
                 let n = p.count as f64;
                 let mean = p.sum.map(|s| s / n);
-                let se = std::array::from_fn::<f64, 3, _>(|k| {
-                    ((squares[k] - p.sum[k] * mean[k]) / (n - 1.0) / n)
-                        .max(0.0)
-                        .sqrt()
-                });
+                let se = variance.map(f64::sqrt);
                 let at = |sign: f64| {
                     let v: [f64; 3] = std::array::from_fn(|k| (mean[k] + sign * se[k]).max(0.0));
                     display_lab_of(&m, tone_mapping, Xyz::new(v[0], v[1], v[2]))
