@@ -459,6 +459,20 @@ impl Environment {
         // The drawn texel is that texel unless the rounding could have moved the
         // direction across one of its boundaries; only then is it searched for
         // (an `atan2` and a row search saved on all but a few samples in 10⁴).
+        // Without emitters the normalised direction is needed for nothing else,
+        // so where the drawn direction is safely inside its texel's row it is not
+        // normalised at all (a square root and a division saved).
+        if self.patches.is_empty()
+            && let Some(drawn) = drawn
+            && self.map.surely_holds_unrounded(&drawn, d, dir)
+        {
+            prefetch(&self.map.texels[drawn.texel]);
+            let look_up = DirectionLookUp {
+                query: LookUpQuery::NoEmitters,
+                texel: drawn.texel,
+            };
+            return Some(LocatedSample { dir, look_up });
+        }
         let look_up = self.begin_look_up(dir, drawn);
         Some(LocatedSample { dir, look_up })
     }
@@ -496,7 +510,7 @@ impl Environment {
     fn begin_look_up(&self, dir: [f32; 3], drawn: Option<DrawnTexel>) -> DirectionLookUp {
         let Some(d) = normalised(dir) else {
             return DirectionLookUp {
-                query: None,
+                query: LookUpQuery::Degenerate,
                 texel: 0,
             };
         };
@@ -507,7 +521,7 @@ impl Environment {
         };
         prefetch(&self.map.texels[texel]);
         DirectionLookUp {
-            query: Some(query),
+            query: LookUpQuery::Direction(query),
             texel,
         }
     }
@@ -519,10 +533,13 @@ impl Environment {
     pub(crate) fn finish_radiance_and_pdf(&self, begun: &DirectionLookUp, out: &mut [f32]) -> f32 {
         assert_eq!(out.len(), self.grid.len(), "radiance buffer length");
         out.fill(0.0);
-        let Some(mut query) = begun.query else {
-            return 0.0;
-        };
-        self.evaluate_texel(begun.texel, &mut query, Some(out)) as f32
+        match begun.query {
+            LookUpQuery::Degenerate => 0.0,
+            LookUpQuery::NoEmitters => self.evaluate_map_texel(begun.texel, Some(out)) as f32,
+            LookUpQuery::Direction(mut query) => {
+                self.evaluate_texel(begun.texel, &mut query, Some(out)) as f32
+            }
+        }
     }
 
     /// The density of `q` (f64), and its radiance added to `out` when given: one
@@ -532,12 +549,18 @@ impl Environment {
         self.evaluate_texel(texel, q, out)
     }
 
-    /// [`Self::evaluate`] with the map's texel of `q` already found.
-    fn evaluate_texel(&self, texel: usize, q: &mut Query, mut out: Option<&mut [f32]>) -> f64 {
-        let mut pdf = self.components.probability(self.patches.len()) * self.map.pdf(texel);
-        if let Some(out) = out.as_deref_mut() {
+    /// The map's share of [`Self::evaluate_texel`]: all of it for an environment
+    /// without emitters.
+    fn evaluate_map_texel(&self, texel: usize, out: Option<&mut [f32]>) -> f64 {
+        if let Some(out) = out {
             self.map.add_radiance(texel, out);
         }
+        self.components.probability(self.patches.len()) * self.map.pdf(texel)
+    }
+
+    /// [`Self::evaluate`] with the map's texel of `q` already found.
+    fn evaluate_texel(&self, texel: usize, q: &mut Query, mut out: Option<&mut [f32]>) -> f64 {
+        let mut pdf = self.evaluate_map_texel(texel, out.as_deref_mut());
         for (k, patch) in self.patches.iter().enumerate() {
             if patch.shape.contains(q) {
                 pdf += self.components.probability(k) / patch.solid_angle;
@@ -574,9 +597,19 @@ pub(crate) struct LocatedSample {
 /// An escape's look-up begun by [`Environment::begin_radiance_and_pdf`].
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct DirectionLookUp {
-    /// `None` for a direction that cannot be normalised (radiance and density 0).
-    query: Option<Query>,
+    query: LookUpQuery,
     texel: usize,
+}
+
+/// What a begun look-up still needs of its direction besides the texel.
+#[derive(Debug, Clone, Copy)]
+enum LookUpQuery {
+    /// A direction that cannot be normalised: radiance and density 0.
+    Degenerate,
+    /// Nothing: the environment has no emitters to test the direction against.
+    NoEmitters,
+    /// The normalised direction, for the emitters' containment tests.
+    Direction(Query),
 }
 
 /// What a map sample's numbers decide before its texel record is read.
@@ -1409,6 +1442,26 @@ impl RadianceMap {
         in_row && off_pole && in_column
     }
 
+    /// [`Self::surely_holds`] before the direction is normalised: `d` is the
+    /// drawn direction (unit, f64) and `dir` its f32 rounding. Rounding each
+    /// coordinate to f32 and normalising again moves y by at most
+    /// |y|·(2·2⁻²⁴ + 1e-15) < 1.3e-7 (each coordinate gains a factor 1 ± 2⁻²⁴, the
+    /// length as well), so a y [`ROW_SLACK`] or more inside the drawn row stays in
+    /// it. `false` where only the exact test can tell (y near a row boundary, and
+    /// everywhere [`Self::surely_holds`] answers `false` for the column or pole).
+    fn surely_holds_unrounded(&self, drawn: &DrawnTexel, d: [f64; 3], dir: [f32; 3]) -> bool {
+        let row = drawn.texel / self.width;
+        let y = d[1];
+        let in_row = (row == 0 || y <= self.row_cos[row] - ROW_SLACK)
+            && (row + 1 == self.height || y > self.row_cos[row + 1] + ROW_SLACK);
+        // Zero stays zero and non-zero non-zero under normalisation.
+        let off_pole = dir[0] != 0.0 || dir[2] != 0.0;
+        let in_column = self.width == 1
+            || drawn.within_column.min(1.0 - drawn.within_column) * (2.0 * PI / self.width as f64)
+                > AZIMUTH_SLACK;
+        in_row && off_pole && in_column
+    }
+
     /// The direction of a sample begun by [`Self::begin_sample`], and the texel it
     /// was drawn in.
     fn finish_sample(&self, draw: MapDraw) -> ([f64; 3], DrawnTexel) {
@@ -1452,6 +1505,17 @@ struct DrawnTexel {
 /// direction to f32 can turn it ([`RadianceMap::surely_holds`]).
 const AZIMUTH_SLACK: f64 = 1e-6;
 
+/// How far inside its row (in cos θ) a drawn direction must be for its row to be
+/// taken before the direction is rounded and normalised: 8× the most that can
+/// move it ([`RadianceMap::surely_holds_unrounded`]).
+const ROW_SLACK: f64 = 1e-6;
+
+/// Guide entries per index of a [`Distribution1D`]: a target's part holds on
+/// average 1/this of the cdf's steps whatever the weights (the parts are equal
+/// in weight, so they are hit as often as the steps lie in them), so the search
+/// from the guide's entry takes a step in 1 of 4 draws instead of 1 of 1.
+const GUIDE_PARTS_PER_INDEX: usize = 4;
+
 /// A discrete distribution with continuous inversion: `sample(u)` gives the index
 /// and where u fell within its share, in [0, 1).
 #[derive(Debug, Clone)]
@@ -1464,6 +1528,13 @@ struct Distribution1D {
     /// search through a cdf that is not in cache. The search from there gives
     /// exactly the binary search's answer.
     guide: Vec<u32>,
+    /// `guide.len() / total` (0 for an empty distribution): a target's part by a
+    /// multiplication instead of a division on the way to the guide's entry. It
+    /// only chooses where the search starts, so its rounding never changes the
+    /// answer.
+    parts_per_weight: f64,
+    /// `probability(i)` for every index, computed once with the same expression.
+    probabilities: Vec<f64>,
 }
 
 impl Distribution1D {
@@ -1475,14 +1546,24 @@ impl Distribution1D {
             sum += w.max(0.0);
             cdf.push(sum);
         }
-        let parts = weights.len().max(1);
+        let parts = weights.len().max(1) * GUIDE_PARTS_PER_INDEX;
         let guide = (0..parts)
             .map(|j| {
                 let target = j as f64 / parts as f64 * sum;
                 cdf.partition_point(|&c| c <= target) as u32
             })
             .collect();
-        Self { cdf, guide }
+        let parts_per_weight = if sum > 0.0 { parts as f64 / sum } else { 0.0 };
+        let probabilities = cdf
+            .windows(2)
+            .map(|c| if sum > 0.0 { (c[1] - c[0]) / sum } else { 0.0 })
+            .collect();
+        Self {
+            cdf,
+            guide,
+            parts_per_weight,
+            probabilities,
+        }
     }
 
     fn total(&self) -> f64 {
@@ -1490,24 +1571,14 @@ impl Distribution1D {
     }
 
     fn probability(&self, i: usize) -> f64 {
-        let total = self.total();
-        if total > 0.0 {
-            (self.cdf[i + 1] - self.cdf[i]) / total
-        } else {
-            0.0
-        }
+        self.probabilities[i]
     }
 
     /// The first index p with cdf[p] > target (`cdf.len()` if none): what
     /// `cdf.partition_point(|&c| c <= target)` returns, started from the guide.
     fn upper_bound(&self, target: f64) -> usize {
-        let total = self.total();
-        let parts = self.guide.len();
-        let part = if total > 0.0 {
-            ((target / total * parts as f64) as usize).min(parts - 1)
-        } else {
-            0
-        };
+        // A negative or NaN product converts to 0; any part is a valid start.
+        let part = ((target * self.parts_per_weight) as usize).min(self.guide.len() - 1);
         let mut p = self.guide[part] as usize;
         // The cdf is non-decreasing, so walking to the boundary from any start
         // ends where the binary search does.
@@ -1523,7 +1594,13 @@ impl Distribution1D {
     fn sample(&self, u: f64) -> (usize, f64) {
         let n = self.cdf.len() - 1;
         let target = u.clamp(0.0, ONE_BELOW) * self.total();
-        let mut i = (self.upper_bound(target).max(1) - 1).min(n - 1);
+        // One index (an environment that is only a map): no search, the same
+        // answer (`upper_bound(target).max(1) - 1` clamped to 0).
+        let mut i = if n == 1 {
+            0
+        } else {
+            (self.upper_bound(target).max(1) - 1).min(n - 1)
+        };
         // Never land on an empty bin (possible only at the very top).
         while i > 0 && self.cdf[i + 1] <= self.cdf[i] {
             i -= 1;
@@ -1970,6 +2047,69 @@ mod tests {
         }
     }
 
+    /// `sample` (guided search, one-index shortcut, probabilities computed once)
+    /// gives the index and fraction of the plain inversion by binary search, bit
+    /// for bit, for random numbers, 0, the largest below 1 and numbers whose
+    /// targets fall at and next to every step of the cdf.
+    #[test]
+    fn samples_are_the_plain_cdf_inversion() {
+        let mut state = 3;
+        let weights: Vec<f64> = (0..700)
+            .map(|i| match i % 5 {
+                0 => 0.0,
+                1 => 1e3 * uniform(&mut state).powi(6),
+                _ => uniform(&mut state),
+            })
+            .collect();
+        for w in [
+            &weights[..],
+            &[2.5][..],
+            &[0.0][..],
+            &[0.0, 0.0, 3.0][..],
+            &[1.0, 0.0][..],
+            &[1e-300, 1.0, 1e300][..],
+        ] {
+            let d = Distribution1D::new(w);
+            let total = d.total();
+            let n = w.len();
+            let plain = |u: f64| -> (usize, f64) {
+                let target = u.clamp(0.0, ONE_BELOW) * total;
+                let mut i = (d.cdf.partition_point(|&c| c <= target).max(1) - 1).min(n - 1);
+                while i > 0 && d.cdf[i + 1] <= d.cdf[i] {
+                    i -= 1;
+                }
+                let width = d.cdf[i + 1] - d.cdf[i];
+                let frac = if width > 0.0 {
+                    ((target - d.cdf[i]) / width).clamp(0.0, ONE_BELOW)
+                } else {
+                    0.5
+                };
+                (i, frac)
+            };
+            let mut us: Vec<f64> = (0..20_000).map(|_| uniform(&mut state)).collect();
+            us.extend([0.0, ONE_BELOW, 1.0, -0.5, 2.0]);
+            if total > 0.0 {
+                for &c in &d.cdf {
+                    let u = c / total;
+                    us.extend([u, u.next_up(), u.next_down(), u + 1e-12, u - 1e-12]);
+                }
+            }
+            for u in us {
+                let (i, frac) = d.sample(u);
+                let (j, want) = plain(u);
+                assert_eq!((i, frac.to_bits()), (j, want.to_bits()), "u {u} of {n}");
+            }
+            for i in 0..n {
+                let want = if total > 0.0 {
+                    (d.cdf[i + 1] - d.cdf[i]) / total
+                } else {
+                    0.0
+                };
+                assert_eq!(d.probability(i).to_bits(), want.to_bits());
+            }
+        }
+    }
+
     #[test]
     fn texels_found_without_acos_are_those_of_the_polar_angle() {
         let map = Environment::outdoor(&WavelengthGrid::new(380.0, 50.0, 9).unwrap()).map;
@@ -2200,6 +2340,58 @@ mod tests {
             }
             let u = [uniform(&mut state) as f32, uniform(&mut state) as f32];
             sample_is_its_directions_look_up(&env, u, &mut a, &mut b);
+        }
+    }
+
+    /// Map samples drawn at and near row boundaries (where the drawn row is
+    /// checked on the normalised f32 direction) and further inside (where it is
+    /// taken from the unrounded one) have, bit for bit, the radiance and density
+    /// of their direction's look-up; rows at the poles and the horizon included.
+    #[test]
+    fn map_samples_near_row_edges_find_their_directions_texel() {
+        let (width, height) = (1024, 512);
+        let mut state = 9;
+        let grid = WavelengthGrid::new(380.0, 10.0, 33).unwrap();
+        let env = random_map(width, height, 4, 20.0, &mut state, &grid);
+        assert!(
+            env.patches.is_empty(),
+            "a map without emitters takes the shortcut"
+        );
+        let mut a = vec![0.0f32; grid.len()];
+        let mut b = vec![0.0f32; grid.len()];
+        let offsets = [0.0, 1e-12, 1e-9, 1e-7, 1e-6, 2e-6, 1e-5, 1e-3, 0.01, 0.5];
+        let mut rows: Vec<usize> = (0..300)
+            .map(|_| (uniform(&mut state) * height as f64) as usize)
+            .collect();
+        rows.extend([0, 1, height / 2 - 1, height / 2, height - 2, height - 1]);
+        for row in rows {
+            let row_width = env.map.row_cos[row] - env.map.row_cos[row + 1];
+            for offset in offsets {
+                // v is the fraction of the row's cos range; offsets are in cos θ.
+                let dv = (offset / row_width).min(0.5);
+                for v in [dv, 1.0 - dv] {
+                    let v = v.clamp(0.0, ONE_BELOW);
+                    let frac = uniform(&mut state).clamp(0.0, ONE_BELOW);
+                    let first = (uniform(&mut state) * width as f64) as usize;
+                    let begun = SampleLookUp {
+                        component: 0,
+                        u: [0.0, 0.0],
+                        draw: Some(MapDraw {
+                            row,
+                            v,
+                            first,
+                            frac,
+                        }),
+                    };
+                    let located = env.locate_sample(&begun).expect("a lit map");
+                    let sample = env
+                        .finish_located_sample(&located, &mut a)
+                        .expect("density");
+                    let pdf = env.radiance_and_pdf(sample.dir, &mut b);
+                    assert_eq!(sample.pdf.to_bits(), pdf.to_bits(), "row {row} v {v}");
+                    assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+                }
+            }
         }
     }
 
