@@ -190,34 +190,40 @@ impl Weights {
             radiance.len(),
             self.x.len()
         );
-        const LANES: usize = 8;
-        let (mut ax, mut ay, mut az) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
-        let split = radiance.len() / LANES * LANES;
-        let chunks = radiance[..split]
-            .chunks_exact(LANES)
-            .zip(self.x[..split].chunks_exact(LANES))
-            .zip(self.y[..split].chunks_exact(LANES))
-            .zip(self.z[..split].chunks_exact(LANES));
-        for (((r, wx), wy), wz) in chunks {
-            for k in 0..LANES {
-                ax[k] += wx[k] * r[k];
-                ay[k] += wy[k] * r[k];
-                az[k] += wz[k] * r[k];
-            }
-        }
-        let (mut sx, mut sy, mut sz) = (ax.iter().sum(), ay.iter().sum(), az.iter().sum());
-        for (((r, wx), wy), wz) in radiance[split..]
-            .iter()
-            .zip(&self.x[split..])
-            .zip(&self.y[split..])
-            .zip(&self.z[split..])
-        {
-            sx += wx * r;
-            sy += wy * r;
-            sz += wz * r;
-        }
-        [sx, sy, sz]
+        // One dot product after the other: each then compiles to one 8-wide
+        // accumulator (done together, the three were interleaved lane by lane,
+        // with shuffles). The arithmetic, and so every bit, is the same.
+        [
+            dot_8_lanes(radiance, &self.x),
+            dot_8_lanes(radiance, &self.y),
+            dot_8_lanes(radiance, &self.z),
+        ]
     }
+}
+
+/// Σ aᵢbᵢ over the shorter length, summed in 8 lanes (lane k takes every 8th
+/// product from k), the lanes added in order, then the products past the last
+/// whole 8 in order.
+#[inline(always)]
+fn dot_8_lanes(a: &[f32], b: &[f32]) -> f32 {
+    const LANES: usize = 8;
+    let len = a.len().min(b.len());
+    let (a, b) = (&a[..len], &b[..len]);
+    let split = len / LANES * LANES;
+    let mut lanes = [0.0f32; LANES];
+    for (a, b) in a[..split]
+        .chunks_exact(LANES)
+        .zip(b[..split].chunks_exact(LANES))
+    {
+        for k in 0..LANES {
+            lanes[k] += b[k] * a[k];
+        }
+    }
+    let mut sum: f32 = lanes.iter().sum();
+    for (a, b) in a[split..].iter().zip(&b[split..]) {
+        sum += b * a;
+    }
+    sum
 }
 
 /// One pixel's running sums: what the display reads (32 bytes). The sums of
