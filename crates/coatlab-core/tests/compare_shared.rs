@@ -8,6 +8,7 @@ use std::sync::Arc;
 use coatlab_core::colour::{Xyz, ciede2000};
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::film::{DisplaySettings, display_lab_of_xyz};
+use coatlab_core::render::integrator::IntegratorSettings;
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::ProgressiveRender;
 use coatlab_core::render::reshade::ReshadeError;
@@ -22,6 +23,16 @@ const PHONG: ShadingModel = ShadingModel::Phong(PhongVariant::BestFit);
 /// The default car in the studio, signal red, shaded by `which`.
 fn render(which: ShadingModel, seed: u64, spp: u32, recorded: u32) -> (ProgressiveRender, Scene) {
     car_render::render(&red(), which, seed, spp, recorded)
+}
+
+fn render_with_integrator(
+    which: ShadingModel,
+    seed: u64,
+    spp: u32,
+    recorded: u32,
+    integrator: IntegratorSettings,
+) -> (ProgressiveRender, Scene) {
+    car_render::render_with(&red(), which, seed, spp, recorded, integrator)
 }
 
 fn shading(scene: &Scene, which: ShadingModel) -> Arc<Shading> {
@@ -148,9 +159,15 @@ fn shared_samples_leave_only_the_noise_of_the_difference() {
             .expect("phong pane");
         difference_y(&pa.xyz, &pb.xyz)
     };
+    // Recorded paths take one light sample at their first vertex, so the
+    // independent renders do too: paths of the same estimator, shared or not.
+    let one_light = IntegratorSettings {
+        first_light_samples: 1,
+        ..IntegratorSettings::default()
+    };
     let independent_difference = |seed: u64| {
-        let (ra, _) = render(ShadingModel::Paint, seed, SPP, 0);
-        let (rb, _) = render(PHONG, seed + 1, SPP, 0);
+        let (ra, _) = render_with_integrator(ShadingModel::Paint, seed, SPP, 0, one_light);
+        let (rb, _) = render_with_integrator(PHONG, seed + 1, SPP, 0, one_light);
         difference_y(&film_estimate(&ra).xyz, &film_estimate(&rb).xyz)
     };
     let (s1, s2) = (shared_difference(1), shared_difference(2));

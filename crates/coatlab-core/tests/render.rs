@@ -287,6 +287,77 @@ fn grey_car_in_the_studio() -> impl Fn(u64, u32) -> Film {
     }
 }
 
+/// The integrator's cheaper estimator (the default: the floor's direct light from
+/// light samples for a surface facing up alone, two light samples at the first
+/// vertex) estimates the same image as the plain one (light samples over the
+/// sphere with MIS everywhere, one per vertex): per-pixel Z-test of the grey car
+/// in the studio, floor in view, at 64 spp each; and its summed variance is the
+/// lower. The Z-test's own negative control is in
+/// `a_render_matches_the_stored_reference`; here a 3 % brighter image must fail too.
+#[test]
+fn the_cheaper_estimator_agrees_with_the_plain_one() {
+    let grid = WavelengthGrid::visible(8).expect("grid");
+    let model = grey_model(grid, GlossExponent::Finite(300.0));
+    let scene = generate(&CarParameters::default());
+    let (w, h) = GREY_CAR_SIZE;
+    let camera = Camera::framing(scene.mesh.bounds().expect("bounds"), w, h);
+    let film = |integrator: IntegratorSettings, seed: u64| {
+        render(
+            scene.clone(),
+            Environment::studio(&grid),
+            &model,
+            ShadingModel::Paint,
+            camera.clone(),
+            RenderSettings {
+                seed,
+                integrator,
+                ..RenderSettings::default()
+            },
+            64,
+        )
+    };
+    let cheaper = film(IntegratorSettings::default(), 3);
+    let plain = film(
+        IntegratorSettings {
+            first_light_samples: 1,
+            floor_light_only: false,
+            ..IntegratorSettings::default()
+        },
+        4,
+    );
+    let z = z_scores(&luminance_of(&cheaper), &luminance_of(&plain), w, h);
+    let (worst, outliers, mean_z, total_z) = (z.worst, z.outlier_fraction, z.mean, z.total);
+    let variance = |film: &Film| -> f64 {
+        (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .map(|(x, y)| film.variance_of_mean_xyz(x, y)[1])
+            .sum()
+    };
+    let ratio = variance(&cheaper) / variance(&plain);
+    println!(
+        "cheaper vs plain: worst |Z| {worst:.2}, |Z| > 4 in {:.3} %, mean Z {mean_z:.3}, total Z {total_z:.2}; variance ×{ratio:.2}",
+        outliers * 100.0
+    );
+    assert!(
+        outliers < 0.005,
+        "{:.2} % of pixels beyond 4σ",
+        outliers * 100.0
+    );
+    assert!(mean_z.abs() < 0.1, "mean Z {mean_z}");
+    assert!(total_z.abs() < 4.0, "total Z {total_z}");
+    assert!(ratio < 0.8, "variance ×{ratio:.2} of the plain estimator's");
+    let brighter = |x: u32, y: u32| {
+        let (m, v) = luminance_of(&cheaper)(x, y);
+        (1.03 * m, 1.03 * 1.03 * v)
+    };
+    let z = z_scores(&brighter, &luminance_of(&plain), w, h);
+    assert!(
+        z.total > 8.0,
+        "a 3 % brighter image went unnoticed: total Z {}",
+        z.total
+    );
+}
+
 /// Two seeds estimate the same image: per-pixel differences are within their noise.
 #[test]
 fn two_seeds_agree_within_their_noise() {
@@ -602,6 +673,7 @@ fn zero_bounces_show_only_the_environment() {
             integrator: IntegratorSettings {
                 max_bounces: 0,
                 roulette_start: 3,
+                ..IntegratorSettings::default()
             },
             ..RenderSettings::default()
         },

@@ -167,6 +167,9 @@ pub struct Environment {
     map: RadianceMap,
     /// Selection of a component: the patches in order, then the map.
     components: Distribution1D,
+    /// Light sampling for a surface facing straight up (the floor); `None` when
+    /// nothing above the horizon gives light.
+    facing_up: Option<FacingUpSampling>,
     floor: Option<Floor>,
     sun_dir: Option<[f32; 3]>,
 }
@@ -378,10 +381,19 @@ impl Environment {
 
     /// Density (per unit solid angle) with which [`Self::sample`] returns `dir`.
     pub fn pdf(&self, dir: [f32; 3]) -> f32 {
+        self.pdf_for(dir, false)
+    }
+
+    /// Density (per unit solid angle) with which a light sample for a surface
+    /// facing straight up (`facing_up`, the floor: [`Self::sample_for`]) or for
+    /// any other returns `dir`.
+    pub fn pdf_for(&self, dir: [f32; 3], facing_up: bool) -> f32 {
         let Some(d) = normalised(dir) else {
             return 0.0;
         };
-        self.evaluate(&mut Query::new(d), None) as f32
+        let mut q = Query::new(d);
+        let texel = self.map.texel(&mut q);
+        self.evaluate_texel(texel, &mut q, None, facing_up) as f32
     }
 
     /// [`Self::radiance`] and [`Self::pdf`] of one direction together: the texel and
@@ -408,6 +420,18 @@ impl Environment {
         self.finish_sample(&self.begin_sample(u), out)
     }
 
+    /// [`Self::sample`] for a surface facing straight up (`facing_up`: the floor,
+    /// normal +Y) or any other. Facing up, emitters and the map's rows are chosen
+    /// in proportion to their power times their mean cosine to the vertical
+    /// (the texel within a row and the point within an emitter as before), so the
+    /// light sample's weight L·cos θ/pdf is nearly constant over the unshadowed
+    /// sky: the floor's direct light without the noise of sampling by power
+    /// alone, which spends samples on bright light near the horizon that reaches
+    /// the floor at a grazing cosine.
+    pub fn sample_for(&self, u: [f32; 2], facing_up: bool, out: &mut [f32]) -> Option<EnvSample> {
+        self.finish_sample(&self.begin_sample_for(u, facing_up), out)
+    }
+
     /// [`Self::sample`] in two steps, for a batch of paths: this one draws what the
     /// numbers decide without reading the map's tables (the emitter, the map's row
     /// and the column u lands on) and starts reading that column's alias-table
@@ -415,12 +439,21 @@ impl Environment {
     /// [`Self::finish_sample`], called after the batch's other look-ups have been
     /// begun, completes the draw. The result is bit for bit `sample(u, out)`.
     pub(crate) fn begin_sample(&self, u: [f32; 2]) -> SampleLookUp {
-        let (component, u0) = self.components.sample(f64::from(u[0]));
+        self.begin_sample_for(u, false)
+    }
+
+    /// [`Self::begin_sample`] of [`Self::sample_for`].
+    pub(crate) fn begin_sample_for(&self, u: [f32; 2], facing_up: bool) -> SampleLookUp {
+        let (components, rows, facing_up) = match (&self.facing_up, facing_up) {
+            (Some(up), true) => (&up.components, &up.rows, true),
+            _ => (&self.components, &self.map.rows, false),
+        };
+        let (component, u0) = components.sample(f64::from(u[0]));
         let u1 = f64::from(u[1]).clamp(0.0, ONE_BELOW);
         let draw = if component < self.patches.len() {
             None
         } else {
-            let draw = self.map.begin_sample([u0, u1]);
+            let draw = self.map.begin_sample(rows, [u0, u1]);
             if let Some(draw) = &draw {
                 prefetch(&self.map.columns[draw.row * self.map.width + draw.first]);
             }
@@ -430,6 +463,7 @@ impl Environment {
             component,
             u: [u0, u1],
             draw,
+            facing_up,
         }
     }
 
@@ -470,10 +504,11 @@ impl Environment {
             let look_up = DirectionLookUp {
                 query: LookUpQuery::NoEmitters,
                 texel: drawn.texel,
+                facing_up: begun.facing_up,
             };
             return Some(LocatedSample { dir, look_up });
         }
-        let look_up = self.begin_look_up(dir, drawn);
+        let look_up = self.begin_look_up(dir, drawn, begun.facing_up);
         Some(LocatedSample { dir, look_up })
     }
 
@@ -501,17 +536,30 @@ impl Environment {
     /// finds the direction's texel and starts reading its record into the cache;
     /// [`Self::finish_radiance_and_pdf`] returns what `radiance_and_pdf` does, bit
     /// for bit. Begun for a whole batch first, the batch's cache misses overlap.
-    pub(crate) fn begin_radiance_and_pdf(&self, dir: [f32; 3]) -> DirectionLookUp {
-        self.begin_look_up(dir, None)
+    ///
+    /// With `facing_up` the density is that of [`Self::sample_for`] for a surface
+    /// facing up (an escape from the floor), else that of [`Self::sample`].
+    pub(crate) fn begin_radiance_and_pdf_for(
+        &self,
+        dir: [f32; 3],
+        facing_up: bool,
+    ) -> DirectionLookUp {
+        self.begin_look_up(dir, None, facing_up)
     }
 
     /// The look-up of `dir` begun: its texel found (the `drawn` one where `dir`
     /// surely lies in it) and its record prefetched.
-    fn begin_look_up(&self, dir: [f32; 3], drawn: Option<DrawnTexel>) -> DirectionLookUp {
+    fn begin_look_up(
+        &self,
+        dir: [f32; 3],
+        drawn: Option<DrawnTexel>,
+        facing_up: bool,
+    ) -> DirectionLookUp {
         let Some(d) = normalised(dir) else {
             return DirectionLookUp {
                 query: LookUpQuery::Degenerate,
                 texel: 0,
+                facing_up,
             };
         };
         let mut query = Query::new(d);
@@ -523,10 +571,11 @@ impl Environment {
         DirectionLookUp {
             query: LookUpQuery::Direction(query),
             texel,
+            facing_up,
         }
     }
 
-    /// The second step of [`Self::begin_radiance_and_pdf`].
+    /// The second step of [`Self::begin_radiance_and_pdf_for`].
     ///
     /// # Panics
     /// If `out.len()` differs from the grid's length.
@@ -535,9 +584,11 @@ impl Environment {
         out.fill(0.0);
         match begun.query {
             LookUpQuery::Degenerate => 0.0,
-            LookUpQuery::NoEmitters => self.evaluate_map_texel(begun.texel, Some(out)) as f32,
+            LookUpQuery::NoEmitters => {
+                self.evaluate_map_texel(begun.texel, Some(out), begun.facing_up) as f32
+            }
             LookUpQuery::Direction(mut query) => {
-                self.evaluate_texel(begun.texel, &mut query, Some(out)) as f32
+                self.evaluate_texel(begun.texel, &mut query, Some(out), begun.facing_up) as f32
             }
         }
     }
@@ -546,24 +597,46 @@ impl Environment {
     /// texel look-up and one containment test per emitter.
     fn evaluate(&self, q: &mut Query, out: Option<&mut [f32]>) -> f64 {
         let texel = self.map.texel(q);
-        self.evaluate_texel(texel, q, out)
+        self.evaluate_texel(texel, q, out, false)
     }
 
-    /// The map's share of [`Self::evaluate_texel`]: all of it for an environment
-    /// without emitters.
-    fn evaluate_map_texel(&self, texel: usize, out: Option<&mut [f32]>) -> f64 {
+    /// The map's share of [`Self::evaluate_texel`] (all of it for an environment
+    /// without emitters), the density that of [`Self::sample_for`] with
+    /// `facing_up`.
+    fn evaluate_map_texel(&self, texel: usize, out: Option<&mut [f32]>, facing_up: bool) -> f64 {
         if let Some(out) = out {
             self.map.add_radiance(texel, out);
         }
-        self.components.probability(self.patches.len()) * self.map.pdf(texel)
+        let (components, row_factor) = self.components_for(texel, facing_up);
+        components.probability(self.patches.len()) * self.map.pdf(texel) * row_factor
     }
 
-    /// [`Self::evaluate`] with the map's texel of `q` already found.
-    fn evaluate_texel(&self, texel: usize, q: &mut Query, mut out: Option<&mut [f32]>) -> f64 {
-        let mut pdf = self.evaluate_map_texel(texel, out.as_deref_mut());
+    /// The component distribution of [`Self::sample_for`] with `facing_up`, and the
+    /// factor its row distribution gives `texel`'s row against the plain one.
+    fn components_for(&self, texel: usize, facing_up: bool) -> (&Distribution1D, f64) {
+        match (&self.facing_up, facing_up) {
+            (Some(up), true) => (
+                &up.components,
+                f64::from(up.row_factor[texel / self.map.width]),
+            ),
+            _ => (&self.components, 1.0),
+        }
+    }
+
+    /// [`Self::evaluate`] with the map's texel of `q` already found, the density
+    /// that of [`Self::sample_for`] with `facing_up`.
+    fn evaluate_texel(
+        &self,
+        texel: usize,
+        q: &mut Query,
+        mut out: Option<&mut [f32]>,
+        facing_up: bool,
+    ) -> f64 {
+        let mut pdf = self.evaluate_map_texel(texel, out.as_deref_mut(), facing_up);
+        let (components, _) = self.components_for(texel, facing_up);
         for (k, patch) in self.patches.iter().enumerate() {
             if patch.shape.contains(q) {
-                pdf += self.components.probability(k) / patch.solid_angle;
+                pdf += components.probability(k) / patch.solid_angle;
                 if let Some(out) = out.as_deref_mut() {
                     for (o, r) in out.iter_mut().zip(&patch.radiance) {
                         *o += r;
@@ -584,6 +657,8 @@ pub(crate) struct SampleLookUp {
     /// The map's part of the draw when the component is the map (`None` also for
     /// a map without light, which draws nothing).
     draw: Option<MapDraw>,
+    /// Drawn for a surface facing up ([`Environment::sample_for`]).
+    facing_up: bool,
 }
 
 /// A light sample located by [`Environment::locate_sample`]: its direction, and
@@ -594,11 +669,13 @@ pub(crate) struct LocatedSample {
     look_up: DirectionLookUp,
 }
 
-/// An escape's look-up begun by [`Environment::begin_radiance_and_pdf`].
+/// An escape's look-up begun by [`Environment::begin_radiance_and_pdf_for`].
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct DirectionLookUp {
     query: LookUpQuery,
     texel: usize,
+    /// The density is that of a light sample for a surface facing up.
+    facing_up: bool,
 }
 
 /// What a begun look-up still needs of its direction besides the texel.
@@ -1417,11 +1494,11 @@ impl RadianceMap {
 
     /// The part of a sample the numbers decide alone (the row by its cdf, the
     /// column u lands on); `None` if the map has no light.
-    fn begin_sample(&self, u: [f64; 2]) -> Option<MapDraw> {
-        if self.total_weight <= 0.0 {
+    fn begin_sample(&self, rows: &Distribution1D, u: [f64; 2]) -> Option<MapDraw> {
+        if self.total_weight <= 0.0 || rows.total() <= 0.0 {
             return None;
         }
-        let (row, v) = self.rows.sample(u[0]);
+        let (row, v) = rows.sample(u[0]);
         let x = u[1] * self.width as f64;
         let first = (x as usize).min(self.width - 1);
         let frac = (x - first as f64).clamp(0.0, ONE_BELOW);
@@ -1504,6 +1581,85 @@ impl RadianceMap {
         };
         let (d, dir) = direction_from_azimuth_y_f32(azimuth, y);
         (d, dir, drawn)
+    }
+}
+
+/// The least mean cosine an emitter is given in [`FacingUpSampling`].
+const MIN_PATCH_MEAN_UP: f64 = 1e-3;
+
+/// Light sampling for a surface facing straight up ([`Environment::sample_for`]):
+/// the same emitters and texels, each emitter's and each map row's weight times
+/// its mean max(y, 0) (cos θ to the vertical, 0 below the horizon).
+#[derive(Debug, Clone)]
+struct FacingUpSampling {
+    /// Selection of a component: the patches in order, then the map.
+    components: Distribution1D,
+    /// Selection of the map's row.
+    rows: Distribution1D,
+    /// Per map row: its probability here over its probability in the map's own
+    /// sampling (the texel densities scale by it; 0 below the horizon).
+    row_factor: Vec<f32>,
+}
+
+impl FacingUpSampling {
+    /// From the map's row weights and boundaries and the components' weights
+    /// (patches, then the map); `None` when nothing above the horizon has weight.
+    fn new(
+        row_weights: &[f64],
+        row_cos: &[f64],
+        rows: &Distribution1D,
+        patches: &[Patch],
+        component_weights: &[f64],
+    ) -> Option<Self> {
+        // Mean of max(y, 0) over a row, y uniform between its boundaries.
+        let mean_up = |top: f64, bottom: f64| {
+            if bottom >= 0.0 {
+                0.5 * (top + bottom)
+            } else if top <= 0.0 {
+                0.0
+            } else {
+                0.5 * top * top / (top - bottom)
+            }
+        };
+        let up_row_weights: Vec<f64> = row_weights
+            .iter()
+            .enumerate()
+            .map(|(r, w)| w.max(0.0) * mean_up(row_cos[r], row_cos[r + 1]))
+            .collect();
+        let up_rows = Distribution1D::new(&up_row_weights);
+        let row_factor = (0..row_weights.len())
+            .map(|r| {
+                let p = rows.probability(r);
+                if p > 0.0 {
+                    (up_rows.probability(r) / p) as f32
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let map_total = rows.total();
+        let mut up_components: Vec<f64> = patches
+            .iter()
+            .zip(component_weights)
+            // The mean cosine, at least 1e-3: the cap's formula is exact only for
+            // a cap wholly above the horizon, and a density of 0 over any part of
+            // an emitter that lights the floor would lose that light (the floor's
+            // escapes count nothing).
+            .map(|(patch, w)| {
+                w * (patch.shape.cosine_integral() / patch.solid_angle).max(MIN_PATCH_MEAN_UP)
+            })
+            .collect();
+        up_components.push(if map_total > 0.0 {
+            component_weights[patches.len()] * up_rows.total() / map_total
+        } else {
+            0.0
+        });
+        let components = Distribution1D::new(&up_components);
+        (components.total() > 0.0).then_some(Self {
+            components,
+            rows: up_rows,
+            row_factor,
+        })
     }
 }
 
@@ -1802,6 +1958,7 @@ impl Builder {
         }
         let rows = Distribution1D::new(&row_weights);
         let total_weight = rows.total();
+        let row_cos_for_up = self.row_cos.clone();
         let mut texels = vec![Texel::default(); self.width * self.height];
         let mut columns = vec![ColumnAlias::default(); self.width * self.height];
         for (row, weights) in column_weights.iter().enumerate() {
@@ -1859,6 +2016,13 @@ impl Builder {
             });
         }
         component_weights.push(total_weight);
+        let facing_up = FacingUpSampling::new(
+            &row_weights,
+            &row_cos_for_up,
+            &map.rows,
+            &patches,
+            &component_weights,
+        );
         Some(Environment {
             kind,
             grid: self.grid,
@@ -1866,6 +2030,7 @@ impl Builder {
             patches,
             map,
             components: Distribution1D::new(&component_weights),
+            facing_up,
             floor: Some(Floor {
                 reflectance: vec![floor_reflectance; self.grid.len()],
             }),
@@ -2352,11 +2517,86 @@ mod tests {
                 let d = [0, 1, 2].map(|_| (2.0 * uniform(&mut state) - 1.0) as f32 * 3.0);
                 for dir in [d, [0.0; 3]] {
                     let one = env.radiance_and_pdf(dir, &mut a);
-                    let two = env.finish_radiance_and_pdf(&env.begin_radiance_and_pdf(dir), &mut b);
+                    let two = env.finish_radiance_and_pdf(
+                        &env.begin_radiance_and_pdf_for(dir, false),
+                        &mut b,
+                    );
                     assert_eq!(one.to_bits(), two.to_bits(), "direction {dir:?}");
                     assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
                 }
             }
+        }
+    }
+
+    /// Light samples for a surface facing up ([`Environment::sample_for`]): each
+    /// reports the density `pdf_for` gives its direction (bit for bit, in one step
+    /// or two), lies above the horizon, and as an estimator of the horizontal
+    /// illuminance ∫ L cos θ dω (π by the normalisation) is unbiased — and, its
+    /// purpose, far less noisy than the sphere's samples, at least ×3 lower in
+    /// variance. What noise is left per sample: cos θ varies within a row (32
+    /// rows here) and within an emitter (sampled uniformly), and a texel's weight
+    /// is its luminance plus a share of its peak (random colours on the test map).
+    #[test]
+    fn samples_facing_up_estimate_the_floors_irradiance_with_less_noise() {
+        let mut state = 23;
+        let grid = WavelengthGrid::new(380.0, 10.0, 33).unwrap();
+        let image_env = random_map(64, 32, 6, 50.0, &mut state, &grid);
+        let mut a = vec![0.0f32; grid.len()];
+        let mut b = vec![0.0f32; grid.len()];
+        for (name, env, most) in [
+            ("image", image_env, 0.2),
+            ("studio", Environment::studio(&grid), 0.5),
+            ("outdoor", Environment::outdoor(&grid), 0.5),
+        ] {
+            let n = 200_000;
+            let mut moments = [[0.0f64; 2]; 2];
+            for _ in 0..n {
+                let u = [uniform(&mut state) as f32, uniform(&mut state) as f32];
+                for (facing_up, m) in [(true, 0), (false, 1)] {
+                    let Some(sample) = env.sample_for(u, facing_up, &mut a) else {
+                        continue;
+                    };
+                    let two = env.finish_sample(&env.begin_sample_for(u, facing_up), &mut b);
+                    assert_eq!(
+                        two.map(|s| (s.dir.map(f32::to_bits), s.pdf.to_bits())),
+                        Some((sample.dir.map(f32::to_bits), sample.pdf.to_bits())),
+                        "{name}: sample {u:?} in two steps"
+                    );
+                    let pdf = env.pdf_for(sample.dir, facing_up);
+                    assert_eq!(pdf.to_bits(), sample.pdf.to_bits(), "{name}: {u:?}");
+                    let y = f64::from(sample.dir[1]);
+                    if facing_up {
+                        assert!(y >= 0.0, "{name}: below the horizon");
+                    }
+                    let x = f64::from(env.luminance(&a)) * y.max(0.0) / f64::from(sample.pdf);
+                    moments[m][0] += x;
+                    moments[m][1] += x * x;
+                }
+            }
+            let nf = n as f64;
+            let [up, sphere] = moments.map(|[s, s2]| {
+                let mean = s / nf;
+                (mean, (s2 / nf - mean * mean).max(0.0))
+            });
+            for (label, (mean, var)) in [("facing up", up), ("sphere", sphere)] {
+                let z = (mean - PI) / (var / nf).sqrt().max(1e-12);
+                println!(
+                    "{name} {label}: E {mean:.5}, relative std {:.4}, Z {z:.2}",
+                    var.sqrt() / mean
+                );
+                assert!(
+                    z.abs() < 5.0 || (mean - PI).abs() < 1e-4,
+                    "{name} {label}: E = {mean} for π (Z {z:.1})"
+                );
+            }
+            let relative = up.1.sqrt() / up.0;
+            assert!(relative < most, "{name}: relative std {relative:.4}");
+            assert!(
+                up.1 < sphere.1 / 3.0,
+                "{name}: {} against {}",
+                up.1,
+                sphere.1
+            );
         }
     }
 
@@ -2522,6 +2762,7 @@ mod tests {
                             first,
                             frac,
                         }),
+                        facing_up: false,
                     };
                     let located = env.locate_sample(&begun).expect("a lit map");
                     let sample = env

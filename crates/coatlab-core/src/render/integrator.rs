@@ -12,6 +12,21 @@
 //!   environment, the radiance there counts with the complementary weight. Mirror
 //!   (delta) samples cannot be reached by the light sample and count fully.
 //!
+//! Two exceptions make the estimator cheaper for the same error (measured on the
+//! Mitsuba side-by-side scene; docs/tradeoff.md, "Estimator efficiency"):
+//!
+//! - On the floor (Lambertian, normal +Y everywhere) light samples are drawn for a
+//!   surface facing up ([`Environment::sample_for`]: power × mean cosine to the
+//!   vertical), which makes f·L·cos θ/pdf nearly constant over the sky, and the
+//!   floor's direct light comes from them alone ([`IntegratorSettings::floor_light_only`]):
+//!   the light sample counts with weight 1 and an escape from the floor with 0.
+//!   MIS with the cosine-sampled continuation could only add back the noise the
+//!   light distribution removed; both strategies cover every direction that
+//!   lights the floor, so either alone is unbiased.
+//! - At the first vertex, [`IntegratorSettings::first_light_samples`] light samples
+//!   (each weighted 1/k, their numbers the points k·s … k·s + k − 1 of one
+//!   stratified dimension pair) share the camera ray and the hit.
+//!
 //! After [`IntegratorSettings::roulette_start`] bounces, Russian roulette ends paths
 //! with probability 1 − min(0.95, max_λ throughput) and divides the survivors by
 //! the survival probability, which keeps the estimate unbiased. Paths also end at
@@ -38,6 +53,13 @@ pub struct IntegratorSettings {
     pub max_bounces: u32,
     /// Number of bounces after which Russian roulette may end a path.
     pub roulette_start: u32,
+    /// Light samples at the first vertex (1, 2 or 4; others round up to a power
+    /// of two, at most 4). Recorded paths ([`PathRecorder::RECORDS`]) take one.
+    pub first_light_samples: u32,
+    /// The floor's direct light from light samples for a surface facing up alone
+    /// (weight 1; escapes from the floor count 0); `false`: the sphere's light
+    /// samples and MIS with the BSDF sample, as on every other surface.
+    pub floor_light_only: bool,
 }
 
 impl Default for IntegratorSettings {
@@ -45,9 +67,14 @@ impl Default for IntegratorSettings {
         Self {
             max_bounces: 8,
             roulette_start: 3,
+            first_light_samples: 2,
+            floor_light_only: true,
         }
     }
 }
+
+/// Most light samples at the first vertex ([`IntegratorSettings::first_light_samples`]).
+pub const MAX_FIRST_LIGHT_SAMPLES: usize = 4;
 
 /// Paths a [`PathTracer::radiance_wave`] traces together: each bounce's rays of
 /// all of them go to the BVH as one batch ([`crate::accel::Accel::closest_hits`],
@@ -65,9 +92,14 @@ pub struct PathBuffers {
     len: usize,
     /// Per path: the throughput.
     throughput: Vec<f32>,
-    /// Per path: the light sample's contribution, added once its shadow ray is
+    /// Per shadow ray: its light sample's contribution, added once the ray is
     /// known to be clear.
     pending: Vec<f32>,
+    /// Per further light sample of a batch (at first vertices): its radiance, its
+    /// look-up begun, what the look-up found.
+    light_extra: Vec<f32>,
+    begun_extra: Vec<Begun>,
+    looked_up_extra: Vec<Option<EnvSample>>,
     bsdf: Vec<f32>,
     /// Per path: the environment's radiance along its light sample or its escape.
     light: Vec<f32>,
@@ -94,6 +126,9 @@ impl PathBuffers {
             len,
             throughput: Vec::new(),
             pending: Vec::new(),
+            light_extra: Vec::new(),
+            begun_extra: Vec::new(),
+            looked_up_extra: Vec::new(),
             bsdf: vec![0.0; len],
             light: Vec::new(),
             looked_up: Vec::new(),
@@ -147,6 +182,9 @@ struct Lane {
     /// camera) gives the environment its full weight.
     previous_pdf: f32,
     previous_delta: bool,
+    /// Whether the previous vertex was on the floor (whose escapes count 0 under
+    /// [`IntegratorSettings::floor_light_only`]).
+    previous_floor: bool,
     bounce: u32,
     alive: bool,
     /// The vertex being shaded, told to the recorder once its shadow ray is known.
@@ -197,6 +235,9 @@ pub struct NextRecord {
     pub delta: bool,
     /// Russian roulette's survival probability after it (1 when no roulette).
     pub survive: f32,
+    /// The environment seen along it counts 0: the vertex's direct light came
+    /// from its light samples alone ([`IntegratorSettings::floor_light_only`]).
+    pub light_only: bool,
 }
 
 /// What the tracer did at one surface.
@@ -217,6 +258,10 @@ pub struct VertexRecord {
 /// in the environment, its escape (along the last vertex's continuation, or the
 /// camera ray).
 pub trait PathRecorder {
+    /// Whether it records anything. A recorded vertex keeps one light sample
+    /// ([`VertexRecord::light`]), so recorded paths take one at their first
+    /// vertex too (the estimate stays unbiased, only its variance differs).
+    const RECORDS: bool = true;
     /// A surface vertex was shaded.
     fn vertex(&mut self, vertex: &VertexRecord);
     /// The path escaped to the environment along `dir`.
@@ -228,6 +273,7 @@ pub trait PathRecorder {
 pub struct NoRecord;
 
 impl PathRecorder for NoRecord {
+    const RECORDS: bool = false;
     #[inline]
     fn vertex(&mut self, _: &VertexRecord) {}
     #[inline]
@@ -372,6 +418,9 @@ impl<'a> PathTracer<'a> {
         let PathBuffers {
             throughput,
             pending,
+            light_extra,
+            begun_extra,
+            looked_up_extra,
             bsdf: f,
             light: lights,
             looked_up,
@@ -390,8 +439,6 @@ impl<'a> PathTracer<'a> {
         out.fill(0.0);
         throughput.clear();
         throughput.resize(paths * len, 1.0);
-        pending.clear();
-        pending.resize(paths * len, 0.0);
         lights.clear();
         lights.resize(paths * len, 0.0);
         lanes.clear();
@@ -400,11 +447,20 @@ impl<'a> PathTracer<'a> {
             dir,
             previous_pdf: 0.0,
             previous_delta: true,
+            previous_floor: false,
             bounce: 0,
             alive: true,
             record: None,
         }));
         let use_floor = self.floor.is_some();
+        let floor_light_only = self.settings.floor_light_only;
+        let first_lights = if R::RECORDS {
+            1
+        } else {
+            (self.settings.first_light_samples.max(1) as usize)
+                .next_power_of_two()
+                .min(MAX_FIRST_LIGHT_SAMPLES)
+        };
         let mut stats = PathStats::default();
         loop {
             // One batch of closest-hit rays: the next segment of every live path.
@@ -434,12 +490,36 @@ impl<'a> PathTracer<'a> {
             // instead of following one another. A path's random numbers are drawn
             // in the same order as alone, and the results are bit for bit those
             // of `Environment::radiance_and_pdf` and `Environment::sample`.
+            // A first vertex's further light samples go into `begun_extra`, in
+            // the order of the rays.
             begun.clear();
+            begun_extra.clear();
             for (&i, hit) in ray_lanes.iter().zip(hits.iter()) {
+                let lane = &lanes[i];
                 begun.push(match hit {
-                    None => Begun::Escape(self.environment.begin_radiance_and_pdf(lanes[i].dir)),
-                    Some(hit) if self.shades(hit, &lanes[i]) => {
-                        Begun::Light(self.environment.begin_sample(samplers[i].next_2d()))
+                    // An escape's density is that of the light samples at the
+                    // vertex it left (a floor's are for a surface facing up).
+                    None => Begun::Escape(self.environment.begin_radiance_and_pdf_for(
+                        lane.dir,
+                        lane.previous_floor && floor_light_only,
+                    )),
+                    Some(hit) if self.shades(hit, lane) => {
+                        let up = floor_light_only && hit.surface == Surface::Floor;
+                        if lane.bounce == 0 && first_lights > 1 {
+                            let mut us = [[0.0; 2]; MAX_FIRST_LIGHT_SAMPLES];
+                            let us = &mut us[..first_lights];
+                            samplers[i].next_2d_split(us);
+                            begun_extra.extend(
+                                us[1..].iter().map(|&u| {
+                                    Begun::Light(self.environment.begin_sample_for(u, up))
+                                }),
+                            );
+                            Begun::Light(self.environment.begin_sample_for(us[0], up))
+                        } else {
+                            Begun::Light(
+                                self.environment.begin_sample_for(samplers[i].next_2d(), up),
+                            )
+                        }
                     }
                     Some(_) => Begun::Nothing,
                 });
@@ -447,7 +527,7 @@ impl<'a> PathTracer<'a> {
             // Light samples in a third step: the direction from the record just
             // read, and the record of its own texel fetched (a draw that takes
             // the column's alias lands in another texel), before any is read.
-            for started in begun.iter_mut() {
+            for started in begun.iter_mut().chain(begun_extra.iter_mut()) {
                 if let Begun::Light(sample) = started {
                     *started = match self.environment.locate_sample(sample) {
                         Some(located) => Begun::Located(located),
@@ -470,8 +550,21 @@ impl<'a> PathTracer<'a> {
                     Begun::Nothing => LookUp::Nothing,
                 });
             }
+            looked_up_extra.clear();
+            light_extra.resize(begun_extra.len() * len, 0.0);
+            for (e, started) in begun_extra.iter().enumerate() {
+                let light = &mut light_extra[e * len..(e + 1) * len];
+                looked_up_extra.push(match started {
+                    Begun::Located(located) => {
+                        self.environment.finish_located_sample(located, light)
+                    }
+                    _ => None,
+                });
+            }
+            let mut next_extra = 0;
             shadow_rays.clear();
             shadow_lanes.clear();
+            pending.clear();
             for ((&i, hit), &found) in ray_lanes.iter().zip(hits.iter()).zip(looked_up.iter()) {
                 let lane = &mut lanes[i];
                 let sampler = &mut samplers[i];
@@ -486,6 +579,8 @@ impl<'a> PathTracer<'a> {
                     };
                     let mis = if lane.previous_delta {
                         1.0
+                    } else if lane.previous_floor && floor_light_only {
+                        0.0
                     } else {
                         power_heuristic(lane.previous_pdf, light_pdf)
                     };
@@ -519,40 +614,57 @@ impl<'a> PathTracer<'a> {
                     next: None,
                 };
 
-                // Next-event estimation: the contribution waits in `pending` for
+                // Next-event estimation: each contribution waits in `pending` for
                 // its shadow ray, which goes out with the other paths' ones.
+                let on_floor = hit.surface == Surface::Floor;
+                let light_only = on_floor && floor_light_only;
+                let count = if lane.bounce == 0 { first_lights } else { 1 };
+                let share = 1.0 / count as f32;
                 if let Some(light_sample) = light_sample
-                    && dot(light_sample.dir, hit.geometric_normal) > 0.0
+                    && let Some(light_record) = self.light_sample(
+                        material,
+                        hit,
+                        &frame,
+                        wo,
+                        light_sample,
+                        LightWeights {
+                            throughput,
+                            radiance: light,
+                            share,
+                            light_only,
+                        },
+                        f,
+                        pending,
+                        shadow_rays,
+                    )
                 {
-                    let wi = frame.to_local(light_sample.dir);
-                    if wi[2] > 0.0 {
-                        material.eval(wi, wo, f);
-                        let bsdf_pdf = material.pdf(wo, wi);
-                        let mis = power_heuristic(light_sample.pdf, bsdf_pdf);
-                        let scale = wi[2] * mis / light_sample.pdf;
-                        if scale > 0.0 {
-                            let pending = &mut pending[i * len..(i + 1) * len];
-                            for (((p, t), fv), l) in pending
-                                .iter_mut()
-                                .zip(throughput.iter())
-                                .zip(f.iter())
-                                .zip(light.iter())
-                            {
-                                *p = t * fv * l * scale;
-                            }
-                            shadow_rays.push(RayQuery {
-                                origin: RenderGeometry::spawn_origin(hit, light_sample.dir),
-                                dir: light_sample.dir,
-                                t_max: f32::INFINITY,
-                            });
-                            shadow_lanes.push(i);
-                            record.light = Some(LightRecord {
-                                wi,
-                                dir: light_sample.dir,
-                                light_pdf: light_sample.pdf,
-                                bsdf_pdf,
-                            });
-                        }
+                    shadow_lanes.push(i);
+                    record.light = Some(light_record);
+                }
+                for _ in 1..count {
+                    let e = next_extra;
+                    next_extra += 1;
+                    if let Some(light_sample) = looked_up_extra[e]
+                        && self
+                            .light_sample(
+                                material,
+                                hit,
+                                &frame,
+                                wo,
+                                light_sample,
+                                LightWeights {
+                                    throughput,
+                                    radiance: &light_extra[e * len..(e + 1) * len],
+                                    share,
+                                    light_only,
+                                },
+                                f,
+                                pending,
+                                shadow_rays,
+                            )
+                            .is_some()
+                    {
+                        shadow_lanes.push(i);
                     }
                 }
                 lane.record = Some(record);
@@ -593,11 +705,13 @@ impl<'a> PathTracer<'a> {
                         pdf: sample.pdf,
                         delta: sample.delta,
                         survive,
+                        light_only,
                     });
                 }
                 lane.alive = true;
                 lane.previous_pdf = sample.pdf;
                 lane.previous_delta = sample.delta;
+                lane.previous_floor = on_floor;
                 lane.origin = RenderGeometry::spawn_origin(hit, next_dir);
                 lane.dir = next_dir;
                 lane.bounce += 1;
@@ -609,7 +723,7 @@ impl<'a> PathTracer<'a> {
             blocked.resize(shadow_rays.len(), false);
             self.geometry
                 .occluded_batch(shadow_rays, use_floor, blocked, scratch);
-            for (&i, &is_blocked) in shadow_lanes.iter().zip(blocked.iter()) {
+            for (j, (&i, &is_blocked)) in shadow_lanes.iter().zip(blocked.iter()).enumerate() {
                 let lane = &mut lanes[i];
                 if is_blocked {
                     if let Some(record) = &mut lane.record {
@@ -617,7 +731,7 @@ impl<'a> PathTracer<'a> {
                     }
                 } else {
                     let out = &mut out[i * len..(i + 1) * len];
-                    for (o, p) in out.iter_mut().zip(&pending[i * len..(i + 1) * len]) {
+                    for (o, p) in out.iter_mut().zip(&pending[j * len..(j + 1) * len]) {
                         *o += p;
                     }
                 }
@@ -630,6 +744,78 @@ impl<'a> PathTracer<'a> {
         }
         stats
     }
+
+    /// Next-event estimation for one light sample at a vertex: its contribution
+    /// (throughput · f · L · cos θ · MIS weight / pdf · share) appended to
+    /// `pending` and its shadow ray to `shadow_rays`; what to record, or `None`
+    /// when it carries nothing (below the surface, zero weight).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn light_sample(
+        &self,
+        material: &dyn SpectralBsdf,
+        hit: &SurfaceHit,
+        frame: &Frame,
+        wo: [f32; 3],
+        light_sample: EnvSample,
+        weights: LightWeights<'_>,
+        f: &mut [f32],
+        pending: &mut Vec<f32>,
+        shadow_rays: &mut Vec<RayQuery>,
+    ) -> Option<LightRecord> {
+        if dot(light_sample.dir, hit.geometric_normal) <= 0.0 {
+            return None;
+        }
+        let wi = frame.to_local(light_sample.dir);
+        if wi[2] <= 0.0 {
+            return None;
+        }
+        material.eval(wi, wo, f);
+        // Light alone: recorded with a BSDF density of 0, whose power heuristic
+        // weight is 1, so a re-shading replay weighs it as the tracer did.
+        let bsdf_pdf = if weights.light_only {
+            0.0
+        } else {
+            material.pdf(wo, wi)
+        };
+        let mis = power_heuristic(light_sample.pdf, bsdf_pdf);
+        let scale = wi[2] * mis / light_sample.pdf * weights.share;
+        if scale.is_nan() || scale <= 0.0 {
+            return None;
+        }
+        pending.extend(
+            weights
+                .throughput
+                .iter()
+                .zip(f.iter())
+                .zip(weights.radiance.iter())
+                .map(|((t, fv), l)| t * fv * l * scale),
+        );
+        shadow_rays.push(RayQuery {
+            origin: RenderGeometry::spawn_origin(hit, light_sample.dir),
+            dir: light_sample.dir,
+            t_max: f32::INFINITY,
+        });
+        Some(LightRecord {
+            wi,
+            dir: light_sample.dir,
+            light_pdf: light_sample.pdf,
+            bsdf_pdf,
+        })
+    }
+}
+
+/// What weighs a light sample's contribution at a vertex.
+#[derive(Debug, Clone, Copy)]
+struct LightWeights<'a> {
+    /// The path's throughput to the vertex.
+    throughput: &'a [f32],
+    /// The environment's radiance along the sample.
+    radiance: &'a [f32],
+    /// 1 / the number of light samples at the vertex.
+    share: f32,
+    /// Light sampling alone (MIS weight 1).
+    light_only: bool,
 }
 
 /// Multiplies `throughput` by `weight` element by element and returns the largest

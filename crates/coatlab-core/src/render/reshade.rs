@@ -868,11 +868,14 @@ fn replay_path(
 }
 
 /// The MIS weight of the environment seen by an escaping continuation, as the
-/// integrator gave it: full after a delta, else the power heuristic against the
+/// integrator gave it: full after a delta, none where the vertex's light samples
+/// alone took the direct light, else the power heuristic against the
 /// environment's own sampling density.
 fn escape_weight(environment: &Environment, next: &NextRecord) -> f32 {
     if next.delta {
         1.0
+    } else if next.light_only {
+        0.0
     } else {
         power_heuristic(next.pdf, environment.pdf(next.dir))
     }

@@ -89,7 +89,35 @@ impl PixelSampler {
     #[inline]
     pub fn next_2d(&mut self) -> [f32; 2] {
         let (shuffle, seed_x, seed_y) = self.next_seeds();
-        let fraction = laine_karras(self.index_reversed, shuffle);
+        Self::point_2d(self.index_reversed, shuffle, seed_x, seed_y)
+    }
+
+    /// `out.len()` pairs of one dimension pair, for a split of the sample into
+    /// K = `out.len()` parts (a power of two): part j is the point of index
+    /// K·s + j of the pixel's sequence (s this sample's index), so the parts of
+    /// the first N samples are the first K·N points — stratified together as a
+    /// (0, m, 2)-net, not K independent draws. With K = 1 this is
+    /// [`Self::next_2d`].
+    ///
+    /// # Panics
+    /// If `out.len()` is not a power of two.
+    #[inline]
+    pub fn next_2d_split(&mut self, out: &mut [[f32; 2]]) {
+        assert!(out.len().is_power_of_two(), "a split into 2^b parts");
+        let bits = out.len().trailing_zeros();
+        let (shuffle, seed_x, seed_y) = self.next_seeds();
+        for (j, o) in out.iter_mut().enumerate() {
+            // reverse(K·s + j) = reverse(s) >> b | reverse(j).
+            let index_reversed =
+                self.index_reversed.checked_shr(bits).unwrap_or(0) | (j as u32).reverse_bits();
+            *o = Self::point_2d(index_reversed, shuffle, seed_x, seed_y);
+        }
+    }
+
+    /// The scrambled 2D point of a bit-reversed index.
+    #[inline]
+    fn point_2d(index_reversed: u32, shuffle: u32, seed_x: u32, seed_y: u32) -> [f32; 2] {
+        let fraction = laine_karras(index_reversed, shuffle);
         [
             to_unit(owen_scramble(fraction, seed_x)),
             to_unit(owen_scramble(sobol_1(fraction.reverse_bits()), seed_y)),

@@ -8,6 +8,7 @@ use std::sync::Arc;
 use coatlab_core::design::presets;
 use coatlab_core::paint::model::PaintModel;
 use coatlab_core::render::environment::Environment;
+use coatlab_core::render::integrator::IntegratorSettings;
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
 use coatlab_core::render::reshade::Reshaded;
@@ -46,6 +47,25 @@ pub fn render(
     spp: u32,
     cached: u32,
 ) -> (ProgressiveRender, Scene) {
+    render_with(
+        model,
+        which,
+        seed,
+        spp,
+        cached,
+        IntegratorSettings::default(),
+    )
+}
+
+/// [`render`] with other integrator settings.
+pub fn render_with(
+    model: &PaintModel,
+    which: ShadingModel,
+    seed: u64,
+    spp: u32,
+    cached: u32,
+    integrator: IntegratorSettings,
+) -> (ProgressiveRender, Scene) {
     let scene = generate(&CarParameters::default());
     let render_scene = RenderScene::new(scene.clone()).expect("scene");
     let camera = render_scene.default_camera(WIDTH, HEIGHT);
@@ -56,6 +76,7 @@ pub fn render(
         camera,
         RenderSettings {
             seed,
+            integrator,
             ..RenderSettings::default()
         },
     )
