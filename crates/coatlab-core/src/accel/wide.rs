@@ -493,14 +493,19 @@ impl WideBvh {
 
     /// Builds the tree over `boxes` (finite; checked by the caller) with `bins` SAH
     /// bins per axis, on up to `threads` threads (at least one).
-    pub fn build(boxes: &[Bounds], bins: usize, threads: usize) -> WideBvh {
-        WideBvh::build_collapsed(boxes, bins, threads, true)
+    ///
+    /// `top`, when not empty, is the top of the binary tree, already partitioned
+    /// (the spatial-split pass's, `accel/split.rs`): `boxes` are in its leaves'
+    /// order, and the SAH build goes on below each of its leaves.
+    pub fn build(boxes: &[Bounds], top: &[TopNode], bins: usize, threads: usize) -> WideBvh {
+        WideBvh::build_collapsed(boxes, top, bins, threads, true)
     }
 
     /// [`WideBvh::build`], collapsed by the SAH plan (`sah_collapse`) or, for the
     /// tests' comparison, by opening the largest child.
     fn build_collapsed(
         boxes: &[Bounds],
+        top: &[TopNode],
         bins: usize,
         threads: usize,
         sah_collapse: bool,
@@ -526,7 +531,11 @@ impl WideBvh {
             bins: bins.clamp(2, 256),
             threads: threads.max(1),
         };
-        builder.build(0, boxes.len(), 0);
+        if top.is_empty() {
+            builder.build(0, boxes.len(), 0);
+        } else {
+            builder.build_top(top, 0, 0, 0);
+        }
         let mut wide = WideBvh {
             nodes: Vec::with_capacity(builder.nodes.len() / 4 + 1),
             order: Vec::new(),
@@ -911,6 +920,41 @@ impl Bounds {
     }
 }
 
+/// A node of a given top of the binary tree ([`WideBvh::build`]), the root first:
+/// `Leaf`: the next `refs` primitives, to be built below; `Inner`: the indices of its
+/// two children in the same list and its number of primitives.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum TopNode {
+    Leaf {
+        refs: usize,
+    },
+    Inner {
+        left: usize,
+        right: usize,
+        refs: usize,
+    },
+}
+
+impl TopNode {
+    pub(super) fn refs(self) -> usize {
+        match self {
+            TopNode::Leaf { refs } | TopNode::Inner { refs, .. } => refs,
+        }
+    }
+
+    /// The same node in a list that starts `offset` entries later.
+    pub(super) fn offset(self, offset: usize) -> TopNode {
+        match self {
+            TopNode::Inner { left, right, refs } => TopNode::Inner {
+                left: left + offset,
+                right: right + offset,
+                refs,
+            },
+            leaf => leaf,
+        }
+    }
+}
+
 /// Top-down binned-SAH builder of the binary tree; `order` is partitioned in place so
 /// that each node's primitives are contiguous.
 struct BinaryBuilder<'a> {
@@ -970,6 +1014,73 @@ impl<'a> BinaryBuilder<'a> {
             (left, self.build(mid, first + count - mid, depth + 1))
         };
         self.nodes[index].kind = BinKind::Inner { left, right };
+        index
+    }
+
+    /// Builds the subtree of `top[t]` over slots `first..`: its inner nodes as given,
+    /// the SAH build below its leaves; returns its node index. Like
+    /// [`BinaryBuilder::build`], it may leave this builder with fewer slots than it
+    /// started with: the caller keeps the slots that come after.
+    fn build_top(&mut self, top: &[TopNode], t: usize, first: usize, depth: usize) -> usize {
+        let (left, right, refs) = match top[t] {
+            TopNode::Leaf { refs } => return self.build(first, refs, depth),
+            TopNode::Inner { left, right, refs } => (left, right, refs),
+        };
+        let index = self.nodes.len();
+        self.nodes.push(BinNode {
+            bounds: Bounds::empty(),
+            kind: BinKind::Leaf { first, count: refs },
+        });
+        let mid = first + top[left].refs();
+        let order = std::mem::take(&mut self.order);
+        let (left_order, right_order) = order.split_at_mut(mid - self.base);
+        self.order = left_order;
+        let threads = self.threads;
+        let (left, right) = if threads > 1 && refs >= PARALLEL_MIN {
+            let half = threads / 2;
+            self.threads -= half;
+            let right_refs = top[right].refs();
+            let mut right_builder = BinaryBuilder {
+                boxes: self.boxes,
+                centroids: self.centroids,
+                order: &mut right_order[..right_refs],
+                base: mid,
+                nodes: Vec::with_capacity(2 * right_refs / PACK + 1),
+                bins: self.bins,
+                threads: half,
+            };
+            let left = std::thread::scope(|scope| {
+                let right = scope.spawn(|| right_builder.build_top(top, right, mid, depth + 1));
+                let left = self.build_top(top, left, first, depth + 1);
+                // A panic in the right half is a bug; re-raise it here.
+                if let Err(payload) = right.join() {
+                    std::panic::resume_unwind(payload);
+                }
+                left
+            });
+            let offset = self.nodes.len();
+            self.nodes
+                .extend(right_builder.nodes.into_iter().map(|mut node| {
+                    if let BinKind::Inner { left, right } = &mut node.kind {
+                        *left += offset;
+                        *right += offset;
+                    }
+                    node
+                }));
+            (left, offset)
+        } else {
+            let left = self.build_top(top, left, first, depth + 1);
+            self.order = right_order;
+            self.base = mid;
+            (left, self.build_top(top, right, mid, depth + 1))
+        };
+        self.threads = threads;
+        let mut bounds = self.nodes[left].bounds;
+        bounds.grow(&self.nodes[right].bounds);
+        self.nodes[index] = BinNode {
+            bounds,
+            kind: BinKind::Inner { left, right },
+        };
         index
     }
 
@@ -1197,6 +1308,38 @@ mod tests {
         vec![("default car", car_boxes), ("slivers", slivers)]
     }
 
+    /// A given top of the tree is kept: with the boxes' first and second halves as
+    /// its two leaves, the root's children hold exactly those halves, and the tree
+    /// validates.
+    #[test]
+    fn a_given_top_is_the_top_of_the_tree() {
+        let (_, boxes) = test_box_sets().remove(1);
+        let half = boxes.len() / 2;
+        let top = [
+            TopNode::Inner {
+                left: 1,
+                right: 2,
+                refs: boxes.len(),
+            },
+            TopNode::Leaf { refs: half },
+            TopNode::Leaf {
+                refs: boxes.len() - half,
+            },
+        ];
+        let mut bounds = boxes[0];
+        boxes.iter().for_each(|b| bounds.grow(b));
+        for threads in [1, 2] {
+            let tree = WideBvh::build(&boxes, &top, 16, threads);
+            tree.validate(&boxes, Some(bounds)).expect("valid");
+            let mut first: Vec<u32> = tree.order[..half].to_vec();
+            first.sort_unstable();
+            assert!(
+                first.iter().copied().eq(0..half as u32),
+                "{threads} threads"
+            );
+        }
+    }
+
     /// The SAH collapse is the optimum over the same binary tree, so its cost is at
     /// most the largest-child collapse's; it validates; and the tree it builds costs
     /// what its plan computed (the extraction follows the plan).
@@ -1205,8 +1348,8 @@ mod tests {
         for (name, boxes) in test_box_sets() {
             let mut bounds = boxes[0];
             boxes.iter().for_each(|b| bounds.grow(b));
-            let sah = WideBvh::build_collapsed(&boxes, 16, 1, true);
-            let largest = WideBvh::build_collapsed(&boxes, 16, 1, false);
+            let sah = WideBvh::build_collapsed(&boxes, &[], 16, 1, true);
+            let largest = WideBvh::build_collapsed(&boxes, &[], 16, 1, false);
             sah.validate(&boxes, Some(bounds)).expect(name);
             largest.validate(&boxes, Some(bounds)).expect(name);
             assert_eq!(sah.order, largest.order, "{name}: same binary tree");
