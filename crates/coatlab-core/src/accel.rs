@@ -83,7 +83,7 @@ use obvhs::{
 
 use crate::scene::TriangleMesh;
 use triangle::{ShearedRay, TrianglePack};
-use wide::{BoxRay, PACK, Traversal, WideBvh, pack_count, prefetch};
+use wide::{BoxRay, PACK, TopNode, Traversal, WideBvh, pack_count, prefetch};
 
 pub use obvhs::ray::Ray;
 
@@ -192,9 +192,10 @@ pub enum ReferenceSplits {
     /// As `LargeTriangles`, then spatial splits where the SAH prefers them to the
     /// best object split, down to nodes of 64 references, at most 30 % more
     /// references (SBVH-style, on `threads` threads, the same result for any
-    /// count). The default: on the Lamborghini ×1.13–1.16 the rays per
-    /// CPU-second, at about 2.2 times the build's CPU time (121 ms wall on two
-    /// threads: within the 150 ms target); no loss on the default car or the
+    /// count); its partition is kept as the top of the tree. The default: on the
+    /// Lamborghini ×1.13–1.19 the rays per CPU-second, at about 1.8 times the
+    /// build's CPU time (163 against 92 ms on one thread; within the 150 ms
+    /// target on two, docs/benchmarks.md); no loss on the default car or the
     /// torus. Real car models are Lamborghini-like (long, thin, overlapping
     /// triangles), and a preview traces one tree for seconds to minutes.
     Spatial,
@@ -292,6 +293,16 @@ impl Bvh {
     /// Builds the tree over `boxes` (one per primitive; empty or flat boxes are fine,
     /// non-finite ones are refused).
     pub fn build(boxes: &[Bounds], options: &BuildOptions) -> Result<Bvh, AccelError> {
+        Bvh::build_below(boxes, &[], options)
+    }
+
+    /// [`Bvh::build`] below a given top of the tree (`Simd8` only, else ignored; see
+    /// [`WideBvh::build`]).
+    fn build_below(
+        boxes: &[Bounds],
+        top: &[TopNode],
+        options: &BuildOptions,
+    ) -> Result<Bvh, AccelError> {
         if u32::try_from(boxes.len()).is_err() {
             return Err(AccelError::TooManyPrimitives { count: boxes.len() });
         }
@@ -319,6 +330,7 @@ impl Bvh {
             return Ok(Bvh {
                 tree: Tree::Simd8(WideBvh::build(
                     boxes,
+                    top,
                     options.quality.sah_bins(),
                     options.build_threads(),
                 )),
@@ -652,17 +664,21 @@ impl Accel {
         // The tree's primitives: references to triangles (one a triangle, except
         // that `Simd8` splits large ones; see `accel/split.rs`).
         let mut reference_triangle: Vec<u32> = (0..triangles.len() as u32).collect();
+        // The spatial pass's partition, kept as the top of the `Simd8` tree.
+        let mut top_tree = Vec::new();
         if options.layout == BvhLayout::Simd8 {
             let vertices: Vec<[[f32; 3]; 3]> =
                 triangles.iter().map(|t| t.map(Into::into)).collect();
-            (boxes, reference_triangle) = split::split_references(
+            let top;
+            (boxes, reference_triangle, top) = split::split_references(
                 &vertices,
                 &boxes,
                 options.reference_splits,
                 options.build_threads(),
             );
+            top_tree = top;
         }
-        let bvh = Bvh::build(&boxes, options)?;
+        let bvh = Bvh::build_below(&boxes, &top_tree, options)?;
         // Slot → index into `triangles`.
         let order: Vec<u32> = bvh
             .primitive_order()
@@ -949,7 +965,7 @@ impl Accel {
         }
         let vertices: Vec<[[f32; 3]; 3]> = unique.iter().map(|(_, t)| t.map(Into::into)).collect();
         let boxes: Vec<Bounds> = unique.iter().map(|(_, t)| triangle_bounds(t)).collect();
-        let (reference_boxes, reference_triangle) = split::split_references(
+        let (reference_boxes, reference_triangle, _) = split::split_references(
             &vertices,
             &boxes,
             self.bvh.options().reference_splits,

@@ -18,12 +18,13 @@
 //! a split plane belongs to both closed halves.
 //!
 //! With `ReferenceSplits::Spatial` the references then go through an SBVH-style
-//! pass (module `spatial` below): ×1.13–1.15 rays per CPU-second on the
-//! Lamborghini, none on the default car and the torus, at about 2.2 times the
-//! build's CPU time (200 against 92 ms on one thread; 121 ms wall on two, within
-//! the 150 ms target); not the default yet (the gain is at the lower edge of
-//! what would justify it, docs/benchmarks.md "A faster pass").
+//! pass (module `spatial` below): ×1.13–1.19 rays per CPU-second on the
+//! Lamborghini, none on the default car and the torus, at about 1.8 times the
+//! build's CPU time (163 against 92 ms on one thread since its partition is kept
+//! as the top of the tree, session 6; 200 before); the default
+//! (docs/benchmarks.md, "A faster pass" and "SAH collapse").
 
+use super::wide::TopNode;
 use super::{Bounds, ReferenceSplits};
 
 /// A triangle is split while its piece's box has more than this many times the
@@ -40,13 +41,15 @@ fn half_area(b: &Bounds) -> f32 {
 
 /// The references for `triangles` (vertices; `boxes` their boxes): for each, its
 /// box and the index of its triangle, in triangle order (`Spatial`: in the order
-/// of its pass), the same for any number of `threads`.
+/// of its pass), the same for any number of `threads`; and with `Spatial` the
+/// pass's partition of them, as the top of the tree for `WideBvh::build` (else
+/// empty).
 pub(super) fn split_references(
     triangles: &[[[f32; 3]; 3]],
     boxes: &[Bounds],
     planes: ReferenceSplits,
     threads: usize,
-) -> (Vec<Bounds>, Vec<u32>) {
+) -> (Vec<Bounds>, Vec<u32>, Vec<TopNode>) {
     let average = boxes.iter().map(half_area).sum::<f32>() / boxes.len().max(1) as f32;
     let threshold = SPLIT_AREA_FACTOR * average;
     let mut out_boxes = Vec::with_capacity(boxes.len() + boxes.len() / 16);
@@ -66,7 +69,7 @@ pub(super) fn split_references(
     if planes == ReferenceSplits::Spatial {
         return spatial::presplit(triangles, out_boxes, out_triangle, threads);
     }
-    (out_boxes, out_triangle)
+    (out_boxes, out_triangle, Vec::new())
 }
 
 /// Bounds of `polygon`, rounded outwards to f32 and intersected with `within`.
@@ -161,8 +164,11 @@ fn split(
 /// split (binned centroids) or the best spatial split (chopped binning: a
 /// reference crossing a bin boundary is clipped to each bin it spans); a spatial
 /// split cuts the references that straddle its plane into a piece on each side.
-/// Only the references come out; the ordinary builder then builds the tree over
-/// them, where a cut piece no longer straddles the plane.
+/// The references come out in the partition's order, with the partition itself
+/// ([`TopNode`]s), which the ordinary builder keeps as the top of its binary tree
+/// and builds below (until session 6 it rebuilt the whole tree over the
+/// references: the same rays per second within 2 %, at 200 instead of 163 ms of
+/// CPU on the Lamborghini).
 ///
 /// **Cost.** The pass is built to stay within the build target (docs/benchmarks.md,
 /// "Spatial splits"): the chopped binning clips a straddling reference's *box* to
@@ -174,7 +180,7 @@ fn split(
 /// subtree gets a fixed share of the budget of new references (by its number of
 /// references), and the subtrees' references are concatenated in tree order.
 mod spatial {
-    use super::{Bounds, half_area};
+    use super::{Bounds, TopNode, half_area};
 
     /// Bins per axis for both kinds of split.
     const BINS: usize = 16;
@@ -358,10 +364,16 @@ mod spatial {
             budget: usize,
             threads: usize,
             out: &mut Vec<Vec<Reference>>,
-        ) {
+            top: &mut Vec<TopNode>,
+        ) -> usize {
+            let chunk =
+                |refs: Vec<Reference>, out: &mut Vec<Vec<Reference>>, top: &mut Vec<TopNode>| {
+                    top.push(TopNode::Leaf { refs: refs.len() });
+                    out.push(refs);
+                    top.len() - 1
+                };
             if refs.len() < MIN_NODE {
-                out.push(refs);
-                return;
+                return chunk(refs, out, top);
             }
             let mut bounds = empty();
             let mut centres = empty();
@@ -373,8 +385,7 @@ mod spatial {
             // Two children overlap by at most their node's area: below this no
             // spatial split can be tried, and the ordinary build does the rest.
             if area(&bounds) <= OVERLAP * self.root_area {
-                out.push(refs);
-                return;
+                return chunk(refs, out, top);
             }
             let object = object_split(&refs, &centres);
             let mut spatial = None;
@@ -390,9 +401,12 @@ mod spatial {
                     // A cut that leaves one side empty changed nothing: stop
                     // here rather than recurse on the same references.
                     if left.is_empty() || right.is_empty() {
+                        top.push(TopNode::Leaf {
+                            refs: left.len() + right.len(),
+                        });
                         out.push(left);
                         out.push(right);
-                        return;
+                        return top.len() - 1;
                     }
                     (left, right, budget)
                 }
@@ -417,8 +431,7 @@ mod spatial {
                     (refs, right, budget)
                 }
                 (None, _) => {
-                    out.push(refs);
-                    return;
+                    return chunk(refs, out, top);
                 }
             };
             // The budget left is shared by size, so that neither the result nor
@@ -426,24 +439,36 @@ mod spatial {
             let left_budget =
                 (budget as u64 * left.len() as u64 / (left.len() + right.len()) as u64) as usize;
             let right_budget = budget - left_budget;
-            if threads > 1 && left.len() + right.len() >= PARALLEL_MIN {
+            let index = top.len();
+            top.push(TopNode::Leaf { refs: 0 });
+            let (left, right) = if threads > 1 && left.len() + right.len() >= PARALLEL_MIN {
                 let half = threads / 2;
                 let mut right_out = Vec::new();
-                std::thread::scope(|scope| {
+                let mut right_top = Vec::new();
+                let (left, right) = std::thread::scope(|scope| {
                     let handle = scope.spawn(|| {
-                        self.partition(right, right_budget, half, &mut right_out);
+                        self.partition(right, right_budget, half, &mut right_out, &mut right_top)
                     });
-                    self.partition(left, left_budget, threads - half, out);
+                    let left = self.partition(left, left_budget, threads - half, out, top);
                     // A panic in the other half is a bug; re-raise it here.
-                    if let Err(payload) = handle.join() {
-                        std::panic::resume_unwind(payload);
+                    match handle.join() {
+                        Ok(right) => (left, right),
+                        Err(payload) => std::panic::resume_unwind(payload),
                     }
                 });
                 out.append(&mut right_out);
+                let offset = top.len();
+                top.extend(right_top.into_iter().map(|node| node.offset(offset)));
+                (left, right + offset)
             } else {
-                self.partition(left, left_budget, threads, out);
-                self.partition(right, right_budget, threads, out);
-            }
+                let left = self.partition(left, left_budget, threads, out, top);
+                (left, self.partition(right, right_budget, threads, out, top))
+            };
+            // The children's counts, which include the references their own
+            // spatial splits added.
+            let refs = top[left].refs() + top[right].refs();
+            top[index] = TopNode::Inner { left, right, refs };
+            index
         }
 
         /// The best spatial split: (SAH cost, axis, plane).
@@ -656,7 +681,7 @@ mod spatial {
         boxes: Vec<Bounds>,
         triangle: Vec<u32>,
         threads: usize,
-    ) -> (Vec<Bounds>, Vec<u32>) {
+    ) -> (Vec<Bounds>, Vec<u32>, Vec<TopNode>) {
         let mut root = empty();
         boxes.iter().for_each(|b| grow(&mut root, b));
         let context = Context {
@@ -670,11 +695,83 @@ mod spatial {
             .map(|(bounds, triangle)| Reference { bounds, triangle })
             .collect();
         let mut chunks = Vec::new();
-        context.partition(refs, budget, threads.max(1), &mut chunks);
-        chunks
+        let mut top = Vec::new();
+        context.partition(refs, budget, threads.max(1), &mut chunks, &mut top);
+        let (boxes, triangle) = chunks
             .into_iter()
             .flatten()
             .map(|r| (r.bounds, r.triangle))
-            .unzip()
+            .unzip();
+        (boxes, triangle, top)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Long thin triangles in every direction, crossing in a unit cube (the kind the
+    /// spatial pass splits).
+    fn slivers(count: usize) -> (Vec<[[f32; 3]; 3]>, Vec<Bounds>) {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut uniform = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let triangles: Vec<[[f32; 3]; 3]> = (0..count)
+            .map(|_| {
+                let a: [f32; 3] = std::array::from_fn(|_| uniform());
+                let b: [f32; 3] = std::array::from_fn(|_| uniform());
+                let c: [f32; 3] = std::array::from_fn(|k| a[k] + 0.01 * uniform());
+                [a, b, c]
+            })
+            .collect();
+        let boxes = triangles
+            .iter()
+            .map(|t| Bounds {
+                min: std::array::from_fn(|k| t[0][k].min(t[1][k]).min(t[2][k])),
+                max: std::array::from_fn(|k| t[0][k].max(t[1][k]).max(t[2][k])),
+            })
+            .collect();
+        (triangles, boxes)
+    }
+
+    /// The spatial pass's partition, handed to the builder as the top of the tree,
+    /// is a tree over exactly its references: each inner node's count the sum of
+    /// its children's, the leaves covering the references in order; and it is the
+    /// same for any number of threads.
+    #[test]
+    fn the_spatial_partition_is_a_tree_over_its_references() {
+        let (triangles, boxes) = slivers(6000);
+        let (refs, _, top) = split_references(&triangles, &boxes, ReferenceSplits::Spatial, 1);
+        assert!(refs.len() > boxes.len(), "no spatial splits to test");
+        assert!(top.len() > 1, "no partition to test");
+        // Walk from the root: every node reached once, leaves in order.
+        let mut seen = vec![false; top.len()];
+        let mut leaf_refs = Vec::new();
+        let mut pending = vec![0];
+        while let Some(t) = pending.pop() {
+            assert!(!std::mem::replace(&mut seen[t], true), "node {t} twice");
+            match top[t] {
+                TopNode::Leaf { refs } => leaf_refs.push(refs),
+                TopNode::Inner { left, right, refs } => {
+                    assert_eq!(refs, top[left].refs() + top[right].refs(), "node {t}");
+                    pending.push(right);
+                    pending.push(left);
+                }
+            }
+        }
+        assert!(seen.iter().all(|&s| s), "unreachable nodes");
+        assert_eq!(top[0].refs(), refs.len());
+        assert_eq!(leaf_refs.iter().sum::<usize>(), refs.len());
+        for threads in [2, 3] {
+            let (_, _, parallel) =
+                split_references(&triangles, &boxes, ReferenceSplits::Spatial, threads);
+            assert_eq!(parallel, top, "{threads} threads");
+        }
+        let (_, _, none) = split_references(&triangles, &boxes, ReferenceSplits::LargeTriangles, 1);
+        assert!(none.is_empty());
     }
 }
