@@ -256,6 +256,29 @@ struct ZScores {
     total: f64,
 }
 
+impl ZScores {
+    /// Prints the comparison (`what`) and asserts that the two images differ by
+    /// their noise alone: under 0.5 % of pixels beyond 4σ, |mean Z| below
+    /// `mean_bound`, |total Z| below 4.
+    fn assert_noise_only(&self, what: &str, mean_bound: f64) {
+        let outliers = self.outlier_fraction;
+        println!(
+            "{what}: worst |Z| {:.2}, |Z| > 4 in {:.3} %, mean Z {:.3}, total Z {:.2}",
+            self.worst,
+            outliers * 100.0,
+            self.mean,
+            self.total
+        );
+        assert!(
+            outliers < 0.005,
+            "{what}: {:.2} % of pixels beyond 4σ",
+            outliers * 100.0
+        );
+        assert!(self.mean.abs() < mean_bound, "{what}: mean Z {}", self.mean);
+        assert!(self.total.abs() < 4.0, "{what}: total Z {}", self.total);
+    }
+}
+
 fn luminance_of(film: &Film) -> impl Fn(u32, u32) -> (f64, f64) + '_ {
     |x, y| (film.mean_xyz(x, y).y, film.variance_of_mean_xyz(x, y)[1])
 }
@@ -325,8 +348,8 @@ fn the_cheaper_estimator_agrees_with_the_plain_one() {
         },
         4,
     );
-    let z = z_scores(&luminance_of(&cheaper), &luminance_of(&plain), w, h);
-    let (worst, outliers, mean_z, total_z) = (z.worst, z.outlier_fraction, z.mean, z.total);
+    z_scores(&luminance_of(&cheaper), &luminance_of(&plain), w, h)
+        .assert_noise_only("cheaper vs plain", 0.1);
     let variance = |film: &Film| -> f64 {
         (0..h)
             .flat_map(|y| (0..w).map(move |x| (x, y)))
@@ -334,17 +357,7 @@ fn the_cheaper_estimator_agrees_with_the_plain_one() {
             .sum()
     };
     let ratio = variance(&cheaper) / variance(&plain);
-    println!(
-        "cheaper vs plain: worst |Z| {worst:.2}, |Z| > 4 in {:.3} %, mean Z {mean_z:.3}, total Z {total_z:.2}; variance ×{ratio:.2}",
-        outliers * 100.0
-    );
-    assert!(
-        outliers < 0.005,
-        "{:.2} % of pixels beyond 4σ",
-        outliers * 100.0
-    );
-    assert!(mean_z.abs() < 0.1, "mean Z {mean_z}");
-    assert!(total_z.abs() < 4.0, "total Z {total_z}");
+    println!("cheaper vs plain: variance ×{ratio:.2}");
     assert!(ratio < 0.8, "variance ×{ratio:.2} of the plain estimator's");
     let brighter = |x: u32, y: u32| {
         let (m, v) = luminance_of(&cheaper)(x, y);
@@ -363,19 +376,7 @@ fn the_cheaper_estimator_agrees_with_the_plain_one() {
 fn two_seeds_agree_within_their_noise() {
     let film = grey_car_in_the_studio();
     let (a, b) = (film(1, 64), film(2, 64));
-    let z = z_scores(&luminance_of(&a), &luminance_of(&b), 64, 36);
-    let (worst, outliers, mean_z, total_z) = (z.worst, z.outlier_fraction, z.mean, z.total);
-    println!(
-        "two seeds: worst |Z| {worst:.2}, |Z| > 4 in {:.3} %, mean Z {mean_z:.3}, total Z {total_z:.2}",
-        outliers * 100.0
-    );
-    assert!(
-        outliers < 0.005,
-        "{:.2} % of pixels beyond 4σ",
-        outliers * 100.0
-    );
-    assert!(mean_z.abs() < 0.1, "mean Z {mean_z}");
-    assert!(total_z.abs() < 4.0, "total Z {total_z}");
+    z_scores(&luminance_of(&a), &luminance_of(&b), 64, 36).assert_noise_only("two seeds", 0.1);
 }
 
 /// A render against the stored converged reference (mean and variance images,
@@ -388,19 +389,7 @@ fn a_render_matches_the_stored_reference() {
     let film = reference_render(reference.seed_for_test(), 64);
     let (w, h) = (reference.width, reference.height);
     let stored = |x: u32, y: u32| reference.luminance(x, y);
-    let z = z_scores(&luminance_of(&film), &stored, w, h);
-    let (worst, outliers, mean_z, total_z) = (z.worst, z.outlier_fraction, z.mean, z.total);
-    println!(
-        "reference: worst |Z| {worst:.2}, |Z| > 4 in {:.3} %, mean Z {mean_z:.3}, total Z {total_z:.2}",
-        outliers * 100.0
-    );
-    assert!(
-        outliers < 0.005,
-        "{:.2} % of pixels beyond 4σ",
-        outliers * 100.0
-    );
-    assert!(mean_z.abs() < 0.15, "mean Z {mean_z}");
-    assert!(total_z.abs() < 4.0, "total Z {total_z}");
+    z_scores(&luminance_of(&film), &stored, w, h).assert_noise_only("reference", 0.15);
 
     // Negative control: the same comparison must reject a 3 % brighter image.
     let brighter = |x: u32, y: u32| {

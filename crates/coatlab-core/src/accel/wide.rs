@@ -1058,16 +1058,7 @@ impl<'a> BinaryBuilder<'a> {
                 }
                 left
             });
-            let offset = self.nodes.len();
-            self.nodes
-                .extend(right_builder.nodes.into_iter().map(|mut node| {
-                    if let BinKind::Inner { left, right } = &mut node.kind {
-                        *left += offset;
-                        *right += offset;
-                    }
-                    node
-                }));
-            (left, offset)
+            (left, self.append_nodes(right_builder.nodes))
         } else {
             let left = self.build_top(top, left, first, depth + 1);
             self.order = right_order;
@@ -1119,16 +1110,21 @@ impl<'a> BinaryBuilder<'a> {
             }
             left
         });
+        (left, self.append_nodes(right_builder.nodes))
+    }
+
+    /// Appends the nodes another builder made (its root first) and returns the index
+    /// of that root here: its child indices are shifted by where they land.
+    fn append_nodes(&mut self, nodes: Vec<BinNode>) -> usize {
         let offset = self.nodes.len();
-        self.nodes
-            .extend(right_builder.nodes.into_iter().map(|mut node| {
-                if let BinKind::Inner { left, right } = &mut node.kind {
-                    *left += offset;
-                    *right += offset;
-                }
-                node
-            }));
-        (left, offset)
+        self.nodes.extend(nodes.into_iter().map(|mut node| {
+            if let BinKind::Inner { left, right } = &mut node.kind {
+                *left += offset;
+                *right += offset;
+            }
+            node
+        }));
+        offset
     }
 
     /// The best SAH split, partitioning `order` accordingly: `Some(Some(mid))` (the
