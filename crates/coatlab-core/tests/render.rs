@@ -287,14 +287,21 @@ fn luminance_of(film: &Film) -> impl Fn(u32, u32) -> (f64, f64) + '_ {
 const GREY_CAR_SIZE: (u32, u32) = (64, 36);
 
 /// Renders of the default car body in gloss-300 grey paint in the studio, 8
-/// wavelengths, at [`GREY_CAR_SIZE`]: `film(seed, spp)`.
+/// wavelengths, at [`GREY_CAR_SIZE`], with the default integrator: `film(seed, spp)`.
 fn grey_car_in_the_studio() -> impl Fn(u64, u32) -> Film {
+    let film = grey_car_in_the_studio_with();
+    move |seed, spp| film(IntegratorSettings::default(), seed, spp)
+}
+
+/// [`grey_car_in_the_studio`] with the integrator's settings chosen per render:
+/// `film(integrator, seed, spp)`.
+fn grey_car_in_the_studio_with() -> impl Fn(IntegratorSettings, u64, u32) -> Film {
     let grid = WavelengthGrid::visible(8).expect("grid");
     let model = grey_model(grid, GlossExponent::Finite(300.0));
     let scene = generate(&CarParameters::default());
     let (w, h) = GREY_CAR_SIZE;
     let camera = Camera::framing(scene.mesh.bounds().expect("bounds"), w, h);
-    move |seed, spp| {
+    move |integrator, seed, spp| {
         render(
             scene.clone(),
             Environment::studio(&grid),
@@ -303,6 +310,7 @@ fn grey_car_in_the_studio() -> impl Fn(u64, u32) -> Film {
             camera.clone(),
             RenderSettings {
                 seed,
+                integrator,
                 ..RenderSettings::default()
             },
             spp,
@@ -319,27 +327,9 @@ fn grey_car_in_the_studio() -> impl Fn(u64, u32) -> Film {
 /// `a_render_matches_the_stored_reference`; here a 3 % brighter image must fail too.
 #[test]
 fn the_cheaper_estimator_agrees_with_the_plain_one() {
-    let grid = WavelengthGrid::visible(8).expect("grid");
-    let model = grey_model(grid, GlossExponent::Finite(300.0));
-    let scene = generate(&CarParameters::default());
     let (w, h) = GREY_CAR_SIZE;
-    let camera = Camera::framing(scene.mesh.bounds().expect("bounds"), w, h);
-    let film = |integrator: IntegratorSettings, seed: u64| {
-        render(
-            scene.clone(),
-            Environment::studio(&grid),
-            &model,
-            ShadingModel::Paint,
-            camera.clone(),
-            RenderSettings {
-                seed,
-                integrator,
-                ..RenderSettings::default()
-            },
-            64,
-        )
-    };
-    let cheaper = film(IntegratorSettings::default(), 3);
+    let film = grey_car_in_the_studio_with();
+    let cheaper = film(IntegratorSettings::default(), 3, 64);
     let plain = film(
         IntegratorSettings {
             first_light_samples: 1,
@@ -347,6 +337,7 @@ fn the_cheaper_estimator_agrees_with_the_plain_one() {
             ..IntegratorSettings::default()
         },
         4,
+        64,
     );
     z_scores(&luminance_of(&cheaper), &luminance_of(&plain), w, h)
         .assert_noise_only("cheaper vs plain", 0.1);

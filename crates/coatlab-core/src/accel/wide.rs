@@ -517,31 +517,13 @@ impl WideBvh {
                 pack_slots: Vec::new(),
             };
         }
-        let centroids: Vec<[f32; 3]> = boxes
-            .iter()
-            .map(|b| std::array::from_fn(|k| b.min[k] + b.max[k]))
-            .collect();
-        let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
-        let mut builder = BinaryBuilder {
-            boxes,
-            centroids: &centroids,
-            order: &mut order,
-            base: 0,
-            nodes: Vec::with_capacity(2 * boxes.len() / PACK + 1),
-            bins: bins.clamp(2, 256),
-            threads: threads.max(1),
-        };
-        if top.is_empty() {
-            builder.build(0, boxes.len(), 0);
-        } else {
-            builder.build_top(top, 0, 0, 0);
-        }
+        let (bin, order) = binary_tree(boxes, top, bins, threads);
         let mut wide = WideBvh {
-            nodes: Vec::with_capacity(builder.nodes.len() / 4 + 1),
+            nodes: Vec::with_capacity(bin.len() / 4 + 1),
             order: Vec::new(),
             pack_slots: Vec::with_capacity(boxes.len() / 2),
         };
-        let root = &builder.nodes[0];
+        let root = &bin[0];
         if let BinKind::Leaf { first, count } = root.kind {
             // A single leaf: a root node with one child.
             let mut node = Node::empty();
@@ -549,10 +531,10 @@ impl WideBvh {
             node.child[0] = wide.leaf_child(first, count);
             wide.nodes.push(node);
         } else if sah_collapse {
-            let plan = CollapsePlan::new(&builder.nodes);
-            wide.collapse(&builder.nodes, &plan, 0);
+            let plan = CollapsePlan::new(&bin);
+            wide.collapse(&bin, &plan, 0);
         } else {
-            wide.collapse_largest(&builder.nodes, 0);
+            wide.collapse_largest(&bin, 0);
         }
         wide.order = order;
         wide
@@ -883,6 +865,38 @@ impl CollapsePlan {
     fn node_roots(&self, bin: &[BinNode], b: usize, roots: &mut Vec<usize>) {
         self.cover(bin, b, self.node_choice[b], roots);
     }
+}
+
+/// The binary SAH tree over `boxes` (nonempty), below `top` when it is given
+/// ([`WideBvh::build`]), with `bins` bins per axis on up to `threads` threads; and
+/// the slot order its leaves' ranges index (slot → index into `boxes`).
+fn binary_tree(
+    boxes: &[Bounds],
+    top: &[TopNode],
+    bins: usize,
+    threads: usize,
+) -> (Vec<BinNode>, Vec<u32>) {
+    let centroids: Vec<[f32; 3]> = boxes
+        .iter()
+        .map(|b| std::array::from_fn(|k| b.min[k] + b.max[k]))
+        .collect();
+    let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
+    let mut builder = BinaryBuilder {
+        boxes,
+        centroids: &centroids,
+        order: &mut order,
+        base: 0,
+        nodes: Vec::with_capacity(2 * boxes.len() / PACK + 1),
+        bins: bins.clamp(2, 256),
+        threads: threads.max(1),
+    };
+    if top.is_empty() {
+        builder.build(0, boxes.len(), 0);
+    } else {
+        builder.build_top(top, 0, 0, 0);
+    }
+    let nodes = builder.nodes;
+    (nodes, order)
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -1359,25 +1373,11 @@ mod tests {
             assert!(cost < 0.99 * old_cost, "{name}: {cost} vs {old_cost}");
 
             // The plan's own figure for the root, from the unwidened binary boxes.
-            let centroids: Vec<[f32; 3]> = boxes
-                .iter()
-                .map(|b| std::array::from_fn(|k| b.min[k] + b.max[k]))
-                .collect();
-            let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
-            let mut builder = BinaryBuilder {
-                boxes: &boxes,
-                centroids: &centroids,
-                order: &mut order,
-                base: 0,
-                nodes: Vec::new(),
-                bins: 16,
-                threads: 1,
-            };
-            builder.build(0, boxes.len(), 0);
-            let plan = CollapsePlan::new(&builder.nodes);
-            let root = &builder.nodes[0].bounds;
+            let (bin, _) = binary_tree(&boxes, &[], 16, 1);
+            let plan = CollapsePlan::new(&bin);
+            let root = &bin[0].bounds;
             let planned = (f64::from(NODE_COST * root.half_area())
-                + f64::from(plan.cost_as_node(&builder.nodes, 0)))
+                + f64::from(plan.cost_as_node(&bin, 0)))
                 / f64::from(root.half_area());
             assert!(
                 (planned - cost).abs() <= 1e-3 * cost,

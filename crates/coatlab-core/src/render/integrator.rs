@@ -620,8 +620,18 @@ impl<'a> PathTracer<'a> {
                 let light_only = on_floor && floor_light_only;
                 let count = if lane.bounce == 0 { first_lights } else { 1 };
                 let share = 1.0 / count as f32;
-                if let Some(light_sample) = light_sample
-                    && let Some(light_record) = self.light_sample(
+                // The vertex's own light sample (the one a record keeps), then a
+                // first vertex's further ones, in the order they were begun.
+                let extras = next_extra..next_extra + (count - 1);
+                next_extra = extras.end;
+                let samples = std::iter::once((light_sample, light)).chain(
+                    extras.map(|e| (looked_up_extra[e], &light_extra[e * len..(e + 1) * len])),
+                );
+                for (k, (light_sample, radiance)) in samples.enumerate() {
+                    let Some(light_sample) = light_sample else {
+                        continue;
+                    };
+                    let Some(light_record) = self.light_sample(
                         material,
                         hit,
                         &frame,
@@ -629,42 +639,19 @@ impl<'a> PathTracer<'a> {
                         light_sample,
                         LightWeights {
                             throughput,
-                            radiance: light,
+                            radiance,
                             share,
                             light_only,
                         },
                         f,
                         pending,
                         shadow_rays,
-                    )
-                {
+                    ) else {
+                        continue;
+                    };
                     shadow_lanes.push(i);
-                    record.light = Some(light_record);
-                }
-                for _ in 1..count {
-                    let e = next_extra;
-                    next_extra += 1;
-                    if let Some(light_sample) = looked_up_extra[e]
-                        && self
-                            .light_sample(
-                                material,
-                                hit,
-                                &frame,
-                                wo,
-                                light_sample,
-                                LightWeights {
-                                    throughput,
-                                    radiance: &light_extra[e * len..(e + 1) * len],
-                                    share,
-                                    light_only,
-                                },
-                                f,
-                                pending,
-                                shadow_rays,
-                            )
-                            .is_some()
-                    {
-                        shadow_lanes.push(i);
+                    if k == 0 {
+                        record.light = Some(light_record);
                     }
                 }
                 lane.record = Some(record);
