@@ -760,16 +760,14 @@ impl Accel {
             tree.closest(
                 &box_ray,
                 t_max,
-                |first, count, mut t_max| {
-                    for p in first..first + pack_count(count) {
-                        if let Some(hit) = sheared.intersect_pack(&self.packs[p], t_max) {
-                            t_max = hit.t;
-                            best = Some((p, hit));
-                        }
+                |pack, _, t_max| match sheared.intersect_pack(&self.packs[pack], t_max) {
+                    Some(hit) => {
+                        best = Some((pack, hit));
+                        hit.t
                     }
-                    t_max
+                    None => t_max,
                 },
-                |first, count| self.fetch_packs(first, count),
+                |pack, _| self.fetch_pack(pack),
             );
             return best.map(|(p, hit)| Hit {
                 t: hit.t,
@@ -859,7 +857,7 @@ impl Accel {
             *lane = take(traversal);
         }
         let packs = &self.packs;
-        let fetch_leaf = |first: usize, count: usize| self.fetch_packs(first, count);
+        let fetch_leaf = |pack: usize, _| self.fetch_pack(pack);
         let mut active = lanes.iter().filter(|l| l.is_some()).count();
         while active > 0 {
             for (slot, traversal) in lanes.iter_mut().zip(traversals.iter_mut()) {
@@ -870,15 +868,14 @@ impl Accel {
                     best,
                     ..
                 } = lane;
-                let mut leaf = |first: usize, count: usize, mut t_max: f32| {
-                    let leaf_packs = &packs[first..first + pack_count(count)];
-                    for (p, pack) in (first..).zip(leaf_packs) {
-                        if let Some(hit) = sheared.intersect_pack(pack, t_max) {
-                            t_max = hit.t;
-                            *best = Some((p, hit));
-                        }
+                let mut leaf = |pack: usize, _, t_max: f32| match sheared
+                    .intersect_pack(&packs[pack], t_max)
+                {
+                    Some(hit) => {
+                        *best = Some((pack, hit));
+                        hit.t
                     }
-                    t_max
+                    None => t_max,
                 };
                 if tree.closest_step(box_ray, traversal, &mut leaf, &fetch_leaf) {
                     continue;
@@ -910,12 +907,8 @@ impl Accel {
             return tree.any(
                 &box_ray,
                 t_max,
-                |first, count| {
-                    self.packs[first..first + pack_count(count)]
-                        .iter()
-                        .any(|pack| sheared.any_in_pack(pack, t_max))
-                },
-                |first, count| self.fetch_packs(first, count),
+                |pack, _| sheared.any_in_pack(&self.packs[pack], t_max),
+                |pack, _| self.fetch_pack(pack),
             );
         }
         let ray = Ray::new(origin.into(), dir.into(), 0.0, t_max);
@@ -926,11 +919,13 @@ impl Accel {
         })
     }
 
-    /// Starts fetching a leaf's packs (see `wide::prefetch`).
+    /// Starts fetching a leaf's pack (see `wide::prefetch`). A `Simd8` leaf is one
+    /// pack (`wide::MAX_LEAF` is `PACK`), so the triangle traversals above test the
+    /// leaf's first pack only.
     #[inline(always)]
-    fn fetch_packs(&self, first: usize, count: usize) {
-        if let Some(packs) = self.packs.get(first..first + pack_count(count)) {
-            packs.iter().for_each(prefetch);
+    fn fetch_pack(&self, pack: usize) {
+        if let Some(pack) = self.packs.get(pack) {
+            prefetch(pack);
         }
     }
 

@@ -124,17 +124,15 @@ impl ShearedRay {
         let mut u = [0.0f32; N];
         let mut v = [0.0f32; N];
         let mut w = [0.0f32; N];
-        let mut zero = false;
         for i in 0..N {
             u[i] = c[0][i] * b[1][i] - c[1][i] * b[0][i];
             v[i] = a[0][i] * c[1][i] - a[1][i] * c[0][i];
             w[i] = b[0][i] * a[1][i] - b[1][i] * a[0][i];
-            zero |= (u[i] == 0.0) | (v[i] == 0.0) | (w[i] == 0.0);
         }
         // An exact zero (the ray through an edge or vertex, to f32 precision) is
         // decided in f64, where the products are exact: this is what makes shared
         // edges watertight. Rare, so a scalar loop.
-        if zero {
+        if any_zero(&u, &v, &w) {
             let f = |p: f32, q: f32, r: f32, s: f32| {
                 (f64::from(p) * f64::from(q) - f64::from(r) * f64::from(s)) as f32
             };
@@ -173,13 +171,7 @@ impl ShearedRay {
         t_max: f32,
     ) -> Option<LaneHit> {
         let (t, bu, bv) = self.lanes(pack, t_max);
-        let mut best = 0;
-        for i in 1..N {
-            if t[i] < t[best] {
-                best = i;
-            }
-        }
-        (t[best] < f32::INFINITY).then(|| LaneHit {
+        nearest_lane(&t).map(|best| LaneHit {
             lane: best,
             t: t[best],
             barycentric: [bu[best], bv[best]],
@@ -190,7 +182,92 @@ impl ShearedRay {
     #[inline(always)]
     pub fn any_in_pack<const N: usize>(&self, pack: &TrianglePack<N>, t_max: f32) -> bool {
         let (t, _, _) = self.lanes(pack, t_max);
-        t.iter().fold(false, |any, &ti| any | (ti < f32::INFINITY))
+        nearest_lane(&t).is_some()
+    }
+}
+
+/// Whether some lane of `u`, `v` or `w` is exactly zero (either sign).
+#[inline(always)]
+fn any_zero<const N: usize>(u: &[f32; N], v: &[f32; N], w: &[f32; N]) -> bool {
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+    if let (Ok(u), Ok(v), Ok(w)) = (u[..].try_into(), v[..].try_into(), w[..].try_into()) {
+        return avx::any_zero(u, v, w);
+    }
+    any_zero_portable(u, v, w)
+}
+
+/// The portable [`any_zero`] (LLVM reduces its booleans through a dozen shuffles;
+/// the AVX version is three compares and one `vmovmskps`).
+#[inline(always)]
+fn any_zero_portable<const N: usize>(u: &[f32; N], v: &[f32; N], w: &[f32; N]) -> bool {
+    (0..N).any(|i| (u[i] == 0.0) | (v[i] == 0.0) | (w[i] == 0.0))
+}
+
+/// The lane of the smallest `t` below ∞, the lowest such lane on ties; `None` when
+/// every lane is ∞ (no lane holds NaN: the test writes ∞ for every miss).
+#[inline(always)]
+fn nearest_lane<const N: usize>(t: &[f32; N]) -> Option<usize> {
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+    if let Ok(t) = t[..].try_into() {
+        return avx::nearest_lane(t);
+    }
+    nearest_lane_portable(t)
+}
+
+/// The portable [`nearest_lane`]: a running index, seven dependent compares and
+/// branches for a pack of 8 (the AVX version: a min tree, one compare, a mask).
+#[inline(always)]
+fn nearest_lane_portable<const N: usize>(t: &[f32; N]) -> Option<usize> {
+    let mut best = 0;
+    for i in 1..N {
+        if t[i] < t[best] {
+            best = i;
+        }
+    }
+    (t[best] < f32::INFINITY).then_some(best)
+}
+
+/// The 8-lane reductions of the pack test with AVX intrinsics (the loop vectoriser
+/// does not find them).
+#[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+mod avx {
+    use std::arch::x86_64::{
+        __m256, _CMP_EQ_OQ, _mm256_cmp_ps, _mm256_cvtss_f32, _mm256_min_ps, _mm256_movemask_ps,
+        _mm256_or_ps, _mm256_permute_ps, _mm256_permute2f128_ps, _mm256_setr_ps, _mm256_setzero_ps,
+    };
+
+    // SAFETY (every `unsafe` block below): these intrinsics need AVX, which the
+    // module's cfg guarantees at compile time; they take and return values only (no
+    // memory access).
+
+    #[inline(always)]
+    fn vector(a: &[f32; 8]) -> __m256 {
+        // SAFETY: see above.
+        unsafe { _mm256_setr_ps(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]) }
+    }
+
+    #[inline(always)]
+    pub(super) fn any_zero(u: &[f32; 8], v: &[f32; 8], w: &[f32; 8]) -> bool {
+        // SAFETY: see above.
+        unsafe {
+            let zero = _mm256_setzero_ps();
+            let eq = |a: &[f32; 8]| _mm256_cmp_ps::<_CMP_EQ_OQ>(vector(a), zero);
+            _mm256_movemask_ps(_mm256_or_ps(_mm256_or_ps(eq(u), eq(v)), eq(w))) != 0
+        }
+    }
+
+    #[inline(always)]
+    pub(super) fn nearest_lane(t: &[f32; 8]) -> Option<usize> {
+        // SAFETY: see above.
+        unsafe {
+            let t = vector(t);
+            // The minimum in every lane: pairs, then quads, then the two halves.
+            let pairs = _mm256_min_ps(t, _mm256_permute_ps::<0b10_11_00_01>(t));
+            let quads = _mm256_min_ps(pairs, _mm256_permute_ps::<0b01_00_11_10>(pairs));
+            let min = _mm256_min_ps(quads, _mm256_permute2f128_ps::<1>(quads, quads));
+            let at_min = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(t, min)) as u32;
+            (_mm256_cvtss_f32(min) < f32::INFINITY).then_some(at_min.trailing_zeros() as usize)
+        }
     }
 }
 
@@ -237,6 +314,41 @@ mod tests {
             }
         }
         assert!(hits > 1000, "{hits}");
+    }
+
+    /// The AVX reductions against the portable ones, on lanes drawn from a few
+    /// values so that ties, zeros of either sign and all-∞ packs are common.
+    #[test]
+    fn reductions_agree_with_the_portable_ones() {
+        let values = [0.0, -0.0, 1.0, 2.5, 1e-30, -3.0, f32::INFINITY];
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut pick = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            values[(state % values.len() as u64) as usize]
+        };
+        let (mut none, mut ties) = (0, 0);
+        for _ in 0..100_000 {
+            let lanes =
+                |pick: &mut dyn FnMut() -> f32| -> [f32; PACK] { std::array::from_fn(|_| pick()) };
+            let (u, v, w) = (lanes(&mut pick), lanes(&mut pick), lanes(&mut pick));
+            assert_eq!(
+                any_zero(&u, &v, &w),
+                any_zero_portable(&u, &v, &w),
+                "{u:?} {v:?} {w:?}"
+            );
+            // Distances are positive or ∞ (misses).
+            let t = u.map(|x| if x > 0.0 { x } else { f32::INFINITY });
+            let best = nearest_lane(&t);
+            assert_eq!(best, nearest_lane_portable(&t), "{t:?}");
+            match best {
+                None => none += 1,
+                Some(b) if t.iter().filter(|&&x| x == t[b]).count() > 1 => ties += 1,
+                Some(_) => {}
+            }
+        }
+        assert!(none > 100 && ties > 1000, "{none} {ties}");
     }
 
     #[test]

@@ -47,8 +47,10 @@ pub(super) use super::triangle::PACK;
 
 /// Children per node.
 pub(super) const WIDTH: usize = 8;
-/// Most primitives in one leaf (one pack).
+/// Most primitives in one leaf: one pack. The triangle layer (`Accel`) relies on
+/// this and tests a leaf's first pack only.
 pub(super) const MAX_LEAF: usize = PACK;
+const _: () = assert!(MAX_LEAF == PACK, "a leaf must be one pack");
 
 /// Child reference: an inner node's index, or, with [`LEAF_BIT`] set, a leaf's first
 /// pack (low [`COUNT_SHIFT`] bits) and primitive count (the bits above, up to
@@ -149,10 +151,11 @@ pub(super) struct WideBvh {
 pub(super) struct BoxRay {
     origin: [f32; 3],
     inv_dir: [f32; 3],
-    /// Per axis, the index in [`Node::bounds`] of the plane the ray enters by
-    /// (the minimum for a positive direction) and of the one it leaves by.
-    near: [usize; 3],
-    far: [usize; 3],
+    /// Per axis, 1 where the direction is negative: the ray enters a box by its
+    /// maximum plane on that axis, `Node::bounds[2·axis + 1]`, instead of its minimum.
+    /// (Kept as a bit, not as the plane's index, so that the index
+    /// `2·axis + (bit & 1)` is provably below 6 and needs no bounds check.)
+    negative: [usize; 3],
 }
 
 impl BoxRay {
@@ -169,12 +172,10 @@ impl BoxRay {
             };
             1.0 / d
         });
-        let near: [usize; 3] = std::array::from_fn(|k| 2 * k + usize::from(inv_dir[k] < 0.0));
         BoxRay {
             origin,
             inv_dir,
-            near,
-            far: near.map(|n| n ^ 1),
+            negative: inv_dir.map(|r| usize::from(r < 0.0)),
         }
     }
 
@@ -183,8 +184,10 @@ impl BoxRay {
     #[inline(always)]
     fn hit_children(&self, node: &Node, t_max: f32) -> (u32, [f32; WIDTH]) {
         let b = &node.bounds;
-        let (bnx, bny, bnz) = (&b[self.near[0]], &b[self.near[1]], &b[self.near[2]]);
-        let (bfx, bfy, bfz) = (&b[self.far[0]], &b[self.far[1]], &b[self.far[2]]);
+        let near = |axis: usize| &b[2 * axis + (self.negative[axis] & 1)];
+        let far = |axis: usize| &b[2 * axis + (!self.negative[axis] & 1)];
+        let (bnx, bny, bnz) = (near(0), near(1), near(2));
+        let (bfx, bfy, bfz) = (far(0), far(1), far(2));
         let [ox, oy, oz] = self.origin;
         let [rx, ry, rz] = self.inv_dir;
         let mut entry = [0.0f32; WIDTH];
