@@ -27,7 +27,7 @@
 //!   that consecutive rays start close together; chunks of 4096 rays through
 //!   `closest_hits`.
 //!
-//! Two ways to run it:
+//! Ways to run it:
 //! - `ACCEL_SUMMARY=1 cargo bench -p coatlab-core --bench accel` prints the whole
 //!   comparison as a markdown table in one run (each figure the best of 5 runs) and
 //!   skips criterion; this is what docs/benchmarks.md quotes.
@@ -38,6 +38,13 @@
 //!   thread and in per-thread CPU time (robust to other processes on the machine),
 //!   single-ray queries with batches of 2–32 rays in flight, for trees built with
 //!   each `ReferenceSplits` setting (with the build's CPU time).
+//! - `ACCEL_CPU=1 …/accel-<hash>` (the bench binary itself, two builds of it in
+//!   turn): the default tree's incoherent and image-order bounce rays through
+//!   `closest_hits` on one thread, M rays per CPU-second: A/B comparisons of
+//!   traversal changes on a loaded machine.
+//! - `ACCEL_ONCE=1` traces 2¹⁶ rays once, for instruction counts under callgrind.
+//! - `ACCEL_DUMP=DIR` writes each mesh and its rays to `DIR/<mesh>.bin` for other
+//!   ray tracers (`benches/embree/`: Intel Embree 4 on the same rays).
 
 use std::f32::consts::PI;
 use std::hint::black_box;
@@ -653,7 +660,135 @@ fn batch_comparison() {
     }
 }
 
+/// Writes, for each mesh, `<dir>/<mesh>.bin`: the mesh and the bench's own rays, for
+/// other ray tracers to trace the same work (benches/embree/). Little-endian: five
+/// u32 (vertex, triangle, incoherent-ray and image-order-bounce counts, and how many
+/// of the incoherent rays our `closest_hits` finds a hit for), then the vertices
+/// (3 f32 each), the triangles (3 u32), the incoherent rays and the bounces (origin
+/// and direction, 6 f32 each).
+fn dump(dir: &Path) {
+    std::fs::create_dir_all(dir).expect("dump folder");
+    for (name, mesh) in meshes() {
+        let camera = Camera::three_quarter(&mesh);
+        let rays = incoherent_rays(&mesh, INCOHERENT_RAYS, 7);
+        let bounces = image_order_bounces(&mesh, &camera, 8);
+        let hits = trace_incoherent(&Accel::build(&mesh).expect("build"), &rays);
+        let mut out = Vec::new();
+        let mut put = |x: u32| out.extend_from_slice(&x.to_le_bytes());
+        for count in [
+            mesh.positions.len(),
+            mesh.triangles.len(),
+            rays.len(),
+            bounces.len(),
+            hits,
+        ] {
+            put(count as u32);
+        }
+        mesh.positions
+            .iter()
+            .flatten()
+            .for_each(|x| put(x.to_bits()));
+        mesh.triangles.iter().flatten().for_each(|&i| put(i));
+        for (origin, dir) in rays.iter().chain(&bounces) {
+            origin.iter().chain(dir).for_each(|x| put(x.to_bits()));
+        }
+        let path = dir.join(format!("{}.bin", name.replace(' ', "-")));
+        std::fs::write(&path, out).expect("dump file");
+        eprintln!("{}: {} rays, {hits} hit", path.display(), rays.len());
+    }
+}
+
+/// The incoherent rays, or with `which == "bounce"` the image-order bounces, as
+/// batch queries.
+fn queries(mesh: &TriangleMesh, which: &str) -> Vec<RayQuery> {
+    let rays = if which == "bounce" {
+        image_order_bounces(mesh, &Camera::three_quarter(mesh), 8)
+    } else {
+        incoherent_rays(mesh, INCOHERENT_RAYS, 7)
+    };
+    rays.into_iter()
+        .map(|(origin, dir)| RayQuery {
+            origin,
+            dir,
+            t_max: f32::INFINITY,
+        })
+        .collect()
+}
+
+/// `ACCEL_CPU`: for comparing two builds of this bench run in turn (robust to
+/// other processes, unlike the wall clock): each mesh's default tree (built on one
+/// thread), then its incoherent rays and its image-order bounces through
+/// `closest_hits` in chunks of 4096 on this thread, M rays per CPU-second, best of 7.
+fn cpu_rates() {
+    for (name, mesh) in meshes() {
+        let accel = Accel::build_with(
+            &mesh,
+            &BuildOptions {
+                threads: 1,
+                ..BuildOptions::default()
+            },
+        )
+        .expect("build");
+        let mut rates = Vec::new();
+        for which in ["incoherent", "bounce"] {
+            let rays = queries(&mesh, which);
+            let mut hits = vec![None; rays.len()];
+            let mut best = Duration::MAX;
+            for _ in 0..7 {
+                let start = thread_cpu_time();
+                for (q, h) in rays.chunks(4096).zip(hits.chunks_mut(4096)) {
+                    accel.closest_hits(q, h);
+                }
+                best = best.min(thread_cpu_time() - start);
+                black_box(&hits);
+            }
+            rates.push(rays.len() as f64 / best.as_secs_f64() / 1e6);
+        }
+        println!(
+            "{name}: incoherent {:.3}, image-order bounce {:.3} M rays per CPU-second (load {})",
+            rates[0],
+            rates[1],
+            load_average()
+        );
+    }
+}
+
+/// `ACCEL_ONCE`: the first `ACCEL_RAYS` (default 2¹⁶) incoherent rays (with
+/// `ACCEL_WHICH=bounce` the image-order bounces) through `closest_hits` once on one
+/// thread, for counting instructions a ray with `valgrind --tool=callgrind
+/// --toggle-collect='coatlab_core::accel::Accel::closest_hits'` (docs/benchmarks.md).
+fn once() {
+    let count: usize = std::env::var("ACCEL_RAYS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1 << 16);
+    let which = std::env::var("ACCEL_WHICH").unwrap_or_default();
+    for (name, mesh) in meshes() {
+        let accel = Accel::build(&mesh).expect("build");
+        let rays = queries(&mesh, &which);
+        let rays = &rays[..count.min(rays.len())];
+        let mut hits = vec![None; rays.len()];
+        for (q, h) in rays.chunks(4096).zip(hits.chunks_mut(4096)) {
+            accel.closest_hits(q, h);
+        }
+        let hit = hits.iter().filter(|h| h.is_some()).count();
+        println!("{name}: {} rays, {hit} hit", rays.len());
+    }
+}
+
 fn main() {
+    if std::env::var_os("ACCEL_CPU").is_some() {
+        cpu_rates();
+        return;
+    }
+    if std::env::var_os("ACCEL_ONCE").is_some() {
+        once();
+        return;
+    }
+    if let Some(dir) = std::env::var_os("ACCEL_DUMP") {
+        dump(Path::new(&dir));
+        return;
+    }
     if std::env::var_os("ACCEL_BATCH").is_some() {
         println!("| mesh | incoherent rays | M rays per CPU-second, 1 thread | vs one by one |");
         println!("| --- | --- | --- | --- |");

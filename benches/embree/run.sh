@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Coatlab's BVH and Intel Embree 4 on the same machine, triangles and rays, in turn.
+# See README.md. Usage: benches/embree/run.sh [ROUNDS]   (WORK=folder, default
+# target/embree; ACCEL_MESH=substring restricts the meshes, as in the accel bench)
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+rounds="${1:-2}"
+work="${WORK:-target/embree}"
+mkdir -p "$work"
+
+if [ ! -x "$work/venv/bin/python" ]; then
+  python3 -m venv "$work/venv"
+fi
+"$work/venv/bin/pip" install --quiet --no-deps -r benches/embree/requirements.txt
+site="$("$work/venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')"
+libdir="$site/embreex.libs"
+lib="$(ls "$libdir"/libembree4-*.so.4)"
+cc -O2 -o "$work/embree_rays" benches/embree/embree_rays.c "$lib" -Wl,-rpath,"$libdir" -lpthread
+
+# The bench binary itself, so that the rounds below run it without cargo.
+bench="$(cargo bench -p coatlab-core --bench accel --no-run --message-format=json 2>/dev/null |
+  "$work/venv/bin/python" -c 'import json, sys
+for line in sys.stdin:
+    m = json.loads(line)
+    if m.get("reason") == "compiler-artifact" and m["target"]["name"] == "accel" and m.get("executable"):
+        print(m["executable"])')"
+ACCEL_DUMP="$work/dump" "$bench" >/dev/null
+
+for round in $(seq "$rounds"); do
+  echo "== round $round, load $(cut -d' ' -f1-3 /proc/loadavg)"
+  ACCEL_SUMMARY=1 ACCEL_FILTER="Simd8/Fast/Spatial" "$bench" 2>/dev/null | grep -v -- "---"
+  for mesh in "$work"/dump/*.bin; do
+    for quality in medium high; do
+      "$work/embree_rays" "$mesh" "$quality" fast 2
+    done
+    "$work/embree_rays" "$mesh" high robust 2
+  done
+done
+echo "== load after: $(cut -d' ' -f1-3 /proc/loadavg)"
