@@ -72,3 +72,27 @@ impl BoundsA {
         self.min + self.max
     }
 }
+
+/// The bins of three coordinates already scaled to bin units, each clamped to
+/// `0..=last` (at most 2²³): exactly `(t as usize).min(last)` lane by lane, for
+/// every t (NaN gives 0 either way, as does a negative t), but without the 17
+/// instructions of a saturating f32 → usize conversion a lane.
+#[inline(always)]
+pub(super) fn bin_indices(t: Vec3A, last: usize) -> [usize; 3] {
+    // `maxps` returns its second operand, 0, for a NaN lane.
+    let t = t.max(Vec3A::ZERO).min(Vec3A::splat(last as f32));
+    // An integer below 2²³ plus 2²³ is exact, and the integer is the low bits of
+    // the sum's mantissa.
+    let shifted = t.floor() + Vec3A::splat(8_388_608.0);
+    shifted
+        .to_array()
+        .map(|s| (s.to_bits() & 0x7f_ffff) as usize)
+}
+
+/// [`bin_indices`] for one coordinate.
+#[inline(always)]
+pub(super) fn bin_index(t: f32, last: usize) -> usize {
+    // `f32::max` returns 0 for a NaN `t`.
+    let t = t.max(0.0).min(last as f32);
+    ((t.floor() + 8_388_608.0).to_bits() & 0x7f_ffff) as usize
+}

@@ -182,7 +182,7 @@ fn split(
 mod spatial {
     use glam::Vec3A;
 
-    use super::super::boxes::BoundsA;
+    use super::super::boxes::{BoundsA, bin_index, bin_indices};
     use super::{Bounds, TopNode};
 
     /// Bins per axis for both kinds of split.
@@ -434,7 +434,7 @@ mod spatial {
                     let (mut i, mut j) = (0, refs.len());
                     while i < j {
                         let (b, c) = boxes(&refs[i]);
-                        if ((((c[o.axis] - low) * scale) as usize).min(BINS - 1)) < o.bin {
+                        if bin_index((c[o.axis] - low) * scale, BINS - 1) < o.bin {
                             left_node.bounds.grow(&b);
                             left_node.centres.grow_point(c);
                             i += 1;
@@ -535,14 +535,14 @@ mod spatial {
                 let b = BoundsA::new(&r.bounds);
                 // Bins by arithmetic: they only place the estimate; which side of
                 // a plane a piece ends on is decided by `cut`.
-                let first_bin = ((b.min - bounds.min) * inverse).max(Vec3A::ZERO);
-                let last_bin = ((b.max - bounds.min) * inverse).max(Vec3A::ZERO);
+                let first_bin = bin_indices((b.min - bounds.min) * inverse, BINS - 1);
+                let last_bin = bin_indices((b.max - bounds.min) * inverse, BINS - 1);
                 for axis in 0..3 {
                     if inverse_width[axis] == 0.0 {
                         continue;
                     }
-                    let first = (first_bin[axis] as usize).min(BINS - 1);
-                    let last = (last_bin[axis] as usize).min(BINS - 1).max(first);
+                    let first = first_bin[axis];
+                    let last = last_bin[axis].max(first);
                     entry[axis][first] += 1;
                     exit[axis][last] += 1;
                     if first == last {
@@ -684,9 +684,8 @@ mod spatial {
         let mut count = [[0usize; BINS]; 3];
         for r in refs {
             let (b, c) = boxes(r);
-            let t = (c - centres.min) * scale_a;
-            for axis in 0..3 {
-                let i = (t[axis] as usize).min(BINS - 1);
+            let bin = bin_indices((c - centres.min) * scale_a, BINS - 1);
+            for (axis, &i) in bin.iter().enumerate() {
                 bin_bounds[axis][i].grow(&b);
                 count[axis][i] += 1;
             }

@@ -44,7 +44,7 @@
 use glam::Vec3A;
 
 use super::Bounds;
-use super::boxes::BoundsA;
+use super::boxes::{BoundsA, bin_index, bin_indices};
 
 pub(super) use super::triangle::PACK;
 
@@ -1210,11 +1210,10 @@ impl<'a> BinaryBuilder<'a> {
         bin_count.fill([0; 3]);
         for &p in &self.order[range.clone()] {
             let b = &self.boxes[p as usize];
-            let t = (b.centre2() - centres.min) * scale_a;
+            let bin = bin_indices((b.centre2() - centres.min) * scale_a, bins - 1);
             for k in 0..3 {
-                let i = (t[k] as usize).min(bins - 1);
-                bin_bounds[i][k].grow(b);
-                bin_count[i][k] += 1;
+                bin_bounds[bin[k]][k].grow(b);
+                bin_count[bin[k]][k] += 1;
             }
         }
         // Sweep from the right: area × blocks of the right part for each split.
@@ -1262,7 +1261,7 @@ impl<'a> BinaryBuilder<'a> {
         while i < j {
             let b = &boxes[slice[i] as usize];
             let c = b.centre2();
-            if (((c[axis] - low) * s) as usize).min(bins - 1) < split_bin {
+            if bin_index((c[axis] - low) * s, bins - 1) < split_bin {
                 left.0.grow(b);
                 left.1.grow_point(c);
                 i += 1;
