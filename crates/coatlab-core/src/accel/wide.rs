@@ -1040,7 +1040,11 @@ impl<'a> BinaryBuilder<'a> {
             bounds: bounds.bounds(),
             kind: BinKind::Leaf { first, count },
         });
-        if count <= 1 {
+        // A leaf when it fits one pack and its area is finite: then the SAH always
+        // prefers it (a split costs the node's area plus its children's, which are
+        // finite and not negative, a leaf its area once), so this skips binning
+        // that could only confirm it.
+        if count <= 1 || (count <= MAX_LEAF && bounds.half_area().is_finite()) {
             return index;
         }
         let split = if depth < MEDIAN_DEPTH {
@@ -1217,6 +1221,9 @@ impl<'a> BinaryBuilder<'a> {
             }
         }
         // Sweep from the right: area × blocks of the right part for each split.
+        // An empty bin changes neither side's box nor count, so its costs are
+        // those of the bin before it: copied on the right, skipped on the left
+        // (an equal cost never replaces the best).
         let blocks = |n: usize| n.div_ceil(PACK) as f32;
         let mut best: Option<(f32, usize, usize)> = None;
         let right_cost = &mut self.right_cost[..bins];
@@ -1224,14 +1231,20 @@ impl<'a> BinaryBuilder<'a> {
             if scale[k] == 0.0 {
                 continue;
             }
-            let (mut acc, mut n) = (BoundsA::EMPTY, 0);
+            let (mut acc, mut n, mut cost) = (BoundsA::EMPTY, 0, 0.0);
             for i in (1..bins).rev() {
-                acc.grow(&bin_bounds[i][k]);
-                n += bin_count[i][k];
-                right_cost[i] = acc.half_area() * blocks(n);
+                if bin_count[i][k] != 0 {
+                    acc.grow(&bin_bounds[i][k]);
+                    n += bin_count[i][k];
+                    cost = acc.half_area() * blocks(n);
+                }
+                right_cost[i] = cost;
             }
             let (mut acc, mut n) = (BoundsA::EMPTY, 0);
             for i in 0..bins - 1 {
+                if bin_count[i][k] == 0 {
+                    continue;
+                }
                 acc.grow(&bin_bounds[i][k]);
                 n += bin_count[i][k];
                 if n == 0 || n == count {
