@@ -64,6 +64,7 @@
 //! The `Simd8` tree splits at the median where the SAH cannot separate primitives,
 //! so its depth stays logarithmic, and its stack spills to the heap if ever needed.
 
+mod boxes;
 mod split;
 mod triangle;
 mod wide;

@@ -180,7 +180,10 @@ fn split(
 /// subtree gets a fixed share of the budget of new references (by its number of
 /// references), and the subtrees' references are concatenated in tree order.
 mod spatial {
-    use super::{Bounds, TopNode, half_area};
+    use glam::Vec3A;
+
+    use super::super::boxes::{BoundsA, bin_index, bin_indices};
+    use super::{Bounds, TopNode};
 
     /// Bins per axis for both kinds of split.
     const BINS: usize = 16;
@@ -287,34 +290,48 @@ mod spatial {
         }
     }
 
-    fn empty() -> Bounds {
-        Bounds {
-            min: [f32::INFINITY; 3],
-            max: [f32::NEG_INFINITY; 3],
-        }
-    }
-
-    fn grow(a: &mut Bounds, b: &Bounds) {
-        for k in 0..3 {
-            a.min[k] = a.min[k].min(b.min[k]);
-            a.max[k] = a.max[k].max(b.max[k]);
-        }
-    }
-
-    fn area(b: &Bounds) -> f32 {
-        if b.min[0] > b.max[0] {
-            0.0
-        } else {
-            half_area(b)
-        }
-    }
-
     fn blocks(n: usize) -> f32 {
         n.div_ceil(PACK) as f32
     }
 
-    fn centre(b: &Bounds, axis: usize) -> f32 {
-        0.5 * (b.min[axis] + b.max[axis])
+    /// Area of a node's box: [`BoundsA::half_area`], 0 for an empty box.
+    fn area(b: &BoundsA) -> f32 {
+        b.half_area()
+    }
+
+    /// A reference's box in SIMD form, and its centre.
+    #[inline(always)]
+    fn boxes(r: &Reference) -> (BoundsA, Vec3A) {
+        let b = BoundsA::new(&r.bounds);
+        let centre = b.centre2() * 0.5;
+        (b, centre)
+    }
+
+    /// A node's box and the box of its references' centres.
+    #[derive(Clone, Copy)]
+    struct NodeBoxes {
+        bounds: BoundsA,
+        centres: BoundsA,
+    }
+
+    impl NodeBoxes {
+        const EMPTY: NodeBoxes = NodeBoxes {
+            bounds: BoundsA::EMPTY,
+            centres: BoundsA::EMPTY,
+        };
+
+        #[inline(always)]
+        fn add(&mut self, r: &Reference) {
+            let (b, centre) = boxes(r);
+            self.bounds.grow(&b);
+            self.centres.grow_point(centre);
+        }
+
+        fn of(refs: &[Reference]) -> NodeBoxes {
+            let mut node = NodeBoxes::EMPTY;
+            refs.iter().for_each(|r| node.add(r));
+            node
+        }
     }
 
     /// The best binned object split of a node.
@@ -355,12 +372,13 @@ mod spatial {
             polygon
         }
 
-        /// Partitions `refs` recursively with at most `budget` new references,
-        /// appending the final references to `out` as chunks in tree order, on
-        /// up to `threads` threads.
+        /// Partitions `refs` (whose boxes are `node`) recursively with at most
+        /// `budget` new references, appending the final references to `out` as
+        /// chunks in tree order, on up to `threads` threads.
         fn partition(
             &self,
             mut refs: Vec<Reference>,
+            node: NodeBoxes,
             budget: usize,
             threads: usize,
             out: &mut Vec<Vec<Reference>>,
@@ -375,13 +393,7 @@ mod spatial {
             if refs.len() < MIN_NODE {
                 return chunk(refs, out, top);
             }
-            let mut bounds = empty();
-            let mut centres = empty();
-            for r in &refs {
-                grow(&mut bounds, &r.bounds);
-                let c: [f32; 3] = std::array::from_fn(|k| centre(&r.bounds, k));
-                grow(&mut centres, &Bounds { min: c, max: c });
-            }
+            let NodeBoxes { bounds, centres } = node;
             // Two children overlap by at most their node's area: below this no
             // spatial split can be tried, and the ordinary build does the rest.
             if area(&bounds) <= OVERLAP * self.root_area {
@@ -395,9 +407,12 @@ mod spatial {
             {
                 spatial = self.spatial_split(&refs, &bounds);
             }
-            let (left, right, budget) = match (object, spatial) {
+            // The two sides, their boxes (gathered while partitioning) and the
+            // budget left.
+            let (left, left_node, right, right_node, budget) = match (object, spatial) {
                 (_, Some((cost, axis, plane))) if object.is_none_or(|o| cost < o.cost) => {
-                    let (left, right, budget) = self.cut(refs, axis, plane, budget);
+                    let (left, left_node, right, right_node, budget) =
+                        self.cut(refs, axis, plane, budget);
                     // A cut that leaves one side empty changed nothing: stop
                     // here rather than recurse on the same references.
                     if left.is_empty() || right.is_empty() {
@@ -408,27 +423,30 @@ mod spatial {
                         out.push(right);
                         return top.len() - 1;
                     }
-                    (left, right, budget)
+                    (left, left_node, right, right_node, budget)
                 }
                 (Some(o), _) => {
-                    let scale =
-                        BINS as f32 * (1.0 - 1e-6) / (centres.max[o.axis] - centres.min[o.axis]);
-                    let is_left = |r: &Reference| {
-                        let c = centre(&r.bounds, o.axis);
-                        ((((c - centres.min[o.axis]) * scale) as usize).min(BINS - 1)) < o.bin
-                    };
-                    // In place, as the ordinary builder partitions.
+                    let low = centres.min[o.axis];
+                    let scale = BINS as f32 * (1.0 - 1e-6) / (centres.max[o.axis] - low);
+                    let (mut left_node, mut right_node) = (NodeBoxes::EMPTY, NodeBoxes::EMPTY);
+                    // In place, as the ordinary builder partitions; each
+                    // reference is classified once.
                     let (mut i, mut j) = (0, refs.len());
                     while i < j {
-                        if is_left(&refs[i]) {
+                        let (b, c) = boxes(&refs[i]);
+                        if bin_index((c[o.axis] - low) * scale, BINS - 1) < o.bin {
+                            left_node.bounds.grow(&b);
+                            left_node.centres.grow_point(c);
                             i += 1;
                         } else {
+                            right_node.bounds.grow(&b);
+                            right_node.centres.grow_point(c);
                             j -= 1;
                             refs.swap(i, j);
                         }
                     }
                     let right = refs.split_off(i);
-                    (refs, right, budget)
+                    (refs, left_node, right, right_node, budget)
                 }
                 (None, _) => {
                     return chunk(refs, out, top);
@@ -447,9 +465,17 @@ mod spatial {
                 let mut right_top = Vec::new();
                 let (left, right) = std::thread::scope(|scope| {
                     let handle = scope.spawn(|| {
-                        self.partition(right, right_budget, half, &mut right_out, &mut right_top)
+                        self.partition(
+                            right,
+                            right_node,
+                            right_budget,
+                            half,
+                            &mut right_out,
+                            &mut right_top,
+                        )
                     });
-                    let left = self.partition(left, left_budget, threads - half, out, top);
+                    let left =
+                        self.partition(left, left_node, left_budget, threads - half, out, top);
                     // A panic in the other half is a bug; re-raise it here.
                     match handle.join() {
                         Ok(right) => (left, right),
@@ -461,8 +487,11 @@ mod spatial {
                 top.extend(right_top.into_iter().map(|node| node.offset(offset)));
                 (left, right + offset)
             } else {
-                let left = self.partition(left, left_budget, threads, out, top);
-                (left, self.partition(right, right_budget, threads, out, top))
+                let left = self.partition(left, left_node, left_budget, threads, out, top);
+                (
+                    left,
+                    self.partition(right, right_node, right_budget, threads, out, top),
+                )
             };
             // The children's counts, which include the references their own
             // spatial splits added.
@@ -472,12 +501,17 @@ mod spatial {
         }
 
         /// The best spatial split: (SAH cost, axis, plane).
-        fn spatial_split(&self, refs: &[Reference], bounds: &Bounds) -> Option<(f32, usize, f32)> {
-            let mut bin_bounds = [[empty(); BINS]; 3];
+        fn spatial_split(&self, refs: &[Reference], bounds: &BoundsA) -> Option<(f32, usize, f32)> {
+            let mut bin_bounds = [[BoundsA::EMPTY; BINS]; 3];
             let mut entry = [[0usize; BINS]; 3];
             let mut exit = [[0usize; BINS]; 3];
             let mut planes = [[0.0f32; BINS + 1]; 3];
             let mut inverse_width = [0.0f32; 3];
+            // Per axis and bin, the bin's planes as boxes that clip only that axis:
+            // the lower plane in the axis's lane of a minimum (−∞ elsewhere), the
+            // upper one in a maximum (+∞ elsewhere).
+            let mut clip_min = [[Vec3A::NEG_INFINITY; BINS]; 3];
+            let mut clip_max = [[Vec3A::INFINITY; BINS]; 3];
             for axis in 0..3 {
                 let lo = bounds.min[axis];
                 let width = (bounds.max[axis] - lo) / BINS as f32;
@@ -491,24 +525,28 @@ mod spatial {
                         lo + width * i as f32
                     }
                 });
+                for i in 0..BINS {
+                    clip_min[axis][i][axis] = planes[axis][i];
+                    clip_max[axis][i][axis] = planes[axis][i + 1];
+                }
             }
+            let inverse = Vec3A::from(inverse_width);
             for r in refs {
+                let b = BoundsA::new(&r.bounds);
+                // Bins by arithmetic: they only place the estimate; which side of
+                // a plane a piece ends on is decided by `cut`.
+                let first_bin = bin_indices((b.min - bounds.min) * inverse, BINS - 1);
+                let last_bin = bin_indices((b.max - bounds.min) * inverse, BINS - 1);
                 for axis in 0..3 {
                     if inverse_width[axis] == 0.0 {
                         continue;
                     }
-                    // Bins by arithmetic: they only place the estimate; which
-                    // side of a plane a piece ends on is decided by `cut`.
-                    let bin_of = |x: f32| {
-                        (((x - bounds.min[axis]) * inverse_width[axis]).max(0.0) as usize)
-                            .min(BINS - 1)
-                    };
-                    let first = bin_of(r.bounds.min[axis]);
-                    let last = bin_of(r.bounds.max[axis]).max(first);
+                    let first = first_bin[axis];
+                    let last = last_bin[axis].max(first);
                     entry[axis][first] += 1;
                     exit[axis][last] += 1;
                     if first == last {
-                        grow(&mut bin_bounds[axis][first], &r.bounds);
+                        bin_bounds[axis][first].grow(&b);
                         continue;
                     }
                     // Chopped binning with the reference's box clipped to each
@@ -516,10 +554,11 @@ mod spatial {
                     // second at under half the cost of clipping the polygon to
                     // every bin; docs/benchmarks.md). `cut` clips exactly.
                     for i in first..=last {
-                        let mut piece = r.bounds;
-                        piece.min[axis] = piece.min[axis].max(planes[axis][i]);
-                        piece.max[axis] = piece.max[axis].min(planes[axis][i + 1]);
-                        grow(&mut bin_bounds[axis][i], &piece);
+                        let piece = BoundsA {
+                            min: b.min.max(clip_min[axis][i]),
+                            max: b.max.min(clip_max[axis][i]),
+                        };
+                        bin_bounds[axis][i].grow(&piece);
                     }
                 }
             }
@@ -529,15 +568,15 @@ mod spatial {
                     continue;
                 }
                 let mut right_cost = [0.0f32; BINS];
-                let (mut acc, mut n) = (empty(), 0);
+                let (mut acc, mut n) = (BoundsA::EMPTY, 0);
                 for i in (1..BINS).rev() {
-                    grow(&mut acc, &bin_bounds[axis][i]);
+                    acc.grow(&bin_bounds[axis][i]);
                     n += exit[axis][i];
                     right_cost[i] = area(&acc) * blocks(n);
                 }
-                let (mut acc, mut n) = (empty(), 0);
+                let (mut acc, mut n) = (BoundsA::EMPTY, 0);
                 for i in 0..BINS - 1 {
-                    grow(&mut acc, &bin_bounds[axis][i]);
+                    acc.grow(&bin_bounds[axis][i]);
                     n += entry[axis][i];
                     let cost = area(&acc) * blocks(n) + right_cost[i + 1];
                     if n > 0 && best.is_none_or(|(c, _, _)| cost < c) {
@@ -549,19 +588,31 @@ mod spatial {
         }
 
         /// Splits `refs` at `plane` on `axis`, cutting those that straddle it
-        /// while `budget` lasts; returns the two sides and the budget left.
+        /// while `budget` lasts; returns the two sides with their boxes and the
+        /// budget left.
         fn cut(
             &self,
-            refs: Vec<Reference>,
+            mut refs: Vec<Reference>,
             axis: usize,
             plane: f32,
             mut budget: usize,
-        ) -> (Vec<Reference>, Vec<Reference>, usize) {
-            let (mut left, mut right) = (Vec::new(), Vec::new());
-            for r in refs {
+        ) -> (Vec<Reference>, NodeBoxes, Vec<Reference>, NodeBoxes, usize) {
+            // The left side is written over `refs` as it is read (each reference
+            // gives at most one left reference, so it never overtakes the reading).
+            let mut right = Vec::with_capacity(refs.len() / 2);
+            let (mut left_node, mut right_node) = (NodeBoxes::EMPTY, NodeBoxes::EMPTY);
+            let mut left_len = 0;
+            for i in 0..refs.len() {
+                let r = refs[i];
+                let mut to_left = |l: Reference| {
+                    left_node.add(&l);
+                    refs[left_len] = l;
+                    left_len += 1;
+                };
                 if r.bounds.max[axis] <= plane {
-                    left.push(r);
+                    to_left(r);
                 } else if r.bounds.min[axis] >= plane {
+                    right_node.add(&r);
                     right.push(r);
                 } else {
                     let (below, above) = self.polygon(&r).split(axis, f64::from(plane));
@@ -574,44 +625,52 @@ mod spatial {
                     match (lower, upper) {
                         (Some(l), Some(u)) if budget > 0 => {
                             budget -= 1;
-                            left.push(Reference {
+                            to_left(Reference {
                                 bounds: l,
                                 triangle,
                             });
-                            right.push(Reference {
+                            let u = Reference {
                                 bounds: u,
                                 triangle,
-                            });
+                            };
+                            right_node.add(&u);
+                            right.push(u);
                         }
                         // Only one side holds area: the other touches the plane,
                         // which the kept side's closed box contains.
-                        (Some(l), None) => left.push(Reference {
+                        (Some(l), None) => to_left(Reference {
                             bounds: l,
                             triangle,
                         }),
-                        (None, Some(u)) => right.push(Reference {
-                            bounds: u,
-                            triangle,
-                        }),
+                        (None, Some(u)) => {
+                            let u = Reference {
+                                bounds: u,
+                                triangle,
+                            };
+                            right_node.add(&u);
+                            right.push(u);
+                        }
                         // Out of budget (or a degenerate clip): kept whole, on the
                         // side of its centre.
                         _ => {
                             if r.bounds.min[axis] + r.bounds.max[axis] < 2.0 * plane {
-                                left.push(r);
+                                to_left(r);
                             } else {
+                                right_node.add(&r);
                                 right.push(r);
                             }
                         }
                     }
                 }
             }
-            (left, right, budget)
+            refs.truncate(left_len);
+            (refs, left_node, right, right_node, budget)
         }
     }
 
     /// The best binned object split, all three axes binned in one pass; `None`
     /// when the centroids fall into one bin.
-    fn object_split(refs: &[Reference], centres: &Bounds) -> Option<ObjectSplit> {
+    fn object_split(refs: &[Reference], centres: &BoundsA) -> Option<ObjectSplit> {
         let scale: [f32; 3] = std::array::from_fn(|k| {
             let extent = centres.max[k] - centres.min[k];
             if extent > 0.0 {
@@ -620,13 +679,14 @@ mod spatial {
                 0.0
             }
         });
-        let mut bin_bounds = [[empty(); BINS]; 3];
+        let scale_a = Vec3A::from(scale);
+        let mut bin_bounds = [[BoundsA::EMPTY; BINS]; 3];
         let mut count = [[0usize; BINS]; 3];
         for r in refs {
-            for axis in 0..3 {
-                let c = centre(&r.bounds, axis);
-                let i = (((c - centres.min[axis]) * scale[axis]) as usize).min(BINS - 1);
-                grow(&mut bin_bounds[axis][i], &r.bounds);
+            let (b, c) = boxes(r);
+            let bin = bin_indices((c - centres.min) * scale_a, BINS - 1);
+            for (axis, &i) in bin.iter().enumerate() {
+                bin_bounds[axis][i].grow(&b);
                 count[axis][i] += 1;
             }
         }
@@ -635,16 +695,16 @@ mod spatial {
             if scale[axis] == 0.0 {
                 continue;
             }
-            let mut right = [(empty(), 0usize); BINS];
-            let (mut acc, mut n) = (empty(), 0);
+            let mut right = [(BoundsA::EMPTY, 0usize); BINS];
+            let (mut acc, mut n) = (BoundsA::EMPTY, 0);
             for i in (1..BINS).rev() {
-                grow(&mut acc, &bin_bounds[axis][i]);
+                acc.grow(&bin_bounds[axis][i]);
                 n += count[axis][i];
                 right[i] = (acc, n);
             }
-            let (mut acc, mut n) = (empty(), 0);
+            let (mut acc, mut n) = (BoundsA::EMPTY, 0);
             for i in 0..BINS - 1 {
-                grow(&mut acc, &bin_bounds[axis][i]);
+                acc.grow(&bin_bounds[axis][i]);
                 n += count[axis][i];
                 let (r_box, r_n) = right[i + 1];
                 if n == 0 || r_n == 0 {
@@ -652,12 +712,12 @@ mod spatial {
                 }
                 let cost = area(&acc) * blocks(n) + area(&r_box) * blocks(r_n);
                 if best.is_none_or(|o| cost < o.cost) {
-                    let overlap = Bounds {
-                        min: std::array::from_fn(|k| acc.min[k].max(r_box.min[k])),
-                        max: std::array::from_fn(|k| acc.max[k].min(r_box.max[k])),
+                    let overlap = BoundsA {
+                        min: acc.min.max(r_box.min),
+                        max: acc.max.min(r_box.max),
                     };
-                    let overlap = if (0..3).all(|k| overlap.min[k] <= overlap.max[k]) {
-                        half_area(&overlap)
+                    let overlap = if overlap.min.cmple(overlap.max).all() {
+                        overlap.half_area()
                     } else {
                         0.0
                     };
@@ -682,21 +742,20 @@ mod spatial {
         triangle: Vec<u32>,
         threads: usize,
     ) -> (Vec<Bounds>, Vec<u32>, Vec<TopNode>) {
-        let mut root = empty();
-        boxes.iter().for_each(|b| grow(&mut root, b));
-        let context = Context {
-            triangles,
-            root_area: area(&root),
-        };
         let budget = (BUDGET * boxes.len() as f32) as usize;
         let refs: Vec<Reference> = boxes
             .into_iter()
             .zip(triangle)
             .map(|(bounds, triangle)| Reference { bounds, triangle })
             .collect();
+        let root = NodeBoxes::of(&refs);
+        let context = Context {
+            triangles,
+            root_area: area(&root.bounds),
+        };
         let mut chunks = Vec::new();
         let mut top = Vec::new();
-        context.partition(refs, budget, threads.max(1), &mut chunks, &mut top);
+        context.partition(refs, root, budget, threads.max(1), &mut chunks, &mut top);
         let (boxes, triangle) = chunks
             .into_iter()
             .flatten()

@@ -41,7 +41,10 @@
 //! box's edge, found by the tests). Empty child slots have the box `[+∞, −∞]`,
 //! which no ray enters.
 
+use glam::Vec3A;
+
 use super::Bounds;
+use super::boxes::{BoundsA, bin_index, bin_indices};
 
 pub(super) use super::triangle::PACK;
 
@@ -879,22 +882,12 @@ fn binary_tree(
     bins: usize,
     threads: usize,
 ) -> (Vec<BinNode>, Vec<u32>) {
-    let centroids: Vec<[f32; 3]> = boxes
-        .iter()
-        .map(|b| std::array::from_fn(|k| b.min[k] + b.max[k]))
-        .collect();
+    let boxes: Vec<BoundsA> = boxes.iter().map(BoundsA::new).collect();
     let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
-    let mut builder = BinaryBuilder {
-        boxes,
-        centroids: &centroids,
-        order: &mut order,
-        base: 0,
-        nodes: Vec::with_capacity(2 * boxes.len() / PACK + 1),
-        bins: bins.clamp(2, 256),
-        threads: threads.max(1),
-    };
+    let mut builder = BinaryBuilder::new(&boxes, &mut order, 0, bins.clamp(2, 256), threads.max(1));
     if top.is_empty() {
-        builder.build(0, boxes.len(), 0);
+        let (bounds, centres) = builder.range_bounds(0, boxes.len());
+        builder.build(0, boxes.len(), 0, bounds, centres);
     } else {
         builder.build_top(top, 0, 0, 0);
     }
@@ -975,9 +968,9 @@ impl TopNode {
 /// Top-down binned-SAH builder of the binary tree; `order` is partitioned in place so
 /// that each node's primitives are contiguous.
 struct BinaryBuilder<'a> {
-    boxes: &'a [Bounds],
-    /// Twice each box's centre (the factor of 2 changes no decision).
-    centroids: &'a [[f32; 3]],
+    /// The primitives' boxes; twice a box's centre is its `centre2` (the factor of
+    /// 2 changes no decision).
+    boxes: &'a [BoundsA],
     /// The part of the slot order this builder works on: slots `base..`.
     order: &'a mut [u32],
     base: usize,
@@ -985,6 +978,11 @@ struct BinaryBuilder<'a> {
     bins: usize,
     /// Threads this builder may use (itself included).
     threads: usize,
+    /// Scratch of [`BinaryBuilder::sah_split`], kept between nodes: for each bin,
+    /// per axis, the box and the number of its primitives; the right sweep's costs.
+    bin_bounds: Vec<[BoundsA; 3]>,
+    bin_count: Vec<[usize; 3]>,
+    right_cost: Vec<f32>,
 }
 
 /// Fewest primitives for which a subtree is handed to another thread.
@@ -993,23 +991,63 @@ const PARALLEL_MIN: usize = 4096;
 /// Relative cost of one node visit against one pack test, for the SAH.
 const TRAVERSAL_COST: f32 = 1.0;
 
+/// A node's box and the box of its primitives' (doubled) centres.
+type NodeBoxes = (BoundsA, BoundsA);
+
 impl<'a> BinaryBuilder<'a> {
-    /// Builds the subtree over slots `first..first + count`; returns its node index.
-    fn build(&mut self, first: usize, count: usize, depth: usize) -> usize {
-        let index = self.nodes.len();
-        let range = first - self.base..first - self.base + count;
-        let mut bounds = Bounds::empty();
-        let mut centres = Bounds::empty();
-        for &p in &self.order[range] {
-            bounds.grow(&self.boxes[p as usize]);
-            let c = self.centroids[p as usize];
-            centres.grow(&Bounds { min: c, max: c });
+    fn new(
+        boxes: &'a [BoundsA],
+        order: &'a mut [u32],
+        base: usize,
+        bins: usize,
+        threads: usize,
+    ) -> BinaryBuilder<'a> {
+        let capacity = 2 * order.len() / PACK + 1;
+        BinaryBuilder {
+            boxes,
+            order,
+            base,
+            nodes: Vec::with_capacity(capacity),
+            bins,
+            threads,
+            bin_bounds: vec![[BoundsA::EMPTY; 3]; bins],
+            bin_count: vec![[0; 3]; bins],
+            right_cost: vec![0.0; bins],
         }
+    }
+
+    /// The box and the centres' box of slots `first..first + count`.
+    fn range_bounds(&self, first: usize, count: usize) -> NodeBoxes {
+        let mut bounds = BoundsA::EMPTY;
+        let mut centres = BoundsA::EMPTY;
+        for &p in &self.order[first - self.base..first - self.base + count] {
+            let b = &self.boxes[p as usize];
+            bounds.grow(b);
+            centres.grow_point(b.centre2());
+        }
+        (bounds, centres)
+    }
+
+    /// Builds the subtree over slots `first..first + count`, whose box and centres'
+    /// box are `bounds` and `centres`; returns its node index.
+    fn build(
+        &mut self,
+        first: usize,
+        count: usize,
+        depth: usize,
+        bounds: BoundsA,
+        centres: BoundsA,
+    ) -> usize {
+        let index = self.nodes.len();
         self.nodes.push(BinNode {
-            bounds,
+            bounds: bounds.bounds(),
             kind: BinKind::Leaf { first, count },
         });
-        if count <= 1 {
+        // A leaf when it fits one pack and its area is finite: then the SAH always
+        // prefers it (a split costs the node's area plus its children's, which are
+        // finite and not negative, a leaf its area once), so this skips binning
+        // that could only confirm it.
+        if count <= 1 || (count <= MAX_LEAF && bounds.half_area().is_finite()) {
             return index;
         }
         let split = if depth < MEDIAN_DEPTH {
@@ -1017,18 +1055,27 @@ impl<'a> BinaryBuilder<'a> {
         } else {
             None
         };
-        let mid = match split {
-            Some(Some(mid)) => mid,
+        let (mid, left_boxes, right_boxes) = match split {
+            Some(Some(split)) => split,
             // The SAH prefers a leaf.
             Some(None) => return index,
             None if count <= MAX_LEAF => return index,
             None => self.median_split(first, count, &centres),
         };
         let (left, right) = if self.threads > 1 && count >= PARALLEL_MIN {
-            self.build_both_in_parallel(first, mid, first + count, depth + 1)
+            self.build_both_in_parallel(
+                first,
+                mid,
+                first + count,
+                depth + 1,
+                left_boxes,
+                right_boxes,
+            )
         } else {
-            let left = self.build(first, mid - first, depth + 1);
-            (left, self.build(mid, first + count - mid, depth + 1))
+            let (b, c) = left_boxes;
+            let left = self.build(first, mid - first, depth + 1, b, c);
+            let (b, c) = right_boxes;
+            (left, self.build(mid, first + count - mid, depth + 1, b, c))
         };
         self.nodes[index].kind = BinKind::Inner { left, right };
         index
@@ -1040,7 +1087,10 @@ impl<'a> BinaryBuilder<'a> {
     /// started with: the caller keeps the slots that come after.
     fn build_top(&mut self, top: &[TopNode], t: usize, first: usize, depth: usize) -> usize {
         let (left, right, refs) = match top[t] {
-            TopNode::Leaf { refs } => return self.build(first, refs, depth),
+            TopNode::Leaf { refs } => {
+                let (bounds, centres) = self.range_bounds(first, refs);
+                return self.build(first, refs, depth, bounds, centres);
+            }
             TopNode::Inner { left, right, refs } => (left, right, refs),
         };
         let index = self.nodes.len();
@@ -1057,15 +1107,13 @@ impl<'a> BinaryBuilder<'a> {
             let half = threads / 2;
             self.threads -= half;
             let right_refs = top[right].refs();
-            let mut right_builder = BinaryBuilder {
-                boxes: self.boxes,
-                centroids: self.centroids,
-                order: &mut right_order[..right_refs],
-                base: mid,
-                nodes: Vec::with_capacity(2 * right_refs / PACK + 1),
-                bins: self.bins,
-                threads: half,
-            };
+            let mut right_builder = BinaryBuilder::new(
+                self.boxes,
+                &mut right_order[..right_refs],
+                mid,
+                self.bins,
+                half,
+            );
             let left = std::thread::scope(|scope| {
                 let right = scope.spawn(|| right_builder.build_top(top, right, mid, depth + 1));
                 let left = self.build_top(top, left, first, depth + 1);
@@ -1102,6 +1150,8 @@ impl<'a> BinaryBuilder<'a> {
         mid: usize,
         end: usize,
         depth: usize,
+        (left_bounds, left_centres): NodeBoxes,
+        (right_bounds, right_centres): NodeBoxes,
     ) -> (usize, usize) {
         let order = std::mem::take(&mut self.order);
         let (left_order, right_order) = order.split_at_mut(mid - self.base);
@@ -1109,18 +1159,11 @@ impl<'a> BinaryBuilder<'a> {
         self.order = left_order;
         let half = self.threads / 2;
         self.threads -= half;
-        let mut right_builder = BinaryBuilder {
-            boxes: self.boxes,
-            centroids: self.centroids,
-            order: right_order,
-            base: mid,
-            nodes: Vec::with_capacity(2 * (end - mid) / PACK + 1),
-            bins: self.bins,
-            threads: half,
-        };
+        let mut right_builder = BinaryBuilder::new(self.boxes, right_order, mid, self.bins, half);
         let left = std::thread::scope(|scope| {
-            let right = scope.spawn(|| right_builder.build(mid, end - mid, depth));
-            let left = self.build(first, mid - first, depth);
+            let right = scope
+                .spawn(|| right_builder.build(mid, end - mid, depth, right_bounds, right_centres));
+            let left = self.build(first, mid - first, depth, left_bounds, left_centres);
             // A panic in the right half is a bug; re-raise it here.
             if let Err(payload) = right.join() {
                 std::panic::resume_unwind(payload);
@@ -1144,19 +1187,21 @@ impl<'a> BinaryBuilder<'a> {
         offset
     }
 
-    /// The best SAH split, partitioning `order` accordingly: `Some(Some(mid))` (the
-    /// right child starts at `mid`), `Some(None)` when a leaf is cheaper (only for at
-    /// most [`MAX_LEAF`] primitives), `None` when the centroids fall into one bin.
+    /// The best SAH split, partitioning `order` accordingly: `Some(Some((mid, left,
+    /// right)))` (the right child starts at `mid`; the children's boxes, gathered
+    /// while partitioning), `Some(None)` when a leaf is cheaper (only for at most
+    /// [`MAX_LEAF`] primitives), `None` when the centroids fall into one bin.
+    #[allow(clippy::type_complexity)]
     fn sah_split(
         &mut self,
         first: usize,
         count: usize,
-        bounds: &Bounds,
-        centres: &Bounds,
-    ) -> Option<Option<usize>> {
+        bounds: &BoundsA,
+        centres: &BoundsA,
+    ) -> Option<Option<(usize, NodeBoxes, NodeBoxes)>> {
         let bins = self.bins;
         let range = first - self.base..first - self.base + count;
-        let extent: [f32; 3] = std::array::from_fn(|k| centres.max[k] - centres.min[k]);
+        let extent = centres.max - centres.min;
         // Bin index of centroid coordinate x on axis k; scale 0 on a flat axis.
         let scale: [f32; 3] = std::array::from_fn(|k| {
             if extent[k] > 0.0 {
@@ -1165,34 +1210,44 @@ impl<'a> BinaryBuilder<'a> {
                 0.0
             }
         });
-        let bin_of = |x: f32, k: usize| (((x - centres.min[k]) * scale[k]) as usize).min(bins - 1);
-        let mut bin_bounds = vec![[Bounds::empty(); 3]; bins];
-        let mut bin_count = vec![[0usize; 3]; bins];
+        let scale_a = Vec3A::from(scale);
+        let bin_bounds = &mut self.bin_bounds[..bins];
+        let bin_count = &mut self.bin_count[..bins];
+        bin_bounds.fill([BoundsA::EMPTY; 3]);
+        bin_count.fill([0; 3]);
         for &p in &self.order[range.clone()] {
-            let c = self.centroids[p as usize];
             let b = &self.boxes[p as usize];
+            let bin = bin_indices((b.centre2() - centres.min) * scale_a, bins - 1);
             for k in 0..3 {
-                let i = bin_of(c[k], k);
-                bin_bounds[i][k].grow(b);
-                bin_count[i][k] += 1;
+                bin_bounds[bin[k]][k].grow(b);
+                bin_count[bin[k]][k] += 1;
             }
         }
         // Sweep from the right: area × blocks of the right part for each split.
+        // An empty bin changes neither side's box nor count, so its costs are
+        // those of the bin before it: copied on the right, skipped on the left
+        // (an equal cost never replaces the best).
         let blocks = |n: usize| n.div_ceil(PACK) as f32;
         let mut best: Option<(f32, usize, usize)> = None;
-        let mut right_cost = vec![0.0f32; bins];
+        let right_cost = &mut self.right_cost[..bins];
         for k in 0..3 {
             if scale[k] == 0.0 {
                 continue;
             }
-            let (mut acc, mut n) = (Bounds::empty(), 0);
+            let (mut acc, mut n, mut cost) = (BoundsA::EMPTY, 0, 0.0);
             for i in (1..bins).rev() {
-                acc.grow(&bin_bounds[i][k]);
-                n += bin_count[i][k];
-                right_cost[i] = acc.half_area() * blocks(n);
+                if bin_count[i][k] != 0 {
+                    acc.grow(&bin_bounds[i][k]);
+                    n += bin_count[i][k];
+                    cost = acc.half_area() * blocks(n);
+                }
+                right_cost[i] = cost;
             }
-            let (mut acc, mut n) = (Bounds::empty(), 0);
+            let (mut acc, mut n) = (BoundsA::EMPTY, 0);
             for i in 0..bins - 1 {
+                if bin_count[i][k] == 0 {
+                    continue;
+                }
                 acc.grow(&bin_bounds[i][k]);
                 n += bin_count[i][k];
                 if n == 0 || n == count {
@@ -1211,34 +1266,52 @@ impl<'a> BinaryBuilder<'a> {
         if count <= MAX_LEAF && leaf_cost <= split_cost {
             return Some(None);
         }
-        // Partition: left the centroids in bins below `split_bin`.
+        // Partition: left the centroids in bins below `split_bin`; each side's
+        // boxes on the way (each primitive is classified once).
+        let (low, s) = (centres.min[axis], scale[axis]);
+        let boxes = self.boxes;
         let slice = &mut self.order[range];
+        let mut left = (BoundsA::EMPTY, BoundsA::EMPTY);
+        let mut right = (BoundsA::EMPTY, BoundsA::EMPTY);
         let (mut i, mut j) = (0, slice.len());
         while i < j {
-            if bin_of(self.centroids[slice[i] as usize][axis], axis) < split_bin {
+            let b = &boxes[slice[i] as usize];
+            let c = b.centre2();
+            if bin_index((c[axis] - low) * s, bins - 1) < split_bin {
+                left.0.grow(b);
+                left.1.grow_point(c);
                 i += 1;
             } else {
+                right.0.grow(b);
+                right.1.grow_point(c);
                 j -= 1;
                 slice.swap(i, j);
             }
         }
-        Some(Some(first + i))
+        Some(Some((first + i, left, right)))
     }
 
     /// Splits at the median centroid along the widest centroid axis; returns the start
-    /// of the right half.
-    fn median_split(&mut self, first: usize, count: usize, centres: &Bounds) -> usize {
-        let extent: [f32; 3] = std::array::from_fn(|k| centres.max[k] - centres.min[k]);
+    /// of the right half and the two halves' boxes.
+    fn median_split(
+        &mut self,
+        first: usize,
+        count: usize,
+        centres: &BoundsA,
+    ) -> (usize, NodeBoxes, NodeBoxes) {
+        let extent = (centres.max - centres.min).to_array();
         let axis = (0..3)
             .max_by(|&a, &b| extent[a].total_cmp(&extent[b]))
             .unwrap_or(0);
         let half = count / 2;
-        let centroids = &self.centroids;
+        let boxes = self.boxes;
         let start = first - self.base;
         self.order[start..start + count].select_nth_unstable_by(half, |&a, &b| {
-            centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
+            boxes[a as usize].centre2()[axis].total_cmp(&boxes[b as usize].centre2()[axis])
         });
-        first + half
+        let left = self.range_bounds(first, half);
+        let right = self.range_bounds(first + half, count - half);
+        (first + half, left, right)
     }
 }
 

@@ -1,0 +1,98 @@
+//! A box in two SIMD registers for the builders' inner loops (`accel/wide.rs`,
+//! `accel/split.rs`): its minimum and maximum as glam's `Vec3A`, so that growing a
+//! box is one `minps` and one `maxps` instead of six scalar `f32::min`/`f32::max`
+//! (each of which LLVM builds from a `minss`, an unordered compare and a blend, to
+//! honour NaN; no NaN arises in the builders, whose boxes are finite or empty).
+//!
+//! **Same results as the scalar code, bit for bit.** Minima and maxima are exact,
+//! the lanes' sums and products are the scalar ones, and [`BoundsA::half_area`] adds
+//! its three products in the scalar order. The one possible difference is the sign
+//! of a zero (`minps` returns its second operand when both are zero), which no
+//! comparison, area or bin index sees and which the stored child boxes lose when
+//! they are widened by one ulp (`next_down(±0)` is the same number). Checked on the
+//! Lamborghini, the default car and the torus: the same tree as the scalar builders
+//! (docs/benchmarks.md, "Faster build (session 7)").
+
+use glam::Vec3A;
+
+use super::Bounds;
+
+#[derive(Debug, Clone, Copy)]
+pub(super) struct BoundsA {
+    pub min: Vec3A,
+    pub max: Vec3A,
+}
+
+impl BoundsA {
+    /// The empty box (`[+∞, −∞]`: growing it by a box gives that box).
+    pub const EMPTY: BoundsA = BoundsA {
+        min: Vec3A::INFINITY,
+        max: Vec3A::NEG_INFINITY,
+    };
+
+    #[inline(always)]
+    pub fn new(b: &Bounds) -> BoundsA {
+        BoundsA {
+            min: Vec3A::from(b.min),
+            max: Vec3A::from(b.max),
+        }
+    }
+
+    #[inline(always)]
+    pub fn bounds(&self) -> Bounds {
+        Bounds {
+            min: self.min.into(),
+            max: self.max.into(),
+        }
+    }
+
+    #[inline(always)]
+    pub fn grow(&mut self, other: &BoundsA) {
+        self.min = self.min.min(other.min);
+        self.max = self.max.max(other.max);
+    }
+
+    #[inline(always)]
+    pub fn grow_point(&mut self, p: Vec3A) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+
+    /// Half the surface area, 0 for an empty box: the scalar `half_area` of
+    /// `accel/wide.rs` and `accel/split.rs`, same operations in the same order.
+    #[inline(always)]
+    pub fn half_area(&self) -> f32 {
+        let d = (self.max - self.min).max(Vec3A::ZERO);
+        d.x * d.y + d.y * d.z + d.z * d.x
+    }
+
+    /// The minimum plus the maximum: twice the centre.
+    #[inline(always)]
+    pub fn centre2(&self) -> Vec3A {
+        self.min + self.max
+    }
+}
+
+/// The bins of three coordinates already scaled to bin units, each clamped to
+/// `0..=last` (at most 2²³): exactly `(t as usize).min(last)` lane by lane, for
+/// every t (NaN gives 0 either way, as does a negative t), but without the 17
+/// instructions of a saturating f32 → usize conversion a lane.
+#[inline(always)]
+pub(super) fn bin_indices(t: Vec3A, last: usize) -> [usize; 3] {
+    // `maxps` returns its second operand, 0, for a NaN lane.
+    let t = t.max(Vec3A::ZERO).min(Vec3A::splat(last as f32));
+    // An integer below 2²³ plus 2²³ is exact, and the integer is the low bits of
+    // the sum's mantissa.
+    let shifted = t.floor() + Vec3A::splat(8_388_608.0);
+    shifted
+        .to_array()
+        .map(|s| (s.to_bits() & 0x7f_ffff) as usize)
+}
+
+/// [`bin_indices`] for one coordinate.
+#[inline(always)]
+pub(super) fn bin_index(t: f32, last: usize) -> usize {
+    // `f32::max` returns 0 for a NaN `t`.
+    let t = t.max(0.0).min(last as f32);
+    ((t.floor() + 8_388_608.0).to_bits() & 0x7f_ffff) as usize
+}
