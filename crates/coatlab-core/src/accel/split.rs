@@ -19,10 +19,10 @@
 //!
 //! With `ReferenceSplits::Spatial` the references then go through an SBVH-style
 //! pass (module `spatial` below): ×1.13–1.19 rays per CPU-second on the
-//! Lamborghini, none on the default car and the torus, at about 1.8 times the
-//! build's CPU time (163 against 92 ms on one thread since its partition is kept
-//! as the top of the tree, session 6; 200 before); the default
-//! (docs/benchmarks.md, "A faster pass" and "SAH collapse").
+//! Lamborghini (×1.26–1.30 on two cores in session 7), none on the default car and
+//! the torus, at about 1.7 times the build's time (session 7: 122–150 against
+//! 63–88 ms on one thread); the default (docs/benchmarks.md, "A faster pass", "SAH
+//! collapse" and "Faster build (session 7)").
 
 use super::wide::TopNode;
 use super::{Bounds, ReferenceSplits};
