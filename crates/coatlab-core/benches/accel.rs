@@ -40,8 +40,8 @@
 //!   each `ReferenceSplits` setting (with the build's CPU time).
 //! - `ACCEL_CPU=1 …/accel-<hash>` (the bench binary itself, two builds of it in
 //!   turn): the default tree's incoherent and image-order bounce rays through
-//!   `closest_hits` on one thread, M rays per CPU-second: A/B comparisons of
-//!   traversal changes on a loaded machine.
+//!   `closest_hits` on one thread, M rays per CPU-second and per wall-clock second
+//!   (best of 15 each): A/B comparisons of traversal changes on a noisy machine.
 //! - `ACCEL_ONCE=1` traces 2¹⁶ rays once, for instruction counts under callgrind.
 //! - `ACCEL_DUMP=DIR` writes each mesh and its rays to `DIR/<mesh>.bin` for other
 //!   ray tracers (`benches/embree/`: Intel Embree 4 on the same rays).
@@ -585,14 +585,7 @@ fn batch_comparison() {
         ("spatial", ReferenceSplits::Spatial),
     ];
     for (name, mesh) in meshes() {
-        let rays: Vec<RayQuery> = incoherent_rays(&mesh, INCOHERENT_RAYS, 7)
-            .into_iter()
-            .map(|(origin, dir)| RayQuery {
-                origin,
-                dir,
-                t_max: f32::INFINITY,
-            })
-            .collect();
+        let rays = queries(&mesh, "incoherent");
         eprintln!("{name}: load average before: {}", load_average());
         // Builds on this thread, best of 3 CPU times, for each split placement;
         // and on all cores (`threads: 0`), best of 3 wall-clock times.

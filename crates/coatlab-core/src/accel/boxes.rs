@@ -73,6 +73,29 @@ impl BoundsA {
     }
 }
 
+/// A node's box and the box of its primitives' centres (doubled centres in the
+/// binary builder, plain ones in the spatial pass: the factor changes no decision),
+/// gathered by the builders while they partition a node's parent.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct NodeBoxes {
+    pub bounds: BoundsA,
+    pub centres: BoundsA,
+}
+
+impl NodeBoxes {
+    pub const EMPTY: NodeBoxes = NodeBoxes {
+        bounds: BoundsA::EMPTY,
+        centres: BoundsA::EMPTY,
+    };
+
+    /// Adds a primitive's box and its centre.
+    #[inline(always)]
+    pub fn grow(&mut self, b: &BoundsA, centre: Vec3A) {
+        self.bounds.grow(b);
+        self.centres.grow_point(centre);
+    }
+}
+
 /// The bins of three coordinates already scaled to bin units, each clamped to
 /// `0..=last` (at most 2²³): exactly `(t as usize).min(last)` lane by lane, for
 /// every t (NaN gives 0 either way, as does a negative t), but without the 17

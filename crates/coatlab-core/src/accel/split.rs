@@ -182,7 +182,7 @@ fn split(
 mod spatial {
     use glam::Vec3A;
 
-    use super::super::boxes::{BoundsA, bin_index, bin_indices};
+    use super::super::boxes::{BoundsA, NodeBoxes, bin_index, bin_indices};
     use super::{Bounds, TopNode};
 
     /// Bins per axis for both kinds of split.
@@ -294,11 +294,6 @@ mod spatial {
         n.div_ceil(PACK) as f32
     }
 
-    /// Area of a node's box: [`BoundsA::half_area`], 0 for an empty box.
-    fn area(b: &BoundsA) -> f32 {
-        b.half_area()
-    }
-
     /// A reference's box in SIMD form, and its centre.
     #[inline(always)]
     fn boxes(r: &Reference) -> (BoundsA, Vec3A) {
@@ -307,31 +302,11 @@ mod spatial {
         (b, centre)
     }
 
-    /// A node's box and the box of its references' centres.
-    #[derive(Clone, Copy)]
-    struct NodeBoxes {
-        bounds: BoundsA,
-        centres: BoundsA,
-    }
-
-    impl NodeBoxes {
-        const EMPTY: NodeBoxes = NodeBoxes {
-            bounds: BoundsA::EMPTY,
-            centres: BoundsA::EMPTY,
-        };
-
-        #[inline(always)]
-        fn add(&mut self, r: &Reference) {
-            let (b, centre) = boxes(r);
-            self.bounds.grow(&b);
-            self.centres.grow_point(centre);
-        }
-
-        fn of(refs: &[Reference]) -> NodeBoxes {
-            let mut node = NodeBoxes::EMPTY;
-            refs.iter().for_each(|r| node.add(r));
-            node
-        }
+    /// Adds a reference to a node's boxes.
+    #[inline(always)]
+    fn add(node: &mut NodeBoxes, r: &Reference) {
+        let (b, centre) = boxes(r);
+        node.grow(&b, centre);
     }
 
     /// The best binned object split of a node.
@@ -396,7 +371,7 @@ mod spatial {
             let NodeBoxes { bounds, centres } = node;
             // Two children overlap by at most their node's area: below this no
             // spatial split can be tried, and the ordinary build does the rest.
-            if area(&bounds) <= OVERLAP * self.root_area {
+            if bounds.half_area() <= OVERLAP * self.root_area {
                 return chunk(refs, out, top);
             }
             let object = object_split(&refs, &centres);
@@ -435,12 +410,10 @@ mod spatial {
                     while i < j {
                         let (b, c) = boxes(&refs[i]);
                         if bin_index((c[o.axis] - low) * scale, BINS - 1) < o.bin {
-                            left_node.bounds.grow(&b);
-                            left_node.centres.grow_point(c);
+                            left_node.grow(&b, c);
                             i += 1;
                         } else {
-                            right_node.bounds.grow(&b);
-                            right_node.centres.grow_point(c);
+                            right_node.grow(&b, c);
                             j -= 1;
                             refs.swap(i, j);
                         }
@@ -572,13 +545,13 @@ mod spatial {
                 for i in (1..BINS).rev() {
                     acc.grow(&bin_bounds[axis][i]);
                     n += exit[axis][i];
-                    right_cost[i] = area(&acc) * blocks(n);
+                    right_cost[i] = acc.half_area() * blocks(n);
                 }
                 let (mut acc, mut n) = (BoundsA::EMPTY, 0);
                 for i in 0..BINS - 1 {
                     acc.grow(&bin_bounds[axis][i]);
                     n += entry[axis][i];
-                    let cost = area(&acc) * blocks(n) + right_cost[i + 1];
+                    let cost = acc.half_area() * blocks(n) + right_cost[i + 1];
                     if n > 0 && best.is_none_or(|(c, _, _)| cost < c) {
                         best = Some((cost, axis, planes[axis][i + 1]));
                     }
@@ -605,14 +578,14 @@ mod spatial {
             for i in 0..refs.len() {
                 let r = refs[i];
                 let mut to_left = |l: Reference| {
-                    left_node.add(&l);
+                    add(&mut left_node, &l);
                     refs[left_len] = l;
                     left_len += 1;
                 };
                 if r.bounds.max[axis] <= plane {
                     to_left(r);
                 } else if r.bounds.min[axis] >= plane {
-                    right_node.add(&r);
+                    add(&mut right_node, &r);
                     right.push(r);
                 } else {
                     let (below, above) = self.polygon(&r).split(axis, f64::from(plane));
@@ -633,7 +606,7 @@ mod spatial {
                                 bounds: u,
                                 triangle,
                             };
-                            right_node.add(&u);
+                            add(&mut right_node, &u);
                             right.push(u);
                         }
                         // Only one side holds area: the other touches the plane,
@@ -647,7 +620,7 @@ mod spatial {
                                 bounds: u,
                                 triangle,
                             };
-                            right_node.add(&u);
+                            add(&mut right_node, &u);
                             right.push(u);
                         }
                         // Out of budget (or a degenerate clip): kept whole, on the
@@ -656,7 +629,7 @@ mod spatial {
                             if r.bounds.min[axis] + r.bounds.max[axis] < 2.0 * plane {
                                 to_left(r);
                             } else {
-                                right_node.add(&r);
+                                add(&mut right_node, &r);
                                 right.push(r);
                             }
                         }
@@ -710,7 +683,7 @@ mod spatial {
                 if n == 0 || r_n == 0 {
                     continue;
                 }
-                let cost = area(&acc) * blocks(n) + area(&r_box) * blocks(r_n);
+                let cost = acc.half_area() * blocks(n) + r_box.half_area() * blocks(r_n);
                 if best.is_none_or(|o| cost < o.cost) {
                     let overlap = BoundsA {
                         min: acc.min.max(r_box.min),
@@ -748,10 +721,11 @@ mod spatial {
             .zip(triangle)
             .map(|(bounds, triangle)| Reference { bounds, triangle })
             .collect();
-        let root = NodeBoxes::of(&refs);
+        let mut root = NodeBoxes::EMPTY;
+        refs.iter().for_each(|r| add(&mut root, r));
         let context = Context {
             triangles,
-            root_area: area(&root.bounds),
+            root_area: root.bounds.half_area(),
         };
         let mut chunks = Vec::new();
         let mut top = Vec::new();

@@ -44,7 +44,7 @@
 use glam::Vec3A;
 
 use super::Bounds;
-use super::boxes::{BoundsA, bin_index, bin_indices};
+use super::boxes::{BoundsA, NodeBoxes, bin_index, bin_indices};
 
 pub(super) use super::triangle::PACK;
 
@@ -886,8 +886,8 @@ fn binary_tree(
     let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
     let mut builder = BinaryBuilder::new(&boxes, &mut order, 0, bins.clamp(2, 256), threads.max(1));
     if top.is_empty() {
-        let (bounds, centres) = builder.range_bounds(0, boxes.len());
-        builder.build(0, boxes.len(), 0, bounds, centres);
+        let node = builder.range_bounds(0, boxes.len());
+        builder.build(0, boxes.len(), 0, node);
     } else {
         builder.build_top(top, 0, 0, 0);
     }
@@ -991,9 +991,6 @@ const PARALLEL_MIN: usize = 4096;
 /// Relative cost of one node visit against one pack test, for the SAH.
 const TRAVERSAL_COST: f32 = 1.0;
 
-/// A node's box and the box of its primitives' (doubled) centres.
-type NodeBoxes = (BoundsA, BoundsA);
-
 impl<'a> BinaryBuilder<'a> {
     fn new(
         boxes: &'a [BoundsA],
@@ -1018,26 +1015,18 @@ impl<'a> BinaryBuilder<'a> {
 
     /// The box and the centres' box of slots `first..first + count`.
     fn range_bounds(&self, first: usize, count: usize) -> NodeBoxes {
-        let mut bounds = BoundsA::EMPTY;
-        let mut centres = BoundsA::EMPTY;
+        let mut node = NodeBoxes::EMPTY;
         for &p in &self.order[first - self.base..first - self.base + count] {
             let b = &self.boxes[p as usize];
-            bounds.grow(b);
-            centres.grow_point(b.centre2());
+            node.grow(b, b.centre2());
         }
-        (bounds, centres)
+        node
     }
 
     /// Builds the subtree over slots `first..first + count`, whose box and centres'
-    /// box are `bounds` and `centres`; returns its node index.
-    fn build(
-        &mut self,
-        first: usize,
-        count: usize,
-        depth: usize,
-        bounds: BoundsA,
-        centres: BoundsA,
-    ) -> usize {
+    /// box are `node`; returns its node index.
+    fn build(&mut self, first: usize, count: usize, depth: usize, node: NodeBoxes) -> usize {
+        let NodeBoxes { bounds, centres } = node;
         let index = self.nodes.len();
         self.nodes.push(BinNode {
             bounds: bounds.bounds(),
@@ -1072,10 +1061,11 @@ impl<'a> BinaryBuilder<'a> {
                 right_boxes,
             )
         } else {
-            let (b, c) = left_boxes;
-            let left = self.build(first, mid - first, depth + 1, b, c);
-            let (b, c) = right_boxes;
-            (left, self.build(mid, first + count - mid, depth + 1, b, c))
+            let left = self.build(first, mid - first, depth + 1, left_boxes);
+            (
+                left,
+                self.build(mid, first + count - mid, depth + 1, right_boxes),
+            )
         };
         self.nodes[index].kind = BinKind::Inner { left, right };
         index
@@ -1088,8 +1078,8 @@ impl<'a> BinaryBuilder<'a> {
     fn build_top(&mut self, top: &[TopNode], t: usize, first: usize, depth: usize) -> usize {
         let (left, right, refs) = match top[t] {
             TopNode::Leaf { refs } => {
-                let (bounds, centres) = self.range_bounds(first, refs);
-                return self.build(first, refs, depth, bounds, centres);
+                let node = self.range_bounds(first, refs);
+                return self.build(first, refs, depth, node);
             }
             TopNode::Inner { left, right, refs } => (left, right, refs),
         };
@@ -1150,8 +1140,8 @@ impl<'a> BinaryBuilder<'a> {
         mid: usize,
         end: usize,
         depth: usize,
-        (left_bounds, left_centres): NodeBoxes,
-        (right_bounds, right_centres): NodeBoxes,
+        left_node: NodeBoxes,
+        right_node: NodeBoxes,
     ) -> (usize, usize) {
         let order = std::mem::take(&mut self.order);
         let (left_order, right_order) = order.split_at_mut(mid - self.base);
@@ -1161,9 +1151,8 @@ impl<'a> BinaryBuilder<'a> {
         self.threads -= half;
         let mut right_builder = BinaryBuilder::new(self.boxes, right_order, mid, self.bins, half);
         let left = std::thread::scope(|scope| {
-            let right = scope
-                .spawn(|| right_builder.build(mid, end - mid, depth, right_bounds, right_centres));
-            let left = self.build(first, mid - first, depth, left_bounds, left_centres);
+            let right = scope.spawn(|| right_builder.build(mid, end - mid, depth, right_node));
+            let left = self.build(first, mid - first, depth, left_node);
             // A panic in the right half is a bug; re-raise it here.
             if let Err(payload) = right.join() {
                 std::panic::resume_unwind(payload);
@@ -1271,19 +1260,16 @@ impl<'a> BinaryBuilder<'a> {
         let (low, s) = (centres.min[axis], scale[axis]);
         let boxes = self.boxes;
         let slice = &mut self.order[range];
-        let mut left = (BoundsA::EMPTY, BoundsA::EMPTY);
-        let mut right = (BoundsA::EMPTY, BoundsA::EMPTY);
+        let (mut left, mut right) = (NodeBoxes::EMPTY, NodeBoxes::EMPTY);
         let (mut i, mut j) = (0, slice.len());
         while i < j {
             let b = &boxes[slice[i] as usize];
             let c = b.centre2();
             if bin_index((c[axis] - low) * s, bins - 1) < split_bin {
-                left.0.grow(b);
-                left.1.grow_point(c);
+                left.grow(b, c);
                 i += 1;
             } else {
-                right.0.grow(b);
-                right.1.grow_point(c);
+                right.grow(b, c);
                 j -= 1;
                 slice.swap(i, j);
             }
