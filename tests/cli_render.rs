@@ -5,7 +5,7 @@ mod common;
 
 use std::path::PathBuf;
 
-use common::{stderr_of_failure, stdout};
+use common::{exit, failure, stdout};
 
 const TESTDATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/testdata/gltf");
 
@@ -137,13 +137,29 @@ fn every_model_environment_and_exr_output_works() {
 #[test]
 fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
     let png = out_path("never.png");
-    let cases: Vec<(Vec<String>, &str)> = vec![
-        (vec!["--size".into(), "48".into()], "WIDTHxHEIGHT"),
-        (vec!["--size".into(), "0x10".into()], "1 to 16384"),
-        (vec!["--model".into(), "lambert".into()], "phong-naive"),
-        (vec!["--wavelengths".into(), "0".into()], "--wavelengths 0"),
-        (vec!["--spp".into(), "0".into()], "--spp 0"),
-        (vec!["--adaptive".into(), "maybe".into()], "use on or off"),
+    let garbage_map = out_path("garbage.exr");
+    std::fs::write(&garbage_map, b"v/1\x01 not really an EXR").expect("write");
+    let garbage_map = garbage_map.to_str().expect("utf-8").to_owned();
+    let usage = exit::USAGE;
+    let cases: Vec<(Vec<String>, i32, &str)> = vec![
+        (vec!["--size".into(), "48".into()], usage, "WIDTHxHEIGHT"),
+        (vec!["--size".into(), "0x10".into()], usage, "1 to 16384"),
+        (
+            vec!["--model".into(), "lambert".into()],
+            usage,
+            "phong-naive",
+        ),
+        (
+            vec!["--wavelengths".into(), "0".into()],
+            usage,
+            "--wavelengths 0",
+        ),
+        (vec!["--spp".into(), "0".into()], usage, "--spp 0"),
+        (
+            vec!["--adaptive".into(), "maybe".into()],
+            usage,
+            "use on or off",
+        ),
         (
             vec![
                 "--adaptive".into(),
@@ -151,27 +167,42 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
                 "--adaptive-floor".into(),
                 "0".into(),
             ],
+            usage,
             "--adaptive-floor: floor 0: must be in (0, 1]",
         ),
-        (vec!["--seconds".into(), "-1".into()], "--seconds -1"),
+        (vec!["--seconds".into(), "-1".into()], usage, "--seconds -1"),
         (
             vec!["--environment".into(), "moonlight".into()],
+            usage,
             "no such file",
         ),
         (
+            vec!["--environment".into(), "/nonexistent/sky.exr".into()],
+            exit::NO_INPUT,
+            "no such file",
+        ),
+        (
+            vec!["--environment".into(), garbage_map],
+            exit::DATA,
+            "not a readable OpenEXR file",
+        ),
+        (
             vec!["--paint-material".into(), "Chrome".into()],
+            usage,
             "body, glass",
         ),
         (
             vec!["--scene".into(), "/nonexistent/car.glb".into()],
+            exit::NO_INPUT,
             "/nonexistent/car.glb",
         ),
         (
             vec!["--design".into(), "/nonexistent/paint.toml".into()],
+            exit::NO_INPUT,
             "/nonexistent/paint.toml",
         ),
     ];
-    for (args, expected) in cases {
+    for (args, code, expected) in cases {
         // Small defaults for whatever the case does not set itself.
         let mut full = args.clone();
         for (flag, value) in [("--size", "8x8"), ("--spp", "1")] {
@@ -182,9 +213,8 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
         }
         let refs: Vec<&str> = full.iter().map(String::as_str).collect();
         let output = render_to(&png, &refs);
-        let err = stderr_of_failure(&output);
+        let err = failure(&output, code);
         assert!(err.contains(expected), "{args:?}: {err}");
-        assert!(!err.contains("panicked"), "{args:?}: {err}");
         // Each cause once: a message that names its cause must not get it appended
         // again (`cannot read F: No such file or directory: No such file or directory`).
         let parts: Vec<&str> = err.trim().split(": ").collect();
@@ -194,7 +224,13 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
         );
     }
     let output = render_to(&out_path("image.jpg"), &["--size", "8x8", "--spp", "1"]);
-    assert!(stderr_of_failure(&output).contains(".png or .exr"));
+    assert!(failure(&output, exit::USAGE).contains(".png or .exr"));
+    // An output that cannot be written.
+    let output = render_to(
+        &out_path("no-such-folder/image.png"),
+        &["--size", "8x8", "--spp", "1", "--wavelengths", "4"],
+    );
+    assert!(failure(&output, exit::CANT_CREATE).contains("no-such-folder/image.png"));
 
     // A truncated scene file.
     let bytes = b"glTF\x02\x00\x00\x00\xff\x00\x00\x00";
@@ -211,11 +247,8 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
             "1",
         ],
     );
-    let err = stderr_of_failure(&output);
-    assert!(
-        err.contains("cut.glb") && !err.contains("panicked"),
-        "{err}"
-    );
+    let err = failure(&output, exit::DATA);
+    assert!(err.contains("cut.glb"), "{err}");
 }
 
 #[test]
@@ -275,7 +308,7 @@ fn shared_models_render_or_are_refused_by_name() {
                 "1",
             ],
         );
-        let err = stderr_of_failure(&output);
+        let err = failure(&output, exit::DATA);
         let name = path.file_name().and_then(|n| n.to_str()).expect("name");
         assert!(err.contains(extension) && err.contains(name), "{err}");
     }

@@ -35,9 +35,27 @@ pub fn stdout(output: &Output) -> String {
     String::from_utf8(output.stdout.clone()).expect("UTF-8 output")
 }
 
-pub fn stderr_of_failure(output: &Output) -> String {
-    assert!(!output.status.success(), "coatlab unexpectedly succeeded");
-    String::from_utf8(output.stderr.clone()).expect("UTF-8 stderr")
+/// The exit statuses of `coatlab` (README, "Exit status").
+pub mod exit {
+    pub const USAGE: i32 = 2;
+    pub const DATA: i32 = 65;
+    pub const NO_INPUT: i32 = 66;
+    pub const CANT_CREATE: i32 = 73;
+    pub const BROKEN_PIPE: i32 = 141;
+}
+
+/// The stderr of a run that must have failed with exactly `code` (a panic's 101,
+/// a signal or another class fails the test), printed no panic, and said why.
+pub fn failure(output: &Output, code: i32) -> String {
+    let stderr = String::from_utf8(output.stderr.clone()).expect("UTF-8 stderr");
+    assert_eq!(
+        output.status.code(),
+        Some(code),
+        "expected exit status {code}; stderr: {stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(!stderr.trim().is_empty(), "a failure says why");
+    stderr
 }
 
 /// A CSV text split into its header and rows (no quoting: the commands write none).

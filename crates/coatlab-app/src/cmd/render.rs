@@ -199,13 +199,18 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
             args.out.display()
         )));
     }
-    if let Some(seconds) = args.seconds
-        && !(seconds > 0.0 && seconds.is_finite())
-    {
-        return Err(Failure::Usage.error(format!(
-            "--seconds {seconds}: must be a positive number of seconds"
-        )));
-    }
+    // What a Duration holds (about 5.8e11 years) is the upper limit.
+    let time_limit = match args.seconds {
+        None => None,
+        Some(seconds) => match Duration::try_from_secs_f64(seconds) {
+            Ok(limit) if seconds > 0.0 => Some(limit),
+            _ => {
+                return Err(Failure::Usage.error(format!(
+                    "--seconds {seconds}: must be a positive, finite number of seconds"
+                )));
+            }
+        },
+    };
     let spp = args.spp.unwrap_or(DEFAULT_SPP);
     if spp == 0 {
         return Err(Failure::Usage.error("--spp 0: at least one sample per pixel is needed"));
@@ -268,19 +273,19 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
     )
     .or_fail(Failure::Data)?;
 
-    let mut progress = Progress::new(args.seconds.map(Duration::from_secs_f64), spp);
+    let mut progress = Progress::new(time_limit, spp);
     let start = Instant::now();
     loop {
         let done = render.samples_per_pixel();
-        let batch = match args.seconds {
+        let batch = match time_limit {
             Some(_) => 1,
             None => (spp - done).min(4),
         };
         render.render_pass(batch);
         let elapsed = start.elapsed();
         progress.update(render.samples_per_pixel(), elapsed);
-        let finished = match args.seconds {
-            Some(s) => elapsed.as_secs_f64() >= s,
+        let finished = match time_limit {
+            Some(limit) => elapsed >= limit,
             None => render.samples_per_pixel() >= spp,
         };
         if finished {
