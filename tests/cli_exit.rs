@@ -398,7 +398,7 @@ fn design_files(dir: &Path, rng: &mut Rng) -> Vec<(String, PathBuf)> {
             .unwrap_or(0);
         variants.push((
             format!("cut at byte {end}"),
-            text[..end].as_bytes().to_vec(),
+            text.as_bytes()[..end].to_vec(),
         ));
     }
     variants.push(("binary garbage".into(), rng.bytes(500)));
@@ -456,7 +456,7 @@ fn environment_maps(dir: &Path, rng: &mut Rng) -> Vec<(String, PathBuf)> {
     let mut maps = Vec::new();
     let mut exr = |what: &str, w: usize, h: usize, pixel: fn(usize, usize) -> (f32, f32, f32)| {
         let path = dir.join(format!("map-{}.exr", maps.len()));
-        exr::prelude::write_rgb_file(&path, w, h, |x, y| pixel(x, y)).expect("write EXR");
+        exr::prelude::write_rgb_file(&path, w, h, pixel).expect("write EXR");
         maps.push((what.to_owned(), path));
     };
     exr("NaN pixels", 8, 4, |x, _| {
