@@ -9,7 +9,7 @@ mod common;
 
 use coatlab_core::paint::coat::body_albedo;
 use coatlab_core::paint::fresnel::reflectance;
-use common::{coatlab, parse_rows, stderr_of_failure, stdout};
+use common::{coatlab, exit, failure, parse_rows, stdout};
 
 const BRDF_HEADER: &str = "n,rho,kh,theta_i_deg,theta_o_deg,dphi_deg";
 
@@ -290,25 +290,28 @@ fn brdf_reports_bad_rows_with_row_and_column() {
     ];
     for (bad, expected) in cases {
         let input = format!("{BRDF_HEADER}\n{good}\n{good}\n{bad}\n{good}\n");
-        let message = stderr_of_failure(&coatlab(&["brdf"], &input));
+        let message = failure(&coatlab(&["brdf"], &input), exit::DATA);
         assert!(
             message.contains("stdin row 3 (line 4)") && message.contains(expected),
             "{bad}: {message}"
         );
     }
 
-    let message = stderr_of_failure(&coatlab(
-        &["brdf"],
-        "n,rho,theta_i_deg,theta_o_deg,dphi_deg\n1.5,0.5,30,30,180\n",
-    ));
+    let message = failure(
+        &coatlab(
+            &["brdf"],
+            "n,rho,theta_i_deg,theta_o_deg,dphi_deg\n1.5,0.5,30,30,180\n",
+        ),
+        exit::DATA,
+    );
     assert!(
         message.contains("lacks column(s) kh"),
         "missing column: {message}"
     );
-    let message = stderr_of_failure(&coatlab(
-        &["brdf"],
-        &format!("{BRDF_HEADER},albedo\n{good},0.3\n"),
-    ));
+    let message = failure(
+        &coatlab(&["brdf"], &format!("{BRDF_HEADER},albedo\n{good},0.3\n")),
+        exit::DATA,
+    );
     assert!(message.contains("\"albedo\""), "{message}");
 }
 
@@ -359,10 +362,11 @@ fn gloss_number(args: &[&str]) -> f64 {
         .unwrap_or_else(|_| panic!("{args:?} printed {text:?}"))
 }
 
+/// Every refusal of `gloss` is of its command line: exit status 2.
 fn gloss_failure(args: &[&str]) -> String {
     let mut all_args = vec!["gloss"];
     all_args.extend_from_slice(args);
-    stderr_of_failure(&coatlab(&all_args, ""))
+    failure(&coatlab(&all_args, ""), exit::USAGE)
 }
 
 #[test]

@@ -5,7 +5,7 @@ mod common;
 
 use std::path::PathBuf;
 
-use common::{stderr_of_failure, stdout};
+use common::{exit, failure, stdout};
 
 fn dir(name: &str) -> PathBuf {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
@@ -63,15 +63,16 @@ fn a_quick_tradeoff_writes_the_table_plot_and_presets_and_reuses_its_reference()
 #[test]
 fn a_bench_reference_with_too_few_samples_or_a_missing_scene_says_why() {
     let dir = dir("bench-bad");
-    let err = stderr_of_failure(
+    let err = failure(
         &std::process::Command::new(env!("CARGO_BIN_EXE_coatlab"))
             .args(["bench", "reference", "--spp", "1", "--cache"])
             .arg(dir.join("cache"))
             .output()
             .unwrap(),
+        exit::USAGE,
     );
     assert!(err.contains("--spp 1"), "{err}");
-    let err = stderr_of_failure(
+    let err = failure(
         &std::process::Command::new(env!("CARGO_BIN_EXE_coatlab"))
             .args([
                 "bench",
@@ -83,6 +84,7 @@ fn a_bench_reference_with_too_few_samples_or_a_missing_scene_says_why() {
             .arg(dir.join("t.md"))
             .output()
             .unwrap(),
+        exit::NO_INPUT,
     );
     assert!(err.contains("/nonexistent/car.glb"), "{err}");
 }

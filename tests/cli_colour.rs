@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 mod common;
 
-use common::{coatlab, parse_rows, stderr_of_failure, stdout};
+use common::{coatlab, exit, failure, parse_rows, stdout};
 
 const SHARMA_CSV: &str = include_str!(concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -91,25 +91,31 @@ fn delta_e_accepts_any_column_order() {
 
 #[test]
 fn delta_e_reports_bad_rows_and_columns() {
-    let message = stderr_of_failure(&coatlab(
-        &["delta-e"],
-        "L1,a1,b1,L2,a2,b2\n50,1,2,50,1,2\n50,1,2,50,x,2\n",
-    ));
+    let message = failure(
+        &coatlab(
+            &["delta-e"],
+            "L1,a1,b1,L2,a2,b2\n50,1,2,50,1,2\n50,1,2,50,x,2\n",
+        ),
+        exit::DATA,
+    );
     assert!(
         message.contains("row 2") && message.contains("column \"a2\"") && message.contains("\"x\""),
         "{message}"
     );
-    let message = stderr_of_failure(&coatlab(&["delta-e"], "L1,a1,b1,L2,a2\n50,1,2,50,1\n"));
+    let message = failure(
+        &coatlab(&["delta-e"], "L1,a1,b1,L2,a2\n50,1,2,50,1\n"),
+        exit::DATA,
+    );
     assert!(message.contains("b2"), "{message}");
-    let message = stderr_of_failure(&coatlab(
-        &["delta-e"],
-        "L1,a1,b1,L2,a2,b2\n50,1,2,50,1,2\n50,1,2\n",
-    ));
+    let message = failure(
+        &coatlab(&["delta-e"], "L1,a1,b1,L2,a2,b2\n50,1,2,50,1,2\n50,1,2\n"),
+        exit::DATA,
+    );
     assert!(message.contains("row 2"), "{message}");
-    let message = stderr_of_failure(&coatlab(
-        &["delta-e"],
-        "L1,a1,b1,L2,a2,b2\n50,1,2,50,1,NaN\n",
-    ));
+    let message = failure(
+        &coatlab(&["delta-e"], "L1,a1,b1,L2,a2,b2\n50,1,2,50,1,NaN\n"),
+        exit::DATA,
+    );
     assert!(
         message.contains("row 1") && message.contains("\"b2\""),
         "{message}"
@@ -218,7 +224,7 @@ fn color_reports_bad_data_with_file_line_and_column() {
         "bad-number.csv",
         "wavelength_nm,red,blue\n400,0.1,0.2\n410,0.1,0.2\n420,0.1,oops\n",
     );
-    let message = stderr_of_failure(&coatlab(&["color", csv.path()], ""));
+    let message = failure(&coatlab(&["color", csv.path()], ""), exit::DATA);
     assert!(
         message
             .contains("bad-number.csv line 4, column \"blue\": cannot read \"oops\" as a number"),
@@ -229,7 +235,7 @@ fn color_reports_bad_data_with_file_line_and_column() {
         "non-monotonic.csv",
         "wavelength_nm,red\n400,0.1\n410,0.1\n405,0.1\n",
     );
-    let message = stderr_of_failure(&coatlab(&["color", csv.path()], ""));
+    let message = failure(&coatlab(&["color", csv.path()], ""), exit::DATA);
     assert!(
         message.contains("non-monotonic.csv line 4, column \"wavelength_nm\"")
             && message.contains("405 nm is not greater than the previous row's 410 nm"),
@@ -237,12 +243,33 @@ fn color_reports_bad_data_with_file_line_and_column() {
     );
 
     let csv = TempCsv::new("too-bright.csv", "wavelength_nm,red\n400,0.1\n410,50\n");
-    let message = stderr_of_failure(&coatlab(&["color", csv.path()], ""));
+    let message = failure(&coatlab(&["color", csv.path()], ""), exit::DATA);
     assert!(
         message.contains("line 3, column \"red\": value 50 is outside [0, 1.5]"),
         "{message}"
     );
 
-    let message = stderr_of_failure(&coatlab(&["color", "--observer", "5", csv.path()], ""));
+    let message = failure(
+        &coatlab(&["color", "--observer", "5", csv.path()], ""),
+        exit::USAGE,
+    );
     assert!(message.contains("observer"), "{message}");
+
+    // A file that is not there, or cannot be read as one, is not bad data.
+    let missing = std::env::temp_dir().join(format!("coatlab-{}-missing.csv", std::process::id()));
+    let message = failure(
+        &coatlab(&["color", missing.to_str().expect("UTF-8 temp path")], ""),
+        exit::NO_INPUT,
+    );
+    assert!(message.contains("missing.csv"), "{message}");
+    let folder = std::env::temp_dir();
+    let message = failure(
+        &coatlab(&["color", folder.to_str().expect("UTF-8 temp path")], ""),
+        exit::NO_INPUT,
+    );
+    assert!(message.contains("cannot read"), "{message}");
+    // Bytes that are not text are bad data.
+    let binary = TempCsv::new("binary.csv", "wavelength_nm,red\n400,0.1\n");
+    std::fs::write(&binary.0, b"wavelength_nm,r\xff\xfe\n400,\x00\x01\n").expect("write");
+    failure(&coatlab(&["color", binary.path()], ""), exit::DATA);
 }

@@ -3,6 +3,10 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+mod common;
+
+use common::{exit, failure};
+
 fn coatlab() -> Command {
     Command::new(env!("CARGO_BIN_EXE_coatlab"))
 }
@@ -106,15 +110,36 @@ fn measure_refuses_a_bad_file_with_its_name() {
         .arg(&bad)
         .output()
         .expect("coatlab runs");
-    assert!(!output.status.success());
-    let err = String::from_utf8_lossy(&output.stderr);
+    let err = failure(&output, exit::DATA);
     assert!(err.contains("broken.toml") && err.contains("-45"), "{err}");
     let missing = coatlab()
         .arg("measure")
         .arg(dir.join("nope.toml"))
         .output()
         .expect("coatlab runs");
-    assert!(!missing.status.success());
-    assert!(String::from_utf8_lossy(&missing.stderr).contains("nope.toml"));
+    assert!(failure(&missing, exit::NO_INPUT).contains("nope.toml"));
+    // A target that is bad is bad input too; a design that is not text is bad data.
+    let target = coatlab()
+        .arg("measure")
+        .arg(preset("signal-red"))
+        .arg("--target")
+        .arg(&bad)
+        .output()
+        .expect("coatlab runs");
+    assert!(failure(&target, exit::DATA).contains("broken.toml"));
+    let binary = dir.join("binary.toml");
+    std::fs::write(&binary, b"\xff\xfe\x00format = 1").expect("write");
+    let output = coatlab()
+        .arg("measure")
+        .arg(&binary)
+        .output()
+        .expect("coatlab runs");
+    assert!(failure(&output, exit::DATA).contains("binary.toml"));
+    let output = coatlab()
+        .args(["measure", "--colour"])
+        .arg(preset("signal-red"))
+        .output()
+        .expect("coatlab runs");
+    failure(&output, exit::USAGE);
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -5,7 +5,17 @@ mod common;
 
 use std::path::PathBuf;
 
-use common::{stderr_of_failure, stdout};
+use std::sync::Arc;
+
+use coatlab_core::design::presets;
+use coatlab_core::render::environment::Environment;
+use coatlab_core::render::film::Film;
+use coatlab_core::render::image_error::{Region, RegionMasks};
+use coatlab_core::render::material::{Shading, ShadingModel};
+use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
+use coatlab_core::scene::car::{CarParameters, generate};
+use coatlab_core::spectrum::WavelengthGrid;
+use common::{ExrImage, exit, failure, read_exr, stdout};
 
 const TESTDATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/testdata/gltf");
 
@@ -84,12 +94,8 @@ fn every_model_environment_and_exr_output_works() {
     );
     let text = stdout(&output);
     assert!(text.contains("Phong (best fit)"), "{text}");
-    let bytes = std::fs::read(&exr).expect("the EXR was written");
-    assert_eq!(
-        &bytes[..4],
-        &[0x76, 0x2f, 0x31, 0x01],
-        "OpenEXR magic number"
-    );
+    let image = read_exr(&exr);
+    assert_eq!((image.width, image.height), (32, 18));
     for environment in ["studio", "booth-d65", "booth-f11", "outdoor"] {
         let png = out_path(&format!("car-{environment}.png"));
         let output = render_to(
@@ -134,16 +140,230 @@ fn every_model_environment_and_exr_output_works() {
     stdout(&output);
 }
 
+// ---------------------------------------------------------------------------------
+// The EXR output read back
+
+/// The film `coatlab render` makes with its defaults (built-in car, the first
+/// preset, studio, paint model) at this size, sample count, wavelength count and
+/// seed: the same calls and passes (at most 4 samples each) as the command, so
+/// the same numbers (renders are deterministic for a seed, whatever the threads).
+fn film_of_the_default_render(
+    (width, height): (u32, u32),
+    spp: u32,
+    wavelengths: usize,
+    seed: u64,
+    environment: Environment,
+) -> (ProgressiveRender, RegionMasks) {
+    let grid = WavelengthGrid::visible(wavelengths).expect("grid");
+    let design = presets::all().into_iter().next().expect("a preset").design;
+    let model = design.model(grid).expect("the preset's model");
+    let scene = generate(&CarParameters::default());
+    let shading = Shading::new(
+        &model,
+        ShadingModel::Paint,
+        &scene.materials,
+        &scene.paint_materials,
+    );
+    let scene = RenderScene::new(scene).expect("scene");
+    let camera = scene.default_camera(width, height);
+    let masks = RegionMasks::from_scene(&scene, &camera);
+    let mut render = ProgressiveRender::new(
+        Arc::new(scene),
+        Arc::new(environment),
+        Arc::new(shading),
+        camera,
+        RenderSettings {
+            seed,
+            ..RenderSettings::default()
+        },
+    )
+    .expect("render");
+    while render.samples_per_pixel() < spp {
+        render.render_pass((spp - render.samples_per_pixel()).min(4));
+    }
+    (render, masks)
+}
+
+/// The EXR's pixel (x, y) against the film's mean linear sRGB: equal to f32
+/// rounding (the writer converts the same f64 means with the same f32 matrix).
+fn assert_exr_holds_film(image: &ExrImage, film: &Film) {
+    assert_eq!(
+        (image.width, image.height),
+        (film.width() as usize, film.height() as usize)
+    );
+    let mut lit = 0;
+    for y in 0..film.height() {
+        for x in 0..film.width() {
+            let got = image.rgb[(y * film.width() + x) as usize];
+            let want = film.mean_linear_srgb(x, y);
+            for c in 0..3 {
+                assert!(
+                    (got[c] - want[c]).abs() <= 1e-6 * want[c].abs().max(1e-3),
+                    "pixel ({x}, {y}) channel {}: EXR {got:?}, film {want:?}",
+                    ["R", "G", "B"][c]
+                );
+            }
+            lit += usize::from(want.iter().any(|&v| v > 1e-3));
+        }
+    }
+    assert!(
+        lit > film.width() as usize * film.height() as usize / 2,
+        "a lit image"
+    );
+}
+
+#[test]
+fn the_exr_is_the_films_linear_srgb_in_32_bit_floats() {
+    let exr = out_path("film.exr");
+    let _ = std::fs::remove_file(&exr);
+    // Not square, so a transposed image cannot pass; red paint, so swapped
+    // channels cannot; three samples, so a film of another sample count cannot.
+    let (size, spp, wavelengths, seed) = ((24, 16), 3, 8, 7);
+    let output = render_to(
+        &exr,
+        &[
+            "--size",
+            "24x16",
+            "--spp",
+            "3",
+            "--wavelengths",
+            "8",
+            "--seed",
+            "7",
+        ],
+    );
+    stdout(&output);
+    let image = read_exr(&exr);
+    // What the help text and the docs say: 32-bit float R, G, B (sorted by name,
+    // as the format requires), sRGB primaries and D65 white.
+    assert_eq!(
+        image.channels,
+        [
+            ("B".into(), "f32"),
+            ("G".into(), "f32"),
+            ("R".into(), "f32")
+        ]
+    );
+    let srgb = [0.64, 0.33, 0.30, 0.60, 0.15, 0.06, 0.3127, 0.3290];
+    assert_eq!(image.chromaticities, Some(srgb));
+    let grid = WavelengthGrid::visible(wavelengths).expect("grid");
+    let (render, _) =
+        film_of_the_default_render(size, spp, wavelengths, seed, Environment::studio(&grid));
+    assert_exr_holds_film(&image, render.film());
+    // The same seed gives the same file; another seed another image.
+    let again = out_path("film-seed-8.exr");
+    let output = render_to(
+        &again,
+        &[
+            "--size",
+            "24x16",
+            "--spp",
+            "3",
+            "--wavelengths",
+            "8",
+            "--seed",
+            "8",
+        ],
+    );
+    stdout(&output);
+    let other = read_exr(&again);
+    let differing = other
+        .rgb
+        .iter()
+        .zip(&image.rgb)
+        .filter(|(a, b)| a != b)
+        .count();
+    assert!(differing > image.rgb.len() / 4, "{differing} pixels differ");
+}
+
+/// Share of blue in the light of the body side's pixels: B / (R + G + B) of their
+/// summed linear sRGB.
+fn blue_share(image: &ExrImage, masks: &RegionMasks) -> (f64, usize) {
+    let (mut sum, mut count) = ([0.0f64; 3], 0);
+    for y in 0..image.height {
+        for x in 0..image.width {
+            if masks.region_at(x as u32, y as u32) == Some(Region::BodySide) {
+                for (s, v) in sum.iter_mut().zip(image.rgb[y * image.width + x]) {
+                    *s += f64::from(v);
+                }
+                count += 1;
+            }
+        }
+    }
+    (sum[2] / sum.iter().sum::<f64>(), count)
+}
+
+#[test]
+fn an_exr_environment_map_lights_the_car_in_its_colour() {
+    // A sky of blue light only: whatever the paint reflects of it is blue.
+    let map = out_path("blue-sky.exr");
+    exr::prelude::write_rgb_file(&map, 64, 32, |_, _| (0.0f32, 0.0f32, 1.0f32)).expect("write");
+    let args = |environment: &str| {
+        [
+            "--size",
+            "64x36",
+            "--spp",
+            "4",
+            "--wavelengths",
+            "16",
+            "--environment",
+            environment,
+        ]
+        .map(str::to_owned)
+    };
+    let lit = out_path("blue-lit.exr");
+    let blue_args = args(map.to_str().expect("utf-8"));
+    stdout(&render_to(&lit, &blue_args.each_ref().map(String::as_str)));
+    let studio = out_path("studio-lit.exr");
+    let studio_args = args("studio");
+    stdout(&render_to(
+        &studio,
+        &studio_args.each_ref().map(String::as_str),
+    ));
+
+    let grid = WavelengthGrid::visible(16).expect("grid");
+    let (_, masks) = film_of_the_default_render((64, 36), 1, 16, 0, Environment::studio(&grid));
+    let (blue_lit, count) = blue_share(&read_exr(&lit), &masks);
+    let (studio_lit, _) = blue_share(&read_exr(&studio), &masks);
+    assert!(count >= 80, "{count} body-side pixels");
+    eprintln!(
+        "blue share of {count} body-side pixels: studio {studio_lit:.3}, blue sky {blue_lit:.3}"
+    );
+    // Red paint in the studio's white light reflects little blue; under a blue sky
+    // blue is all there is to reflect (the map's blue primary, upsampled to a
+    // spectrum, leaks a little into green).
+    assert!(
+        studio_lit < 0.2 && blue_lit > 0.8,
+        "blue share of the body side: studio {studio_lit:.3}, blue sky {blue_lit:.3}"
+    );
+}
+
 #[test]
 fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
     let png = out_path("never.png");
-    let cases: Vec<(Vec<String>, &str)> = vec![
-        (vec!["--size".into(), "48".into()], "WIDTHxHEIGHT"),
-        (vec!["--size".into(), "0x10".into()], "1 to 16384"),
-        (vec!["--model".into(), "lambert".into()], "phong-naive"),
-        (vec!["--wavelengths".into(), "0".into()], "--wavelengths 0"),
-        (vec!["--spp".into(), "0".into()], "--spp 0"),
-        (vec!["--adaptive".into(), "maybe".into()], "use on or off"),
+    let garbage_map = out_path("garbage.exr");
+    std::fs::write(&garbage_map, b"v/1\x01 not really an EXR").expect("write");
+    let garbage_map = garbage_map.to_str().expect("utf-8").to_owned();
+    let usage = exit::USAGE;
+    let cases: Vec<(Vec<String>, i32, &str)> = vec![
+        (vec!["--size".into(), "48".into()], usage, "WIDTHxHEIGHT"),
+        (vec!["--size".into(), "0x10".into()], usage, "1 to 16384"),
+        (
+            vec!["--model".into(), "lambert".into()],
+            usage,
+            "phong-naive",
+        ),
+        (
+            vec!["--wavelengths".into(), "0".into()],
+            usage,
+            "--wavelengths 0",
+        ),
+        (vec!["--spp".into(), "0".into()], usage, "--spp 0"),
+        (
+            vec!["--adaptive".into(), "maybe".into()],
+            usage,
+            "use on or off",
+        ),
         (
             vec![
                 "--adaptive".into(),
@@ -151,27 +371,42 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
                 "--adaptive-floor".into(),
                 "0".into(),
             ],
+            usage,
             "--adaptive-floor: floor 0: must be in (0, 1]",
         ),
-        (vec!["--seconds".into(), "-1".into()], "--seconds -1"),
+        (vec!["--seconds".into(), "-1".into()], usage, "--seconds -1"),
         (
             vec!["--environment".into(), "moonlight".into()],
+            usage,
             "no such file",
         ),
         (
+            vec!["--environment".into(), "/nonexistent/sky.exr".into()],
+            exit::NO_INPUT,
+            "no such file",
+        ),
+        (
+            vec!["--environment".into(), garbage_map],
+            exit::DATA,
+            "not a readable OpenEXR file",
+        ),
+        (
             vec!["--paint-material".into(), "Chrome".into()],
+            usage,
             "body, glass",
         ),
         (
             vec!["--scene".into(), "/nonexistent/car.glb".into()],
+            exit::NO_INPUT,
             "/nonexistent/car.glb",
         ),
         (
             vec!["--design".into(), "/nonexistent/paint.toml".into()],
+            exit::NO_INPUT,
             "/nonexistent/paint.toml",
         ),
     ];
-    for (args, expected) in cases {
+    for (args, code, expected) in cases {
         // Small defaults for whatever the case does not set itself.
         let mut full = args.clone();
         for (flag, value) in [("--size", "8x8"), ("--spp", "1")] {
@@ -182,9 +417,8 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
         }
         let refs: Vec<&str> = full.iter().map(String::as_str).collect();
         let output = render_to(&png, &refs);
-        let err = stderr_of_failure(&output);
+        let err = failure(&output, code);
         assert!(err.contains(expected), "{args:?}: {err}");
-        assert!(!err.contains("panicked"), "{args:?}: {err}");
         // Each cause once: a message that names its cause must not get it appended
         // again (`cannot read F: No such file or directory: No such file or directory`).
         let parts: Vec<&str> = err.trim().split(": ").collect();
@@ -194,7 +428,13 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
         );
     }
     let output = render_to(&out_path("image.jpg"), &["--size", "8x8", "--spp", "1"]);
-    assert!(stderr_of_failure(&output).contains(".png or .exr"));
+    assert!(failure(&output, exit::USAGE).contains(".png or .exr"));
+    // An output that cannot be written.
+    let output = render_to(
+        &out_path("no-such-folder/image.png"),
+        &["--size", "8x8", "--spp", "1", "--wavelengths", "4"],
+    );
+    assert!(failure(&output, exit::CANT_CREATE).contains("no-such-folder/image.png"));
 
     // A truncated scene file.
     let bytes = b"glTF\x02\x00\x00\x00\xff\x00\x00\x00";
@@ -211,11 +451,8 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
             "1",
         ],
     );
-    let err = stderr_of_failure(&output);
-    assert!(
-        err.contains("cut.glb") && !err.contains("panicked"),
-        "{err}"
-    );
+    let err = failure(&output, exit::DATA);
+    assert!(err.contains("cut.glb"), "{err}");
 }
 
 #[test]
@@ -275,7 +512,7 @@ fn shared_models_render_or_are_refused_by_name() {
                 "1",
             ],
         );
-        let err = stderr_of_failure(&output);
+        let err = failure(&output, exit::DATA);
         let name = path.file_name().and_then(|n| n.to_str()).expect("name");
         assert!(err.contains(extension) && err.contains(name), "{err}");
     }

@@ -668,6 +668,39 @@ fn dropped_scenes_and_environment_maps_go_to_the_preview_and_bad_ones_change_not
         has_notice(app, true, "Could not open the environment map")
     });
     assert_eq!(preview(h.state()).environment().1, Some("sky.hdr"));
+    // Bad EXR maps too: one the decoder refuses, one whose pixels are not finite.
+    let garbage = dir.join("garbage.exr");
+    let mut bytes = vec![0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0];
+    bytes.extend(b"channels\0chlist\0 not the rest of a header");
+    std::fs::write(&garbage, bytes).expect("write");
+    let not_finite = dir.join("nan.exr");
+    exr::prelude::write_rgb_file(&not_finite, 8, 4, |x, _| {
+        (if x == 3 { f32::NAN } else { 1.0 }, 1.0f32, 1.0f32)
+    })
+    .expect("write");
+    for (bad, reason) in [
+        (garbage, "garbage.exr: not a readable OpenEXR file"),
+        (not_finite, "nan.exr"),
+    ] {
+        let errors_before = h.state().notices().iter().filter(|n| n.is_error).count();
+        h.input_mut().dropped_files.push(Arc::new(Dropped(bad)));
+        wait_until(&mut h, "the EXR's error", |app| {
+            app.notices().iter().filter(|n| n.is_error).count() > errors_before
+        });
+        let error = h
+            .state()
+            .notices()
+            .iter()
+            .rfind(|n| n.is_error)
+            .expect("error");
+        assert!(
+            error.text.contains("Could not open the environment map")
+                && error.text.contains(reason),
+            "{}",
+            error.text
+        );
+        assert_eq!(preview(h.state()).environment().1, Some("sky.hdr"));
+    }
     let _ = std::fs::remove_dir_all(dir);
 }
 
@@ -676,6 +709,174 @@ fn png_size(path: &Path) -> (u32, u32) {
     assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{}", path.display());
     let be = |o: usize| u32::from_be_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]);
     (be(16), be(20))
+}
+
+/// An EXR's first layer read back with the `exr` crate: size, channel names with
+/// their sample types, and R, G, B per pixel (row-major from the top).
+struct ExrRgb {
+    width: usize,
+    height: usize,
+    channels: Vec<(String, &'static str)>,
+    rgb: Vec<[f32; 3]>,
+}
+
+fn read_exr(path: &Path) -> ExrRgb {
+    use exr::prelude::{FlatSamples, read_first_flat_layer_from_file};
+    let image = read_first_flat_layer_from_file(path).expect("a readable EXR");
+    let layer = &image.layer_data;
+    let (width, height) = (layer.size.width(), layer.size.height());
+    let mut channels = Vec::new();
+    let mut planes = std::collections::HashMap::new();
+    for channel in &layer.channel_data.list {
+        let (kind, values): (&'static str, Vec<f32>) = match &channel.sample_data {
+            FlatSamples::F16(v) => ("f16", v.iter().map(|x| x.to_f32()).collect()),
+            FlatSamples::F32(v) => ("f32", v.clone()),
+            FlatSamples::U32(v) => ("u32", v.iter().map(|&x| x as f32).collect()),
+        };
+        channels.push((channel.name.to_string(), kind));
+        planes.insert(channel.name.to_string(), values);
+    }
+    let plane = |name: &str| {
+        planes
+            .get(name)
+            .unwrap_or_else(|| panic!("no {name} channel"))
+    };
+    let (r, g, b) = (plane("R"), plane("G"), plane("B"));
+    let rgb = (0..width * height).map(|i| [r[i], g[i], b[i]]).collect();
+    ExrRgb {
+        width,
+        height,
+        channels,
+        rgb,
+    }
+}
+
+/// Linear sRGB → XYZ as the film converts (the inverse of its XYZ → linear sRGB
+/// with the D65 white at Y = 1, built from the core's own conversion).
+fn xyz_of_linear_srgb() -> [[f64; 3]; 3] {
+    use coatlab_core::colour::{Xyz, linear_srgb_from_xyz, srgb_white};
+    let w = srgb_white();
+    let white = Xyz::new(w.x / w.y, 1.0, w.z / w.y);
+    let columns = [
+        Xyz::new(1.0, 0.0, 0.0),
+        Xyz::new(0.0, 1.0, 0.0),
+        Xyz::new(0.0, 0.0, 1.0),
+    ]
+    .map(|e| {
+        let rgb = linear_srgb_from_xyz(e, white);
+        [rgb.red, rgb.green, rgb.blue]
+    });
+    let m = [0, 1, 2].map(|r| [0, 1, 2].map(|c| columns[c][r]));
+    // The inverse by cofactors.
+    let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    let cofactor = |r: usize, c: usize| {
+        let (r1, r2) = ((r + 1) % 3, (r + 2) % 3);
+        let (c1, c2) = ((c + 1) % 3, (c + 2) % 3);
+        m[r1][c1] * m[r2][c2] - m[r1][c2] * m[r2][c1]
+    };
+    [0, 1, 2].map(|r| [0, 1, 2].map(|c| cofactor(c, r) / det))
+}
+
+/// The display pixels the preview makes of a film whose means are `exr`: the
+/// film's automatic exposure (log-average luminance to the key) and its display
+/// pipeline (`display_xyz`), applied to the EXR's values taken back to XYZ.
+fn displayed(exr: &ExrRgb) -> Vec<[u8; 4]> {
+    use coatlab_core::render::film::{AUTO_EXPOSURE_KEY, DisplaySettings, display_xyz};
+    let m = xyz_of_linear_srgb();
+    let xyz: Vec<[f64; 3]> = exr
+        .rgb
+        .iter()
+        .map(|rgb| m.map(|row| (0..3).map(|c| row[c] * f64::from(rgb[c])).sum()))
+        .collect();
+    let log_mean = xyz.iter().map(|v| (1e-6 + v[1].max(0.0)).ln()).sum::<f64>() / xyz.len() as f64;
+    let settings = DisplaySettings {
+        exposure_stops: (AUTO_EXPOSURE_KEY / log_mean.exp()).log2() as f32,
+        ..DisplaySettings::default()
+    };
+    let xyz: Vec<[f32; 3]> = xyz.iter().map(|v| v.map(|c| c as f32)).collect();
+    display_xyz(&xyz, &settings)
+}
+
+/// An 8-bit RGB PNG's pixels (alpha 255), as the preview's frames hold them.
+fn png_pixels(path: &Path) -> (u32, u32, Vec<[u8; 4]>) {
+    let file = std::fs::File::open(path).expect("open PNG");
+    let mut reader = png::Decoder::new(std::io::BufReader::new(file))
+        .read_info()
+        .expect("a PNG");
+    let mut buffer = vec![0; reader.output_buffer_size().expect("size")];
+    let info = reader.next_frame(&mut buffer).expect("PNG pixels");
+    assert_eq!(info.color_type, png::ColorType::Rgb);
+    let pixels = buffer[..info.buffer_size()]
+        .chunks_exact(3)
+        .map(|p| [p[0], p[1], p[2], 255])
+        .collect();
+    (info.width, info.height, pixels)
+}
+
+/// The sample count an "Exported the preview (N spp) to … NAME …" notice gives.
+fn exported_spp(app: &CoatlabApp, since: usize, name: &str) -> Option<u32> {
+    app.notices()[since..]
+        .iter()
+        .find(|n| n.text.starts_with("Exported") && n.text.contains(name))
+        .map(|n| {
+            let (_, rest) = n.text.split_once('(').expect("(N spp)");
+            let (count, _) = rest.split_once(" spp").expect("(N spp)");
+            count.parse().expect("a sample count")
+        })
+}
+
+/// Exports the preview to `png` and `exr` one after the other, until both come
+/// from one film: the render thread adds a sample per pixel between any two
+/// films, so two exports of the same sample count (nothing else changing) are of
+/// the same film, and the PNG is what the preview shows of it.
+fn export_png_and_exr_of_one_film(
+    h: &mut Harness<'static, CoatlabApp>,
+    png: &Path,
+    exr: &Path,
+) -> u32 {
+    let name = |p: &Path| {
+        p.file_name()
+            .and_then(|n| n.to_str())
+            .expect("name")
+            .to_owned()
+    };
+    let (png_name, exr_name) = (name(png), name(exr));
+    for _ in 0..5 {
+        let since = h.state().notices().len();
+        h.state_mut().export_preview(png);
+        h.state_mut().export_preview(exr);
+        wait_until(h, "both exports", |app| {
+            exported_spp(app, since, &png_name).is_some()
+                && exported_spp(app, since, &exr_name).is_some()
+        });
+        let spp = exported_spp(h.state(), since, &png_name);
+        if spp == exported_spp(h.state(), since, &exr_name) {
+            return spp.expect("spp");
+        }
+    }
+    panic!("five pairs of exports fell on either side of a pass");
+}
+
+/// Share of blue in the light of the masked pixels (B / (R + G + B) of the sums of
+/// their decoded, linear sRGB).
+fn blue_share(pixels: &[[u8; 4]], mask: &[bool]) -> f64 {
+    let linear = |v: u8| {
+        let v = f64::from(v) / 255.0;
+        if v <= 0.04045 {
+            v / 12.92
+        } else {
+            ((v + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let mut sum = [0.0f64; 3];
+    for (p, _) in pixels.iter().zip(mask).filter(|(_, m)| **m) {
+        for c in 0..3 {
+            sum[c] += linear(p[c]);
+        }
+    }
+    sum[2] / sum.iter().sum::<f64>()
 }
 
 #[test]
@@ -693,22 +894,52 @@ fn the_preview_exports_png_and_exr_and_the_exr_lights_the_car() {
     });
     let status = h.state().preview_status().cloned().expect("status");
     assert_eq!(png_size(&png), (status.width, status.height));
+
+    // The EXR holds the film the preview shows: 32-bit float R, G, B of its size,
+    // whose display is the PNG exported of the same film up to the 8-bit rounding
+    // (a value on a code boundary may round either way after the round trip
+    // through XYZ in f32).
     let exr = dir.join("car.exr");
-    h.state_mut().export_preview(&exr);
-    wait_until(&mut h, "the EXR export", |app| {
-        app.notices()
-            .iter()
-            .any(|n| n.text.contains("Exported") && n.text.contains("car.exr"))
-    });
-    let bytes = std::fs::read(&exr).expect("exr");
-    assert_eq!(&bytes[..4], &[0x76, 0x2f, 0x31, 0x01], "OpenEXR magic");
+    let shown_png = dir.join("shown.png");
+    let spp = export_png_and_exr_of_one_film(&mut h, &shown_png, &exr);
+    let (width, height, shown) = png_pixels(&shown_png);
+    let image = read_exr(&exr);
+    assert_eq!(
+        image.channels,
+        [
+            ("B".to_owned(), "f32"),
+            ("G".to_owned(), "f32"),
+            ("R".to_owned(), "f32")
+        ]
+    );
+    assert_eq!(
+        (image.width, image.height),
+        (width as usize, height as usize)
+    );
+    let from_exr = displayed(&image);
+    let mut exact = 0;
+    for (i, (got, want)) in from_exr.iter().zip(&shown).enumerate() {
+        let worst = (0..3).map(|c| got[c].abs_diff(want[c])).max().unwrap_or(0);
+        assert!(
+            worst <= 1,
+            "pixel ({}, {}) at {spp} spp: the EXR shows as {got:?}, the preview as {want:?}",
+            i % image.width,
+            i / image.width
+        );
+        exact += usize::from(worst == 0);
+    }
+    let exact_share = exact as f64 / shown.len() as f64;
+    eprintln!(
+        "EXR against the shown image at {spp} spp: {exact_share:.4} of the pixels exact, the rest within one code"
+    );
+    assert!(exact_share > 0.99, "{exact_share}");
     // No temporary files are left beside the exports.
     let names: Vec<String> = std::fs::read_dir(&dir)
         .expect("list")
         .filter_map(Result::ok)
         .map(|e| e.file_name().to_string_lossy().into_owned())
         .collect();
-    assert_eq!(names.len(), 2, "{names:?}");
+    assert_eq!(names.len(), 3, "{names:?}");
 
     h.state_mut().export_preview(&dir.join("car.jpg"));
     h.step();
@@ -717,6 +948,59 @@ fn the_preview_exports_png_and_exr_and_the_exr_lights_the_car() {
         true,
         "car.jpg: export the preview as .png"
     ));
+
+    // An EXR map lights the car: a map of white light, then one of blue light
+    // only under the same name (so the toolbar, and with it the image's size and
+    // framing, stays as it is), dropped on the window. The red paint's pixels
+    // under the white map turn blue under the blue one, as nothing else is there
+    // to reflect.
+    let sky = dir.join("sky.exr");
+    let lit_by = |h: &mut Harness<'static, CoatlabApp>, colour: (f32, f32, f32), name: &str| {
+        exr::prelude::write_rgb_file(&sky, 64, 32, |_, _| colour).expect("write the map");
+        let epoch = h.state().preview_status().expect("status").epoch;
+        h.input_mut()
+            .dropped_files
+            .push(Arc::new(Dropped(sky.clone())));
+        wait_until(h, "the car under the map", |app| {
+            app.preview_status()
+                .is_some_and(|s| s.epoch > epoch && !s.coarse && s.samples_per_pixel >= 2)
+        });
+        assert_eq!(
+            preview(h.state()).environment(),
+            (
+                coatlab_app::gui::preview::EnvironmentChoice::Image,
+                Some("sky.exr")
+            )
+        );
+        let png = dir.join(name);
+        let since = h.state().notices().len();
+        h.state_mut().export_preview(&png);
+        wait_until(h, "the export", |app| {
+            exported_spp(app, since, name).is_some()
+        });
+        png_pixels(&png)
+    };
+    let (width, height, white) = lit_by(&mut h, (1.0, 1.0, 1.0), "white-lit.png");
+    let red: Vec<bool> = white
+        .iter()
+        .map(|p| p[0] >= 80 && u16::from(p[0]) >= 2 * u16::from(p[1].max(p[2])))
+        .collect();
+    let red_count = red.iter().filter(|&&r| r).count();
+    assert!(
+        red_count * 50 > red.len(),
+        "the red car covers {red_count} of {} pixels",
+        red.len()
+    );
+    let (blue_width, blue_height, blue) = lit_by(&mut h, (0.0, 0.0, 1.0), "blue-lit.png");
+    assert_eq!((blue_width, blue_height), (width, height));
+    let (under_white, under_blue) = (blue_share(&white, &red), blue_share(&blue, &red));
+    eprintln!(
+        "blue share of {red_count} red-paint pixels: white map {under_white:.3}, blue map {under_blue:.3}"
+    );
+    assert!(
+        under_white < 0.2 && under_blue > 0.8,
+        "blue share of the paint: white map {under_white:.3}, blue map {under_blue:.3}"
+    );
 
     // In a comparison both views are written.
     h.state_mut().preview_mut().expect("preview").set_compare(
@@ -733,7 +1017,7 @@ fn the_preview_exports_png_and_exr_and_the_exr_lights_the_car() {
         png_size(&dir.join("pair-b.png"))
     );
 
-    // The EXR is an environment map too: its upper half is lit.
+    // The exported EXR reads back as an environment map too.
     h.state_mut().open_environment(&exr);
     wait_until(&mut h, "the EXR as lighting", |app| {
         app.preview()

@@ -35,9 +35,27 @@ pub fn stdout(output: &Output) -> String {
     String::from_utf8(output.stdout.clone()).expect("UTF-8 output")
 }
 
-pub fn stderr_of_failure(output: &Output) -> String {
-    assert!(!output.status.success(), "coatlab unexpectedly succeeded");
-    String::from_utf8(output.stderr.clone()).expect("UTF-8 stderr")
+/// The exit statuses of `coatlab` (README, "Exit status").
+pub mod exit {
+    pub const USAGE: i32 = 2;
+    pub const DATA: i32 = 65;
+    pub const NO_INPUT: i32 = 66;
+    pub const CANT_CREATE: i32 = 73;
+    pub const BROKEN_PIPE: i32 = 141;
+}
+
+/// The stderr of a run that must have failed with exactly `code` (a panic's 101,
+/// a signal or another class fails the test), printed no panic, and said why.
+pub fn failure(output: &Output, code: i32) -> String {
+    let stderr = String::from_utf8(output.stderr.clone()).expect("UTF-8 stderr");
+    assert_eq!(
+        output.status.code(),
+        Some(code),
+        "expected exit status {code}; stderr: {stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(!stderr.trim().is_empty(), "a failure says why");
+    stderr
 }
 
 /// A CSV text split into its header and rows (no quoting: the commands write none).
@@ -53,4 +71,63 @@ pub fn parse_rows(text: &str) -> (Vec<String>, Vec<Vec<String>>) {
         .map(|l| l.split(',').map(str::to_owned).collect())
         .collect();
     (header, rows)
+}
+
+/// An OpenEXR file's first layer read back with the `exr` crate.
+pub struct ExrImage {
+    pub width: usize,
+    pub height: usize,
+    /// Channel names and their sample types ("f16", "f32", "u32"), in file order.
+    pub channels: Vec<(String, &'static str)>,
+    /// R, G, B per pixel, row-major from the top-left.
+    pub rgb: Vec<[f32; 3]>,
+    /// The `chromaticities` attribute: red, green, blue and white x, y.
+    pub chromaticities: Option<[f32; 8]>,
+}
+
+pub fn read_exr(path: &std::path::Path) -> ExrImage {
+    use exr::prelude::{FlatSamples, read_first_flat_layer_from_file};
+    let image = read_first_flat_layer_from_file(path)
+        .unwrap_or_else(|e| panic!("{} is not a readable EXR: {e}", path.display()));
+    let layer = &image.layer_data;
+    let (width, height) = (layer.size.width(), layer.size.height());
+    let mut channels = Vec::new();
+    let mut planes = std::collections::HashMap::new();
+    for channel in &layer.channel_data.list {
+        let name = channel.name.to_string();
+        let (kind, values): (&'static str, Vec<f32>) = match &channel.sample_data {
+            FlatSamples::F16(v) => ("f16", v.iter().map(|x| x.to_f32()).collect()),
+            FlatSamples::F32(v) => ("f32", v.clone()),
+            FlatSamples::U32(v) => ("u32", v.iter().map(|&x| x as f32).collect()),
+        };
+        assert_eq!(values.len(), width * height, "{name}: one sample a pixel");
+        channels.push((name.clone(), kind));
+        planes.insert(name, values);
+    }
+    let plane = |name: &str| {
+        planes
+            .get(name)
+            .unwrap_or_else(|| panic!("no {name} channel"))
+    };
+    let (r, g, b) = (plane("R"), plane("G"), plane("B"));
+    let rgb = (0..width * height).map(|i| [r[i], g[i], b[i]]).collect();
+    let chromaticities = image.attributes.chromaticities.map(|c| {
+        [
+            c.red.x(),
+            c.red.y(),
+            c.green.x(),
+            c.green.y(),
+            c.blue.x(),
+            c.blue.y(),
+            c.white.x(),
+            c.white.y(),
+        ]
+    });
+    ExrImage {
+        width,
+        height,
+        channels,
+        rgb,
+        chromaticities,
+    }
 }

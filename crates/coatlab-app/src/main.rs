@@ -10,12 +10,27 @@ use std::io::{self, BufWriter, Write};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use cmd::failure::{BROKEN_PIPE, Classify, Failure, Outcome, classify};
+
+/// The `--help` epilogue: the exit statuses of `cmd::failure` (and the README's).
+const EXIT_STATUS: &str = "\
+Exit status:
+  0    success
+  1    the designer's window could not start
+  2    usage: an unknown flag, a missing or malformed value, a value out of range
+  65   bad input data: a stdin row, or a CSV, design, scene or map file's content
+  66   an input file does not exist or cannot be read
+  70   internal error (a bug: please report the command)
+  73   an output file cannot be written
+  74   reading stdin or writing stdout failed
+  141  stdout was closed by its reader (`coatlab ... | head`); nothing is printed";
 
 #[derive(Parser, Debug)]
 #[command(
     name = "coatlab",
     version,
-    about = "Spectral colour design for gloss solid automotive paints"
+    about = "Spectral colour design for gloss solid automotive paints",
+    after_help = EXIT_STATUS
 )]
 struct Cli {
     /// Without a subcommand: open the designer's window (on DESIGN, if given).
@@ -62,15 +77,19 @@ fn main() -> ExitCode {
         Command::Render(args) => cmd::render::run(args, &mut stdout),
         Command::Bench(command) => cmd::bench::run(command, &mut stdout),
     }
-    .and_then(|()| stdout.flush().map_err(anyhow::Error::from));
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        // A closed pipe (`coatlab measure x.toml | head`) is the reader's choice, not an error.
-        Err(err) if is_broken_pipe(&err) => ExitCode::SUCCESS,
-        Err(err) => {
-            drop(stdout);
-            eprintln!("coatlab: {err:#}");
-            ExitCode::FAILURE
+    .and_then(|()| stdout.flush().or_fail(Failure::Io));
+    let Err(err) = result else {
+        return ExitCode::SUCCESS;
+    };
+    // The rows before a bad one are written out before the message (flushing a
+    // closed pipe fails quietly).
+    drop(stdout);
+    match classify(&err) {
+        Outcome::BrokenPipe => ExitCode::from(BROKEN_PIPE),
+        Outcome::Failed(failure) => {
+            // A closed stderr must not turn a failure into a panic.
+            let _ = writeln!(io::stderr(), "coatlab: {err:#}");
+            ExitCode::from(failure.code())
         }
     }
 }
@@ -84,20 +103,8 @@ fn run_gui(design: Option<std::path::PathBuf>) -> ExitCode {
     match coatlab_app::gui::run(options) {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("coatlab: {err:#}");
+            let _ = writeln!(io::stderr(), "coatlab: {err:#}");
             ExitCode::FAILURE
         }
     }
-}
-
-fn is_broken_pipe(err: &anyhow::Error) -> bool {
-    err.chain().any(|cause| {
-        cause
-            .downcast_ref::<io::Error>()
-            .is_some_and(|e| e.kind() == io::ErrorKind::BrokenPipe)
-            || cause
-                .downcast_ref::<serde_json::Error>()
-                .and_then(|e| e.io_error_kind())
-                .is_some_and(|k| k == io::ErrorKind::BrokenPipe)
-    })
 }

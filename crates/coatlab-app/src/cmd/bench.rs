@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-use anyhow::{Context, bail};
+use anyhow::Context;
 use coatlab_core::design::{PaintDesign, presets};
 use coatlab_core::paint::coat::CoatIntegralMethod;
 use coatlab_core::paint::lobe::LobeKind;
@@ -28,6 +28,7 @@ use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSe
 use coatlab_core::render::rgb;
 use coatlab_core::spectrum::WavelengthGrid;
 
+use super::failure::{Classify, Failure};
 use super::render::{environment, scene};
 
 /// Bumped whenever the renderer or the protocol changes what a reference holds:
@@ -116,10 +117,10 @@ pub fn run(command: &BenchCommand, out: &mut impl Write) -> anyhow::Result<()> {
                 reference_spp: args.spp,
             };
             if args.spp < 2 {
-                bail!(
+                return Err(Failure::Usage.error(format!(
                     "--spp {}: a reference needs at least 2 samples (two halves)",
                     args.spp
-                );
+                )));
             }
             let prepared = PreparedCase::new(&case)?;
             let reference = reference(&prepared, &protocol, &args.cache, args.force, out)?;
@@ -425,7 +426,7 @@ fn reference(
         for (seed, path) in HALF_SEEDS.iter().zip(&paths) {
             let setting = Setting::spectral(81, protocol.reference_spp / 2);
             let (image, _) = render(prepared, protocol, &setting, *seed)?;
-            image.write(path)?;
+            image.write(path).or_fail(Failure::CantCreate)?;
             halves.push(image);
         }
         let [a, b]: [XyzImage; 2] = halves
@@ -570,11 +571,11 @@ fn tradeoff(args: &TradeoffArgs, out: &mut impl Write) -> anyhow::Result<()> {
         let mut scenes = vec![None];
         if !args.no_gltf {
             if !args.gltf.exists() {
-                bail!(
+                return Err(Failure::NoInput.error(format!(
                     "--gltf {}: no such file (run from the repository root with the shared \
                      test data beside it, or pass --no-gltf)",
                     args.gltf.display()
-                );
+                )));
             }
             scenes.push(Some(args.gltf.clone()));
         }
@@ -669,13 +670,15 @@ fn tradeoff(args: &TradeoffArgs, out: &mut impl Write) -> anyhow::Result<()> {
     write_between_markers(&args.doc, &table)?;
     let primary = cases.first().map(Case::label).unwrap_or_default();
     std::fs::write(&args.plot, plot_svg(&rows, &primary))
-        .with_context(|| format!("writing {}", args.plot.display()))?;
+        .with_context(|| format!("writing {}", args.plot.display()))
+        .or_fail(Failure::CantCreate)?;
     let presets = choose_presets(&rows, &primary);
     if let Some(parent) = args.presets.parent() {
         std::fs::create_dir_all(parent).ok();
     }
     std::fs::write(&args.presets, presets_toml(&presets, &protocol, &primary))
-        .with_context(|| format!("writing {}", args.presets.display()))?;
+        .with_context(|| format!("writing {}", args.presets.display()))
+        .or_fail(Failure::CantCreate)?;
     writeln!(
         out,
         "wrote {}, {} and {} ({} rows in {:.0} s, load {} → {})",
@@ -789,20 +792,28 @@ fn write_between_markers(path: &Path, table: &str) -> anyhow::Result<()> {
     let old = match std::fs::read_to_string(path) {
         Ok(text) => text,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => "# Speed and accuracy\n\n".to_owned(),
-        Err(e) => return Err(e).with_context(|| format!("reading {}", path.display())),
+        Err(e) => {
+            return Err(e)
+                .with_context(|| format!("reading {}", path.display()))
+                .or_fail(Failure::NoInput);
+        }
     };
     let new = match (old.find(TABLE_BEGIN), old.find(TABLE_END)) {
         (Some(b), Some(e)) if b < e => format!("{}{TABLE_BEGIN}\n{table}{}", &old[..b], &old[e..]),
         (None, None) => format!("{old}\n## Measured\n\n{TABLE_BEGIN}\n{table}{TABLE_END}\n"),
-        _ => bail!(
-            "{}: the markers {TABLE_BEGIN} and {TABLE_END} must both be there, in that order",
-            path.display()
-        ),
+        _ => {
+            return Err(Failure::Data.error(format!(
+                "{}: the markers {TABLE_BEGIN} and {TABLE_END} must both be there, in that order",
+                path.display()
+            )));
+        }
     };
     if let Some(parent) = path.parent() {
         std::fs::create_dir_all(parent).ok();
     }
-    std::fs::write(path, new).with_context(|| format!("writing {}", path.display()))
+    std::fs::write(path, new)
+        .with_context(|| format!("writing {}", path.display()))
+        .or_fail(Failure::CantCreate)
 }
 
 /// Error against time, log–log, every case; the front of each case joined.

@@ -15,6 +15,8 @@ use coatlab_core::paint::gloss::{
     GlossExponent, GlossGeometry, exponent_from_reading, reading_from_exponent,
 };
 
+use super::failure::{Classify, Failure};
+
 #[derive(clap::Args, Debug)]
 pub struct GlossArgs {
     // Hyphen values are allowed so that `--gu -1` or `--m -inf` reach the range
@@ -40,11 +42,15 @@ pub struct GlossArgs {
 }
 
 pub fn run(args: &GlossArgs, out: &mut impl Write) -> anyhow::Result<()> {
-    let geometry = GlossGeometry::try_from(args.geometry).context("--geometry")?;
+    // Every number here is a flag's value: what the core refuses is a usage error.
+    let geometry = GlossGeometry::try_from(args.geometry)
+        .context("--geometry")
+        .or_fail(Failure::Usage)?;
     match (args.gu, args.m) {
         (Some(gu), _) => {
             let m = exponent_from_reading(geometry, args.n, gu)
-                .with_context(|| format!("--gu {gu} at {geometry} with --n {}", args.n))?;
+                .with_context(|| format!("--gu {gu} at {geometry} with --n {}", args.n))
+                .or_fail(Failure::Usage)?;
             match m {
                 GlossExponent::Finite(m) => writeln!(out, "{m}")?,
                 GlossExponent::Mirror => writeln!(out, "inf")?,
@@ -58,11 +64,12 @@ pub fn run(args: &GlossArgs, out: &mut impl Write) -> anyhow::Result<()> {
                 GlossExponent::Finite(m)
             };
             let gu = reading_from_exponent(geometry, args.n, exponent)
-                .with_context(|| format!("--m {m} at {geometry} with --n {}", args.n))?;
+                .with_context(|| format!("--m {m} at {geometry} with --n {}", args.n))
+                .or_fail(Failure::Usage)?;
             writeln!(out, "{gu}")?;
         }
         // clap requires one of the two.
-        (None, None) => anyhow::bail!("give --gu or --m"),
+        (None, None) => return Err(Failure::Usage.error("give --gu or --m")),
     }
     Ok(())
 }

@@ -9,6 +9,8 @@ use coatlab_core::design::PaintDesign;
 use coatlab_core::instruments::{Measurement, delta_e_per_angle, measure};
 use coatlab_core::spectrum::WavelengthGrid;
 
+use super::failure::{Classify, Failure};
+
 #[derive(clap::Args, Debug)]
 pub struct MeasureArgs {
     /// Paint design file (TOML).
@@ -25,7 +27,8 @@ fn measure_file(path: &PathBuf) -> anyhow::Result<(PaintDesign, Measurement)> {
     let design = PaintDesign::load(path)?;
     let model = design
         .model(WavelengthGrid::reference())
-        .with_context(|| format!("cannot build the paint model of {}", path.display()))?;
+        .with_context(|| format!("cannot build the paint model of {}", path.display()))
+        .or_fail(Failure::Data)?;
     Ok((design, measure(&model)))
 }
 
@@ -46,7 +49,7 @@ pub fn run(args: &MeasureArgs, out: &mut impl Write) -> anyhow::Result<()> {
             "target": target.as_ref().map(|(t, _)| t.name.clone()),
             "delta_e00": delta_e,
         });
-        serde_json::to_writer_pretty(&mut *out, &json)?;
+        serde_json::to_writer_pretty(&mut *out, &json).or_fail(Failure::Io)?;
         writeln!(out)?;
         return Ok(());
     }

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use anyhow::{Context, bail};
+use anyhow::Context;
 use coatlab_core::cie::Illuminant;
 use coatlab_core::design::{PaintDesign, presets};
 use coatlab_core::paint::phong::PhongVariant;
@@ -21,6 +21,8 @@ use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
 use coatlab_core::spectrum::WavelengthGrid;
+
+use super::failure::{Classify, Failure};
 
 /// Wavelengths per path unless `--wavelengths` says otherwise.
 pub const DEFAULT_WAVELENGTHS: usize = 32;
@@ -38,8 +40,8 @@ pub struct RenderArgs {
     /// Paint the material with exactly this name instead of the automatic choice.
     #[arg(long)]
     pub paint_material: Option<String>,
-    /// Lighting: studio, booth-d65, booth-a, booth-f11, outdoor, or the path of a
-    /// Radiance .hdr environment map.
+    /// Lighting: studio, booth-d65, booth-a, booth-f11, outdoor, or the path of an
+    /// environment map (Radiance .hdr or OpenEXR .exr, equirectangular).
     #[arg(long, default_value = "studio")]
     pub environment: String,
     /// How the design is rendered: paint, phong-naive or phong-fit.
@@ -82,7 +84,9 @@ pub struct RenderArgs {
     /// Adaptive sampling: samples follow the per-sample noise to this power (0–4).
     #[arg(long, default_value_t = AdaptiveSampling::default().exponent)]
     pub adaptive_exponent: f32,
-    /// Output: .png (sRGB, tone mapped) or .exr (linear sRGB, half floats).
+    /// Output: .png (8-bit sRGB, exposure and tone mapping applied) or .exr (linear
+    /// sRGB, D65 white at 1: 32-bit float R, G, B channels, no exposure or tone
+    /// mapping, uncompressed).
     #[arg(long)]
     pub out: PathBuf,
 }
@@ -133,11 +137,17 @@ pub fn environment(name: &str, grid: &WavelengthGrid) -> anyhow::Result<Environm
         path => {
             let path = Path::new(path);
             if !path.exists() {
-                bail!(
+                // A bare word was meant as a setup's name; anything else as a file.
+                let failure = if name.contains(['.', '/', std::path::MAIN_SEPARATOR]) {
+                    Failure::NoInput
+                } else {
+                    Failure::Usage
+                };
+                return Err(failure.error(format!(
                     "--environment '{}': not a lighting setup (studio, booth-d65, booth-a, \
                      booth-f11, outdoor) and no such file",
                     path.display()
-                );
+                )));
             }
             Environment::from_image(path, grid)?
         }
@@ -168,7 +178,8 @@ pub fn scene(path: Option<&Path>, paint_material: Option<&str>) -> anyhow::Resul
                              (it has {})",
                             names.join(", ")
                         )
-                    })?;
+                    })
+                    .or_fail(Failure::Usage)?;
                 scene.paint_materials = vec![index as u32];
             }
             Ok(scene)
@@ -183,19 +194,26 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
     if !matches!(extension.as_deref(), Some("png") | Some("exr")) {
-        bail!(
+        return Err(Failure::Usage.error(format!(
             "--out {}: the output must end in .png or .exr",
             args.out.display()
-        );
+        )));
     }
-    if let Some(seconds) = args.seconds
-        && !(seconds > 0.0 && seconds.is_finite())
-    {
-        bail!("--seconds {seconds}: must be a positive number of seconds");
-    }
+    // What a Duration holds (about 5.8e11 years) is the upper limit.
+    let time_limit = match args.seconds {
+        None => None,
+        Some(seconds) => match Duration::try_from_secs_f64(seconds) {
+            Ok(limit) if seconds > 0.0 => Some(limit),
+            _ => {
+                return Err(Failure::Usage.error(format!(
+                    "--seconds {seconds}: must be a positive, finite number of seconds"
+                )));
+            }
+        },
+    };
     let spp = args.spp.unwrap_or(DEFAULT_SPP);
     if spp == 0 {
-        bail!("--spp 0: at least one sample per pixel is needed");
+        return Err(Failure::Usage.error("--spp 0: at least one sample per pixel is needed"));
     }
     let adaptive = AdaptiveSampling {
         uniform_samples: args.adaptive_uniform_spp,
@@ -209,11 +227,12 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
                 AdaptiveError::Floor(_) => "--adaptive-floor",
                 AdaptiveError::Exponent(_) => "--adaptive-exponent",
             };
-            anyhow::anyhow!("{flag}: {error}")
+            Failure::Usage.error(format!("{flag}: {error}"))
         })?;
     }
     let grid = WavelengthGrid::visible(args.wavelengths)
-        .with_context(|| format!("--wavelengths {}", args.wavelengths))?;
+        .with_context(|| format!("--wavelengths {}", args.wavelengths))
+        .or_fail(Failure::Usage)?;
 
     let design = match &args.design {
         Some(path) => PaintDesign::load(path)?,
@@ -221,18 +240,24 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
             presets::all()
                 .into_iter()
                 .next()
-                .context("no built-in preset")?
+                .context("no built-in preset")
+                .or_fail(Failure::Internal)?
                 .design
         }
     };
-    let model = design.model(grid).context("cannot build the paint model")?;
+    let model = design
+        .model(grid)
+        .context("cannot build the paint model")
+        .or_fail(Failure::Data)?;
     let environment = environment(&args.environment, &grid)?;
     let scene = scene(args.scene.as_deref(), args.paint_material.as_deref())?;
     for warning in &scene.warnings {
-        eprintln!("coatlab: warning: {warning}");
+        to_stderr(format_args!("coatlab: warning: {warning}\n"));
     }
     let shading = Shading::new(&model, args.model, &scene.materials, &scene.paint_materials);
-    let render_scene = RenderScene::new(scene).context("cannot prepare the scene")?;
+    let render_scene = RenderScene::new(scene)
+        .context("cannot prepare the scene")
+        .or_fail(Failure::Data)?;
     let (width, height) = args.size;
     let camera = render_scene.default_camera(width, height);
     let mut render = ProgressiveRender::new(
@@ -245,21 +270,22 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
             adaptive: args.adaptive.then_some(adaptive),
             ..RenderSettings::default()
         },
-    )?;
+    )
+    .or_fail(Failure::Data)?;
 
-    let mut progress = Progress::new(args.seconds.map(Duration::from_secs_f64), spp);
+    let mut progress = Progress::new(time_limit, spp);
     let start = Instant::now();
     loop {
         let done = render.samples_per_pixel();
-        let batch = match args.seconds {
+        let batch = match time_limit {
             Some(_) => 1,
             None => (spp - done).min(4),
         };
         render.render_pass(batch);
         let elapsed = start.elapsed();
         progress.update(render.samples_per_pixel(), elapsed);
-        let finished = match args.seconds {
-            Some(s) => elapsed.as_secs_f64() >= s,
+        let finished = match time_limit {
+            Some(limit) => elapsed >= limit,
             None => render.samples_per_pixel() >= spp,
         };
         if finished {
@@ -283,7 +309,9 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
     }
     let rejected = render.film().rejected_samples();
     if rejected > 0 {
-        eprintln!("coatlab: warning: {rejected} samples were not finite and counted as black");
+        to_stderr(format_args!(
+            "coatlab: warning: {rejected} samples were not finite and counted as black\n"
+        ));
     }
     let noise = render
         .noise_estimate(&display)
@@ -303,6 +331,13 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
         totals.rays_per_second() / 1e6,
     )?;
     Ok(())
+}
+
+/// Writes to standard error, ignoring failure: `eprintln!` panics when stderr is
+/// a closed pipe (`coatlab render … 2>&1 | head -1`), and progress and warnings
+/// are not worth failing a render for.
+fn to_stderr(text: std::fmt::Arguments) {
+    let _ = std::io::stderr().write_fmt(text);
 }
 
 /// A progress bar on standard error: redrawn in place on a terminal, a line per
@@ -340,19 +375,19 @@ impl Progress {
             elapsed.as_secs_f64()
         );
         if self.terminal {
-            eprint!("\r{bar}");
+            to_stderr(format_args!("\r{bar}"));
         } else {
             let tenth = (fraction * 10.0).floor() as u32;
             if tenth > self.last_tenth {
                 self.last_tenth = tenth;
-                eprintln!("{bar}");
+                to_stderr(format_args!("{bar}\n"));
             }
         }
     }
 
     fn finish(&self) {
         if self.terminal {
-            eprintln!();
+            to_stderr(format_args!("\n"));
         }
     }
 }
