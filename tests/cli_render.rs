@@ -349,6 +349,11 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
         (vec!["--size".into(), "48".into()], usage, "WIDTHxHEIGHT"),
         (vec!["--size".into(), "0x10".into()], usage, "1 to 16384"),
         (
+            vec!["--size".into(), "16384x16384".into()],
+            usage,
+            "112 bytes a pixel",
+        ),
+        (
             vec!["--model".into(), "lambert".into()],
             usage,
             "phong-naive",

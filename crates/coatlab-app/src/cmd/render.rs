@@ -113,6 +113,9 @@ fn parse_model(text: &str) -> Result<ShadingModel, String> {
     }
 }
 
+/// The largest image `--size` accepts, in pixels.
+pub const MAX_PIXELS: u64 = 8192 * 8192;
+
 pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
     let message = || format!("'{text}' is not a size: use WIDTHxHEIGHT, e.g. 960x540");
     let (w, h) = text.split_once(['x', 'X', '×']).ok_or_else(message)?;
@@ -121,6 +124,14 @@ pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
     if w == 0 || h == 0 || w > 16384 || h > 16384 {
         return Err(format!(
             "size {w}x{h}: width and height must be 1 to 16384 pixels"
+        ));
+    }
+    // The film keeps 112 bytes a pixel (render::film): 8192×8192 is 7.5 GB, the most
+    // a workstation can be asked for without the process being killed for memory
+    // instead of told why.
+    if u64::from(w) * u64::from(h) > MAX_PIXELS {
+        return Err(format!(
+            "size {w}x{h}: at most {MAX_PIXELS} pixels (8192x8192): the film needs 112 bytes a pixel"
         ));
     }
     Ok((w, h))
@@ -403,6 +414,13 @@ mod tests {
         assert!(parse_size("960").unwrap_err().contains("WIDTHxHEIGHT"));
         assert!(parse_size("0x10").unwrap_err().contains("1 to 16384"));
         assert!(parse_size("ax10").is_err());
+        assert_eq!(parse_size("8192x8192"), Ok((8192, 8192)));
+        assert!(
+            parse_size("16384x16384")
+                .unwrap_err()
+                .contains("112 bytes a pixel")
+        );
+        assert!(parse_size("16384x4097").is_err());
     }
 
     #[test]
