@@ -154,8 +154,11 @@ fn dropping_a_design_file_opens_it_and_lists_it_as_recent() {
     let _ = std::fs::remove_dir_all(dir);
 }
 
+/// An unsaved edit left by an exit that did not save is offered and recovered (the
+/// exit's own autosave). The periodic autosave and a real crash (SIGKILL) are
+/// tests/gui_crash.rs.
 #[test]
-fn save_then_reopen_round_trips_and_an_unsaved_edit_is_recovered_after_a_crash() {
+fn save_then_reopen_round_trips_and_an_unsaved_edit_is_recovered_after_an_unsaved_exit() {
     let dir = temp_dir("save");
     let state = dir.join("state");
     let file = dir.join("mine.toml");

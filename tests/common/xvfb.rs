@@ -1,5 +1,6 @@
 //! A private virtual X server (Xvfb) and the directories the `coatlab` binary runs
-//! in under it: shared by the smoke test (tests/gui_smoke.rs) and the real-window
+//! in under it: shared by the smoke test (tests/gui_smoke.rs), the crash-recovery test
+//! (tests/gui_crash.rs), the system file dialog test and the real-window
 //! part of the responsiveness bench (crates/coatlab-app/benches/gui_responsiveness.rs).
 #![allow(dead_code)] // each crate uses its own subset
 
@@ -85,4 +86,34 @@ pub fn start_xvfb() -> Result<(Reaped, String), String> {
         Ok(Err(e)) => Err(format!("cannot read Xvfb's display number: {e}")),
         Err(_) => Err("Xvfb did not report a display within 20 s".into()),
     }
+}
+
+/// Runs `xdotool args` on `display`; killed after 20 s (a `--sync` that never sees
+/// its event would otherwise hang the test).
+pub fn xdotool(display: &str, args: &[&str]) -> std::process::Output {
+    let mut child = Command::new("xdotool")
+        .args(args)
+        .env("DISPLAY", display)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run xdotool");
+    let start = std::time::Instant::now();
+    while child.try_wait().expect("poll xdotool").is_none() {
+        if start.elapsed() > Duration::from_secs(20) {
+            let _ = child.kill();
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.wait_with_output().expect("xdotool's output")
+}
+
+/// Whether the tests that drive the real binary must run: CI (`CI`, which
+/// `.ci/run` exports) or `COATLAB_REQUIRE_GUI_SMOKE` set to anything but empty.
+pub fn gui_tools_required() -> bool {
+    ["CI", "COATLAB_REQUIRE_GUI_SMOKE"]
+        .iter()
+        .any(|v| std::env::var_os(v).is_some_and(|x| !x.is_empty()))
 }
