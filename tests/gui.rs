@@ -226,11 +226,45 @@ fn the_instruments_panel_shows_delta_e_to_a_target_and_exports_it() {
         .and_then(|a| a.delta_e.clone())
         .expect("ΔE00 per angle");
     assert_eq!(de.len(), 5);
+    // Another pigment: clearly visible at every angle, and each value on screen.
+    for d in &de {
+        assert!(*d > 1.0, "ΔE00 per angle {de:?}");
+        // In the table (and at 45° again beside the D65 swatch).
+        assert!(
+            h.get_all_by_label(&format!("{d:.2}")).next().is_some(),
+            "{d:.2} is not shown"
+        );
+    }
     let csv = dir.join("readings.csv");
     h.state_mut().export_measurement(&csv);
     let text = std::fs::read_to_string(&csv).expect("exported");
     assert!(text.starts_with("kind,angle_deg,detector_deg,L,a,b,dE00"));
     assert_eq!(text.lines().count(), 9);
+    let exported: Vec<f64> = text
+        .lines()
+        .filter(|l| l.starts_with("colour,"))
+        .map(|l| {
+            l.split(',')
+                .nth(6)
+                .expect("dE00")
+                .parse()
+                .expect("a number")
+        })
+        .collect();
+    assert_eq!(exported, de, "the exported dE00 column");
+
+    // The design itself as the target: no difference at any angle.
+    let same = dir.join("same.toml");
+    h.state().design().save(&same).expect("save");
+    h.state_mut().open_target(&same);
+    h.run();
+    let de = h
+        .state()
+        .analysis()
+        .and_then(|a| a.delta_e.clone())
+        .expect("ΔE00 per angle");
+    assert_eq!(de, vec![0.0; 5]);
+    assert!(h.get_all_by_label("0.00").count() >= 5);
     let _ = std::fs::remove_dir_all(dir);
 }
 
