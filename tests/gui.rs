@@ -11,7 +11,7 @@ use coatlab_app::gui::storage::Storage;
 use coatlab_app::gui::{AppOptions, CoatlabApp, app::Tab};
 use egui::accesskit::Role;
 use egui_kittest::Harness;
-use egui_kittest::kittest::Queryable;
+use egui_kittest::kittest::{NodeT, Queryable};
 
 fn app() -> CoatlabApp {
     CoatlabApp::new(AppOptions {
@@ -154,8 +154,11 @@ fn dropping_a_design_file_opens_it_and_lists_it_as_recent() {
     let _ = std::fs::remove_dir_all(dir);
 }
 
+/// An unsaved edit left by an exit that did not save is offered and recovered (the
+/// exit's own autosave). The periodic autosave and a real crash (SIGKILL) are
+/// tests/gui_crash.rs.
 #[test]
-fn save_then_reopen_round_trips_and_an_unsaved_edit_is_recovered_after_a_crash() {
+fn save_then_reopen_round_trips_and_an_unsaved_edit_is_recovered_after_an_unsaved_exit() {
     let dir = temp_dir("save");
     let state = dir.join("state");
     let file = dir.join("mine.toml");
@@ -223,11 +226,45 @@ fn the_instruments_panel_shows_delta_e_to_a_target_and_exports_it() {
         .and_then(|a| a.delta_e.clone())
         .expect("ΔE00 per angle");
     assert_eq!(de.len(), 5);
+    // Another pigment: clearly visible at every angle, and each value on screen.
+    for d in &de {
+        assert!(*d > 1.0, "ΔE00 per angle {de:?}");
+        // In the table (and at 45° again beside the D65 swatch).
+        assert!(
+            h.get_all_by_label(&format!("{d:.2}")).next().is_some(),
+            "{d:.2} is not shown"
+        );
+    }
     let csv = dir.join("readings.csv");
     h.state_mut().export_measurement(&csv);
     let text = std::fs::read_to_string(&csv).expect("exported");
     assert!(text.starts_with("kind,angle_deg,detector_deg,L,a,b,dE00"));
     assert_eq!(text.lines().count(), 9);
+    let exported: Vec<f64> = text
+        .lines()
+        .filter(|l| l.starts_with("colour,"))
+        .map(|l| {
+            l.split(',')
+                .nth(6)
+                .expect("dE00")
+                .parse()
+                .expect("a number")
+        })
+        .collect();
+    assert_eq!(exported, de, "the exported dE00 column");
+
+    // The design itself as the target: no difference at any angle.
+    let same = dir.join("same.toml");
+    h.state().design().save(&same).expect("save");
+    h.state_mut().open_target(&same);
+    h.run();
+    let de = h
+        .state()
+        .analysis()
+        .and_then(|a| a.delta_e.clone())
+        .expect("ΔE00 per angle");
+    assert_eq!(de, vec![0.0; 5]);
+    assert!(h.get_all_by_label("0.00").count() >= 5);
     let _ = std::fs::remove_dir_all(dir);
 }
 
@@ -256,6 +293,59 @@ fn snapshot_of_the_designer() {
     h.state_mut().set_tab(Tab::Instruments);
     h.run();
     h.snapshot("designer_instruments");
+}
+
+/// The window with the preview image, on lavapipe. A render is deterministic for
+/// its seed whatever the thread count, so the preview is stopped at a fixed sample
+/// count (the coarsest quality preset's) and is then the same picture on every run;
+/// the status line, which holds samples per second and the change latency (times),
+/// is painted over before the comparison and checked as text instead.
+#[test]
+fn snapshot_of_the_preview_at_a_fixed_sample_count() {
+    use coatlab_app::gui::quality::QualityPresets;
+    let presets = QualityPresets::embedded().expect("the committed presets parse");
+    let chosen = presets
+        .presets
+        .iter()
+        .min_by_key(|p| (p.samples_per_pixel, std::cmp::Reverse(p.resolution_divisor)))
+        .expect("at least one preset");
+    let mut h = preview_harness(true);
+    steps(&mut h, 2);
+    h.get_by_role_and_label(Role::ComboBox, "Quality").click();
+    steps(&mut h, 2);
+    h.get_by_label(&chosen.name).click();
+    steps(&mut h, 2);
+    assert_eq!(preview(h.state()).quality().knobs, chosen.knobs());
+    wait_until(&mut h, "the preset's image, converged", |app| {
+        app.preview_status()
+            .is_some_and(|s| !s.coarse && s.samples_per_pixel >= chosen.samples_per_pixel)
+    });
+    // Away from every widget (no hover highlight, no tooltip), then let the render
+    // thread go idle and every animation end.
+    h.hover_at(egui::pos2(1490.0, 930.0));
+    steps(&mut h, 5);
+    h.run();
+    let status = h.state().preview_status().cloned().expect("a frame");
+    assert_eq!(status.samples_per_pixel, chosen.samples_per_pixel);
+    let line = h.get_by_label_contains("k samples/s");
+    let node = line.accesskit_node();
+    let text = node.label().or_else(|| node.value()).unwrap_or_default();
+    assert!(
+        text.starts_with(&format!("{} spp  ·  ", chosen.samples_per_pixel))
+            && text.contains(&format!("{}×{}", status.width, status.height)),
+        "status line: {text}"
+    );
+    let line = line.rect();
+    let mut image = h.render().expect("render the window");
+    // The whole row of the status line, across the central panel.
+    let (x0, x1) = (line.left().floor() as u32, image.width());
+    let (y0, y1) = (line.top().floor() as u32, line.bottom().ceil() as u32);
+    for y in y0..y1.min(image.height()) {
+        for x in x0..x1 {
+            image.get_pixel_mut(x, y).0 = [255, 0, 255, 255];
+        }
+    }
+    egui_kittest::image_snapshot(&image, "designer_preview");
 }
 
 /// The live preview renders off the UI thread and restarts on a design change.

@@ -279,20 +279,112 @@ fn lamborghini_agrees_with_brute_force_and_validates() {
     }
 }
 
+/// `Accel::build` is `build_with` the documented defaults: the `Simd8` layout,
+/// the `Fast` quality preset (16 SAH bins) and spatial splits. The tree is
+/// compared with trees built with each option changed in turn, so a default that
+/// is reported but not applied fails. How fast the default traces is the accel
+/// bench's to measure (docs/benchmarks.md), not a unit test's.
 #[test]
-fn default_build_is_simd8_and_fast() {
-    let mesh = torus(8, 6);
-    let accel = Accel::build(&mesh).expect("build");
-    assert_eq!(accel.bvh().options(), BuildOptions::default());
+fn default_build_is_the_simd8_layout_with_the_fast_preset_and_spatial_splits() {
+    let documented = BuildOptions {
+        layout: BvhLayout::Simd8,
+        quality: BuildQuality::Fast,
+        reference_splits: ReferenceSplits::Spatial,
+        threads: 0,
+    };
+    assert_eq!(BuildOptions::default(), documented);
+    // The default car: its floor and body panels are large triangles that the
+    // reference splits cut, and enough triangles for the bin count to matter.
+    let mesh = coatlab_core::scene::car::generate(&Default::default()).mesh;
+    // Node count, slot count and a hash of the leaf order and slot triangles: equal
+    // for the same tree, and short in a failure message.
+    let tree = |accel: &Accel| {
+        use std::hash::{Hash, Hasher};
+        let mut hasher = std::hash::DefaultHasher::new();
+        accel.bvh().primitive_order().hash(&mut hasher);
+        accel.slot_triangles().hash(&mut hasher);
+        (
+            accel.bvh().node_count(),
+            accel.slot_triangles().len(),
+            hasher.finish(),
+        )
+    };
+    let default = Accel::build(&mesh).expect("build");
+    assert_eq!(default.bvh().options(), documented);
+    let explicit = Accel::build_with(&mesh, &documented).expect("build");
     assert_eq!(
-        BuildOptions::default(),
-        BuildOptions {
-            layout: BvhLayout::Simd8,
-            quality: BuildQuality::Fast,
-            reference_splits: ReferenceSplits::Spatial,
-            threads: 0,
-        }
+        tree(&default),
+        tree(&explicit),
+        "the default is not applied"
     );
+    let changed = [
+        BuildOptions {
+            layout: BvhLayout::Wide8,
+            ..documented
+        },
+        BuildOptions {
+            layout: BvhLayout::Binary,
+            ..documented
+        },
+        BuildOptions {
+            quality: BuildQuality::Fastest,
+            ..documented
+        },
+        BuildOptions {
+            quality: BuildQuality::Medium,
+            ..documented
+        },
+        BuildOptions {
+            reference_splits: ReferenceSplits::LargeTriangles,
+            ..documented
+        },
+    ];
+    for options in changed {
+        let other = Accel::build_with(&mesh, &options).expect("build");
+        assert_eq!(other.bvh().options(), options);
+        assert_ne!(
+            tree(&default),
+            tree(&other),
+            "{options:?} builds the default's tree: the test cannot tell them apart"
+        );
+    }
+    // Eight children a node: far fewer nodes than the binary layout's.
+    let binary = Accel::build_with(
+        &mesh,
+        &BuildOptions {
+            layout: BvhLayout::Binary,
+            ..documented
+        },
+    )
+    .expect("build");
+    assert!(
+        4 * default.bvh().node_count() < binary.bvh().node_count(),
+        "Simd8 {} nodes against Binary {}",
+        default.bvh().node_count(),
+        binary.bvh().node_count()
+    );
+}
+
+/// Which SIMD code the accel compiled: `accel/{triangle,wide}.rs` choose by
+/// `target_feature = "avx"`, and a test crate is built with the same target flags
+/// as the library. CI runs the render and accel tests once per path and names the
+/// path it means in `COATLAB_EXPECT_ACCEL_PATH` (`avx` or `portable`), so a build
+/// flag that does not take effect fails here instead of testing the other path.
+#[test]
+fn the_compiled_simd_path_is_the_one_asked_for() {
+    let compiled = if cfg!(all(target_arch = "x86_64", target_feature = "avx")) {
+        "avx"
+    } else {
+        "portable"
+    };
+    println!("accel SIMD path compiled: {compiled}");
+    if let Some(expected) = std::env::var_os("COATLAB_EXPECT_ACCEL_PATH") {
+        assert_eq!(
+            std::ffi::OsStr::new(compiled),
+            expected,
+            "COATLAB_EXPECT_ACCEL_PATH names another path than the one compiled"
+        );
+    }
 }
 
 #[test]

@@ -22,7 +22,31 @@ use super::preview::{Preview, PreviewEvent, PreviewRequest};
 use super::storage::{Recovery, Storage};
 
 /// How often an unsaved design is autosaved.
-const AUTOSAVE_INTERVAL: Duration = Duration::from_secs(5);
+pub const AUTOSAVE_INTERVAL: Duration = Duration::from_secs(5);
+/// The environment variable that overrides [`AUTOSAVE_INTERVAL`], in seconds (the
+/// crash-recovery test shortens it; docs/gui.md).
+pub const AUTOSAVE_INTERVAL_VAR: &str = "COATLAB_AUTOSAVE_SECONDS";
+
+/// The autosave interval: `COATLAB_AUTOSAVE_SECONDS` if set, else the default; a
+/// value that is not a positive number of seconds is reported and ignored.
+fn autosave_interval() -> Result<Duration, String> {
+    let Some(value) = std::env::var_os(AUTOSAVE_INTERVAL_VAR) else {
+        return Ok(AUTOSAVE_INTERVAL);
+    };
+    value
+        .to_str()
+        .and_then(|v| v.trim().parse::<f64>().ok())
+        .filter(|s| s.is_finite() && *s > 0.0 && *s <= 86_400.0)
+        .map(Duration::from_secs_f64)
+        .ok_or_else(|| {
+            format!(
+                "{AUTOSAVE_INTERVAL_VAR}={}: not a number of seconds in (0, 86400]; \
+                 autosaving every {} s",
+                value.to_string_lossy(),
+                AUTOSAVE_INTERVAL.as_secs()
+            )
+        })
+}
 
 /// How the app starts.
 #[derive(Debug, Clone, Default)]
@@ -80,6 +104,7 @@ pub struct CoatlabApp {
     storage: Storage,
     recent: Vec<PathBuf>,
     recovery: Option<Recovery>,
+    autosave_interval: Duration,
     last_autosave: Instant,
     autosaved: Option<PaintDesign>,
     window_title: String,
@@ -112,6 +137,13 @@ impl CoatlabApp {
                 None
             }
         };
+        let autosave_interval = autosave_interval().unwrap_or_else(|e| {
+            notices.push(Notice {
+                is_error: true,
+                text: e,
+            });
+            AUTOSAVE_INTERVAL
+        });
         let mut app = Self {
             saved: design.clone(),
             history: History::new(design.clone()),
@@ -128,6 +160,7 @@ impl CoatlabApp {
             recent: options.storage.recent_files(),
             storage: options.storage,
             recovery,
+            autosave_interval,
             last_autosave: Instant::now(),
             autosaved: None,
             window_title: String::new(),
@@ -508,8 +541,15 @@ impl CoatlabApp {
         self.analysis_key = Some(key);
     }
 
-    fn autosave(&mut self) {
-        if self.last_autosave.elapsed() < AUTOSAVE_INTERVAL {
+    fn autosave(&mut self, ctx: &egui::Context) {
+        let pending = self.is_dirty() && self.autosaved.as_ref() != Some(&self.design);
+        let elapsed = self.last_autosave.elapsed();
+        if elapsed < self.autosave_interval {
+            // egui draws only on input or when asked: without this, an edit followed
+            // by no input and a finished preview would wait for the next event.
+            if pending {
+                ctx.request_repaint_after(self.autosave_interval - elapsed);
+            }
             return;
         }
         self.last_autosave = Instant::now();
@@ -695,7 +735,7 @@ impl CoatlabApp {
         if gesture_over {
             self.history.commit(&self.design);
         }
-        self.autosave();
+        self.autosave(&ctx);
         let title = format!(
             "Coatlab — {}{}",
             self.design.name,
