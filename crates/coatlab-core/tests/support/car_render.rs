@@ -113,16 +113,19 @@ pub fn fresh_with(
     })
 }
 
-/// The weights of the tile and image sums: from a pilot of the signal-red car
-/// (4 replicas of 16 samples, seeds no other render here uses), independent of
-/// every image compared.
-pub fn weights() -> Weights {
-    let model = red();
-    let pilot = Replicas::collect(WIDTH, HEIGHT, 4, |i| {
-        let (render, _) = render(&model, ShadingModel::Paint, seed(90_000 + i as u64), 16, 0);
+/// A pilot for the weights of the tile and image sums: 4 renders of `model` of 16
+/// samples, seeds `first_seed` + i (seeds no compared render uses).
+pub fn pilot(model: &PaintModel, which: ShadingModel, first_seed: u64) -> Replicas {
+    Replicas::collect(WIDTH, HEIGHT, 4, |i| {
+        let (render, _) = render(model, which, first_seed + i as u64, 16, 0);
         film_image(render.film())
-    });
-    Weights::from_pilot(&pilot)
+    })
+}
+
+/// The weights of the tile and image sums: from a [`pilot`] of the signal-red
+/// car, independent of every image compared.
+pub fn weights() -> Weights {
+    Weights::from_pilot(&pilot(&red(), ShadingModel::Paint, seed(90_000)))
 }
 
 /// The pixels whose chromaticity differs from the backdrop's (the top-left

@@ -153,6 +153,17 @@ impl Replicas {
         out
     }
 
+    /// These replicas with `delta(pixel, channel)` added to every mean.
+    pub fn shifted(&self, delta: impl Fn(usize, usize) -> f64) -> Self {
+        let mut out = self.clone();
+        for (p, m) in out.mean.iter_mut().enumerate() {
+            for (c, v) in m.iter_mut().enumerate() {
+                *v += delta(p, c);
+            }
+        }
+        out
+    }
+
     /// The summed variance of the mean over the image, per channel.
     pub fn total_variance(&self) -> [f64; 3] {
         let mut out = [0.0; 3];
@@ -168,14 +179,22 @@ impl Replicas {
 /// Two-sided tail probability of Student's t with `df` degrees of freedom
 /// (normal for infinite `df`).
 pub fn two_sided_p(t: f64, df: f64) -> f64 {
-    let df = if df.is_finite() { df.max(1.0) } else { f64::INFINITY };
+    let df = if df.is_finite() {
+        df.max(1.0)
+    } else {
+        f64::INFINITY
+    };
     let dist = StudentsT::new(0.0, 1.0, df).expect("t distribution");
     (2.0 * dist.sf(t.abs())).min(1.0)
 }
 
 /// The |t| a two-sided test at level `p` rejects beyond.
 pub fn critical_t(p: f64, df: f64) -> f64 {
-    let df = if df.is_finite() { df.max(1.0) } else { f64::INFINITY };
+    let df = if df.is_finite() {
+        df.max(1.0)
+    } else {
+        f64::INFINITY
+    };
     let dist = StudentsT::new(0.0, 1.0, df).expect("t distribution");
     -dist.inverse_cdf(p / 2.0)
 }
@@ -229,7 +248,14 @@ impl Weights {
     /// its median over the image (a pixel whose pilot saw no noise is not trusted
     /// with all the weight).
     pub fn from_pilot(pilot: &Replicas) -> Self {
-        let (w, h) = (pilot.width as usize, pilot.height as usize);
+        Self::from_pilots(&[pilot])
+    }
+
+    /// [`Self::from_pilot`] for a comparison of two estimators with different
+    /// noise: a pilot of each, r² their sum (m from the first).
+    pub fn from_pilots(pilots: &[&Replicas]) -> Self {
+        let first = pilots[0];
+        let (w, h) = (first.width as usize, first.height as usize);
         let box3 = |values: &dyn Fn(usize) -> f64, i: usize| {
             let (x, y) = (i % w, i / w);
             let (mut s, mut n) = (0.0, 0.0);
@@ -241,32 +267,41 @@ impl Weights {
             }
             s / n
         };
-        let mut weight = vec![[0.0; 3]; w * h];
-        for c in 0..3 {
-            let relative = |i: usize| {
-                let m = pilot.mean[i][c];
-                if m > 0.0 {
-                    pilot.variance[i][c] / (m * m)
-                } else {
-                    0.0
+        let channel = |c: usize| -> Vec<f64> {
+            let mean: Vec<f64> = (0..w * h).map(|i| box3(&|j| first.mean[j][c], i)).collect();
+            let mut r2 = vec![0.0; w * h];
+            for pilot in pilots {
+                let relative = |i: usize| {
+                    let m = pilot.mean[i][c];
+                    if m > 0.0 {
+                        pilot.variance[i][c] / (m * m)
+                    } else {
+                        0.0
+                    }
+                };
+                for (i, r) in r2.iter_mut().enumerate() {
+                    *r += box3(&relative, i);
                 }
-            };
-            let mean: Vec<f64> = (0..w * h).map(|i| box3(&|j| pilot.mean[j][c], i)).collect();
-            let r2: Vec<f64> = (0..w * h).map(|i| box3(&relative, i)).collect();
-            let mut positive: Vec<f64> = r2.iter().copied().filter(|&v| v > 0.0).collect();
-            positive.sort_by(f64::total_cmp);
-            let floor = positive.get(positive.len() / 2).map_or(1.0, |m| 0.1 * m);
-            let mut means: Vec<f64> = mean.iter().copied().filter(|&v| v > 0.0).collect();
-            means.sort_by(f64::total_cmp);
-            let mean_floor = means.get(means.len() / 2).map_or(1.0, |m| 0.01 * m);
-            for i in 0..w * h {
-                weight[i][c] = 1.0 / (mean[i].max(mean_floor) * r2[i].max(floor));
             }
-        }
+            let median = |values: &[f64]| {
+                let mut positive: Vec<f64> = values.iter().copied().filter(|&v| v > 0.0).collect();
+                positive.sort_by(f64::total_cmp);
+                positive.get(positive.len() / 2).copied()
+            };
+            let floor = median(&r2).map_or(1.0, |m| 0.1 * m);
+            let mean_floor = median(&mean).map_or(1.0, |m| 0.01 * m);
+            mean.iter()
+                .zip(&r2)
+                .map(|(m, r)| 1.0 / (m.max(mean_floor) * r.max(floor)))
+                .collect()
+        };
+        let channels = [channel(0), channel(1), channel(2)];
         Self {
-            width: pilot.width,
-            height: pilot.height,
-            weight,
+            width: first.width,
+            height: first.height,
+            weight: (0..w * h)
+                .map(|i| std::array::from_fn(|c| channels[c][i]))
+                .collect(),
         }
     }
 
@@ -368,7 +403,11 @@ impl Comparison {
     /// Prints the comparison and asserts that the two images agree.
     pub fn assert_agree(&self, what: &str) {
         println!("{what}: {}", self.summary());
-        assert!(!self.fails(), "{what}: the images differ: {}", self.summary());
+        assert!(
+            !self.fails(),
+            "{what}: the images differ: {}",
+            self.summary()
+        );
     }
 }
 
@@ -376,7 +415,11 @@ impl Comparison {
 /// sums weighted by `weights`.
 pub fn compare(a: &Replicas, b: &Replicas, weights: &Weights) -> Comparison {
     assert_eq!((a.width, a.height), (b.width, b.height), "image sizes");
-    assert_eq!((a.width, a.height), (weights.width, weights.height), "weights");
+    assert_eq!(
+        (a.width, a.height),
+        (weights.width, weights.height),
+        "weights"
+    );
     let (w, h) = (a.width, a.height);
     let (ka, kb) = (a.count, b.count);
     let alpha = FALSE_ALARM / 3.0;
@@ -548,13 +591,16 @@ pub fn assert_first_image_agrees(a: &Replicas, b: &Replicas, weights: &Weights, 
     }
 }
 
+/// A defect: the factor of each (pixel, channel).
+pub type Factor = Box<dyn Fn(usize, usize) -> f64>;
+
 /// The name of the control that biases a block of 5 % of the pixels.
 pub const REGION_CONTROL: &str = "5 % of the pixels +2 %";
 
 /// The defects every image comparison must catch, as (name, factor(pixel,
 /// channel)), applied to the pixels with noise (a noise-free pixel would be
 /// caught by its exact comparison, which says nothing of the statistics).
-pub fn controls(a: &Replicas) -> Vec<(&'static str, Box<dyn Fn(usize, usize) -> f64>)> {
+pub fn controls(a: &Replicas) -> Vec<(&'static str, Factor)> {
     let noisy: Vec<bool> = a
         .variance
         .iter()
@@ -565,13 +611,19 @@ pub fn controls(a: &Replicas) -> Vec<(&'static str, Box<dyn Fn(usize, usize) -> 
         .zip(&noisy)
         .map(|(r, &n)| r && n)
         .collect();
-    let on = move |mask: Vec<bool>, channels: [bool; 3], factor: f64| -> Box<dyn Fn(usize, usize) -> f64> {
+    let on = move |mask: Vec<bool>,
+                   channels: [bool; 3],
+                   factor: f64|
+          -> Box<dyn Fn(usize, usize) -> f64> {
         Box::new(move |p, c| if mask[p] && channels[c] { factor } else { 1.0 })
     };
     vec![
         ("uniform +1 %", on(noisy.clone(), [true; 3], 1.01)),
         (REGION_CONTROL, on(region, [true; 3], 1.02)),
-        ("X alone +2 %", on(noisy.clone(), [true, false, false], 1.02)),
+        (
+            "X alone +2 %",
+            on(noisy.clone(), [true, false, false], 1.02),
+        ),
         ("Z alone −2 %", on(noisy, [false, false, true], 0.98)),
     ]
 }
