@@ -1,8 +1,8 @@
 //! Adaptive sampling (`render::adaptive`) in a whole render: deterministic for a
 //! seed on any thread count, samples go to the noisy pixels and every pixel keeps
-//! its floor, and the image is the uniform render's within the noise (Z-tests of
-//! pixels, regions and the image total against a uniform render of four times the
-//! samples).
+//! its floor, and the image is the uniform render's within the noise (X, Y and Z
+//! of replicas against uniform renders: pixels, tiles and the image total,
+//! `support/image_stats.rs`).
 //!
 //! The scene is the built-in car with a mirror-gloss grey coat in the studio: the
 //! coat reflects the softboxes onto the floor, the caustics adaptive sampling is
@@ -20,6 +20,10 @@ use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::spectrum::WavelengthGrid;
+
+#[path = "support/image_stats.rs"]
+mod image_stats;
+use image_stats::{Replicas, Weights, assert_agree_with_controls, film_image, seed};
 
 const WIDTH: u32 = 64;
 const HEIGHT: u32 = 36;
@@ -158,46 +162,21 @@ fn samples_go_to_the_noisy_pixels_and_every_pixel_keeps_its_floor() {
     );
 }
 
-/// The adaptive image estimates the uniform one: per-pixel luminance within the
-/// noise, no shift of the image total or of the floor's and the body's totals (Z of
-/// Σ difference over √Σ variance), against a uniform render of 4× the samples.
+/// The adaptive image estimates the uniform one: 16 adaptive renders of 64
+/// samples against 8 uniform renders of 128, X, Y and Z: pixels, tiles and the
+/// image total within the noise, every control rejected.
 #[test]
 fn an_adaptive_render_is_unbiased_against_a_uniform_one() {
-    let a = render(21, adaptive(), 64, 32);
-    let u = render(22, None, 256, 32);
-    let (mut outliers, mut count) = (0usize, 0usize);
-    // Regions: the image, its lower third (floor and caustics), its middle (body).
-    let mut totals = [(0.0f64, 0.0f64); 3];
-    for y in 0..HEIGHT {
-        for x in 0..WIDTH {
-            let (ma, mu) = (a.mean_xyz(x, y).y, u.mean_xyz(x, y).y);
-            let var = a.variance_of_mean_xyz(x, y)[1] + u.variance_of_mean_xyz(x, y)[1];
-            if var <= 0.0 {
-                continue;
-            }
-            count += 1;
-            outliers += usize::from(((ma - mu) / var.sqrt()).abs() > 4.0);
-            let region = [
-                true,
-                y >= 2 * HEIGHT / 3,
-                (HEIGHT / 3..2 * HEIGHT / 3).contains(&y),
-            ];
-            for (total, inside) in totals.iter_mut().zip(region) {
-                if inside {
-                    total.0 += ma - mu;
-                    total.1 += var;
-                }
-            }
-        }
-    }
-    let z: Vec<f64> = totals.iter().map(|(d, v)| d / v.sqrt()).collect();
-    println!(
-        "adaptive vs uniform: |Z| > 4 in {outliers} of {count} pixels; Z of totals: image {:.2}, \
-         floor {:.2}, body {:.2}",
-        z[0], z[1], z[2]
-    );
-    assert!((outliers as f64) < 0.005 * count as f64 + 1.0);
-    for (name, z) in ["image", "lower third", "middle third"].iter().zip(&z) {
-        assert!(z.abs() < 4.0, "{name}: Z of the total {z:.2}");
-    }
+    let weights = Weights::from_pilot(&Replicas::collect(WIDTH, HEIGHT, 4, |i| {
+        film_image(&render(seed(90_000 + i as u64), None, 16, 32))
+    }));
+    // Adaptive renders put fewer samples where the noise is low, where the
+    // weights look: twice the replicas.
+    let a = Replicas::collect(WIDTH, HEIGHT, 16, |i| {
+        film_image(&render(seed(21 + i as u64), adaptive(), 64, 32))
+    });
+    let u = Replicas::collect(WIDTH, HEIGHT, 8, |i| {
+        film_image(&render(seed(40 + i as u64), None, 128, 32))
+    });
+    assert_agree_with_controls(&a, &u, &weights, "adaptive vs uniform");
 }

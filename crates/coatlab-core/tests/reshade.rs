@@ -1,15 +1,14 @@
 //! Re-shading from recorded paths (`render::reshade`): exact when nothing changed,
 //! and statistically the same image as a fresh render after an edit.
 
-use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
+use std::sync::{Arc, OnceLock};
 
 use coatlab_core::design::presets;
 use coatlab_core::paint::gloss::GlossExponent;
 use coatlab_core::paint::model::{GlossSetting, PaintModel, PaintParams};
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::environment::Environment;
-use coatlab_core::render::integrator::IntegratorSettings;
 use coatlab_core::render::material::ShadingModel;
 use coatlab_core::render::progressive::{
     EditOutcome, FRESH_ONLY_WEIGHT, ProgressiveRender, RenderSettings,
@@ -17,9 +16,72 @@ use coatlab_core::render::progressive::{
 use coatlab_core::render::reshade::{BaseImage, ReshadeError, Reshaded, reshade_prepared_samples};
 use coatlab_core::spectrum::TabulatedSpectrum;
 
+#[path = "support/image_stats.rs"]
+mod image_stats;
+use image_stats::{
+    Replicas, Weights, assert_agree_with_controls, compare, film_image, reshaded_image, seed,
+};
+
 #[path = "support/car_render.rs"]
 mod car_render;
-use car_render::{HEIGHT, WIDTH, film_estimate, grid, red, render, render_with, shading, z_test};
+use car_render::{HEIGHT, REPLICAS, WIDTH, car_mask, fresh, grid, hue, red, render, shading};
+
+/// Samples per pixel of each replica of a comparison (`image_stats.rs`): with
+/// [`REPLICAS`] replicas a side, enough that a 2 % bias on 5 % of the pixels
+/// (a block on the car) is rejected.
+const SPP: u32 = 128;
+
+/// Independent edit sessions (or partial re-shades) compared with [`REPLICAS`]
+/// fresh renders: a re-shade from one or two recorded paths a pixel carries the
+/// noise of a one- or two-sample estimate of the edit's difference, so these
+/// need more replicas than fresh renders for the same power.
+const SESSIONS: usize = 32;
+
+/// Samples per pixel of each session's base render.
+const BASE_SPP: u32 = 64;
+
+/// ρ halved: the edit the session tests make.
+fn halved() -> PaintModel {
+    let base = red();
+    let mut edited = base.clone();
+    edited
+        .set_albedo(base.albedo().iter().map(|r| r * 0.5).collect())
+        .expect("albedo");
+    edited
+}
+
+/// 16 fresh renders of [`halved`] at [`SPP`], made once for the tests that
+/// compare with them.
+fn fresh_halved() -> &'static Replicas {
+    static FRESH: OnceLock<Replicas> = OnceLock::new();
+    FRESH.get_or_init(|| {
+        let model = halved();
+        Replicas::collect(WIDTH, HEIGHT, 16, |i| {
+            let (render, _) = render(&model, ShadingModel::Paint, seed(1000 + i as u64), SPP, 0);
+            film_image(render.film())
+        })
+    })
+}
+
+/// The weights of the comparisons (`car_render::weights`), made once.
+fn weights() -> &'static Weights {
+    static WEIGHTS: OnceLock<Weights> = OnceLock::new();
+    WEIGHTS.get_or_init(car_render::weights)
+}
+
+/// The reported variance of Y (`Reshaded::variance_y`) against the replicas'
+/// spread: Σ over pixels of the replicas' mean report over Σ of the variance of
+/// one replica's Y.
+fn reported_over_actual(reshades: &[Reshaded], replicas: &Replicas) -> f64 {
+    let k = reshades.len() as f64;
+    let reported: f64 = reshades
+        .iter()
+        .flat_map(|r| r.variance_y.iter().map(|&v| f64::from(v)))
+        .sum::<f64>()
+        / k;
+    let actual: f64 = replicas.variance.iter().map(|v| v[1] * k).sum();
+    reported / actual
+}
 
 #[test]
 fn re_shading_with_the_same_paint_gives_the_image_back() {
@@ -51,69 +113,122 @@ fn re_shading_with_the_same_paint_gives_the_image_back() {
     }
 }
 
-/// Edits of ρ, k, h and n, and the switch to Phong: the re-shaded image agrees
-/// with a fresh render of the edited design (another seed) within the noise of both.
+/// Edits of ρ (darker, and toward orange: a change of hue), k, h and n, and the
+/// switch to Phong: the re-shaded image agrees with fresh renders of the edited
+/// design (other seeds) in X, Y and Z within the noise of both, [`REPLICAS`]
+/// replicas a side; the defects of `image_stats::controls` put into each
+/// re-shaded image are rejected, and so is the unedited image for the ρ × 0.5 one.
 #[test]
 fn re_shaded_edits_match_fresh_renders() {
     let base = red();
-    let (render, scene) = render(&base, ShadingModel::Paint, 5, 64, 16);
+    let weights = weights();
+    let bases: Vec<_> = (0..REPLICAS)
+        .map(|i| render(&base, ShadingModel::Paint, seed(100 + i as u64), SPP, 16))
+        .collect();
+    let reshaded = |model: &PaintModel, which: ShadingModel| {
+        let images: Vec<Reshaded> = bases
+            .iter()
+            .map(|(render, scene)| {
+                render
+                    .reshade(&shading(scene, model, which))
+                    .expect("reshade")
+            })
+            .collect();
+        let replicas = Replicas::from_images(
+            WIDTH,
+            HEIGHT,
+            &images.iter().map(reshaded_image).collect::<Vec<_>>(),
+        );
+        (replicas, images)
+    };
     let grid = grid();
-    let mut edits: Vec<(&str, PaintModel)> = Vec::new();
+    let mut edits: Vec<(&str, PaintModel, ShadingModel)> = Vec::new();
+    edits.push(("rho x0.5", halved(), ShadingModel::Paint));
+    // The red's rising edge one grid step (27 nm) toward the blue: orange.
     let mut m = base.clone();
-    m.set_albedo(base.albedo().iter().map(|r| r * 0.5).collect())
-        .expect("albedo");
-    edits.push(("rho x0.5", m));
+    let rho = base.albedo();
+    m.set_albedo(
+        (0..rho.len())
+            .map(|i| rho[(i + 1).min(rho.len() - 1)])
+            .collect(),
+    )
+    .expect("albedo");
+    edits.push(("rho toward orange", m, ShadingModel::Paint));
     let mut m = base.clone();
-    m.set_absorption(vec![0.02; grid.len()])
+    // A coat tint that leaves the car's colour visible (0.02/µm leaves a near
+    // black car, on which no test or designer sees a 2 % error).
+    m.set_absorption(vec![0.005; grid.len()])
         .expect("absorption");
-    edits.push(("k 0.02/um", m));
+    edits.push(("k 0.005/um", m, ShadingModel::Paint));
     let mut m = base.clone();
     m.set_thickness(80.0).expect("thickness");
-    edits.push(("h 80 um", m));
+    edits.push(("h 80 um", m, ShadingModel::Paint));
+    // n + 0.1 with the gloss lobe held: the preset gives its gloss as a 20° reading,
+    // whose exponent depends on n (below).
     let mut m = base.clone();
+    m.set_gloss(GlossSetting::Exponent(base.exponent()))
+        .expect("gloss");
     let n: Vec<f64> = base.refractive_index().iter().map(|n| n + 0.1).collect();
     let n_gloss = base.index_at_gloss_wavelength() + 0.1;
-    m.set_refractive_index(n, n_gloss).expect("index");
-    edits.push(("n +0.1", m));
-    for (name, edited) in &edits {
-        let reshaded = render
-            .reshade(&shading(&scene, edited, ShadingModel::Paint))
-            .expect("reshade");
-        let (fresh, _) = self::render(edited, ShadingModel::Paint, 99, 64, 0);
-        let (outliers, total_z) = z_test(&reshaded, &fresh);
-        println!(
-            "{name}: beyond 4σ {:.2} %, total Z {total_z:.2}",
-            outliers * 100.0
-        );
-        assert!(
-            outliers < 0.01,
-            "{name}: {:.2} % beyond 4σ",
-            outliers * 100.0
-        );
-        assert!(total_z.abs() < 4.0, "{name}: total Z {total_z}");
-    }
+    m.set_refractive_index(n.clone(), n_gloss).expect("index");
+    edits.push(("n +0.1, lobe held", m, ShadingModel::Paint));
     // Phong from the paint's paths.
-    let phong = ShadingModel::Phong(PhongVariant::BestFit);
-    let reshaded = render
-        .reshade(&shading(&scene, &base, phong))
-        .expect("reshade");
-    let (fresh, _) = self::render(&base, phong, 99, 64, 0);
-    let (outliers, total_z) = z_test(&reshaded, &fresh);
-    println!(
-        "phong fit: beyond 4σ {:.2} %, total Z {total_z:.2}",
-        outliers * 100.0
-    );
-    assert!(outliers < 0.01 && total_z.abs() < 4.0);
+    edits.push((
+        "phong fit",
+        base.clone(),
+        ShadingModel::Phong(PhongVariant::BestFit),
+    ));
+    let (unedited, _) = reshaded(&base, ShadingModel::Paint);
+    let mask = car_mask(&unedited.mean);
+    let (base_hue, base_chroma) = hue(&unedited.mean, &mask);
+    for (j, (name, edited, which)) in edits.iter().enumerate() {
+        let (reshaded, images) = reshaded(edited, *which);
+        let fresh = if j == 0 {
+            fresh_halved().clone()
+        } else {
+            fresh(edited, *which, seed(1000 + 100 * j as u64), SPP)
+        };
+        let (h, c) = hue(&reshaded.mean, &mask);
+        println!(
+            "{name}: car hue {h:.1}° (base {base_hue:.1}°), chroma {c:.1} (base {base_chroma:.1}); \
+             reported variance of Y ×{:.2} of the replicas' spread",
+            reported_over_actual(&images, &reshaded)
+        );
+        assert_agree_with_controls(&reshaded, &fresh, weights, name);
+        if *name == "rho toward orange" {
+            assert!(
+                h - base_hue > 10.0,
+                "{name}: hue {h:.1}° from {base_hue:.1}°"
+            );
+        }
+    }
     // Negative control: the unedited image is not taken for the ρ × 0.5 one.
-    let unedited = render
-        .reshade(&shading(&scene, &base, ShadingModel::Paint))
-        .expect("reshade");
-    let (fresh, _) = self::render(&edits[0].1, ShadingModel::Paint, 99, 64, 0);
-    let (_, total_z) = z_test(&unedited, &fresh);
-    assert!(
-        total_z.abs() > 5.0,
-        "an unedited image passed for the edit: Z {total_z}"
-    );
+    let c = compare(&unedited, fresh_halved(), weights);
+    println!("unedited for rho x0.5: {}", c.summary());
+    assert!(c.fails(), "an unedited image passed for the edit");
+
+    // A known defect, pinned: n + 0.1 under the preset's 20° gloss reading widens
+    // the lobe (the exponent that gives the same reading falls about ×5). The
+    // re-shade is unbiased in theory, but the old, sharper lobe's samples cover
+    // the new one so poorly that its mean reads the highlights up to a third too
+    // dark at these sample counts, and it is rejected. `edit_shading` re-shades it
+    // all the same, and the GUI's guard against re-shading a new lobe compares the
+    // gloss setting only, so a designer's n edit shows this image first. When the
+    // re-shade refuses a change of lobe, assert that refusal here instead.
+    let mut widened = base.clone();
+    widened.set_refractive_index(n, n_gloss).expect("index");
+    let (GlossExponent::Finite(before), GlossExponent::Finite(after)) =
+        (base.exponent(), widened.exponent())
+    else {
+        panic!("the preset's lobe is finite");
+    };
+    println!("n +0.1 under the 20° reading: exponent {before:.0} -> {after:.0}");
+    assert!(after < 0.5 * before, "exponent {before} -> {after}");
+    let (reshaded, _) = reshaded(&widened, ShadingModel::Paint);
+    let fresh = fresh(&widened, ShadingModel::Paint, seed(1900), 64);
+    let c = compare(&reshaded, &fresh, weights);
+    println!("n +0.1, lobe widened: {}", c.summary());
+    assert!(c.fails(), "the re-shade across a change of lobe now agrees");
 }
 
 #[test]
@@ -159,80 +274,93 @@ fn re_shading_refuses_what_it_cannot_do() {
     assert_eq!(render.path_cache().samples_per_pixel(), 1);
 }
 
-/// An edit session: ρ halved is shown re-shaded at once, then blended with fresh
-/// passes, then the fresh film alone; at every stage the picture agrees with an
-/// independent fresh render of the new design, and the scene, lighting and BVH
-/// are the same objects throughout.
+/// An edit session as the GUI runs it (4 recorded samples a pixel): ρ halved is
+/// shown re-shaded at once, refined, then blended with fresh passes, then the
+/// fresh film alone; at every stage the picture agrees with fresh renders of the
+/// new design ([`SESSIONS`] sessions against [`REPLICAS`] fresh renders, X, Y
+/// and Z, every control rejected; the first image, from one recorded path a
+/// pixel, as `image_stats::assert_first_image_agrees` says), and the scene,
+/// lighting and BVH are the same objects throughout.
 #[test]
 fn an_edit_is_reshaded_then_refined_to_the_fresh_render() {
     let base = red();
-    let (mut render, scene) = render(&base, ShadingModel::Paint, 5, 32, 8);
-    let (scene_before, environment_before) = (render.scene().clone(), render.environment().clone());
-    let mut edited = base.clone();
-    edited
-        .set_albedo(base.albedo().iter().map(|r| r * 0.5).collect())
-        .expect("albedo");
-    let outcome = render
-        .edit_shading(shading(&scene, &edited, ShadingModel::Paint))
-        .expect("edit");
-    assert_eq!(outcome, EditOutcome::Reshaded);
-    assert!(Arc::ptr_eq(render.scene(), &scene_before), "scene rebuilt");
-    assert!(Arc::ptr_eq(render.environment(), &environment_before));
-    assert_eq!(render.samples_per_pixel(), 0);
-    let (fresh, _) = self::render(&edited, ShadingModel::Paint, 99, 256, 0);
-    let (first, w) = render.edit_estimate().expect("re-shaded image");
-    assert_eq!(w, 0.0);
-    let (outliers, z) = z_test(&first, &fresh);
+    let weights = weights();
+    let edited = halved();
+    let (mut first, mut refined, mut blend) = (vec![], vec![], vec![]);
+    let mut first_reported = vec![];
+    let mut sessions = Vec::new();
+    for i in 0..SESSIONS {
+        let (mut render, scene) = render(
+            &base,
+            ShadingModel::Paint,
+            seed(300 + i as u64),
+            BASE_SPP,
+            4,
+        );
+        let (scene_before, environment_before) =
+            (render.scene().clone(), render.environment().clone());
+        let outcome = render
+            .edit_shading(shading(&scene, &edited, ShadingModel::Paint))
+            .expect("edit");
+        assert_eq!(outcome, EditOutcome::Reshaded);
+        assert!(Arc::ptr_eq(render.scene(), &scene_before), "scene rebuilt");
+        assert!(Arc::ptr_eq(render.environment(), &environment_before));
+        assert_eq!(render.samples_per_pixel(), 0);
+        let (image, w) = render.edit_estimate().expect("re-shaded image");
+        assert_eq!(w, 0.0);
+        first.push(reshaded_image(&image));
+        first_reported.push(image);
+        // The first image came from one recorded sample per pixel; refining
+        // re-shades from all of them, once.
+        assert!(render.refine_edit(), "nothing to refine after an edit");
+        assert!(!render.refine_edit(), "refined twice");
+        let (image, w) = render.edit_estimate().expect("re-shaded image");
+        assert_eq!(w, 0.0);
+        refined.push(reshaded_image(&image));
+        // Blended with fresh passes of the new design.
+        render.render_pass(16);
+        let (image, w) = render.edit_estimate().expect("still blended");
+        assert!(w > 0.2 && w < FRESH_ONLY_WEIGHT, "fresh weight {w}");
+        blend.push(reshaded_image(&image));
+        sessions.push((render, scene_before));
+    }
+    let replicas = |images: &[Vec<[f64; 3]>]| Replicas::from_images(WIDTH, HEIGHT, images);
+    let (first, refined, blend) = (replicas(&first), replicas(&refined), replicas(&blend));
+    let fresh = fresh_halved();
     println!(
-        "re-shaded: beyond 4σ {:.2} %, total Z {z:.2}",
-        outliers * 100.0
+        "first image: reported variance of Y ×{:.2} of the replicas' spread",
+        reported_over_actual(&first_reported, &first)
     );
-    assert!(outliers < 0.01 && z.abs() < 4.0, "{outliers} {z}");
-    // The first image came from one recorded sample per pixel; refining re-shades
-    // from all of them, once, and is less noisy (both carry the base image's own
-    // noise, so the drop is partial).
-    assert!(render.refine_edit(), "nothing to refine after an edit");
-    assert!(!render.refine_edit(), "refined twice");
-    let (refined, w) = render.edit_estimate().expect("re-shaded image");
-    assert_eq!(w, 0.0);
-    let mean_variance = |r: &Reshaded| r.variance_y.iter().map(|&v| f64::from(v)).sum::<f64>();
+    image_stats::assert_first_image_agrees(&first, fresh, weights, "re-shaded");
+    // Refining is less noisy (both carry the base image's own noise, so the drop
+    // is partial).
+    let total = |r: &Replicas| r.total_variance()[1];
+    println!(
+        "variance of the image's Y: first {:.3e}, refined {:.3e}",
+        total(&first),
+        total(&refined)
+    );
     assert!(
-        mean_variance(&refined) < 0.9 * mean_variance(&first),
-        "refining did not reduce the noise: {} vs {}",
-        mean_variance(&refined),
-        mean_variance(&first)
+        total(&refined) < 0.9 * total(&first),
+        "refining did not reduce the noise"
     );
-    let (outliers, z) = z_test(&refined, &fresh);
-    println!(
-        "refined: beyond 4σ {:.2} %, total Z {z:.2}",
-        outliers * 100.0
-    );
-    assert!(outliers < 0.01 && z.abs() < 4.0, "{outliers} {z}");
-    // Blended with fresh passes of the new design.
-    render.render_pass(16);
-    let (blend, w) = render.edit_estimate().expect("still blended");
-    assert!(w > 0.2 && w < FRESH_ONLY_WEIGHT, "fresh weight {w}");
-    let (outliers, z) = z_test(&blend, &fresh);
-    println!(
-        "blend (w {w:.2}): beyond 4σ {:.2} %, total Z {z:.2}",
-        outliers * 100.0
-    );
-    assert!(outliers < 0.01 && z.abs() < 4.0, "{outliers} {z}");
+    assert_agree_with_controls(&refined, fresh, weights, "refined");
+    assert_agree_with_controls(&blend, fresh, weights, "blend");
     // The re-shaded image is dropped once the film alone is as good: the picture
-    // is then the fresh render of the new design.
+    // is then the film.
+    let (mut render, scene_before) = sessions.pop().expect("a session");
     while render.is_reshaded() {
         assert!(render.samples_per_pixel() < 4096, "the blend never ended");
         render.render_pass(64);
     }
     println!("film alone from {} spp", render.samples_per_pixel());
-    let (outliers, z) = z_test(&film_estimate(&render), &fresh);
-    println!("film: beyond 4σ {:.2} %, total Z {z:.2}", outliers * 100.0);
-    assert!(outliers < 0.01 && z.abs() < 4.0, "{outliers} {z}");
+    assert!(render.edit_estimate().is_none());
     assert!(Arc::ptr_eq(render.scene(), &scene_before));
     // Negative control: the old design's image is not taken for the new one.
-    let (old, _) = self::render(&base, ShadingModel::Paint, 7, 64, 0);
-    let (_, z) = z_test(&film_estimate(&old), &fresh);
-    assert!(z.abs() > 5.0, "the unedited image passed: Z {z}");
+    let old = car_render::fresh(&base, ShadingModel::Paint, seed(500), 16);
+    let c = compare(&old, fresh, weights);
+    println!("old design: {}", c.summary());
+    assert!(c.fails(), "the unedited image passed");
 }
 
 /// A second edit re-shades from the same base (its cache is not complete yet),
@@ -392,82 +520,103 @@ fn design_edits_recompute_only_what_they_touch() {
 }
 
 /// A re-shade from only the first m recorded samples per pixel
-/// (`reshade_prepared_samples`) is unbiased: after an edit it agrees with a fresh
-/// render of the edited design within the noise of both, and its reported
-/// variance covers its extra noise.
-///
-/// Both renders use the plain estimator (one light sample a vertex, MIS on the
-/// floor): for m = 1 the reported variance of the difference is one squared
-/// difference, a proxy that is right on average but noisy pixel by pixel, and the
-/// 1 % bound on |Z| > 4 was set with the plain estimator's base and fresh noise
-/// beside it (0.87 %). The default estimator's lower base and fresh noise leave
-/// that proxy more of the total: 1.00 % with the floor change alone, 1.61 % with
-/// two first light samples too, at total Z −0.50 (no bias). See
-/// docs/tradeoff.md, "Estimator efficiency (session 6)".
+/// (`reshade_prepared_samples`) is unbiased: after an edit it agrees with fresh
+/// renders of the edited design in X, Y and Z within the noise of both
+/// ([`SESSIONS`] re-shades against [`REPLICAS`] fresh renders, the default
+/// estimator, every control rejected; from m = 1 as
+/// `image_stats::assert_first_image_agrees` says); it is noisier than the full
+/// re-shade, and reports so.
 #[test]
 fn partial_reshades_agree_with_fresh_renders() {
     let base = red();
-    let plain = IntegratorSettings {
-        first_light_samples: 1,
-        floor_light_only: false,
-        ..IntegratorSettings::default()
-    };
-    let (render, scene) = render_with(&base, ShadingModel::Paint, 5, 64, 4, plain);
-    let mut edited = base.clone();
-    edited
-        .set_albedo(base.albedo().iter().map(|r| r * 0.5).collect())
-        .expect("albedo");
-    let edited_shading = shading(&scene, &edited, ShadingModel::Paint);
-    let image = BaseImage::of(render.film());
+    let weights = weights();
+    let edited = halved();
     let environment = Environment::studio(&grid());
-    let (fresh, _) = render_with(&edited, ShadingModel::Paint, 99, 64, 0, plain);
-    let full = render.reshade(&edited_shading).expect("reshade");
-    let mean_variance =
-        |r: &Reshaded| r.variance_y.iter().map(|&v| f64::from(v)).sum::<f64>() / r.xyz.len() as f64;
-    for m in [1, 2] {
-        let partial = reshade_prepared_samples(
-            &image,
-            render.film(),
-            render.path_cache(),
-            &environment,
-            &edited_shading,
-            true,
-            m,
+    let fresh = fresh_halved();
+    let bases: Vec<_> = (0..SESSIONS)
+        .map(|i| {
+            render(
+                &base,
+                ShadingModel::Paint,
+                seed(700 + i as u64),
+                BASE_SPP,
+                4,
+            )
+        })
+        .collect();
+    let reshade = |m: u32| -> Vec<Reshaded> {
+        bases
+            .iter()
+            .map(|(render, scene)| {
+                reshade_prepared_samples(
+                    &BaseImage::of(render.film()),
+                    render.film(),
+                    render.path_cache(),
+                    &environment,
+                    &shading(scene, &edited, ShadingModel::Paint),
+                    true,
+                    m,
+                )
+                .expect("reshade")
+            })
+            .collect()
+    };
+    let replicas = |r: &[Reshaded]| {
+        Replicas::from_images(
+            WIDTH,
+            HEIGHT,
+            &r.iter().map(reshaded_image).collect::<Vec<_>>(),
         )
-        .expect("reshade");
-        let (outliers, total_z) = z_test(&partial, &fresh);
+    };
+    let full = reshade(4);
+    let full_replicas = replicas(&full);
+    let mean_reported = |r: &[Reshaded]| {
+        r.iter()
+            .flat_map(|r| r.variance_y.iter().map(|&v| f64::from(v)))
+            .sum::<f64>()
+    };
+    for m in [1, 2] {
+        let partial = reshade(m);
+        let partial_replicas = replicas(&partial);
         println!(
-            "first {m} of 4: beyond 4σ {:.2} %, total Z {total_z:.2}, mean variance {:.3e} (all 4: {:.3e})",
-            outliers * 100.0,
-            mean_variance(&partial),
-            mean_variance(&full)
+            "first {m} of 4: variance of the image's Y {:.3e} (all 4: {:.3e}), reported ×{:.2} \
+             of the replicas' spread",
+            partial_replicas.total_variance()[1],
+            full_replicas.total_variance()[1],
+            reported_over_actual(&partial, &partial_replicas)
+        );
+        let what = format!("first {m} of 4");
+        if m == 1 {
+            image_stats::assert_first_image_agrees(&partial_replicas, fresh, weights, &what);
+        } else {
+            assert_agree_with_controls(&partial_replicas, fresh, weights, &what);
+        }
+        assert!(
+            partial_replicas.total_variance()[1] > full_replicas.total_variance()[1],
+            "m = {m}: fewer samples must be noisier"
         );
         assert!(
-            outliers < 0.01,
-            "m = {m}: {:.2} % beyond 4σ",
-            outliers * 100.0
-        );
-        assert!(total_z.abs() < 4.0, "m = {m}: total Z {total_z}");
-        assert!(
-            mean_variance(&partial) > mean_variance(&full),
+            mean_reported(&partial) > mean_reported(&full),
             "m = {m}: fewer samples must report more noise"
         );
         // Not the full re-shade under another name.
-        assert_ne!(partial.xyz, full.xyz, "m = {m}");
+        assert_ne!(partial[0].xyz, full[0].xyz, "m = {m}");
     }
+    assert_agree_with_controls(&full_replicas, fresh, weights, "all 4 of 4");
     // m at or beyond K is the full re-shade, exactly.
+    let (render, scene) = &bases[0];
     let all = reshade_prepared_samples(
-        &image,
+        &BaseImage::of(render.film()),
         render.film(),
         render.path_cache(),
         &environment,
-        &edited_shading,
+        &shading(scene, &edited, ShadingModel::Paint),
         true,
         9,
     )
     .expect("reshade");
-    assert_eq!(all.xyz, full.xyz);
-    assert_eq!(all.variance_y, full.variance_y);
+    assert_eq!(all.xyz, full[0].xyz);
+    assert_eq!(all.variance_y, full[0].variance_y);
 }
 
 /// Which recorded sample a path belongs to does not depend on how the samples were

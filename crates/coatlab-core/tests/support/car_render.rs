@@ -1,6 +1,7 @@
 //! The default car in the studio at 64×36 with the signal-red preset, rendered
-//! with part of its paths recorded, and the Z-test of an estimate against a
-//! film: shared by the re-shading and the shared-comparison tests.
+//! with part of its paths recorded, and its fresh renders as replicas for the
+//! statistical comparisons of `image_stats.rs`: shared by the re-shading and the
+//! shared-comparison tests.
 #![allow(dead_code)] // each test crate uses its own subset
 
 use std::sync::Arc;
@@ -11,10 +12,11 @@ use coatlab_core::render::environment::Environment;
 use coatlab_core::render::integrator::IntegratorSettings;
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
-use coatlab_core::render::reshade::Reshaded;
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::spectrum::WavelengthGrid;
+
+use crate::image_stats::{Image, Replicas, Weights, film_image, seed};
 
 pub const WIDTH: u32 = 64;
 pub const HEIGHT: u32 = 36;
@@ -88,46 +90,76 @@ pub fn render_with(
     (render, scene)
 }
 
-/// Z-scores of Y between an estimate (mean XYZ and variance of Y per pixel) and an
-/// independent render's film: (share of pixels beyond 4σ, total Z over the image).
-pub fn z_test(estimate: &Reshaded, fresh: &ProgressiveRender) -> (f64, f64) {
-    let film = fresh.film();
-    let (mut outliers, mut count, mut diff, mut var) = (0usize, 0usize, 0.0, 0.0);
-    for y in 0..HEIGHT {
-        for x in 0..WIDTH {
-            let i = (y * WIDTH + x) as usize;
-            let a = f64::from(estimate.xyz[i][1]);
-            let b = film.mean_xyz(x, y).y;
-            let v = f64::from(estimate.variance_y[i]) + film.variance_of_mean_xyz(x, y)[1];
-            count += 1;
-            if v <= 0.0 {
-                outliers += usize::from((a - b).abs() > 1e-5 * b.abs().max(1.0));
-                continue;
-            }
-            outliers += usize::from(((a - b) / v.sqrt()).abs() > 4.0);
-            diff += a - b;
-            var += v;
-        }
-    }
-    (outliers as f64 / count as f64, diff / var.sqrt())
+/// Independent replicas an image is estimated from (see `image_stats.rs`).
+pub const REPLICAS: usize = 8;
+
+/// [`REPLICAS`] fresh renders of `model`, seeds `first_seed` + i, `spp` samples
+/// each.
+pub fn fresh(model: &PaintModel, which: ShadingModel, first_seed: u64, spp: u32) -> Replicas {
+    fresh_with(model, which, first_seed, spp, IntegratorSettings::default())
 }
 
-/// The current film of a render as an estimate, for [`z_test`].
-pub fn film_estimate(render: &ProgressiveRender) -> Reshaded {
-    let film = render.film();
-    let mut xyz = Vec::new();
-    let mut variance_y = Vec::new();
-    for y in 0..HEIGHT {
-        for x in 0..WIDTH {
-            let m = film.mean_xyz(x, y);
-            xyz.push([m.x as f32, m.y as f32, m.z as f32]);
-            variance_y.push(film.variance_of_mean_xyz(x, y)[1] as f32);
+/// [`fresh`] with other integrator settings.
+pub fn fresh_with(
+    model: &PaintModel,
+    which: ShadingModel,
+    first_seed: u64,
+    spp: u32,
+    integrator: IntegratorSettings,
+) -> Replicas {
+    Replicas::collect(WIDTH, HEIGHT, REPLICAS, |i| {
+        let (render, _) = render_with(model, which, first_seed + i as u64, spp, 0, integrator);
+        film_image(render.film())
+    })
+}
+
+/// A pilot for the weights of the tile and image sums: 4 renders of `model` of 16
+/// samples, seeds `first_seed` + i (seeds no compared render uses).
+pub fn pilot(model: &PaintModel, which: ShadingModel, first_seed: u64) -> Replicas {
+    Replicas::collect(WIDTH, HEIGHT, 4, |i| {
+        let (render, _) = render(model, which, first_seed + i as u64, 16, 0);
+        film_image(render.film())
+    })
+}
+
+/// The weights of the tile and image sums: from a [`pilot`] of the signal-red
+/// car, independent of every image compared.
+pub fn weights() -> Weights {
+    Weights::from_pilot(&pilot(&red(), ShadingModel::Paint, seed(90_000)))
+}
+
+/// The pixels whose chromaticity differs from the backdrop's (the top-left
+/// pixel's) by more than 0.02 in xy: the car, coloured by its paint.
+pub fn car_mask(image: &Image) -> Vec<bool> {
+    let xy = |m: &[f64; 3]| {
+        let s = m[0] + m[1] + m[2];
+        [m[0] / s, m[1] / s]
+    };
+    let backdrop = xy(&image[0]);
+    image
+        .iter()
+        .map(|m| {
+            let p = xy(m);
+            (p[0] - backdrop[0]).hypot(p[1] - backdrop[1]) > 0.02
+        })
+        .collect()
+}
+
+/// The CIELAB hue angle (degrees) and chroma of the mean colour of `image` over
+/// `mask`, relative to the backdrop's chromaticity at Y = 1.
+pub fn hue(image: &Image, mask: &[bool]) -> (f64, f64) {
+    use coatlab_core::colour::{Xyz, lab_from_xyz};
+    let (mut sum, mut n) = ([0.0; 3], 0.0);
+    for (m, _) in image.iter().zip(mask).filter(|(_, inside)| **inside) {
+        for c in 0..3 {
+            sum[c] += m[c];
         }
+        n += 1.0;
     }
-    Reshaded {
-        width: WIDTH,
-        height: HEIGHT,
-        xyz,
-        variance_y,
-    }
+    let w = image[0];
+    let lab = lab_from_xyz(
+        Xyz::new(sum[0] / n, sum[1] / n, sum[2] / n),
+        Xyz::new(w[0] / w[1], 1.0, w[2] / w[1]),
+    );
+    (lab.b.atan2(lab.a).to_degrees(), lab.a.hypot(lab.b))
 }

@@ -1,6 +1,8 @@
 //! The stored render reference: the default car in the studio, the signal-red
-//! preset, small, with enough samples that its own noise is far below a test
-//! render's. Stores per pixel the mean luminance Y and the variance of that mean.
+//! preset, small, from enough independent replicas that its own noise is far below
+//! a test render's. Stores per pixel the mean X, Y, Z over the replicas and the
+//! variance of those means (the replicas' spread over their count: the sampler's
+//! stratified samples make a single render's s²/n an over-statement).
 //! Written by `examples/make_render_reference.rs`, read by `tests/render.rs`.
 #![allow(dead_code)] // the example and the test each use their own half
 
@@ -16,11 +18,16 @@ use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSe
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::spectrum::WavelengthGrid;
 
+use crate::image_stats::{Replicas, film_image};
+
 pub const REFERENCE_FILE: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/tests/data/render_reference.csv"
 );
+/// The first seed of the reference's replicas (replica i has seed + i).
 pub const REFERENCE_SEED: u64 = 1000;
+/// The reference's replicas and samples per pixel of each.
+pub const REFERENCE_REPLICAS: (usize, u32) = (32, 256);
 const WIDTH: u32 = 48;
 const HEIGHT: u32 = 27;
 const WAVELENGTHS: usize = 16;
@@ -55,46 +62,68 @@ pub fn reference_render(seed: u64, spp: u32) -> Film {
     render.film().clone()
 }
 
-/// Mean and variance-of-mean luminance images.
+/// `k` renders of the reference scene, seeds `first_seed` + i, `spp` samples each.
+pub fn reference_replicas(first_seed: u64, k: usize, spp: u32) -> Replicas {
+    Replicas::collect(WIDTH, HEIGHT, k, |i| {
+        film_image(&reference_render(first_seed + i as u64, spp))
+    })
+}
+
+/// Per pixel the mean XYZ and the variance of each mean, and how many replicas.
 pub struct Reference {
     pub width: u32,
     pub height: u32,
-    values: Vec<(f64, f64)>,
+    replicas: usize,
+    values: Vec<[f64; 6]>,
 }
 
 impl Reference {
-    pub fn from_film(film: &Film) -> Self {
-        let mut values = Vec::new();
-        for y in 0..film.height() {
-            for x in 0..film.width() {
-                values.push((film.mean_xyz(x, y).y, film.variance_of_mean_xyz(x, y)[1]));
-            }
-        }
+    pub fn from_replicas(replicas: &Replicas) -> Self {
         Self {
-            width: film.width(),
-            height: film.height(),
-            values,
+            width: replicas.width,
+            height: replicas.height,
+            replicas: replicas.count as usize,
+            values: replicas
+                .mean
+                .iter()
+                .zip(&replicas.variance)
+                .map(|(m, v)| [m[0], m[1], m[2], v[0], v[1], v[2]])
+                .collect(),
         }
     }
 
-    /// A seed that differs from the reference's.
-    pub fn seed_for_test(&self) -> u64 {
-        REFERENCE_SEED + 1
+    /// The reference as replicas, for `image_stats::compare`.
+    pub fn replicas(&self) -> Replicas {
+        Replicas {
+            width: self.width,
+            height: self.height,
+            count: self.replicas as f64,
+            mean: self.values.iter().map(|v| [v[0], v[1], v[2]]).collect(),
+            variance: self.values.iter().map(|v| [v[3], v[4], v[5]]).collect(),
+        }
     }
 
-    pub fn luminance(&self, x: u32, y: u32) -> (f64, f64) {
-        self.values[(y * self.width + x) as usize]
+    /// A seed that none of the reference's replicas used.
+    pub fn seed_for_test(&self) -> u64 {
+        REFERENCE_SEED + self.replicas as u64
     }
 
     pub fn write(&self, path: &Path) -> std::io::Result<()> {
-        let mut text = String::from(
-            "# Coatlab render reference: default car, studio, signal-red, 16 wavelengths, \
-             seed 1000, 2048 spp\nx,y,mean_Y,variance_of_mean_Y\n",
+        let (k, spp) = REFERENCE_REPLICAS;
+        // Six significant digits of a mean: its own noise is about 10⁻³ of it.
+        let mut text = format!(
+            "# Coatlab render reference: default car, studio, signal-red, {WAVELENGTHS} \
+             wavelengths, {k} replicas of {spp} spp, seeds {REFERENCE_SEED}..{}\n\
+             # replicas={k}\nx,y,X,Y,Z,var_X,var_Y,var_Z\n",
+            REFERENCE_SEED + k as u64 - 1
         );
         for y in 0..self.height {
             for x in 0..self.width {
-                let (m, v) = self.luminance(x, y);
-                text.push_str(&format!("{x},{y},{m:.9e},{v:.9e}\n"));
+                let v = self.values[(y * self.width + x) as usize];
+                text.push_str(&format!(
+                    "{x},{y},{:.5e},{:.5e},{:.5e},{:.3e},{:.3e},{:.3e}\n",
+                    v[0], v[1], v[2], v[3], v[4], v[5]
+                ));
             }
         }
         std::fs::write(path, text)
@@ -103,8 +132,14 @@ impl Reference {
     pub fn read(path: &Path) -> Result<Self, String> {
         let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
         let mut values = Vec::new();
-        let (mut width, mut height) = (0, 0);
+        let (mut width, mut height, mut replicas) = (0, 0, 0);
         for (number, line) in text.lines().enumerate() {
+            if let Some(k) = line.strip_prefix("# replicas=") {
+                replicas = k
+                    .parse()
+                    .map_err(|_| format!("{}: bad replica count {k}", path.display()))?;
+                continue;
+            }
             if line.starts_with('#') || line.starts_with("x,") {
                 continue;
             }
@@ -122,7 +157,14 @@ impl Reference {
             let (x, y) = (parse(0)? as u32, parse(1)? as u32);
             width = width.max(x + 1);
             height = height.max(y + 1);
-            values.push((parse(2)?, parse(3)?));
+            values.push([
+                parse(2)?,
+                parse(3)?,
+                parse(4)?,
+                parse(5)?,
+                parse(6)?,
+                parse(7)?,
+            ]);
         }
         if (width, height) != (WIDTH, HEIGHT) || values.len() != (WIDTH * HEIGHT) as usize {
             return Err(format!(
@@ -130,9 +172,13 @@ impl Reference {
                 path.display()
             ));
         }
+        if replicas < 2 {
+            return Err(format!("{}: no replica count", path.display()));
+        }
         Ok(Self {
             width,
             height,
+            replicas,
             values,
         })
     }
