@@ -207,14 +207,11 @@ fn re_shaded_edits_match_fresh_renders() {
     println!("unedited for rho x0.5: {}", c.summary());
     assert!(c.fails(), "an unedited image passed for the edit");
 
-    // A known defect, pinned: n + 0.1 under the preset's 20° gloss reading widens
-    // the lobe (the exponent that gives the same reading falls about ×5). The
-    // re-shade is unbiased in theory, but the old, sharper lobe's samples cover
-    // the new one so poorly that its mean reads the highlights up to a third too
-    // dark at these sample counts, and it is rejected. `edit_shading` re-shades it
-    // all the same, and the GUI's guard against re-shading a new lobe compares the
-    // gloss setting only, so a designer's n edit shows this image first. When the
-    // re-shade refuses a change of lobe, assert that refusal here instead.
+    // n + 0.1 under the preset's 20° gloss reading widens the lobe (the exponent
+    // that gives the same reading falls about ×5). Replayed through the old, sharper
+    // lobe's samples, the highlights would read up to a third too dark at these
+    // sample counts, so the re-shade refuses a wider lobe and the edit is traced
+    // fresh.
     let mut widened = base.clone();
     widened.set_refractive_index(n, n_gloss).expect("index");
     let (GlossExponent::Finite(before), GlossExponent::Finite(after)) =
@@ -224,11 +221,26 @@ fn re_shaded_edits_match_fresh_renders() {
     };
     println!("n +0.1 under the 20° reading: exponent {before:.0} -> {after:.0}");
     assert!(after < 0.5 * before, "exponent {before} -> {after}");
-    let (reshaded, _) = reshaded(&widened, ShadingModel::Paint);
-    let fresh = fresh(&widened, ShadingModel::Paint, seed(1900), 64);
-    let c = compare(&reshaded, &fresh, weights);
-    println!("n +0.1, lobe widened: {}", c.summary());
-    assert!(c.fails(), "the re-shade across a change of lobe now agrees");
+    for (render, scene) in &bases {
+        let refused = render
+            .reshade(&shading(scene, &widened, ShadingModel::Paint))
+            .unwrap_err();
+        assert!(
+            matches!(refused, ReshadeError::LobeWidened { recorded, wanted }
+                if (f64::from(recorded) / before - 1.0).abs() < 1e-3
+                    && (f64::from(wanted) / after - 1.0).abs() < 1e-3),
+            "{refused:?}"
+        );
+    }
+    // The other way, a sharper lobe, stays re-shadeable (bounded weights).
+    let mut sharpened = base.clone();
+    sharpened
+        .set_gloss(GlossSetting::Exponent(GlossExponent::Finite(2.0 * before)))
+        .expect("gloss");
+    let (render, scene) = &bases[0];
+    render
+        .reshade(&shading(scene, &sharpened, ShadingModel::Paint))
+        .expect("a sharper lobe re-shades");
 }
 
 #[test]

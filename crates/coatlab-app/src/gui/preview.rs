@@ -1548,7 +1548,8 @@ impl Worker {
                             self.publish_edit(&state, &a, PassStats::default());
                             continue;
                         }
-                        // No complete cache yet, or a mirror: traced fresh.
+                        // No complete cache yet, a mirror or a wider lobe: traced
+                        // fresh.
                         Ok(EditOutcome::Fresh(_)) => {}
                         Err(e) => self.error(format!("preview: {e}")),
                     }

@@ -654,6 +654,14 @@ pub struct SpectralPaint {
 }
 
 impl SpectralPaint {
+    /// The specular lobe's exponent; `None` for an ideal mirror.
+    pub fn lobe_exponent(&self) -> Option<f32> {
+        match self.lobe {
+            SpectralLobe::Mirror => None,
+            SpectralLobe::Normalised { m, .. } | SpectralLobe::Paper { m } => Some(m),
+        }
+    }
+
     fn empty(len: usize) -> Self {
         let stride = len.div_ceil(LANES) * LANES;
         Self {

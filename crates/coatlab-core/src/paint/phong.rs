@@ -537,6 +537,13 @@ pub struct SpectralPhong {
     specular_probability: f32,
 }
 
+impl SpectralPhong {
+    /// The specular lobe's exponent.
+    pub fn exponent(&self) -> f32 {
+        self.exponent
+    }
+}
+
 impl SpectralBsdf for SpectralPhong {
     fn len(&self) -> usize {
         self.diffuse_over_pi.len()

@@ -73,6 +73,16 @@ pub enum DesignBsdf {
     Phong(SpectralPhong),
 }
 
+impl DesignBsdf {
+    /// The exponent of the design's specular lobe; `None` for an ideal mirror.
+    pub fn lobe_exponent(&self) -> Option<f32> {
+        match self {
+            DesignBsdf::Paint(b) => b.lobe_exponent(),
+            DesignBsdf::Phong(b) => Some(b.exponent()),
+        }
+    }
+}
+
 impl SpectralBsdf for DesignBsdf {
     fn len(&self) -> usize {
         match self {

@@ -96,7 +96,7 @@ pub const FRESH_ONLY_WEIGHT: f64 = 0.98;
 pub const EDIT_FIRST_IMAGE_SAMPLES: u32 = 1;
 
 /// How [`ProgressiveRender::edit_shading`] shows the new shading.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum EditOutcome {
     /// Re-shaded from the edit base: [`ProgressiveRender::edit_estimate`] has a
     /// full-resolution image at once.
@@ -629,6 +629,7 @@ impl ProgressiveRender {
         };
         if first_sample < record_below {
             self.cache.paint_is_mirror = paint_is_mirror(&self.shading);
+            self.cache.lobe_exponent = self.shading.design().lobe_exponent();
             // What the budget leaves beside the caches held, shared by the tiles.
             let room = self
                 .cache_budget_bytes
@@ -1005,6 +1006,7 @@ fn cache_for(tiles: &[Film]) -> PathCache {
             .collect(),
         samples_per_pixel: 0,
         paint_is_mirror: false,
+        lobe_exponent: None,
     }
 }
 

@@ -25,10 +25,14 @@
 //! never touch the paint have c_new = c_old and are not stored.
 //!
 //! Where it does not apply: a change of the lobe from or to the ideal mirror (a delta
-//! cannot be re-weighted; [`ReshadeError::DeltaChanged`]), and any change of the
-//! scene, lighting, camera or wavelength grid (the renderer restarts and drops the
-//! cache). A change of gloss between finite lobes is unbiased but noisy (the old
-//! lobe's samples cover a new, sharper lobe poorly): the application traces fresh.
+//! cannot be re-weighted; [`ReshadeError::DeltaChanged`]); a lobe wider than the one
+//! the paths were sampled from ([`ReshadeError::LobeWidened`]: a gloss edit, or an
+//! index edit under a gloss reading, whose exponent falls with n), where the weights
+//! are unbounded and the mean at the recorded sample counts reads the highlights far
+//! too dark; and any change of the scene, lighting, camera or wavelength grid (the
+//! renderer restarts and drops the cache). A sharper lobe stays unbiased with bounded
+//! weights, but its noise grows with the ratio of the exponents: the application
+//! traces fresh on a gloss edit.
 //!
 //! # A first image from fewer samples
 //!
@@ -60,7 +64,7 @@ use crate::render::integrator::{
 use crate::render::material::{Shading, SimpleMaterial};
 
 /// Why a re-shade cannot be done.
-#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[derive(Debug, Clone, PartialEq, Error)]
 pub enum ReshadeError {
     /// Fewer samples per pixel are recorded than asked for.
     #[error("the path cache is not complete yet ({recorded} of {wanted} samples per pixel)")]
@@ -76,6 +80,17 @@ pub enum ReshadeError {
     /// A recorded mirror (delta) bounce meets a BSDF without a mirror.
     #[error("the paint changed to or from an ideal mirror: its paths must be traced anew")]
     DeltaChanged,
+    /// The paint's specular lobe is wider than the one the paths were sampled
+    /// from (a gloss edit, or an index edit under a gloss reading).
+    #[error(
+        "the gloss lobe widened (exponent {recorded} to {wanted}): its paths must be traced anew"
+    )]
+    LobeWidened {
+        /// The exponent the paths were sampled with.
+        recorded: f32,
+        /// The new shading's exponent.
+        wanted: f32,
+    },
 }
 
 /// One stored path.
@@ -452,6 +467,8 @@ pub struct PathCache {
     pub(crate) samples_per_pixel: u32,
     /// Whether the paint it was recorded with is an ideal mirror.
     pub(crate) paint_is_mirror: bool,
+    /// The exponent of the paint's lobe it was recorded with (`None`: a mirror).
+    pub(crate) lobe_exponent: Option<f32>,
 }
 
 impl PathCache {
@@ -618,6 +635,17 @@ pub fn reshade_prepared_samples(
     // has no recorded bounce to weigh: refused here, not missed silently.
     if paint_is_mirror(shading) != cache.paint_is_mirror {
         return Err(ReshadeError::DeltaChanged);
+    }
+    // A replayed bounce is weighed by the new BSDF over the density it was sampled
+    // from. Where the new lobe is wider, that weight grows without bound away from
+    // the old lobe's axis (its second moment diverges once the exponent halves):
+    // unbiased in theory, but at the recorded sample counts the highlights read up
+    // to a third too dark (tests/reshade.rs). A narrower lobe keeps the weight
+    // bounded by the ratio of the exponents. The 1 % allows for the f32 tables.
+    if let (Some(recorded), Some(wanted)) = (cache.lobe_exponent, shading.design().lobe_exponent())
+        && wanted < 0.99 * recorded
+    {
+        return Err(ReshadeError::LobeWidened { recorded, wanted });
     }
     let floor_material = environment
         .floor()
