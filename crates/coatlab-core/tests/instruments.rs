@@ -126,6 +126,34 @@ fn a_detector_on_the_wrong_side_of_the_specular_direction_is_rejected() {
 }
 
 #[test]
+fn a_detector_mirrored_through_the_normal_is_rejected() {
+    // The detector on the illuminator's side where it belongs on the specular side
+    // (polar angle −(45° − aspecular)). The body term depends on the polar angle
+    // alone, so on the high-gloss designs, whose lobe never reaches a detector, no
+    // instrument could tell; on the two designs whose lobe reaches the 15° (satin
+    // grey) and 15°/25° (low gloss) detectors, those angles must fail.
+    let rows = reference();
+    for (key, path, angles) in [
+        ("satin-grey", DESIGNS[2].1, &[15.0][..]),
+        ("low-gloss", DESIGNS[5].1, &[15.0, 25.0][..]),
+    ] {
+        assert_eq!(DESIGNS.iter().find(|d| d.0 == key).map(|d| d.1), Some(path));
+        let model = model(path);
+        let mut r = readings(&model, &measure(&model));
+        for (aspecular, lab) in &mut r.lab {
+            *lab = lab_at(&model, -(ILLUMINATION_DEG - *aspecular));
+        }
+        let found = disagreements(&rows, key, &r);
+        for angle in angles {
+            assert!(
+                found.iter().any(|d| d.contains(&format!(" at {angle}°"))),
+                "{key}: a mirrored detector at {angle}° passed: {found:#?}"
+            );
+        }
+    }
+}
+
+#[test]
 fn swapped_angles_are_rejected() {
     // Each pair of aspecular angles exchanged (labels kept, readings swapped) must
     // fail for at least one design, and 25°/45° (the closest pair in value on a
