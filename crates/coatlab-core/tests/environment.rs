@@ -284,7 +284,7 @@ fn sampling_checks(
                 let p = fine_probability[k];
                 match which {
                     Density::Own => p / pdf_integral,
-                    Density::TenPercentOff(half) => {
+                    Density::TenPercentOff(_) => {
                         // `density` at the bin's centre scales its whole bin: each
                         // bin lies on one side of each half.
                         p * density(which, centre, 1.0)

@@ -161,24 +161,23 @@ fn swapped_angles_are_rejected() {
     // the normal, where only the lobe of the low-gloss designs tells them apart.
     let rows = reference();
     let models: Vec<(&str, PaintModel)> = DESIGNS.iter().map(|&(k, p)| (k, model(p))).collect();
-    for i in 0..5 {
-        for j in i + 1..5 {
-            let mut rejected_by = Vec::new();
-            for (key, model) in &models {
-                let mut r = readings(model, &measure(model));
-                let (a, b) = (r.lab[i].1, r.lab[j].1);
-                r.lab[i].1 = b;
-                r.lab[j].1 = a;
-                if !disagreements(&rows, key, &r).is_empty() {
-                    rejected_by.push(*key);
-                }
+    let pairs = (0..5).flat_map(|i| (i + 1..5).map(move |j| (i, j)));
+    for (i, j) in pairs {
+        let mut rejected_by = Vec::new();
+        for (key, model) in &models {
+            let mut r = readings(model, &measure(model));
+            let (a, b) = (r.lab[i].1, r.lab[j].1);
+            r.lab[i].1 = b;
+            r.lab[j].1 = a;
+            if !disagreements(&rows, key, &r).is_empty() {
+                rejected_by.push(*key);
             }
-            let pair = (ASPECULAR_DEG[i], ASPECULAR_DEG[j]);
-            println!("angles {pair:?} swapped: rejected for {rejected_by:?}");
-            assert!(!rejected_by.is_empty(), "{pair:?} swapped passed");
-            if pair == (25.0, 45.0) {
-                assert_eq!(rejected_by.len(), DESIGNS.len(), "{pair:?}");
-            }
+        }
+        let pair = (ASPECULAR_DEG[i], ASPECULAR_DEG[j]);
+        println!("angles {pair:?} swapped: rejected for {rejected_by:?}");
+        assert!(!rejected_by.is_empty(), "{pair:?} swapped passed");
+        if pair == (25.0, 45.0) {
+            assert_eq!(rejected_by.len(), DESIGNS.len(), "{pair:?}");
         }
     }
 }

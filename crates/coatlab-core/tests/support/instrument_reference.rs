@@ -173,7 +173,9 @@ pub fn comparison(
         let allowed = floor + r.uncertainty + 1.5 * r.d_dlnm.abs() * delta;
         let what = format!("{design} {quantity} at {angle}°");
         compared.push((what, (got - r.value).abs(), allowed));
-        if !((got - r.value).abs() <= allowed) {
+        // A NaN reading fails too.
+        let within = (got - r.value).abs() <= allowed;
+        if !within {
             out.push(format!(
                 "{design} {quantity} at {angle}°: {got} vs reference {} (allowed ±{allowed:.2e})",
                 r.value
