@@ -28,17 +28,20 @@ again from the spec:
   adaptive QUADPACK over u = -m ln(cos alpha), split where the lobe's cone first
   touches the horizon; checked against 2 pi/(m + 2) at normal incidence and against an
   mpmath quadrature;
-- the glossmeter's receptor integrals in spherical coordinates (theta_o, phi_o) of the
-  outgoing direction, where the receptor's rectangular field stop has closed-form
-  limits in phi for each theta and the paper lobe's kinks (theta_o = theta_r,
-  phi_o = phi_r) are straight lines; nested adaptive QUADPACK, outer integral split at
-  the field stop's corners and edges and at the lobe's peak. (The Rust glossmeter
-  integrates in the focal-plane coordinates of the receptor with fixed Gauss-Legendre
-  panels.) A second, vectorised quadrature in focal-plane coordinates (composite
-  Gauss-Legendre, graded panels, used for the root-find of m) must agree;
+- the glossmeter's receptor integrals by composite Gauss-Legendre (24 points a panel)
+  in the receptor's focal-plane coordinates, on panels graded about the lobe's peak,
+  vectorised (used for the root-find of m and for every reading); checked, for a
+  2 x 2 subset of the source rays, against nested adaptive QUADPACK in the spherical
+  angles (theta_o, phi_o) of the outgoing direction, where the rectangular field stop
+  has closed-form limits in phi for each theta and the paper lobe's kinks
+  (theta_o = theta_r, phi_o = phi_r) are straight lines, split at the field stop's
+  corners and edges and at the lobe's peak (the two agree to 1.4e-8 GU);
 - the source aperture is integrated with a Gauss-Legendre product rule in the
   source's focal-plane (tangent) coordinates, converged: SOURCE_ORDER points a side,
-  checked against SOURCE_ORDER + 4.
+  checked against SOURCE_CHECK_ORDER.
+
+A Cauchy index is taken at each 5 nm sample's wavelength (the Rust side averages it
+over the sample's bin; Delta n ~ 1e-6).
 
 Conventions the spec leaves open, chosen as the project's instrument documents them:
 apertures are rectangles in the focal planes of the instrument's lenses (a direction's
@@ -49,10 +52,12 @@ incidence from the specular side); the mirror exponent (gloss at or above what
 m = 1e9 reads) puts all of each source ray's specular flux into the receptor.
 
 Output: one row per reading, with a quadrature uncertainty estimated from the
-cross-checks above (the largest difference between the two receptor quadratures and
-between the two source orders, plus the root-find's tolerance).
+cross-checks above (the largest difference between the two receptor quadratures, the
+two source orders and the two lobe normalisations), and the reading's derivative with
+respect to ln m (the Rust test allows for the product's own m through it).
 
-Usage (writes crates/coatlab-core/tests/data/instrument_reference.csv, a few minutes):
+Usage (writes crates/coatlab-core/tests/data/instrument_reference.csv, about 15
+minutes on one core; the output is deterministic but for the date):
     python3 -m venv /tmp/instr-venv && /tmp/instr-venv/bin/pip install -r tools/requirements.txt
     /tmp/instr-venv/bin/python tools/instrument_reference.py \\
         > crates/coatlab-core/tests/data/instrument_reference.csv
