@@ -2536,6 +2536,13 @@ mod tests {
     /// variance. What noise is left per sample: cos θ varies within a row (32
     /// rows here) and within an emitter (sampled uniformly), and a texel's weight
     /// is its luminance plus a share of its peak (random colours on the test map).
+    ///
+    /// Negative control: the same samples weighed with a density 10 % high over
+    /// half of the sphere (x ≥ 0), as a `pdf_for` wrong there alone would report
+    /// it, must fail the same Z-test. (A density 10 % off over half and
+    /// renormalised moves this estimate only by 0.1·(P − F), P and F the half's
+    /// shares of the density and of L cos θ, nearly 0 for a density that follows
+    /// the light: the histograms of `tests/environment.rs` are the test for that.)
     #[test]
     fn samples_facing_up_estimate_the_floors_irradiance_with_less_noise() {
         let mut state = 23;
@@ -2550,6 +2557,8 @@ mod tests {
         ] {
             let n = 200_000;
             let mut moments = [[0.0f64; 2]; 2];
+            // Facing up, with the density 10 % high for x ≥ 0.
+            let mut wrong = [0.0f64; 2];
             for _ in 0..n {
                 let u = [uniform(&mut state) as f32, uniform(&mut state) as f32];
                 for (facing_up, m) in [(true, 0), (false, 1)] {
@@ -2571,6 +2580,11 @@ mod tests {
                     let x = f64::from(env.luminance(&a)) * y.max(0.0) / f64::from(sample.pdf);
                     moments[m][0] += x;
                     moments[m][1] += x * x;
+                    if facing_up {
+                        let x = if sample.dir[0] >= 0.0 { x / 1.1 } else { x };
+                        wrong[0] += x;
+                        wrong[1] += x * x;
+                    }
                 }
             }
             let nf = n as f64;
@@ -2589,6 +2603,16 @@ mod tests {
                     "{name} {label}: E = {mean} for π (Z {z:.1})"
                 );
             }
+            let (mean, var) = (
+                wrong[0] / nf,
+                (wrong[1] / nf - (wrong[0] / nf).powi(2)).max(0.0),
+            );
+            let z = (mean - PI) / (var / nf).sqrt().max(1e-12);
+            println!("{name} facing up, density 10 % high for x ≥ 0: E {mean:.5}, Z {z:.1}");
+            assert!(
+                z.abs() >= 5.0,
+                "{name}: a 10 % density error passed (Z {z:.1})"
+            );
             let relative = up.1.sqrt() / up.0;
             assert!(relative < most, "{name}: relative std {relative:.4}");
             assert!(
@@ -2777,8 +2801,11 @@ mod tests {
     }
 
     /// The map's sampling, with its alias tables, against its own density: texel
-    /// counts agree with P(texel) (per-texel Z), and the estimate of ∫ g dω with
-    /// g(d) = 1 + d_x + d_y² (4π + 4π/3) agrees within its standard error.
+    /// counts agree with P(texel) (per-texel Z, and Pearson's χ² over all texels,
+    /// which sees an error spread over many texels that no single texel's Z
+    /// shows), and the estimate of ∫ g dω with g(d) = 1 + d_x + d_y² (4π + 4π/3)
+    /// agrees within its standard error. The negative control: the same samples
+    /// against the density ×1.1 on the map's left half (renormalised) must fail.
     #[test]
     fn map_samples_follow_the_density_the_map_reports() {
         let (width, height) = (16, 8);
@@ -2797,38 +2824,70 @@ mod tests {
         let grid = WavelengthGrid::new(380.0, 50.0, 9).unwrap();
         let env = Environment::from_rgb_image(&image, "test", &grid).unwrap();
         let n = 400_000;
-        let mut counts = vec![0u64; width * height];
-        let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+        let mut texels = Vec::with_capacity(n);
         let mut out = vec![0.0; grid.len()];
         for _ in 0..n {
             let u = [uniform(&mut state) as f32, uniform(&mut state) as f32];
             let sample = env.sample(u, &mut out).expect("a sample");
             let d = sample.dir.map(f64::from);
-            counts[env.map.texel(&mut Query::new(d))] += 1;
-            let g = 1.0 + d[0] + d[1] * d[1];
-            let x = g / f64::from(sample.pdf);
-            sum += x;
-            sum2 += x * x;
+            texels.push((env.map.texel(&mut Query::new(d)), d, sample.pdf));
         }
-        let nf = n as f64;
-        for (texel, &count) in counts.iter().enumerate() {
-            let (row, col) = (texel / width, texel % width);
-            let solid_angle =
-                2.0 * PI / width as f64 * (env.map.row_cos[row] - env.map.row_cos[row + 1]);
-            let p = env.map.pdf(texel) * solid_angle;
-            let expected = p * nf;
-            let z = (count as f64 - expected) / expected.max(1e-9).sqrt();
-            assert!(
-                z.abs() < 5.0,
-                "texel ({row}, {col}): {count} for {expected:.1}"
-            );
-        }
-        let mean = sum / nf;
-        let error = ((sum2 / nf - mean * mean) / nf).sqrt();
-        let want = 4.0 * PI + 4.0 * PI / 3.0;
+        let solid_angle = |texel: usize| {
+            let row = texel / width;
+            2.0 * PI / width as f64 * (env.map.row_cos[row] - env.map.row_cos[row + 1])
+        };
+        // The statistics for a density given as a factor on the map's own.
+        let failures = |factor: &dyn Fn(usize) -> f64| -> Vec<String> {
+            let mut failed = Vec::new();
+            let mut counts = vec![0u64; width * height];
+            let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+            for &(texel, d, pdf) in &texels {
+                counts[texel] += 1;
+                let g = 1.0 + d[0] + d[1] * d[1];
+                let x = g / (f64::from(pdf) * factor(texel));
+                sum += x;
+                sum2 += x * x;
+            }
+            let nf = n as f64;
+            let (mut chi2, mut dof) = (0.0_f64, 0.0_f64);
+            for (texel, &count) in counts.iter().enumerate() {
+                let p = env.map.pdf(texel) * factor(texel) * solid_angle(texel);
+                let expected = p * nf;
+                let z = (count as f64 - expected) / expected.max(1e-9).sqrt();
+                if z.abs() >= 5.0 {
+                    failed.push(format!("texel {texel}: {count} for {expected:.1}"));
+                }
+                if expected >= 5.0 {
+                    chi2 += z * z;
+                    dof += 1.0;
+                }
+            }
+            // χ² with dof − 1 degrees of freedom: mean dof − 1, sd √(2(dof − 1)).
+            let bound = dof - 1.0 + 5.0 * (2.0 * (dof - 1.0)).sqrt();
+            if chi2 >= bound {
+                failed.push(format!("χ² {chi2:.0} over {dof} texels (bound {bound:.0})"));
+            }
+            let mean = sum / nf;
+            let error = ((sum2 / nf - mean * mean) / nf).sqrt();
+            let want = 4.0 * PI + 4.0 * PI / 3.0;
+            if (mean - want).abs() >= 5.0 * error {
+                failed.push(format!("∫ g: {mean} ± {error} vs {want}"));
+            }
+            failed
+        };
+        let own = failures(&|_| 1.0);
+        assert!(own.is_empty(), "{own:#?}");
+        let left = |texel: usize| texel % width < width / 2;
+        let share: f64 = (0..width * height)
+            .filter(|&t| left(t))
+            .map(|t| env.map.pdf(t) * solid_angle(t))
+            .sum();
+        let renormalised = 1.0 / (1.0 + 0.1 * share);
+        let wrong = failures(&|t| if left(t) { 1.1 } else { 1.0 } * renormalised);
+        println!("density ×1.1 on the left half ({share:.3} of it): {wrong:#?}");
         assert!(
-            (mean - want).abs() < 5.0 * error,
-            "{mean} ± {error} vs {want}"
+            wrong.iter().any(|f| f.starts_with("χ²")),
+            "a 10 % density error passed: {wrong:#?}"
         );
     }
 }

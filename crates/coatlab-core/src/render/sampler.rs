@@ -228,6 +228,23 @@ mod tests {
             .collect()
     }
 
+    /// The inverse cdf of the density ×1.1 on [0, ½) and ×1 on [½, 1), renormalised
+    /// (1.1/1.05 and 1/1.05): maps uniform numbers to numbers whose density is
+    /// 10 % off on half of the interval, `high_below` saying which half is high.
+    /// The negative controls feed the tests' statistics with such numbers.
+    fn ten_percent_off(u: f32, high_below: bool) -> f32 {
+        let (low, high) = (1.0 / 1.05, 1.1 / 1.05);
+        let (first, second) = if high_below { (high, low) } else { (low, high) };
+        let u = f64::from(u);
+        let split = 0.5 * first;
+        let x = if u < split {
+            u / first
+        } else {
+            0.5 + (u - split) / second
+        };
+        (x as f32).min(1.0 - f32::EPSILON / 2.0)
+    }
+
     /// χ² of `counts` against equal expected counts.
     fn chi2(counts: &[f64]) -> f64 {
         let expected = counts.iter().sum::<f64>() / counts.len() as f64;
@@ -332,11 +349,17 @@ mod tests {
     fn pixels_and_dimensions_are_decorrelated() {
         // Two coordinates drawn with the same index and no shuffle would be tied
         // (the top bits of one fix the top bits of the other: 8 of 64 cells
-        // filled). Joint 8 × 8 histograms over 4096 samples of: the first
+        // filled). Joint 8 × 8 histograms over 2^17 samples of: the first
         // coordinates of two dimension pairs of one pixel, of one pair in two
         // neighbouring pixels, and a 1D number against the next pair. χ² with
         // 63 degrees of freedom: mean 63, sd ≈ 11.2; stratification only lowers it.
-        let n = 4096;
+        //
+        // Negative control: the same pairs with the second coordinate moved so the
+        // joint density is 10 % higher on the two diagonal quadrants (uniform
+        // marginals, a correlation). Its χ² excess is n·(0.1/2.1)² ≈ 0.0023 n, so
+        // the 4096 samples this test once used could not see it (≈ 9); 2^17 give
+        // ≈ 300 over a bound of 119.
+        let n = 1 << 17;
         let mut cases: Vec<(&str, Vec<[f32; 2]>)> = Vec::new();
         let d0 = points_2d(4, 10, 0, n);
         let d1 = points_2d(4, 10, 1, n);
@@ -359,37 +382,65 @@ mod tests {
                 })
                 .collect(),
         ));
-        for (name, pairs) in cases {
+        let joint_chi2 = |pairs: &[[f32; 2]]| {
             let mut counts = [0.0f64; 64];
-            for [x, y] in pairs {
+            for &[x, y] in pairs {
                 counts[(y * 8.0) as usize * 8 + (x * 8.0) as usize] += 1.0;
             }
-            let c = chi2(&counts);
-            assert!(c < 63.0 + 5.0 * 11.2, "{name}: χ² = {c}");
+            chi2(&counts)
+        };
+        let bound = 63.0 + 5.0 * 11.2;
+        for (name, pairs) in cases {
+            let c = joint_chi2(&pairs);
+            assert!(c < bound, "{name}: χ² = {c}");
+            let correlated: Vec<[f32; 2]> = pairs
+                .iter()
+                .map(|&[x, y]| [x, ten_percent_off(y, x < 0.5)])
+                .collect();
+            let control = joint_chi2(&correlated);
+            println!("{name}: χ² {c:.1}; density 10 % higher on the diagonal: {control:.1}");
+            assert!(
+                control >= bound,
+                "{name}: a 10 % correlation passed, χ² {control}"
+            );
         }
     }
 
     #[test]
     fn numbers_are_uniform_over_many_pixels() {
-        // χ² on 64 bins (1D) and 16 × 16 cells (2D) over 2^16 draws: sample 0..8 of
-        // 8192 pixels, in a later dimension. Each pixel's 8 points are stratified,
+        // χ² on 64 bins (1D) and 16 × 16 cells (2D) over 2^18 draws: sample 0..8 of
+        // 32768 pixels, in a later dimension. Each pixel's 8 points are stratified,
         // so only the upper tail is tested. 1D: mean 63, sd ≈ 11.2; 2D: 255, ≈ 22.6.
-        let n = 1u32 << 16;
+        //
+        // Negative control: the same numbers moved to a density 10 % higher on half
+        // of the interval (of v in 2D), renormalised. The χ² excess is ≈ 0.0023 n:
+        // at the 2^16 draws this test once used, ≈ 150, under the 2D bound of 368;
+        // at 2^18, ≈ 600.
+        let n = 1u32 << 18;
         let mut counts_1d = [0.0f64; 64];
         let mut counts_2d = [0.0f64; 256];
+        let mut wrong_1d = [0.0f64; 64];
+        let mut wrong_2d = [0.0f64; 256];
         for i in 0..n {
             let mut s = PixelSampler::new(3, i / 8, i % 8);
             s.next_2d();
             let x = s.next_1d();
             assert!((0.0..1.0).contains(&x));
             counts_1d[(x * 64.0) as usize] += 1.0;
+            wrong_1d[(ten_percent_off(x, true) * 64.0) as usize] += 1.0;
             let [u, v] = s.next_2d();
             counts_2d[(v * 16.0) as usize * 16 + (u * 16.0) as usize] += 1.0;
+            wrong_2d[(ten_percent_off(v, true) * 16.0) as usize * 16 + (u * 16.0) as usize] += 1.0;
         }
+        let (bound_1d, bound_2d) = (63.0 + 5.0 * 11.2, 255.0 + 5.0 * 22.6);
         let c1 = chi2(&counts_1d);
-        assert!(c1 < 63.0 + 5.0 * 11.2, "1D χ² = {c1}");
+        assert!(c1 < bound_1d, "1D χ² = {c1}");
         let c2 = chi2(&counts_2d);
-        assert!(c2 < 255.0 + 5.0 * 22.6, "2D χ² = {c2}");
+        assert!(c2 < bound_2d, "2D χ² = {c2}");
+        let (w1, w2) = (chi2(&wrong_1d), chi2(&wrong_2d));
+        println!("χ² 1D {c1:.1}, 2D {c2:.1}; density 10 % off on half: 1D {w1:.1}, 2D {w2:.1}");
+        assert!(w1 >= bound_1d, "1D: a 10 % density error passed, χ² {w1}");
+        assert!(w2 >= bound_2d, "2D: a 10 % density error passed, χ² {w2}");
         // And successive dimensions of one sample are not correlated (lag-1
         // products over 20 000 dimensions).
         let mut s = PixelSampler::new(9, 0, 0);
