@@ -80,6 +80,11 @@ fn spawn_xvfb() -> Result<(Reaped, u32), String> {
             "1600x1000x24",
             "-nolisten",
             "tcp",
+            // Without it the server resets whenever its last client disconnects
+            // (our connection check, or an app killed by a test), and a client
+            // connecting during the reset fails with "Failed to open connection to
+            // X server".
+            "-noreset",
         ])
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
