@@ -208,7 +208,11 @@ proptest! {
         let f64_value = body_brdf(rho, n, tau, c, mu_i, mu_o);
         let f32_value = body_brdf(rho as f32, n as f32, tau as f32, c as f32, mu_i as f32, mu_o as f32);
         prop_assert!(f32_value.is_finite());
-        prop_assert!((f64::from(f32_value) - f64_value).abs() <= 1e-5 * (f64_value + 1e-3),
+        // Beyond 85° the transmission's 1 − μ² cancels and amplifies the rounding of
+        // μ in f32 (measured 7.8e-5 relative at μi = 1.8e-4): there the renderer's
+        // stated f32 bound, F32_TOLERANCE, applies.
+        let relative = if mu_i.min(mu_o) < 85f64.to_radians().cos() { F32_TOLERANCE } else { 1e-5 };
+        prop_assert!((f64::from(f32_value) - f64_value).abs() <= relative * (f64_value + 1e-3),
             "{} vs {}", f32_value, f64_value);
         let r64 = reflectance(mu_i, n);
         let r32 = reflectance(mu_i as f32, n as f32);
