@@ -13,6 +13,9 @@ use egui::accesskit::Role;
 use egui_kittest::Harness;
 use egui_kittest::kittest::{NodeT, Queryable};
 
+mod common;
+use common::{ExrImage, read_exr};
+
 fn app() -> CoatlabApp {
     CoatlabApp::new(AppOptions {
         storage: Storage::none(),
@@ -311,10 +314,7 @@ fn snapshot_of_the_preview_at_a_fixed_sample_count() {
         .expect("at least one preset");
     let mut h = preview_harness(true);
     steps(&mut h, 2);
-    h.get_by_role_and_label(Role::ComboBox, "Quality").click();
-    steps(&mut h, 2);
-    h.get_by_label(&chosen.name).click();
-    steps(&mut h, 2);
+    choose_quality_preset(&mut h, &chosen.name);
     assert_eq!(preview(h.state()).quality().knobs, chosen.knobs());
     wait_until(&mut h, "the preset's image, converged", |app| {
         app.preview_status()
@@ -481,6 +481,14 @@ fn open_in_browser(h: &mut Harness<'static, CoatlabApp>, path: &Path) {
         .type_text(&path.display().to_string());
     steps(h, 1);
     h.get_by_label("Open").click();
+}
+
+/// Picks the quality preset `name` from the preview's Quality menu.
+fn choose_quality_preset(h: &mut Harness<'static, CoatlabApp>, name: &str) {
+    h.get_by_role_and_label(Role::ComboBox, "Quality").click();
+    steps(h, 2);
+    h.get_by_label(name).click();
+    steps(h, 2);
 }
 
 fn steps(h: &mut Harness<'static, CoatlabApp>, n: usize) {
@@ -801,46 +809,6 @@ fn png_size(path: &Path) -> (u32, u32) {
     (be(16), be(20))
 }
 
-/// An EXR's first layer read back with the `exr` crate: size, channel names with
-/// their sample types, and R, G, B per pixel (row-major from the top).
-struct ExrRgb {
-    width: usize,
-    height: usize,
-    channels: Vec<(String, &'static str)>,
-    rgb: Vec<[f32; 3]>,
-}
-
-fn read_exr(path: &Path) -> ExrRgb {
-    use exr::prelude::{FlatSamples, read_first_flat_layer_from_file};
-    let image = read_first_flat_layer_from_file(path).expect("a readable EXR");
-    let layer = &image.layer_data;
-    let (width, height) = (layer.size.width(), layer.size.height());
-    let mut channels = Vec::new();
-    let mut planes = std::collections::HashMap::new();
-    for channel in &layer.channel_data.list {
-        let (kind, values): (&'static str, Vec<f32>) = match &channel.sample_data {
-            FlatSamples::F16(v) => ("f16", v.iter().map(|x| x.to_f32()).collect()),
-            FlatSamples::F32(v) => ("f32", v.clone()),
-            FlatSamples::U32(v) => ("u32", v.iter().map(|&x| x as f32).collect()),
-        };
-        channels.push((channel.name.to_string(), kind));
-        planes.insert(channel.name.to_string(), values);
-    }
-    let plane = |name: &str| {
-        planes
-            .get(name)
-            .unwrap_or_else(|| panic!("no {name} channel"))
-    };
-    let (r, g, b) = (plane("R"), plane("G"), plane("B"));
-    let rgb = (0..width * height).map(|i| [r[i], g[i], b[i]]).collect();
-    ExrRgb {
-        width,
-        height,
-        channels,
-        rgb,
-    }
-}
-
 /// Linear sRGB → XYZ as the film converts (the inverse of its XYZ → linear sRGB
 /// with the D65 white at Y = 1, built from the core's own conversion).
 fn xyz_of_linear_srgb() -> [[f64; 3]; 3] {
@@ -872,7 +840,7 @@ fn xyz_of_linear_srgb() -> [[f64; 3]; 3] {
 /// The display pixels the preview makes of a film whose means are `exr`: the
 /// film's automatic exposure (log-average luminance to the key) and its display
 /// pipeline (`display_xyz`), applied to the EXR's values taken back to XYZ.
-fn displayed(exr: &ExrRgb) -> Vec<[u8; 4]> {
+fn displayed(exr: &ExrImage) -> Vec<[u8; 4]> {
     use coatlab_core::render::film::{AUTO_EXPOSURE_KEY, DisplaySettings, display_xyz};
     let m = xyz_of_linear_srgb();
     let xyz: Vec<[f64; 3]> = exr
@@ -1159,10 +1127,7 @@ fn choosing_a_quality_preset_sets_the_render_knobs_and_shows_its_measured_figure
         let s = h.state().preview_status().expect("a frame");
         (s.width, s.height)
     };
-    h.get_by_role_and_label(Role::ComboBox, "Quality").click();
-    steps(&mut h, 2);
-    h.get_by_label(&chosen.name).click();
-    steps(&mut h, 2);
+    choose_quality_preset(&mut h, &chosen.name);
     let quality = preview(h.state()).quality();
     assert_eq!(quality.knobs, chosen.knobs());
     assert_eq!(

@@ -17,7 +17,7 @@
 
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
-use std::process::{Command, ExitStatus, Output, Stdio};
+use std::process::{Command, ExitStatus, Output};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
@@ -30,7 +30,7 @@ use coatlab_core::design::{PaintDesign, presets};
 
 #[path = "../../../tests/common/xvfb.rs"]
 mod xvfb;
-use xvfb::{Reaped, app_dirs, have, start_xvfb};
+use xvfb::{Reaped, app_dirs, have, start_xvfb, xdotool};
 
 // ---------------------------------------------------------------------------------
 // zenity's command line and answers (no tools needed)
@@ -245,23 +245,7 @@ impl Session {
     /// Runs `xdotool args` on our display; killed after 20 s (a `--sync` that never
     /// sees its event would otherwise hang the test).
     fn xdotool(&self, args: &[&str]) -> Output {
-        let mut child = Command::new("xdotool")
-            .args(args)
-            .env("DISPLAY", &self.display)
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("run xdotool");
-        let start = Instant::now();
-        while child.try_wait().expect("poll xdotool").is_none() {
-            if start.elapsed() > Duration::from_secs(20) {
-                let _ = child.kill();
-                break;
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        child.wait_with_output().expect("xdotool's output")
+        xdotool(&self.display, args)
     }
 
     /// The first top-level window whose name matches `regex`.
