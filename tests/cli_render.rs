@@ -7,6 +7,7 @@ use std::path::PathBuf;
 
 use std::sync::Arc;
 
+use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::design::presets;
 use coatlab_core::render::environment::Environment;
 use coatlab_core::render::film::Film;
@@ -14,7 +15,6 @@ use coatlab_core::render::image_error::{Region, RegionMasks};
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
 use coatlab_core::scene::car::{CarParameters, generate};
-use coatlab_core::spectrum::WavelengthGrid;
 use common::{ExrImage, exit, failure, read_exr, stdout};
 
 const TESTDATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/testdata/gltf");

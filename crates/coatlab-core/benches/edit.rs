@@ -25,6 +25,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use coatlab_core::colour::ciede2000;
+use coatlab_core::colour::spectrum::{TabulatedSpectrum, WavelengthGrid};
 use coatlab_core::design::{PaintDesign, RefractiveIndex, presets};
 use coatlab_core::render::environment::Environment;
 use coatlab_core::render::film::{DisplaySettings, display_lab_of_xyz, display_xyz};
@@ -37,7 +38,6 @@ use coatlab_core::render::reshade::{
 };
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{CarParameters, generate};
-use coatlab_core::spectrum::{TabulatedSpectrum, WavelengthGrid};
 
 const WIDTH: u32 = 960;
 const HEIGHT: u32 = 540;

@@ -16,6 +16,7 @@
 use std::hint::black_box;
 use std::time::Instant;
 
+use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::paint::coat::c_integral;
 use coatlab_core::paint::gloss::{GlossExponent, GlossGeometry, exponent_from_reading};
 use coatlab_core::paint::lobe::{
@@ -25,7 +26,6 @@ use coatlab_core::paint::model::{
     GlossSetting, PaintModel, PaintParams, SpectralBsdf, cosine_hemisphere,
 };
 use coatlab_core::paint::phong::PhongParams;
-use coatlab_core::spectrum::WavelengthGrid;
 use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;

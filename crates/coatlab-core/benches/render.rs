@@ -7,13 +7,13 @@
 
 use std::sync::Arc;
 
+use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::design::presets;
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::environment::Environment;
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
 use coatlab_core::scene::car::{CarParameters, generate};
-use coatlab_core::spectrum::WavelengthGrid;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
 const WIDTH: u32 = 960;

@@ -25,6 +25,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::colour::{Xyz, linear_srgb_from_xyz, srgb_white};
 use coatlab_core::design::{Absorption, RefractiveIndex, presets};
 use coatlab_core::paint::gloss::{GlossExponent, Glossmeter};
@@ -34,7 +35,6 @@ use coatlab_core::render::progressive::RenderScene;
 use coatlab_core::scene::car::{self, CarParameters};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
 use coatlab_core::scene::{Scene, TriangleMesh};
-use coatlab_core::spectrum::WavelengthGrid;
 
 /// Size of the baked environment map, texels: fine enough that the softboxes'
 /// edges are sharp at this benchmark's resolutions, small enough to load at once.

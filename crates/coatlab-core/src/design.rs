@@ -54,12 +54,12 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use serde::Deserialize;
 use thiserror::Error;
 
+use crate::colour::spectrum::{SampledSpectrum, TabulatedSpectrum, WavelengthGrid};
 use crate::paint::gloss::{
     GLOSS_WAVELENGTH_NM, GlossError, GlossExponent, GlossGeometry, exponent_from_reading,
 };
 use crate::paint::lobe::LobeKind;
 use crate::paint::model::{GlossSetting, PaintModel, PaintParams};
-use crate::spectrum::{SampledSpectrum, TabulatedSpectrum, WavelengthGrid};
 
 /// The `format` key every design file starts with.
 pub const FORMAT_NAME: &str = "coatlab-paint-design";
@@ -175,7 +175,7 @@ impl RefractiveIndex {
     }
 
     /// n on a grid: each sample is the mean of n over its bin (the resampling rule of
-    /// [`crate::spectrum`]), exact for the Cauchy form.
+    /// [`crate::colour::spectrum`]), exact for the Cauchy form.
     pub fn on_grid(&self, grid: &WavelengthGrid) -> SampledSpectrum {
         match self {
             RefractiveIndex::Cauchy { a, b_um2 } => {
@@ -217,7 +217,7 @@ impl Absorption {
         }
     }
 
-    /// k on a grid, 1/µm, by the resampling rule of [`crate::spectrum`].
+    /// k on a grid, 1/µm, by the resampling rule of [`crate::colour::spectrum`].
     pub fn on_grid(&self, grid: &WavelengthGrid) -> SampledSpectrum {
         match self {
             Absorption::Constant(k) => SampledSpectrum::constant(*grid, *k),
@@ -954,9 +954,9 @@ fn write_atomically(path: &Path, bytes: &[u8]) -> io::Result<()> {
 /// and a UV absorber.
 pub mod presets {
     use super::{Absorption, Gloss, PaintDesign, RefractiveIndex};
+    use crate::colour::spectrum::{TabulatedSpectrum, WavelengthGrid};
     use crate::paint::gloss::GlossGeometry;
     use crate::paint::lobe::LobeKind;
-    use crate::spectrum::{TabulatedSpectrum, WavelengthGrid};
 
     /// A preset: its file stem and its design.
     #[derive(Debug, Clone, PartialEq)]

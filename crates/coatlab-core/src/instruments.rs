@@ -17,7 +17,7 @@
 
 use std::f64::consts::PI;
 
-use crate::cie::{Colorimeter, Illuminant, Observer};
+use crate::colour::cie::{Colorimeter, Illuminant, Observer};
 use crate::colour::{Lab, ciede2000};
 use crate::paint::coat::body_brdf;
 use crate::paint::fresnel::reflectance;
@@ -200,8 +200,8 @@ pub fn specular_reading_tabulated(model: &PaintModel, geometry: GlossGeometry) -
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::colour::spectrum::WavelengthGrid;
     use crate::paint::model::{GlossSetting, PaintParams};
-    use crate::spectrum::WavelengthGrid;
 
     fn grey(rho: f64, gloss: GlossSetting) -> PaintModel {
         PaintModel::new(PaintParams::grey(

@@ -5,14 +5,13 @@
 //!
 //! Layers, each depending only on those above it:
 //! - [`units`], [`quadrature`]: small numeric foundations;
-//! - [`spectrum`], [`cie`], [`colour`]: wavelength grids, CIE data, colorimetry;
+//! - [`colour`]: wavelength grids and spectra, CIE data, colorimetry;
 //! - [`paint`]: Fresnel, the coat integral C, the body and specular terms, the gloss
 //!   lobe and its normalisation, m(g), sampling, Phong;
 //! - [`instruments`]: the virtual multi-angle spectrophotometer and glossmeter;
 //! - [`design`]: paint design files.
 
 pub mod accel;
-pub mod cie;
 pub mod colour;
 pub mod design;
 pub mod instruments;
@@ -20,5 +19,4 @@ pub mod paint;
 pub mod quadrature;
 pub mod render;
 pub mod scene;
-pub mod spectrum;
 pub mod units;

@@ -10,6 +10,7 @@
 
 use std::sync::Arc;
 
+use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::paint::gloss::GlossExponent;
 use coatlab_core::paint::model::{GlossSetting, PaintModel, PaintParams};
 use coatlab_core::render::adaptive::AdaptiveSampling;
@@ -19,7 +20,6 @@ use coatlab_core::render::film::{DisplaySettings, Film};
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
 use coatlab_core::scene::car::{CarParameters, generate};
-use coatlab_core::spectrum::WavelengthGrid;
 
 #[path = "support/image_stats.rs"]
 mod image_stats;

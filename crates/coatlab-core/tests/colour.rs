@@ -2,14 +2,14 @@
 //! against ASTM E308 / CIE 15, the daylight method against the CIE D65 table,
 //! CIEDE2000 against Sharma et al. (2005), sRGB conversion against IEC 61966-2-1.
 
-use coatlab_core::cie::{
+use coatlab_core::colour::cie::{
     Colorimeter, Illuminant, Observer, daylight_coefficients, daylight_spd, summation_weights,
 };
+use coatlab_core::colour::spectrum::{SampledSpectrum, WavelengthGrid};
 use coatlab_core::colour::{
     Lab, Xyz, bradford_adapt, ciede2000, lab_from_xyz, linear_srgb_from_xyz, srgb_from_xyz,
     srgb_white, xyz_from_lab, xyz_from_linear_srgb,
 };
-use coatlab_core::spectrum::{SampledSpectrum, WavelengthGrid};
 use palette::color_difference::Ciede2000;
 use proptest::prelude::*;
 

@@ -5,12 +5,12 @@ use std::collections::BTreeSet;
 use std::fs;
 use std::path::{Path, PathBuf};
 
+use coatlab_core::colour::spectrum::{TabulatedSpectrum, WavelengthGrid};
 use coatlab_core::design::{
     Absorption, DesignError, FORMAT_VERSION, Gloss, PaintDesign, RefractiveIndex, presets,
 };
 use coatlab_core::paint::gloss::{GLOSS_WAVELENGTH_NM, GlossExponent, GlossGeometry};
 use coatlab_core::paint::lobe::LobeKind;
-use coatlab_core::spectrum::{TabulatedSpectrum, WavelengthGrid};
 
 fn presets_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/presets")

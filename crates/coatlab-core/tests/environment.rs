@@ -4,13 +4,13 @@
 use std::f64::consts::PI;
 use std::path::PathBuf;
 
-use coatlab_core::cie::{Colorimeter, Illuminant, Observer};
+use coatlab_core::colour::cie::{Colorimeter, Illuminant, Observer};
+use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::colour::{linear_srgb_from_xyz, srgb_white};
 use coatlab_core::render::environment::{
     Environment, EnvironmentError, EnvironmentKind, RgbImage, RgbUpsampler, SUN_HALF_ANGLE_DEG,
     decode_hdr, read_hdr,
 };
-use coatlab_core::spectrum::WavelengthGrid;
 use palette::LinSrgb;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;

@@ -16,6 +16,7 @@
 use std::f64::consts::PI;
 use std::sync::Arc;
 
+use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::paint::coat::{c_integral, escape_integral_scaled};
 use coatlab_core::paint::fresnel::{reflectance, transmittance};
 use coatlab_core::paint::gloss::{
@@ -34,7 +35,6 @@ use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{BODY, CarParameters, generate};
-use coatlab_core::spectrum::WavelengthGrid;
 
 #[path = "support/sphere.rs"]
 mod sphere;

@@ -1,10 +1,10 @@
 //! The film: spectral radiance → XYZ, mean and variance estimators, tiles, the
 //! display pipeline, and PNG/EXR output.
 
-use coatlab_core::cie::{Colorimeter, Illuminant, Observer};
 use coatlab_core::colour::Xyz;
+use coatlab_core::colour::cie::{Colorimeter, Illuminant, Observer};
+use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::render::film::{DisplaySettings, Film, ToneMapping};
-use coatlab_core::spectrum::WavelengthGrid;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 

@@ -9,12 +9,12 @@
 #[path = "support/instrument_reference.rs"]
 mod instrument_reference;
 
-use coatlab_core::cie::{Colorimeter, Illuminant, Observer};
+use coatlab_core::colour::cie::{Colorimeter, Illuminant, Observer};
+use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::design::PaintDesign;
 use coatlab_core::instruments::{ILLUMINATION_DEG, Measurement, measure};
 use coatlab_core::paint::gloss::GlossExponent;
 use coatlab_core::paint::model::PaintModel;
-use coatlab_core::spectrum::WavelengthGrid;
 use instrument_reference::{
     ASPECULAR_DEG, DESIGNS, Readings, comparison, disagreements, reference, workspace_root,
 };

@@ -3,12 +3,12 @@
 //! χ² tests of the sampler. Statistical tests use fixed seeds and real tests
 //! (Z-scores, χ² p-values), each with a negative control showing it can fail.
 
+use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::paint::coat::{body_albedo, body_brdf, c_integral};
 use coatlab_core::paint::fresnel::reflectance;
 use coatlab_core::paint::gloss::{GlossExponent, GlossGeometry};
 use coatlab_core::paint::lobe::{LobeKind, phong_lobe};
 use coatlab_core::paint::model::{GlossSetting, PaintModel, PaintParams, SpectralBsdf};
-use coatlab_core::spectrum::WavelengthGrid;
 use proptest::prelude::*;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;

@@ -6,6 +6,7 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
+use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::design::presets;
 use coatlab_core::paint::fresnel::reflectance;
 use coatlab_core::paint::gloss::GlossExponent;
@@ -20,7 +21,6 @@ use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSe
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
-use coatlab_core::spectrum::WavelengthGrid;
 
 #[path = "support/sphere.rs"]
 mod sphere;

@@ -4,6 +4,7 @@
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, OnceLock};
 
+use coatlab_core::colour::spectrum::TabulatedSpectrum;
 use coatlab_core::design::presets;
 use coatlab_core::paint::gloss::GlossExponent;
 use coatlab_core::paint::model::{GlossSetting, PaintModel, PaintParams};
@@ -14,7 +15,6 @@ use coatlab_core::render::progressive::{
     EditOutcome, FRESH_ONLY_WEIGHT, ProgressiveRender, RenderSettings,
 };
 use coatlab_core::render::reshade::{BaseImage, ReshadeError, Reshaded, reshade_prepared_samples};
-use coatlab_core::spectrum::TabulatedSpectrum;
 
 #[path = "support/image_stats.rs"]
 mod image_stats;

@@ -1,6 +1,6 @@
 //! Wavelength grids, resampling and spectra CSV import.
 
-use coatlab_core::spectrum::{
+use coatlab_core::colour::spectrum::{
     SampledSpectrum, SpectrumError, TabulatedSpectrum, ValueBounds, WavelengthGrid,
     read_spectra_csv,
 };
@@ -211,7 +211,10 @@ proptest! {
 // ---------------------------------------------------------------------------------
 // CSV import
 
-fn read(text: &str, bounds: ValueBounds) -> Result<coatlab_core::spectrum::SpectraCsv, String> {
+fn read(
+    text: &str,
+    bounds: ValueBounds,
+) -> Result<coatlab_core::colour::spectrum::SpectraCsv, String> {
     read_spectra_csv(text.as_bytes(), "spectra.csv", bounds).map_err(|e| e.to_string())
 }
 

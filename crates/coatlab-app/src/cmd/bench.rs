@@ -18,6 +18,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::Context;
+use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::design::{PaintDesign, presets};
 use coatlab_core::paint::coat::CoatIntegralMethod;
 use coatlab_core::paint::lobe::LobeKind;
@@ -26,7 +27,6 @@ use coatlab_core::render::image_error::{ImageError, Region, RegionMasks, XyzImag
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
 use coatlab_core::render::rgb;
-use coatlab_core::spectrum::WavelengthGrid;
 
 use super::failure::{Classify, Failure};
 use super::render::{environment, scene};

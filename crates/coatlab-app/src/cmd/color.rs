@@ -8,9 +8,9 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use coatlab_core::cie::{Illuminant, Observer, summation_weights};
+use coatlab_core::colour::cie::{Illuminant, Observer, summation_weights};
 use coatlab_core::colour::lab_from_xyz;
-use coatlab_core::spectrum::{ValueBounds, read_spectra_csv};
+use coatlab_core::colour::spectrum::{ValueBounds, read_spectra_csv};
 
 use super::failure::{Classify, Failure};
 

@@ -23,13 +23,13 @@ use std::error::Error as StdError;
 use std::fmt;
 use std::io;
 
-use coatlab_core::cie::CieError;
+use coatlab_core::colour::cie::CieError;
+use coatlab_core::colour::spectrum::SpectrumError;
 use coatlab_core::design::DesignError;
 use coatlab_core::paint::gloss::GlossError;
 use coatlab_core::render::environment::EnvironmentError;
 use coatlab_core::render::film::FilmError;
 use coatlab_core::scene::gltf_loader::SceneError;
-use coatlab_core::spectrum::SpectrumError;
 
 /// The exit status when stdout's reader went away before the output was all
 /// written: 128 + SIGPIPE, what a shell reports for `cat`, `yes` or any C tool the

@@ -5,9 +5,9 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
+use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::design::PaintDesign;
 use coatlab_core::instruments::{Measurement, delta_e_per_angle, measure};
-use coatlab_core::spectrum::WavelengthGrid;
 
 use super::failure::{Classify, Failure};
 

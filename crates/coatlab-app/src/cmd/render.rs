@@ -7,7 +7,8 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
-use coatlab_core::cie::Illuminant;
+use coatlab_core::colour::cie::Illuminant;
+use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::design::{PaintDesign, presets};
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::adaptive::{AdaptiveError, AdaptiveSampling};
@@ -20,7 +21,6 @@ use coatlab_core::render::progressive::{
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
-use coatlab_core::spectrum::WavelengthGrid;
 
 use super::failure::{Classify, Failure};
 

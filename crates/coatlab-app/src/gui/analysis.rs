@@ -8,7 +8,8 @@
 
 use std::f64::consts::PI;
 
-use coatlab_core::cie::{Colorimeter, Illuminant, Observer};
+use coatlab_core::colour::cie::{Colorimeter, Illuminant, Observer};
+use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::colour::{Lab, ciede2000, srgb_from_xyz};
 use coatlab_core::design::PaintDesign;
 use coatlab_core::instruments::{self, Measurement};
@@ -16,7 +17,6 @@ use coatlab_core::paint::fresnel::reflectance;
 use coatlab_core::paint::gloss::GlossExponent;
 use coatlab_core::paint::model::PaintModel;
 use coatlab_core::paint::phong::{PhongParams, PhongVariant};
-use coatlab_core::spectrum::WavelengthGrid;
 
 /// Angles of incidence of the paper's figures 3–6, degrees.
 pub const FIGURE_INCIDENCE_DEG: [f64; 4] = [0.0, 30.0, 60.0, 75.0];

@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use coatlab_core::colour::spectrum::{ValueBounds, read_spectra_csv};
 use coatlab_core::design::PaintDesign;
 use coatlab_core::design::presets::{self, Preset};
-use coatlab_core::spectrum::{ValueBounds, read_spectra_csv};
 use egui::{Color32, RichText, Ui};
 
 use super::analysis::Analysis;

@@ -11,7 +11,7 @@
 //! be set from the keyboard (arrow keys when focused), by a screen reader, or by a
 //! test.
 
-use coatlab_core::spectrum::TabulatedSpectrum;
+use coatlab_core::colour::spectrum::TabulatedSpectrum;
 use egui::{Color32, Pos2, Rect, Sense, Stroke, Ui, Vec2, pos2, vec2};
 
 /// The vertical scale of an editor, which is also the range values are clamped to.

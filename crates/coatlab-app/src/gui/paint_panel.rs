@@ -5,12 +5,12 @@
 //! Cauchy pair dipping below 1 somewhere in 380–780 nm, say — is reported by the
 //! design's own validation, in red, under the control it concerns.
 
+use coatlab_core::colour::spectrum::TabulatedSpectrum;
 use coatlab_core::design::{Absorption, DesignError, Gloss, PaintDesign, RefractiveIndex};
 use coatlab_core::paint::gloss::{
     GLOSS_WAVELENGTH_NM, GlossExponent, GlossGeometry, reading_from_exponent,
 };
 use coatlab_core::paint::lobe::LobeKind;
-use coatlab_core::spectrum::TabulatedSpectrum;
 use egui::{Color32, RichText, Ui};
 use egui_plot::{Line, Plot, PlotPoints};
 

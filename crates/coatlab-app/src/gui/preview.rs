@@ -29,7 +29,8 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use coatlab_core::cie::Illuminant;
+use coatlab_core::colour::cie::Illuminant;
+use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::design::PaintDesign;
 use coatlab_core::design::presets::Preset;
 use coatlab_core::paint::model::PaintModel;
@@ -45,7 +46,6 @@ use coatlab_core::render::reshade::{ReshadeError, Reshaded};
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
 use coatlab_core::scene::{Scene, SceneMaterial};
-use coatlab_core::spectrum::WavelengthGrid;
 use egui::{Color32, RichText, Ui};
 
 use super::compare::{CompareLayout, CompareMode, DeltaEMap, SCALES, legend_ui};

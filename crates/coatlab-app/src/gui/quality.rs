@@ -8,8 +8,8 @@
 
 use std::sync::OnceLock;
 
+use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::render::environment::{Environment, EnvironmentKind};
-use coatlab_core::spectrum::WavelengthGrid;
 use egui::Ui;
 use serde::Deserialize;
 

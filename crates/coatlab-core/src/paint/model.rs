@@ -38,7 +38,7 @@ use super::lobe::{
     LobeKind, NormalisationTable, mirror, paper_lobe, phong_lobe, phong_lobe_pdf,
     phong_normalisation, sample_phong_lobe,
 };
-use crate::spectrum::WavelengthGrid;
+use crate::colour::spectrum::WavelengthGrid;
 
 /// Errors setting paint parameters.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

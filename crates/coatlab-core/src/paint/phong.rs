@@ -589,8 +589,8 @@ impl SpectralBsdf for SpectralPhong {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::colour::spectrum::WavelengthGrid;
     use crate::paint::model::{GlossSetting, PaintParams};
-    use crate::spectrum::WavelengthGrid;
 
     fn model(m: GlossExponent) -> PaintModel {
         let grid = WavelengthGrid::visible(8).expect("grid");

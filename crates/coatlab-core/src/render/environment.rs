@@ -35,9 +35,9 @@ use std::path::Path;
 use palette::LinSrgb;
 use thiserror::Error;
 
-use crate::cie::{Colorimeter, Illuminant, Observer, daylight_spd};
+use crate::colour::cie::{Colorimeter, Illuminant, Observer, daylight_spd};
+use crate::colour::spectrum::WavelengthGrid;
 use crate::colour::xyz_from_linear_srgb;
-use crate::spectrum::WavelengthGrid;
 
 /// Correlated colour temperature of the studio softboxes (photographic flash).
 pub const STUDIO_CCT_K: f64 = 5500.0;

@@ -8,7 +8,7 @@
 //! Z are ∫ L(λ) x̄(λ) dλ (CIE 1931 2°, the display observer) divided by ∫ ȳ(λ) dλ over
 //! 380–780 nm, so a constant radiance of 1 has Y = 1 exactly, on any grid: the scale
 //! the display pipeline expects (white at Y = 1). The weights are those of
-//! [`crate::cie::Colorimeter`] without an illuminant: per grid sample the integral,
+//! [`crate::colour::cie::Colorimeter`] without an illuminant: per grid sample the integral,
 //! on the 5 nm CIE table, of the sample's hat (linear-interpolation) basis function
 //! times the colour-matching function.
 //!
@@ -56,11 +56,11 @@ use std::sync::{Arc, OnceLock};
 
 use thiserror::Error;
 
-use crate::cie::{Observer, hat_weighted_cmfs};
+use crate::colour::cie::{Observer, hat_weighted_cmfs};
+use crate::colour::spectrum::WavelengthGrid;
 use crate::colour::{
     Lab, Xyz, ciede2000, lab_from_xyz, linear_srgb_from_xyz, srgb_white, xyz_from_linear_srgb,
 };
-use crate::spectrum::WavelengthGrid;
 use palette::LinSrgb;
 
 /// [`Film::auto_exposure`]'s key: the log-average luminance is mapped to this
@@ -128,7 +128,7 @@ pub struct DisplaySettings {
     /// Exposure in stops: XYZ is scaled by 2^stops before tone mapping.
     pub exposure_stops: f32,
     /// `Some(white)`: show the scene as adapted to `white` (its XYZ at any scale,
-    /// e.g. [`crate::cie::Colorimeter::white`] of the scene's illuminant), mapping it
+    /// e.g. [`crate::colour::cie::Colorimeter::white`] of the scene's illuminant), mapping it
     /// to the sRGB white by Bradford; `None`: show the colours as they are, relative
     /// to the sRGB (D65) white.
     pub adapt_white: Option<Xyz>,
@@ -149,7 +149,7 @@ impl Weights {
     /// Emission weights on `grid` (see the module docs), scaled so a constant
     /// radiance of 1 has Y = 1.
     ///
-    /// Mirrors the hat-basis integration of [`crate::cie::Colorimeter::new`] with the
+    /// Mirrors the hat-basis integration of [`crate::colour::cie::Colorimeter::new`] with the
     /// illuminant left out: each 5 nm table row's x̄, ȳ, z̄ splits between the two grid
     /// samples around it, the end samples' hats extended as constants.
     fn new(grid: WavelengthGrid) -> Self {

@@ -844,11 +844,11 @@ pub(crate) fn power_heuristic(a: f32, b: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::colour::spectrum::WavelengthGrid;
     use crate::design::presets;
     use crate::render::camera::Camera;
     use crate::render::material::ShadingModel;
     use crate::scene::car::{CarParameters, generate};
-    use crate::spectrum::WavelengthGrid;
 
     /// Records every call, to compare two tracings' decisions.
     #[derive(Debug, Default, Clone, PartialEq)]

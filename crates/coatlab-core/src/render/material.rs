@@ -29,6 +29,7 @@ use std::sync::Arc;
 
 use palette::LinSrgb;
 
+use crate::colour::spectrum::WavelengthGrid;
 use crate::paint::lobe::{mirror, phong_lobe, phong_lobe_pdf, sample_phong_lobe};
 use crate::paint::model::{
     BsdfSample, PaintModel, SpectralBsdf, SpectralPaint, cosine_hemisphere, weigh_sample,
@@ -36,7 +37,6 @@ use crate::paint::model::{
 use crate::paint::phong::{PhongParams, PhongVariant, SpectralPhong};
 use crate::render::environment::RgbUpsampler;
 use crate::scene::SceneMaterial;
-use crate::spectrum::WavelengthGrid;
 
 /// Sharpest lobe a simple material gets (roughness 0 would otherwise give an
 /// infinite exponent); at 10⁵ the lobe is 0.3° wide, a mirror for a preview.

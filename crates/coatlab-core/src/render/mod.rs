@@ -1,6 +1,6 @@
 //! The spectral progressive ray tracer behind the car preview.
 //!
-//! Every path carries all wavelengths of one [`crate::spectrum::WavelengthGrid`]: the
+//! Every path carries all wavelengths of one [`crate::colour::spectrum::WavelengthGrid`]: the
 //! paint's path geometry does not depend on wavelength, so there is no colour noise,
 //! only luminance noise. Radiance values are spectral radiance in relative units
 //! (W·sr⁻¹·m⁻²·nm⁻¹ up to one scale factor per environment); the film turns them into

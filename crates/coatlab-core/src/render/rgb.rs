@@ -17,11 +17,11 @@
 
 use palette::LinSrgb;
 
-use crate::cie::{Illuminant, Observer, hat_weighted_cmfs};
+use crate::colour::cie::{Illuminant, Observer, hat_weighted_cmfs};
+use crate::colour::spectrum::WavelengthGrid;
 use crate::colour::{Xyz, linear_srgb_from_xyz, srgb_white, xyz_from_linear_srgb};
 use crate::design::{DesignError, PaintDesign};
 use crate::paint::model::{PaintModel, PaintParams};
-use crate::spectrum::WavelengthGrid;
 
 /// The sRGB luminance row: Y of linear sRGB (white Y = 1).
 pub const LUMINANCE: [f32; 3] = [0.2126, 0.7152, 0.0722];

@@ -6,6 +6,7 @@
 
 use std::sync::Arc;
 
+use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::design::presets;
 use coatlab_core::paint::model::PaintModel;
 use coatlab_core::render::environment::Environment;
@@ -14,7 +15,6 @@ use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{CarParameters, generate};
-use coatlab_core::spectrum::WavelengthGrid;
 
 use crate::image_stats::{Image, Replicas, Weights, film_image, seed};
 

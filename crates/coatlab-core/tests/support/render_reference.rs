@@ -9,6 +9,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
+use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::design::presets;
 use coatlab_core::render::camera::Camera;
 use coatlab_core::render::environment::Environment;
@@ -16,7 +17,6 @@ use coatlab_core::render::film::Film;
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
 use coatlab_core::scene::car::{CarParameters, generate};
-use coatlab_core::spectrum::WavelengthGrid;
 
 use crate::image_stats::{Replicas, film_image};
 

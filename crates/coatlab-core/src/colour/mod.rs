@@ -1,13 +1,19 @@
+//! Spectra and colour: wavelength grids and spectra ([`spectrum`]), the CIE tables
+//! and colorimeter ([`cie`]), and here the colour spaces and colour difference.
+//!
 //! Colour spaces and colour difference (spec section 6): CIELAB relative to a
 //! run-time white, CIEDE2000, and XYZ → sRGB for display with Bradford chromatic
 //! adaptation.
 //!
 //! The white point here is a value, not a type: any illuminant × observer pair of
-//! [`crate::cie`] may be in use. So colours cross module boundaries as palette's
+//! [`crate::colour::cie`] may be in use. So colours cross module boundaries as palette's
 //! [`Xyz`] and [`Lab`] with the [`Any`] white point, always accompanied by the white
 //! `Xyz` they are relative to. Tristimulus values are on the colorimetric scale
 //! where the perfect white has Y = 100; the conversions only use ratios to the
 //! white, so any common scale works.
+
+pub mod cie;
+pub mod spectrum;
 
 use std::sync::OnceLock;
 

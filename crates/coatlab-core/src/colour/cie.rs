@@ -20,11 +20,11 @@ use std::sync::OnceLock;
 
 use thiserror::Error;
 
+use crate::colour::spectrum::{SampledSpectrum, TabulatedSpectrum, WavelengthGrid};
 use crate::colour::{Lab, Xyz, lab_from_xyz};
-use crate::spectrum::{SampledSpectrum, TabulatedSpectrum, WavelengthGrid};
 
-const CIE_TABLES_CSV: &str = include_str!("../data/cie_tables.csv");
-const DAYLIGHT_BASIS_CSV: &str = include_str!("../data/cie_daylight_basis.csv");
+const CIE_TABLES_CSV: &str = include_str!("../../data/cie_tables.csv");
+const DAYLIGHT_BASIS_CSV: &str = include_str!("../../data/cie_daylight_basis.csv");
 const TABLE_STEP_NM: f64 = 5.0;
 /// The range every [`Colorimeter`] integrates over at least: the reference grid's
 /// (spec section 6), whatever the renderer's grid.
@@ -144,7 +144,7 @@ impl Illuminant {
         self.series().value_at_nm(wavelength_nm)
     }
 
-    /// The power on `grid` by the resampling rule of [`crate::spectrum`]: the table
+    /// The power on `grid` by the resampling rule of [`crate::colour::spectrum`]: the table
     /// values on the reference grid, bin averages on coarser grids, so the narrow
     /// mercury and rare-earth lines of the F series keep their energy instead of
     /// being hit or missed by point samples. Beyond the CIE table the end value is
@@ -380,7 +380,7 @@ impl Colorimeter {
 /// data Δλ is constant and cancels with K.
 ///
 /// Errors if there are no wavelengths or none where the illuminant and ȳ overlap.
-/// `wavelengths_nm` must increase (as [`crate::spectrum::read_spectra_csv`] ensures).
+/// `wavelengths_nm` must increase (as [`crate::colour::spectrum::read_spectra_csv`] ensures).
 pub fn summation_weights(
     illuminant: Illuminant,
     observer: Observer,
