@@ -7,13 +7,13 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
-use coatlab_core::colour::cie::Illuminant;
 use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::design::{PaintDesign, presets};
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::adaptive::{AdaptiveError, AdaptiveSampling};
 use coatlab_core::render::environment::Environment;
 use coatlab_core::render::film::DisplaySettings;
+use coatlab_core::render::lighting::Lighting;
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{
     PassStats, ProgressiveRender, RenderScene, RenderSettings,
@@ -137,32 +137,22 @@ pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
-/// The lighting setup named on the command line.
+/// The lighting setup named on the command line, or an environment map file.
 pub fn environment(name: &str, grid: &WavelengthGrid) -> anyhow::Result<Environment> {
-    Ok(match name {
-        "studio" => Environment::studio(grid),
-        "booth-d65" => Environment::booth(Illuminant::D65, grid),
-        "booth-a" => Environment::booth(Illuminant::A, grid),
-        "booth-f11" => Environment::booth(Illuminant::F11, grid),
-        "outdoor" => Environment::outdoor(grid),
-        path => {
-            let path = Path::new(path);
-            if !path.exists() {
-                // A bare word was meant as a setup's name; anything else as a file.
-                let failure = if name.contains(['.', '/', std::path::MAIN_SEPARATOR]) {
-                    Failure::NoInput
-                } else {
-                    Failure::Usage
-                };
-                return Err(failure.error(format!(
-                    "--environment '{}': not a lighting setup (studio, booth-d65, booth-a, \
-                     booth-f11, outdoor) and no such file",
-                    path.display()
-                )));
-            }
-            Environment::from_image(path, grid)?
-        }
-    })
+    let not_found = |failure: Failure| {
+        failure.error(format!(
+            "--environment '{name}': not a lighting setup ({}) and no such file",
+            Lighting::SETUP_NAMES.join(", ")
+        ))
+    };
+    // A bare word was meant as a setup's name; anything else as a file.
+    let lighting = Lighting::parse(name).map_err(|_| not_found(Failure::Usage))?;
+    if let Lighting::Map(path) = &lighting
+        && !path.exists()
+    {
+        return Err(not_found(Failure::NoInput));
+    }
+    Ok(lighting.build(grid)?)
 }
 
 /// The scene: a glTF file, or the built-in car.

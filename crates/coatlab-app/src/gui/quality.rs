@@ -9,7 +9,8 @@
 use std::sync::OnceLock;
 
 use coatlab_core::colour::spectrum::WavelengthGrid;
-use coatlab_core::render::environment::{Environment, EnvironmentKind};
+use coatlab_core::render::environment::Environment;
+use coatlab_core::render::lighting::Lighting;
 use egui::Ui;
 use serde::Deserialize;
 
@@ -241,13 +242,7 @@ pub fn quality_ui(ui: &mut Ui, selector: &mut QualitySelector) -> Option<Quality
 /// `environment` rebuilt on `grid`, for a change of wavelength count; `None` for
 /// an image map (its file would have to be read again: the caller keeps the grid).
 pub fn environment_on(environment: &Environment, grid: &WavelengthGrid) -> Option<Environment> {
-    Some(match environment.kind() {
-        EnvironmentKind::Studio => Environment::studio(grid),
-        EnvironmentKind::Booth(illuminant) => Environment::booth(illuminant, grid),
-        EnvironmentKind::Outdoor => Environment::outdoor(grid),
-        EnvironmentKind::Uniform => Environment::uniform(grid),
-        EnvironmentKind::Image => return None,
-    })
+    Lighting::of_kind(environment.kind())?.build(grid).ok()
 }
 
 #[cfg(test)]

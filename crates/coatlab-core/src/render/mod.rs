@@ -9,6 +9,7 @@
 //! Frames: world space is metres, Y up, the car on the ground plane y = 0 (see
 //! [`crate::scene`]). Directions are unit `[f32; 3]`.
 //!
+//! - [`lighting`]: the user's choice of lighting and the one builder from it;
 //! - [`environment`]: what lights the scene (studio, booth, outdoor, image maps);
 //! - [`camera`] and [`film`]: rays from pixels, and accumulation into an image;
 //! - [`material`]: the design as paint or Phong, and the scene's simple materials;
@@ -28,6 +29,7 @@ pub mod environment;
 pub mod film;
 pub mod image_error;
 pub mod integrator;
+pub mod lighting;
 pub mod material;
 pub mod progressive;
 pub mod reshade;
