@@ -15,6 +15,7 @@ pub mod accel;
 pub mod colour;
 pub mod design;
 pub mod instruments;
+pub mod io;
 pub mod paint;
 pub mod quadrature;
 pub mod render;

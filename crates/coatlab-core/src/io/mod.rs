@@ -1,0 +1,2 @@
+//! Files in and out: image formats the core reads and writes, and how it writes
+//! them safely. Nothing here knows about paint or rendering.
