@@ -1,7 +1,7 @@
 //! Coatlab's core: spectra, colour science and the gloss solid paint model.
 //!
-//! The physics is specified in `shared/docs/paint-model.md` (the "spec"); section
-//! numbers in comments refer to it. This crate has no GUI dependency.
+//! The physics is specified in `docs/model.md` (the "spec"); section numbers in
+//! comments refer to it. This crate has no GUI dependency.
 //!
 //! Layers, each depending only on those above it:
 //! - [`units`], [`quadrature`]: small numeric foundations;

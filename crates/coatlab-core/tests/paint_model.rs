@@ -364,7 +364,7 @@ fn white_furnace_by_importance_sampling() {
 fn view_side_albedo_exceeds_one_only_by_the_measured_amount() {
     // Seen from the camera, the white furnace integrates R(μi)/N(μi) over ωi, which
     // the normalisation does not make exactly 1 (the lobe is normalised over ωo).
-    // Measured (400 000 samples, n = 1.5), recorded in docs/paint-model-notes.md:
+    // Measured (400 000 samples, n = 1.5), recorded in docs/model.md, section 9:
     // the largest excess is 4.0 % (m = 5 at 40°), 3.2 % (m = 30 at 60°), 1.3 %
     // (m = 300 at 75°), 0.36 % (m = 3000 at 85°); at grazing views it falls below 1
     // as the lobe about the mirror of ωo dips under the horizon.

@@ -19,7 +19,7 @@
 //!   as its specular part, R(μi) + ∫ f_body cos θo dωo. It is 1 for ρ = 1, τ = 0
 //!   (white furnace) and at grazing incidence for n > 1.
 //!
-//! The coat integrals C(n, τ) and E(n, τ) cost about 10 µs each, so they are
+//! The coat integrals C(n, τ) and E(n, τ) cost microseconds each, so they are
 //! computed once per distinct (n, kh) pair; a sweep over angles costs almost nothing
 //! per row.
 

@@ -19,7 +19,8 @@
 //! The fraction F of the lobe's flux that reaches the receptor does not depend on
 //! n, only the Fresnel factor does, so F is tabulated once per geometry and source
 //! point over x = ln(1 + m) and m(g) is a root-find on the interpolated reading —
-//! cheap enough for a slider (the table itself costs ~0.2 s, once per process).
+//! cheap enough for a slider (each node of the table is computed once per process,
+//! when first needed).
 
 use std::sync::OnceLock;
 
@@ -362,7 +363,8 @@ struct FractionTable {
     /// fractions[node][source], each node computed when first read: a node costs
     /// thousands of receptor quadratures, and a reading needs only the four nodes
     /// around its x. Converting a mirror-like gloss reads six of the 129 (the
-    /// ends); computing them all took about 0.1 s of every render's start-up.
+    /// ends); computing them all up front was a visible part of every render's
+    /// start-up.
     fractions: Vec<OnceLock<Vec<f64>>>,
 }
 

@@ -12,14 +12,18 @@
 //!
 //! Derived, and what each depends on:
 //!
-//! | derived | from | cost (81 λ) |
-//! | --- | --- | --- |
-//! | τ(λ) = k·h | k, h | trivial |
-//! | C(λ), E(λ) (coat integrals) | n, τ | ~0.5 ms |
-//! | body factor ρ/(n²(π − ρC)) | ρ, n, C | trivial |
-//! | through-coat and Fresnel tables over μ | n, τ | ~0.3 ms |
-//! | m | g, geometry, n(587.6 nm) | ~15 µs |
-//! | lobe normalisation table N(μ) | m | ~3 ms |
+//! | derived | from |
+//! | --- | --- |
+//! | τ(λ) = k·h | k, h |
+//! | C(λ), E(λ) (coat integrals) | n, τ |
+//! | body factor ρ/(n²(π − ρC)) | ρ, n, C |
+//! | through-coat and Fresnel tables over μ | n, τ |
+//! | m | g, geometry, n(587.6 nm) |
+//! | lobe normalisation table N(μ) | m |
+//!
+//! Each is built in under a millisecond for 81 wavelengths (m once the glossmeter's
+//! table nodes it reads exist: they are computed once per process), so any single
+//! edit stays within a slider's budget (figures: docs/benchmarks.md, "Paint model").
 //!
 //! The renderer's evaluation factors the body term as
 //! f_body = K(λ)·A(λ, μi)·A(λ, μo), A = T(μ)·exp(−τ/μ′), and the specular term as

@@ -30,8 +30,8 @@
 //! After [`IntegratorSettings::roulette_start`] bounces, Russian roulette ends paths
 //! with probability 1 − min(0.95, max_λ throughput) and divides the survivors by
 //! the survival probability, which keeps the estimate unbiased. Paths also end at
-//! [`IntegratorSettings::max_bounces`] (a bias toward darker images, measured to be
-//! far below the noise for the car: see `docs/benchmarks.md`).
+//! [`IntegratorSettings::max_bounces`] (a bias toward darker images, taken to be far
+//! below the noise for the car; no measurement of it is recorded).
 //!
 //! Surfaces reflect only (no transmission): the car's glass is a dark, glossy
 //! reflector, which is how it reads in a paint preview. Every surface is two-sided.

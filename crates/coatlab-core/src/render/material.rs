@@ -47,7 +47,7 @@ const DIELECTRIC_F0: f32 = 0.04;
 /// Which model renders the designed paint.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum ShadingModel {
-    /// The paint model of `docs/paint-model.md`.
+    /// The paint model of `docs/model.md`.
     #[default]
     Paint,
     /// Phong with the parameters of [`PhongVariant`].
