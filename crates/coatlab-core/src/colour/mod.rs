@@ -1,5 +1,6 @@
 //! Spectra and colour: wavelength grids and spectra ([`spectrum`]), the CIE tables
-//! and colorimeter ([`cie`]), and here the colour spaces and colour difference.
+//! and colorimeter ([`cie`]), RGB → spectrum upsampling ([`upsampling`]), and here
+//! the colour spaces and colour difference.
 //!
 //! Colour spaces and colour difference (spec section 6): CIELAB relative to a
 //! run-time white, CIEDE2000, and XYZ → sRGB for display with Bradford chromatic
@@ -14,6 +15,7 @@
 
 pub mod cie;
 pub mod spectrum;
+pub mod upsampling;
 
 use std::sync::OnceLock;
 

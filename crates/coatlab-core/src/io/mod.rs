@@ -1,2 +1,6 @@
 //! Files in and out: image formats the core reads and writes, and how it writes
 //! them safely. Nothing here knows about paint or rendering.
+
+pub mod exr_read;
+pub mod hdr;
+pub mod rgb_image;

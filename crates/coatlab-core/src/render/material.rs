@@ -30,12 +30,12 @@ use std::sync::Arc;
 use palette::LinSrgb;
 
 use crate::colour::spectrum::WavelengthGrid;
+use crate::colour::upsampling::RgbUpsampler;
 use crate::paint::lobe::{mirror, phong_lobe, phong_lobe_pdf, sample_phong_lobe};
 use crate::paint::model::{
     BsdfSample, PaintModel, SpectralBsdf, SpectralPaint, cosine_hemisphere, weigh_sample,
 };
 use crate::paint::phong::{PhongParams, PhongVariant, SpectralPhong};
-use crate::render::environment::RgbUpsampler;
 use crate::scene::SceneMaterial;
 
 /// Sharpest lobe a simple material gets (roughness 0 would otherwise give an

@@ -108,7 +108,8 @@ pub fn paint_model(design: &PaintDesign) -> Result<PaintModel, DesignError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::environment::{Environment, RgbUpsampler, luminance_weights};
+    use crate::colour::upsampling::RgbUpsampler;
+    use crate::render::environment::{Environment, luminance_weights};
     use crate::render::film::Film;
 
     #[test]
