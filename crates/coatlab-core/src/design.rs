@@ -54,7 +54,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use serde::Deserialize;
 use thiserror::Error;
 
-use crate::colour::spectrum::{SampledSpectrum, TabulatedSpectrum, WavelengthGrid};
+use crate::colour::spectrum::{SampledSpectrum, TabulatedSpectrum, VISIBLE, WavelengthGrid};
 use crate::paint::gloss::{
     GLOSS_WAVELENGTH_NM, GlossError, GlossExponent, GlossGeometry, exponent_from_reading,
 };
@@ -65,9 +65,6 @@ use crate::paint::model::{GlossSetting, PaintModel, PaintParams};
 pub const FORMAT_NAME: &str = "coatlab-paint-design";
 /// The file format version this Coatlab writes (and the newest it reads).
 pub const FORMAT_VERSION: i64 = 1;
-/// The range over which a Cauchy refractive index must be ≥ 1: the visible range
-/// every renderer grid lies in (spec section 6).
-pub const INDEX_CHECK_RANGE_NM: (f64, f64) = (380.0, 780.0);
 /// Every tabulated spectrum must cover at least this range, where colour is decided;
 /// beyond its ends a table is held constant.
 pub const REQUIRED_COVERAGE_NM: (f64, f64) = (400.0, 700.0);
@@ -105,6 +102,11 @@ pub enum DesignError {
     /// (`pigment.albedo.value[12]`), `message` the whole sentence, field included.
     #[error("{message}")]
     Invalid { field: String, message: String },
+    /// A model on linear-sRGB channels was to be updated from the design's
+    /// spectra, which need wavelengths (an RGB model is built by
+    /// [`crate::render::rgb::paint_model`]).
+    #[error("{name}: a design's spectra need a wavelength grid, not linear-sRGB channels")]
+    NotSpectral { name: String },
     /// The gloss reading cannot be turned into a lobe exponent.
     #[error("gloss.gu = {gu}: {error}")]
     Gloss { gu: f64, error: GlossError },
@@ -382,7 +384,7 @@ impl PaintDesign {
     pub fn model(&self, grid: WavelengthGrid) -> Result<PaintModel, DesignError> {
         self.validate()?;
         let params = PaintParams {
-            grid,
+            channels: grid.into(),
             albedo: self.albedo_on(&grid).into_values(),
             refractive_index: self.refractive_index_on(&grid).into_values(),
             index_at_gloss_wavelength: self.refractive_index_at_nm(GLOSS_WAVELENGTH_NM),
@@ -411,7 +413,11 @@ impl PaintDesign {
         model: &mut PaintModel,
     ) -> Result<(), DesignError> {
         self.validate()?;
-        let grid = *model.grid();
+        let Some(&grid) = model.channels().grid() else {
+            return Err(DesignError::NotSpectral {
+                name: self.name.clone(),
+            });
+        };
         let mut apply = || -> Result<(), crate::paint::model::ParamError> {
             if self.albedo != previous.albedo {
                 model.set_albedo(self.albedo_on(&grid).into_values())?;
@@ -583,7 +589,7 @@ fn check_cauchy(a: f64, b_um2: f64) -> Result<(), DesignError> {
     check_finite("clear_coat.refractive_index.cauchy.a", a)?;
     check_finite("clear_coat.refractive_index.cauchy.b_um2", b_um2)?;
     let index = RefractiveIndex::Cauchy { a, b_um2 };
-    let (lo_nm, hi_nm) = INDEX_CHECK_RANGE_NM;
+    let (lo_nm, hi_nm) = (VISIBLE.start_nm, VISIBLE.end_nm);
     let at_nm = if b_um2 >= 0.0 { hi_nm } else { lo_nm };
     let n = index.at_nm(at_nm);
     if n < 1.0 {

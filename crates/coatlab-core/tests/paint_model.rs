@@ -46,7 +46,7 @@ fn realistic_model(gu: f64) -> PaintModel {
         .map(|l| 0.0004 + 0.2 / (1.0 + ((l - 390.0) / 6.0).exp()))
         .collect();
     let params = PaintParams {
-        grid,
+        channels: grid.into(),
         albedo,
         refractive_index: index,
         index_at_gloss_wavelength: 1.492 + 0.0045 / 0.5876_f64.powi(2),
@@ -131,7 +131,7 @@ fn invalid_parameters_are_refused_with_their_value() {
 /// (relative to the value plus 1e-3/sr), over directions up to 85° from the normal
 /// and over grazing ones (85°–89.9°), separately.
 fn worst_f32_error(model: &PaintModel) -> (f64, f64) {
-    let len = model.grid().len();
+    let len = model.channels().len();
     let (mut reference, mut single) = (vec![0.0; len], vec![0.0_f32; len]);
     let (mut worst, mut worst_grazing) = (0.0_f64, 0.0_f64);
     for &ti in &[0.0, 10.0, 33.0, 60.0, 80.0, 85.0, 88.0, 89.9] {

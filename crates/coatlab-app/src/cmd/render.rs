@@ -7,7 +7,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
-use coatlab_core::colour::spectrum::WavelengthGrid;
+use coatlab_core::colour::spectrum::{Channels, WavelengthGrid};
 use coatlab_core::design::{PaintDesign, presets};
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::adaptive::{AdaptiveError, AdaptiveSampling};
@@ -137,8 +137,9 @@ pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
-/// The lighting setup named on the command line, or an environment map file.
-pub fn environment(name: &str, grid: &WavelengthGrid) -> anyhow::Result<Environment> {
+/// The lighting setup named on the command line, or an environment map file, on
+/// `channels` (a wavelength grid, or linear sRGB).
+pub fn environment(name: &str, channels: impl Into<Channels>) -> anyhow::Result<Environment> {
     let not_found = |failure: Failure| {
         failure.error(format!(
             "--environment '{name}': not a lighting setup ({}) and no such file",
@@ -152,7 +153,7 @@ pub fn environment(name: &str, grid: &WavelengthGrid) -> anyhow::Result<Environm
     {
         return Err(not_found(Failure::NoInput));
     }
-    Ok(lighting.build(grid)?)
+    Ok(lighting.build(channels)?)
 }
 
 /// The scene: a glTF file, or the built-in car.

@@ -36,7 +36,7 @@ use palette::LinSrgb;
 use thiserror::Error;
 
 use crate::colour::cie::{Colorimeter, Illuminant, Observer, daylight_spd};
-use crate::colour::spectrum::WavelengthGrid;
+use crate::colour::spectrum::{Channels, VISIBLE, WavelengthGrid};
 use crate::colour::xyz_from_linear_srgb;
 
 /// Correlated colour temperature of the studio softboxes (photographic flash).
@@ -161,7 +161,7 @@ pub enum EnvironmentKind {
 #[derive(Debug, Clone)]
 pub struct Environment {
     kind: EnvironmentKind,
-    grid: WavelengthGrid,
+    channels: Channels,
     luminance_weights: Vec<f32>,
     patches: Vec<Patch>,
     map: RadianceMap,
@@ -178,10 +178,11 @@ impl Environment {
     /// The default photo studio: three large softboxes (key overhead-front, fill at
     /// the side, rim behind) of CIE daylight 5500 K on a grey cyclorama, grey floor
     /// ρ = 0.25.
-    pub fn studio(grid: &WavelengthGrid) -> Self {
-        let spectrum = daylight_on_grid(STUDIO_CCT_K, grid);
+    pub fn studio(channels: impl Into<Channels>) -> Self {
+        let channels = channels.into();
+        let spectrum = daylight_on_grid(STUDIO_CCT_K, &channels);
         let (width, height) = (1, 64);
-        let mut b = Builder::new(grid, vec![spectrum], width, height);
+        let mut b = Builder::new(&channels, vec![spectrum], width, height);
         // Cyclorama lit by the softboxes: brighter at the sweep, darker overhead.
         for row in 0..height / 2 {
             let y = 0.5 * (b.row_cos[row] + b.row_cos[row + 1]);
@@ -201,19 +202,21 @@ impl Environment {
 
     /// A paint light booth: an overhead diffuser emitting `illuminant`, mid-grey
     /// walls (ρ = 0.2) lit by it as a dim uniform background, grey floor ρ = 0.2.
-    pub fn booth(illuminant: Illuminant, grid: &WavelengthGrid) -> Self {
-        let spectrum: Vec<f32> = if grid.is_linear_srgb() {
-            rgb_light(illuminant.spd(&WavelengthGrid::reference()).values())
-        } else {
-            illuminant
+    pub fn booth(illuminant: Illuminant, channels: impl Into<Channels>) -> Self {
+        let channels = channels.into();
+        let spectrum: Vec<f32> = match &channels {
+            Channels::LinearSrgb => {
+                rgb_light(illuminant.spd(&WavelengthGrid::reference()).values())
+            }
+            Channels::Spectral(grid) => illuminant
                 .spd(grid)
                 .values()
                 .iter()
                 .map(|&v| (v / 100.0) as f32)
-                .collect()
+                .collect(),
         };
         let (width, height) = (1, 64);
-        let mut b = Builder::new(grid, vec![spectrum], width, height);
+        let mut b = Builder::new(&channels, vec![spectrum], width, height);
         for row in 0..height / 2 {
             b.coeffs[row] = (BOOTH_WALL_REFLECTANCE * BOOTH_WALL_VIEW_FACTOR) as f32;
         }
@@ -233,15 +236,16 @@ impl Environment {
     /// Sun and clear sky: the sun a 0.53° disc at 45° elevation (CIE daylight
     /// 5500 K), the sky the CIE clear-sky luminance distribution in CIE daylight
     /// 10000 K, the sky giving 20 % of the horizontal illuminance; ground ρ = 0.15.
-    pub fn outdoor(grid: &WavelengthGrid) -> Self {
-        let sky = daylight_on_grid(SKY_CCT_K, grid);
-        let sun = daylight_on_grid(SUN_CCT_K, grid);
+    pub fn outdoor(channels: impl Into<Channels>) -> Self {
+        let channels = channels.into();
+        let sky = daylight_on_grid(SKY_CCT_K, &channels);
+        let sun = daylight_on_grid(SUN_CCT_K, &channels);
         let (width, height) = (256, 128);
         let sun_axis = direction_from_azimuth_elevation(
             SUN_AZIMUTH_DEG.to_radians(),
             SUN_ELEVATION_DEG.to_radians(),
         );
-        let mut b = Builder::new(grid, vec![sky, sun], width, height);
+        let mut b = Builder::new(&channels, vec![sky, sun], width, height);
         let zenith_sun = (90.0 - SUN_ELEVATION_DEG).to_radians();
         for row in 0..height / 2 {
             let y = 0.5 * (b.row_cos[row] + b.row_cos[row + 1]);
@@ -272,10 +276,11 @@ impl Environment {
     /// direction, and no floor. An object that neither absorbs nor emits is
     /// invisible in it; anything else shows its directional albedo. For tests and
     /// for checking a design's energy balance.
-    pub fn uniform(grid: &WavelengthGrid) -> Self {
-        let flat = vec![1.0f32; grid.len()];
+    pub fn uniform(channels: impl Into<Channels>) -> Self {
+        let channels = channels.into();
+        let flat = vec![1.0f32; channels.len()];
         let (width, height) = (1, 2);
-        let mut b = Builder::new(grid, vec![flat], width, height);
+        let mut b = Builder::new(&channels, vec![flat], width, height);
         b.coeffs.fill(1.0);
         let env = b
             .finish(EnvironmentKind::Uniform, 0.0, false)
@@ -288,7 +293,11 @@ impl Environment {
     /// G and B channels, any compression the `exr` crate reads; alpha ignored).
     /// Linear sRGB (Rec. 709) primaries are assumed; see
     /// [`Environment::from_rgb_image`].
-    pub fn from_image(path: &Path, grid: &WavelengthGrid) -> Result<Self, EnvironmentError> {
+    pub fn from_image(
+        path: &Path,
+        channels: impl Into<Channels>,
+    ) -> Result<Self, EnvironmentError> {
+        let channels = channels.into();
         let name = path.display().to_string();
         let extension = path
             .extension()
@@ -297,11 +306,11 @@ impl Environment {
         match extension.as_deref() {
             Some("hdr") | Some("pic") | Some("rgbe") => {
                 let image = read_hdr(path)?;
-                Self::from_rgb_image(&image, &name, grid)
+                Self::from_rgb_image(&image, &name, channels)
             }
             Some("exr") => {
                 let image = read_exr(path)?;
-                Self::from_rgb_image(&image, &name, grid)
+                Self::from_rgb_image(&image, &name, channels)
             }
             _ => Err(EnvironmentError::UnknownFormat { path: name }),
         }
@@ -315,17 +324,18 @@ impl Environment {
     pub fn from_rgb_image(
         image: &RgbImage,
         name: &str,
-        grid: &WavelengthGrid,
+        channels: impl Into<Channels>,
     ) -> Result<Self, EnvironmentError> {
+        let radiance_channels = channels.into();
         let factor = image.width.div_ceil(IMAGE_MAX_WIDTH).max(1);
         let image = if factor > 1 {
             image.box_downsample(factor)
         } else {
             image.clone()
         };
-        let upsampler = RgbUpsampler::new(grid);
+        let upsampler = RgbUpsampler::new(&radiance_channels);
         let channels = upsampler.emission_bases.to_vec();
-        let mut b = Builder::new(grid, channels, image.width, image.height);
+        let mut b = Builder::new(&radiance_channels, channels, image.width, image.height);
         for (coeffs, rgb) in b.coeffs.chunks_exact_mut(3).zip(&image.pixels) {
             for (c, v) in coeffs.iter_mut().zip(rgb) {
                 *c = v.max(0.0);
@@ -342,9 +352,9 @@ impl Environment {
         self.kind
     }
 
-    /// The wavelength grid of all spectra here.
-    pub fn grid(&self) -> &WavelengthGrid {
-        &self.grid
+    /// What the radiance values here are for: a wavelength grid, or linear sRGB.
+    pub fn channels(&self) -> &Channels {
+        &self.channels
     }
 
     /// The floor plane y = 0 of the setup, if any.
@@ -402,7 +412,7 @@ impl Environment {
     /// # Panics
     /// If `out.len()` differs from the grid's length.
     pub fn radiance_and_pdf(&self, dir: [f32; 3], out: &mut [f32]) -> f32 {
-        assert_eq!(out.len(), self.grid.len(), "radiance buffer length");
+        assert_eq!(out.len(), self.channels.len(), "radiance buffer length");
         out.fill(0.0);
         let Some(d) = normalised(dir) else { return 0.0 };
         self.evaluate(&mut Query::new(d), Some(out)) as f32
@@ -580,7 +590,7 @@ impl Environment {
     /// # Panics
     /// If `out.len()` differs from the grid's length.
     pub(crate) fn finish_radiance_and_pdf(&self, begun: &DirectionLookUp, out: &mut [f32]) -> f32 {
-        assert_eq!(out.len(), self.grid.len(), "radiance buffer length");
+        assert_eq!(out.len(), self.channels.len(), "radiance buffer length");
         out.fill(0.0);
         match begun.query {
             LookUpQuery::Degenerate => 0.0,
@@ -850,17 +860,21 @@ pub struct RgbUpsampler {
 }
 
 impl RgbUpsampler {
-    /// The bases on `grid`.
-    pub fn new(grid: &WavelengthGrid) -> Self {
-        if grid.is_linear_srgb() {
-            // The RGB shortcut: a colour is its own "spectrum"; (1, 1, 1) has
-            // luminance 1 under the sRGB luminance weights.
-            let unit = |i: usize| (0..3).map(|k| if k == i { 1.0 } else { 0.0 }).collect();
-            return Self {
-                reflectance_bases: std::array::from_fn(unit),
-                emission_bases: std::array::from_fn(unit),
-            };
-        }
+    /// The bases on `channels`.
+    pub fn new(channels: impl Into<Channels>) -> Self {
+        let grid = match channels.into() {
+            Channels::Spectral(grid) => grid,
+            Channels::LinearSrgb => {
+                // A colour is its own "spectrum"; (1, 1, 1) has luminance 1 under
+                // the sRGB luminance weights.
+                let unit = |i: usize| (0..3).map(|k| if k == i { 1.0 } else { 0.0 }).collect();
+                return Self {
+                    reflectance_bases: std::array::from_fn(unit),
+                    emission_bases: std::array::from_fn(unit),
+                };
+            }
+        };
+        let grid = &grid;
         let colorimeter = Colorimeter::new(Illuminant::D65, Observer::Cie1931TwoDegree, grid);
         let unit = [
             LinSrgb::new(1.0, 0.0, 0.0),
@@ -876,7 +890,7 @@ impl RgbUpsampler {
         });
         // Emission: D65 × reflectance, scaled so RGB (1, 1, 1) has luminance 1.
         let d65 = Illuminant::D65.spd(grid);
-        let weights = luminance_weights(grid);
+        let weights = luminance_weights(&Channels::Spectral(*grid));
         let white: Vec<f64> = (0..grid.len())
             .map(|k| d65.values()[k] * reflectance_bases.iter().map(|b| b[k]).sum::<f64>())
             .collect();
@@ -1817,7 +1831,7 @@ fn alias_table(weights: &[f64]) -> Vec<(f32, u32)> {
 
 /// Assembles an environment in arbitrary units, then normalises it.
 struct Builder {
-    grid: WavelengthGrid,
+    radiance_channels: Channels,
     channels: Vec<Vec<f32>>,
     channel_luminance: Vec<f64>,
     luminance_weights: Vec<f32>,
@@ -1830,12 +1844,17 @@ struct Builder {
 }
 
 impl Builder {
-    fn new(grid: &WavelengthGrid, channels: Vec<Vec<f32>>, width: usize, height: usize) -> Self {
+    fn new(
+        radiance_channels: &Channels,
+        channels: Vec<Vec<f32>>,
+        width: usize,
+        height: usize,
+    ) -> Self {
         assert!(
             (1..=MAX_MAP_CHANNELS).contains(&channels.len()),
             "a map combines 1 to {MAX_MAP_CHANNELS} channel spectra"
         );
-        let luminance_weights = luminance_weights(grid);
+        let luminance_weights = luminance_weights(radiance_channels);
         let channel_luminance = channels
             .iter()
             .map(|c| f64::from(dot_f32(&luminance_weights, c)))
@@ -1853,7 +1872,7 @@ impl Builder {
             .collect();
         let coeffs = vec![0.0; width * height * channels.len()];
         Self {
-            grid: *grid,
+            radiance_channels: *radiance_channels,
             channels,
             channel_luminance,
             luminance_weights,
@@ -1928,7 +1947,7 @@ impl Builder {
         // Texel weights: (luminance + a little of the peak) × solid angle.
         let mut row_weights = vec![0.0; self.height];
         let mut column_weights = Vec::with_capacity(self.height);
-        let mut texel_spectrum = vec![0.0f32; self.grid.len()];
+        let mut texel_spectrum = vec![0.0f32; self.radiance_channels.len()];
         for (row, row_weight) in row_weights.iter_mut().enumerate() {
             let solid_angle =
                 2.0 * PI / self.width as f64 * (self.row_cos[row] - self.row_cos[row + 1]);
@@ -2025,14 +2044,14 @@ impl Builder {
         );
         Some(Environment {
             kind,
-            grid: self.grid,
+            channels: self.radiance_channels,
             luminance_weights: self.luminance_weights,
             patches,
             map,
             components: Distribution1D::new(&component_weights),
             facing_up,
             floor: Some(Floor {
-                reflectance: vec![floor_reflectance; self.grid.len()],
+                reflectance: vec![floor_reflectance; self.radiance_channels.len()],
             }),
             sun_dir: None,
         })
@@ -2048,17 +2067,19 @@ fn cie_clear_sky(zenith: f64, gamma: f64, zenith_sun: f64) -> f64 {
     indicatrix(gamma) * gradation(zenith) / (indicatrix(zenith_sun) * gradation(0.0))
 }
 
-/// Luminance weights on `grid`: CIE 1931 ȳ at 1 nm over 380–780 nm (or the grid's
-/// span if wider), split between the two grid samples around each wavelength
-/// (linear-interpolation hats, the end hats extended), normalised to sum 1.
-pub fn luminance_weights(grid: &WavelengthGrid) -> Vec<f32> {
-    if grid.is_linear_srgb() {
-        return crate::render::rgb::LUMINANCE.to_vec();
-    }
+/// Luminance weights on `channels`. On a grid: CIE 1931 ȳ at 1 nm over [`VISIBLE`]
+/// (or the grid's span if wider), split between the two grid samples around each
+/// wavelength (linear-interpolation hats, the end hats extended), normalised to sum
+/// 1. On linear sRGB: the sRGB luminance row.
+pub fn luminance_weights(channels: &Channels) -> Vec<f32> {
+    let grid = match channels {
+        Channels::Spectral(grid) => grid,
+        Channels::LinearSrgb => return crate::colour::SRGB_LUMINANCE.to_vec(),
+    };
     let n = grid.len();
     let mut w = vec![0.0f64; n];
-    let first = 380.0f64.min(grid.start_nm()).floor() as i32;
-    let last = 780.0f64.max(grid.end_nm()).ceil() as i32;
+    let first = VISIBLE.start_nm.min(grid.start_nm()).floor() as i32;
+    let last = VISIBLE.end_nm.max(grid.end_nm()).ceil() as i32;
     for nm in first..=last {
         let l = f64::from(nm);
         let y = Observer::Cie1931TwoDegree.cmf_at_nm(l)[1];
@@ -2078,11 +2099,14 @@ pub fn luminance_weights(grid: &WavelengthGrid) -> Vec<f32> {
     w.into_iter().map(|v| (v / sum) as f32).collect()
 }
 
-fn daylight_on_grid(cct_k: f64, grid: &WavelengthGrid) -> Vec<f32> {
+fn daylight_on_grid(cct_k: f64, channels: &Channels) -> Vec<f32> {
     let spd = daylight_spd(cct_k).expect("the CCT constants are in the CIE daylight range");
-    if grid.is_linear_srgb() {
-        return rgb_light(spd.to_grid(&WavelengthGrid::reference()).values());
-    }
+    let grid = match channels {
+        Channels::Spectral(grid) => grid,
+        Channels::LinearSrgb => {
+            return rgb_light(spd.to_grid(&WavelengthGrid::reference()).values());
+        }
+    };
     spd.to_grid(grid)
         .values()
         .iter()
@@ -2093,7 +2117,7 @@ fn daylight_on_grid(cct_k: f64, grid: &WavelengthGrid) -> Vec<f32> {
 /// A light's relative spectrum on the reference grid (100 at 560 nm) as the linear
 /// sRGB triple of the RGB shortcut, scaled like the spectra (1 at 560 nm).
 fn rgb_light(reference_values: &[f64]) -> Vec<f32> {
-    crate::render::rgb::reduce_emission(reference_values)
+    crate::colour::linear_srgb_of_emission(reference_values)
         .iter()
         .map(|&v| (v / 100.0) as f32)
         .collect()
