@@ -364,18 +364,6 @@ impl From<WavelengthGrid> for Channels {
     }
 }
 
-impl From<&WavelengthGrid> for Channels {
-    fn from(grid: &WavelengthGrid) -> Self {
-        Channels::Spectral(*grid)
-    }
-}
-
-impl From<&Channels> for Channels {
-    fn from(channels: &Channels) -> Self {
-        *channels
-    }
-}
-
 impl fmt::Display for Channels {
     /// "32 wavelengths, 380–780 nm" or "linear sRGB".
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

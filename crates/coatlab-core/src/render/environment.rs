@@ -178,8 +178,8 @@ impl Environment {
     /// The default photo studio: three large softboxes (key overhead-front, fill at
     /// the side, rim behind) of CIE daylight 5500 K on a grey cyclorama, grey floor
     /// ρ = 0.25.
-    pub fn studio(channels: impl Into<Channels>) -> Self {
-        let channels = channels.into();
+    pub fn studio(channels: &(impl Into<Channels> + Copy)) -> Self {
+        let channels: Channels = (*channels).into();
         let spectrum = daylight_on_grid(STUDIO_CCT_K, &channels);
         let (width, height) = (1, 64);
         let mut b = Builder::new(&channels, vec![spectrum], width, height);
@@ -202,8 +202,8 @@ impl Environment {
 
     /// A paint light booth: an overhead diffuser emitting `illuminant`, mid-grey
     /// walls (ρ = 0.2) lit by it as a dim uniform background, grey floor ρ = 0.2.
-    pub fn booth(illuminant: Illuminant, channels: impl Into<Channels>) -> Self {
-        let channels = channels.into();
+    pub fn booth(illuminant: Illuminant, channels: &(impl Into<Channels> + Copy)) -> Self {
+        let channels: Channels = (*channels).into();
         let spectrum: Vec<f32> = match &channels {
             Channels::LinearSrgb => {
                 rgb_light(illuminant.spd(&WavelengthGrid::reference()).values())
@@ -236,8 +236,8 @@ impl Environment {
     /// Sun and clear sky: the sun a 0.53° disc at 45° elevation (CIE daylight
     /// 5500 K), the sky the CIE clear-sky luminance distribution in CIE daylight
     /// 10000 K, the sky giving 20 % of the horizontal illuminance; ground ρ = 0.15.
-    pub fn outdoor(channels: impl Into<Channels>) -> Self {
-        let channels = channels.into();
+    pub fn outdoor(channels: &(impl Into<Channels> + Copy)) -> Self {
+        let channels: Channels = (*channels).into();
         let sky = daylight_on_grid(SKY_CCT_K, &channels);
         let sun = daylight_on_grid(SUN_CCT_K, &channels);
         let (width, height) = (256, 128);
@@ -276,8 +276,8 @@ impl Environment {
     /// direction, and no floor. An object that neither absorbs nor emits is
     /// invisible in it; anything else shows its directional albedo. For tests and
     /// for checking a design's energy balance.
-    pub fn uniform(channels: impl Into<Channels>) -> Self {
-        let channels = channels.into();
+    pub fn uniform(channels: &(impl Into<Channels> + Copy)) -> Self {
+        let channels: Channels = (*channels).into();
         let flat = vec![1.0f32; channels.len()];
         let (width, height) = (1, 2);
         let mut b = Builder::new(&channels, vec![flat], width, height);
@@ -295,9 +295,9 @@ impl Environment {
     /// [`Environment::from_rgb_image`].
     pub fn from_image(
         path: &Path,
-        channels: impl Into<Channels>,
+        channels: &(impl Into<Channels> + Copy),
     ) -> Result<Self, EnvironmentError> {
-        let channels = channels.into();
+        let channels: Channels = (*channels).into();
         let name = path.display().to_string();
         let extension = path
             .extension()
@@ -306,11 +306,11 @@ impl Environment {
         match extension.as_deref() {
             Some("hdr") | Some("pic") | Some("rgbe") => {
                 let image = read_hdr(path)?;
-                Self::from_rgb_image(&image, &name, channels)
+                Self::from_rgb_image(&image, &name, &channels)
             }
             Some("exr") => {
                 let image = read_exr(path)?;
-                Self::from_rgb_image(&image, &name, channels)
+                Self::from_rgb_image(&image, &name, &channels)
             }
             _ => Err(EnvironmentError::UnknownFormat { path: name }),
         }
@@ -324,9 +324,9 @@ impl Environment {
     pub fn from_rgb_image(
         image: &RgbImage,
         name: &str,
-        channels: impl Into<Channels>,
+        channels: &(impl Into<Channels> + Copy),
     ) -> Result<Self, EnvironmentError> {
-        let radiance_channels = channels.into();
+        let radiance_channels: Channels = (*channels).into();
         let factor = image.width.div_ceil(IMAGE_MAX_WIDTH).max(1);
         let image = if factor > 1 {
             image.box_downsample(factor)
@@ -861,8 +861,8 @@ pub struct RgbUpsampler {
 
 impl RgbUpsampler {
     /// The bases on `channels`.
-    pub fn new(channels: impl Into<Channels>) -> Self {
-        let grid = match channels.into() {
+    pub fn new(channels: &(impl Into<Channels> + Copy)) -> Self {
+        let grid = match (*channels).into() {
             Channels::Spectral(grid) => grid,
             Channels::LinearSrgb => {
                 // A colour is its own "spectrum"; (1, 1, 1) has luminance 1 under
@@ -2071,8 +2071,8 @@ fn cie_clear_sky(zenith: f64, gamma: f64, zenith_sun: f64) -> f64 {
 /// (or the grid's span if wider), split between the two grid samples around each
 /// wavelength (linear-interpolation hats, the end hats extended), normalised to sum
 /// 1. On linear sRGB: the sRGB luminance row.
-pub fn luminance_weights(channels: &Channels) -> Vec<f32> {
-    let grid = match channels {
+pub fn luminance_weights(channels: &(impl Into<Channels> + Copy)) -> Vec<f32> {
+    let grid = match (*channels).into() {
         Channels::Spectral(grid) => grid,
         Channels::LinearSrgb => return crate::colour::SRGB_LUMINANCE.to_vec(),
     };

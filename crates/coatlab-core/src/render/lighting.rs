@@ -111,14 +111,17 @@ impl Lighting {
 
     /// The environment on `channels` (a wavelength grid, or linear sRGB). Only a
     /// map can fail (its file is read here).
-    pub fn build(&self, channels: impl Into<Channels>) -> Result<Environment, EnvironmentError> {
-        let channels = channels.into();
+    pub fn build(
+        &self,
+        channels: &(impl Into<Channels> + Copy),
+    ) -> Result<Environment, EnvironmentError> {
+        let channels: Channels = (*channels).into();
         Ok(match self {
-            Lighting::Studio => Environment::studio(channels),
-            Lighting::Booth(illuminant) => Environment::booth(*illuminant, channels),
-            Lighting::Outdoor => Environment::outdoor(channels),
-            Lighting::Uniform => Environment::uniform(channels),
-            Lighting::Map(path) => Environment::from_image(path, channels)?,
+            Lighting::Studio => Environment::studio(&channels),
+            Lighting::Booth(illuminant) => Environment::booth(*illuminant, &channels),
+            Lighting::Outdoor => Environment::outdoor(&channels),
+            Lighting::Uniform => Environment::uniform(&channels),
+            Lighting::Map(path) => Environment::from_image(path, &channels)?,
         })
     }
 }
