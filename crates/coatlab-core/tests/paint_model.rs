@@ -555,3 +555,53 @@ fn chi_square_test_rejects_a_ten_percent_error_in_the_lobe_exponent() {
         );
     }
 }
+
+/// The model refuses a parameter exactly outside the parameter table's range, at
+/// any channel, naming the parameter, the channel and the range.
+#[test]
+fn the_model_refuses_exactly_outside_the_parameter_table() {
+    use coatlab_core::colour::spectrum::Channels;
+    use coatlab_core::paint::parameters::{
+        ABSORPTION, ALBEDO, Parameter, REFRACTIVE_INDEX, THICKNESS,
+    };
+
+    let grid = WavelengthGrid::visible(4).expect("grid");
+    let gloss = GlossSetting::Exponent(GlossExponent::Finite(100.0));
+    type Setter = fn(&mut PaintParams, f64);
+    let cases: [(&Parameter, Setter); 4] = [
+        (&ALBEDO, |p, v| p.albedo[2] = v),
+        (&REFRACTIVE_INDEX, |p, v| p.refractive_index[2] = v),
+        (&ABSORPTION, |p, v| p.absorption_per_um[2] = v),
+        (&THICKNESS, |p, v| p.thickness_um = v),
+    ];
+    for channels in [Channels::Spectral(grid), Channels::LinearSrgb] {
+        for (parameter, set) in cases {
+            let range = parameter.range;
+            let mut values = vec![(f64::NAN, false), (f64::INFINITY, false)];
+            values.extend([(range.min, true), (range.min.next_down(), false)]);
+            if range.max.is_finite() {
+                values.extend([(range.max, true), (range.max.next_up(), false)]);
+            }
+            for (value, inside) in values {
+                let mut params = PaintParams::grey(channels, 0.5, 1.5, 0.001, 40.0, gloss);
+                set(&mut params, value);
+                match PaintModel::new(params) {
+                    Ok(_) => assert!(inside, "{} = {value} accepted", parameter.label()),
+                    Err(error) => {
+                        assert!(!inside, "{} = {value}: {error}", parameter.label());
+                        let message = error.to_string();
+                        assert!(
+                            message.contains(&parameter.label())
+                                && message.contains(&parameter.range_text()),
+                            "{message}"
+                        );
+                        if parameter.symbol != "h" {
+                            let at = channels.channel(2).to_string();
+                            assert!(message.contains(&at), "{message} lacks {at}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+}

@@ -2,14 +2,17 @@
 //! ("set") and the tables derived from them ("derive"), kept apart so an edit
 //! recomputes only what it touches.
 //!
-//! | parameter | symbol | unit | range | typical |
-//! | --- | --- | --- | --- | --- |
-//! | pigment albedo | ρ(λ) | — | [0, 1] | 0.03–0.9 |
-//! | coat refractive index | n(λ) | — | [1, ∞) (tested to 4) | 1.48–1.55 |
-//! | coat absorption | k(λ) | 1/µm | [0, ∞) | < 0.002 in the visible |
-//! | coat thickness | h | µm | [0, ∞) | 35–55 |
-//! | gloss | g | GU at 20°/60°/85° | see [`super::gloss`] | 80–92 at 20° (needs n(587.6 nm) ≳ 1.52 above 82 GU) |
-//! | lobe | — | normalised / paper | — | normalised |
+//! The parameters, with their units, accepted ranges and defaults, are those of
+//! the table in [`super::parameters`]; what paints use:
+//!
+//! | parameter | table entry | typical |
+//! | --- | --- | --- |
+//! | pigment albedo ρ(λ) | [`ALBEDO`] | 0.03–0.9 |
+//! | coat refractive index n(λ) | [`REFRACTIVE_INDEX`] (tested to 4) | 1.48–1.55 |
+//! | coat absorption k(λ) | [`ABSORPTION`] | < 0.002 /µm in the visible |
+//! | coat thickness h | [`THICKNESS`] | 35–55 µm |
+//! | gloss g at 20°/60°/85° | [`super::parameters::GLOSS`], [`super::gloss`] | 80–92 GU at 20° (needs n(587.6 nm) ≳ 1.52 above 82 GU) |
+//! | lobe | [`LobeKind`]: normalised / paper | normalised |
 //!
 //! Derived, and what each depends on:
 //!
@@ -39,36 +42,39 @@ use super::lobe::{
     LobeKind, NormalisationTable, mirror, paper_lobe, phong_lobe, phong_lobe_pdf,
     phong_normalisation, sample_phong_lobe,
 };
+use super::parameters::{
+    ABSORPTION, ALBEDO, Parameter, REFRACTIVE_INDEX, RangeError, THICKNESS, Violation,
+};
 use crate::colour::spectrum::{Channel, Channels};
 
 /// Errors setting paint parameters.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ParamError {
     /// A spectral parameter has the wrong number of samples for the channels.
-    #[error("{name} has {got} samples but the wavelength grid has {want}")]
+    #[error("{} has {got} samples but there are {want} channels", .parameter.label())]
     Length {
         /// Which parameter.
-        name: &'static str,
+        parameter: &'static Parameter,
         /// Its length.
         got: usize,
         /// The channels'.
         want: usize,
     },
-    /// A value outside its range.
-    #[error("{name} = {value} {at} is outside {range}")]
+    /// A value of a spectral parameter outside the parameter's range.
+    #[error("{} = {value} {at} {violation}: it must lie in {}", .parameter.label(), .parameter.range_text())]
     OutOfRange {
         /// Which parameter.
-        name: &'static str,
+        parameter: &'static Parameter,
         /// The value.
         value: f64,
         /// Which channel: a wavelength of the grid, or an sRGB primary.
         at: Channel,
-        /// The allowed range, in words.
-        range: &'static str,
+        /// What is wrong with the value.
+        violation: Violation,
     },
-    /// Thickness negative or not finite.
-    #[error("coat thickness {0} µm must be a finite number ≥ 0")]
-    Thickness(f64),
+    /// A scalar parameter (the coat's thickness) outside its range.
+    #[error(transparent)]
+    Range(#[from] RangeError),
     /// Gloss could not be converted.
     #[error(transparent)]
     Gloss(#[from] GlossError),
@@ -191,66 +197,30 @@ impl PaintParams {
     }
 }
 
+/// Every value of a spectral parameter against the parameter's range.
 fn check_spectrum(
-    name: &'static str,
+    parameter: &'static Parameter,
     values: &[f64],
     channels: &Channels,
-    valid: impl Fn(f64) -> bool,
-    range: &'static str,
 ) -> Result<(), ParamError> {
     if values.len() != channels.len() {
         return Err(ParamError::Length {
-            name,
+            parameter,
             got: values.len(),
             want: channels.len(),
         });
     }
-    for (i, &v) in values.iter().enumerate() {
-        if !(v.is_finite() && valid(v)) {
+    for (i, &value) in values.iter().enumerate() {
+        if let Some(violation) = parameter.range.violation(value) {
             return Err(ParamError::OutOfRange {
-                name,
-                value: v,
+                parameter,
+                value,
                 at: channels.channel(i),
-                range,
+                violation,
             });
         }
     }
     Ok(())
-}
-
-fn check_albedo(values: &[f64], channels: &Channels) -> Result<(), ParamError> {
-    check_spectrum(
-        "pigment albedo ρ",
-        values,
-        channels,
-        |v| (0.0..=1.0).contains(&v),
-        "[0, 1]",
-    )
-}
-fn check_index(values: &[f64], channels: &Channels) -> Result<(), ParamError> {
-    check_spectrum(
-        "refractive index n",
-        values,
-        channels,
-        |v| v >= 1.0,
-        "[1, ∞)",
-    )
-}
-fn check_absorption(values: &[f64], channels: &Channels) -> Result<(), ParamError> {
-    check_spectrum(
-        "absorption k (1/µm)",
-        values,
-        channels,
-        |v| v >= 0.0,
-        "[0, ∞)",
-    )
-}
-fn check_thickness(h: f64) -> Result<(), ParamError> {
-    if h.is_finite() && h >= 0.0 {
-        Ok(())
-    } else {
-        Err(ParamError::Thickness(h))
-    }
 }
 
 fn resolve_exponent(gloss: GlossSetting, n_gloss: f64) -> Result<GlossExponent, ParamError> {
@@ -267,13 +237,11 @@ impl PaintModel {
     /// Validates the parameters and derives every table.
     pub fn new(params: PaintParams) -> Result<Self, ParamError> {
         let channels = params.channels;
-        check_albedo(&params.albedo, &channels)?;
-        check_index(&params.refractive_index, &channels)?;
-        check_absorption(&params.absorption_per_um, &channels)?;
-        check_thickness(params.thickness_um)?;
-        if !(params.index_at_gloss_wavelength.is_finite()
-            && params.index_at_gloss_wavelength >= 1.0)
-        {
+        check_spectrum(&ALBEDO, &params.albedo, &channels)?;
+        check_spectrum(&REFRACTIVE_INDEX, &params.refractive_index, &channels)?;
+        check_spectrum(&ABSORPTION, &params.absorption_per_um, &channels)?;
+        THICKNESS.check(params.thickness_um)?;
+        if !REFRACTIVE_INDEX.accepts(params.index_at_gloss_wavelength) {
             return Err(GlossError::InvalidIndex(params.index_at_gloss_wavelength).into());
         }
         let exponent = resolve_exponent(params.gloss, params.index_at_gloss_wavelength)?;
@@ -306,7 +274,7 @@ impl PaintModel {
 
     /// Sets ρ(λ): only the body factor changes.
     pub fn set_albedo(&mut self, albedo: Vec<f64>) -> Result<(), ParamError> {
-        check_albedo(&albedo, &self.channels)?;
+        check_spectrum(&ALBEDO, &albedo, &self.channels)?;
         self.albedo = albedo;
         self.derive_body_factor();
         Ok(())
@@ -319,7 +287,7 @@ impl PaintModel {
         index: Vec<f64>,
         index_at_gloss_wavelength: f64,
     ) -> Result<(), ParamError> {
-        check_index(&index, &self.channels)?;
+        check_spectrum(&REFRACTIVE_INDEX, &index, &self.channels)?;
         let exponent = resolve_exponent(self.gloss, index_at_gloss_wavelength)?;
         self.index = index;
         self.index_at_gloss_wavelength = index_at_gloss_wavelength;
@@ -338,7 +306,7 @@ impl PaintModel {
 
     /// Sets k(λ) in 1/µm: τ changes, so coat integrals, angular tables, body factor.
     pub fn set_absorption(&mut self, absorption_per_um: Vec<f64>) -> Result<(), ParamError> {
-        check_absorption(&absorption_per_um, &self.channels)?;
+        check_spectrum(&ABSORPTION, &absorption_per_um, &self.channels)?;
         self.absorption_per_um = absorption_per_um;
         self.derive_optical_depth();
         self.derive_coat_integrals();
@@ -349,7 +317,7 @@ impl PaintModel {
 
     /// Sets h in µm: as for k.
     pub fn set_thickness(&mut self, thickness_um: f64) -> Result<(), ParamError> {
-        check_thickness(thickness_um)?;
+        THICKNESS.check(thickness_um)?;
         self.thickness_um = thickness_um;
         self.derive_optical_depth();
         self.derive_coat_integrals();
