@@ -890,7 +890,7 @@ impl RgbUpsampler {
         });
         // Emission: D65 × reflectance, scaled so RGB (1, 1, 1) has luminance 1.
         let d65 = Illuminant::D65.spd(grid);
-        let weights = luminance_weights(&Channels::Spectral(*grid));
+        let weights = luminance_weights(grid);
         let white: Vec<f64> = (0..grid.len())
             .map(|k| d65.values()[k] * reflectance_bases.iter().map(|b| b[k]).sum::<f64>())
             .collect();
