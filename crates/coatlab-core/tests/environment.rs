@@ -137,7 +137,7 @@ fn sampling_checks(
     name: &str,
     densities: &[Density],
 ) -> (Vec<Vec<String>>, [f64; 2]) {
-    let n = env.grid().len();
+    let n = env.channels().len();
     let mut l = vec![0.0f32; n];
 
     // Quadrature: ∫ pdf and ∫ pdf over each half, ∫ L (luminance and per
@@ -338,7 +338,7 @@ fn check_environment(env: &Environment, name: &str) {
 
 fn check_radiance_is_finite_and_non_negative(env: &Environment, name: &str) {
     let mut rng = Pcg64::seed_from_u64(11);
-    let mut l = vec![0.0f32; env.grid().len()];
+    let mut l = vec![0.0f32; env.channels().len()];
     let special = [
         [0.0, 1.0, 0.0],
         [0.0, -1.0, 0.0],
@@ -397,7 +397,7 @@ fn outdoor_samples_match_its_pdf_and_the_sun_dominates() {
     check_radiance_is_finite_and_non_negative(&env, "outdoor");
     let sun = env.sun_direction().expect("a sun");
     assert!((f64::from(sun[1]) - 45f64.to_radians().sin()).abs() < 1e-6);
-    let mut l = vec![0.0f32; env.grid().len()];
+    let mut l = vec![0.0f32; env.channels().len()];
     env.radiance(sun, &mut l);
     let sun_luminance = env.luminance(&l);
     env.radiance([0.0, 1.0, 0.0], &mut l);

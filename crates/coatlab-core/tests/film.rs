@@ -32,7 +32,7 @@ fn d65_radiance(grid: &WavelengthGrid, scale: f64) -> Vec<f32> {
 
 /// D65 radiance scaled to Y = 1 on the film's scale.
 fn unit_d65(film: &Film) -> Vec<f32> {
-    let grid = *film.grid();
+    let grid = *film.channels().grid().expect("a spectral film");
     let y = film.xyz_of(&d65_radiance(&grid, 1.0)).y;
     d65_radiance(&grid, 1.0 / y)
 }

@@ -7,7 +7,7 @@
 use palette::LinSrgb;
 
 use crate::colour::cie::{Colorimeter, Illuminant, Observer};
-use crate::colour::spectrum::WavelengthGrid;
+use crate::colour::spectrum::{Channels, VISIBLE, WavelengthGrid};
 use crate::colour::{Xyz, xyz_from_linear_srgb};
 
 /// Jakob–Hanika sigmoid-polynomial coefficients (c₂, c₁, c₀ of
@@ -38,17 +38,21 @@ pub struct RgbUpsampler {
 }
 
 impl RgbUpsampler {
-    /// The bases on `grid`.
-    pub fn new(grid: &WavelengthGrid) -> Self {
-        if grid.is_linear_srgb() {
-            // The RGB shortcut: a colour is its own "spectrum"; (1, 1, 1) has
-            // luminance 1 under the sRGB luminance weights.
-            let unit = |i: usize| (0..3).map(|k| if k == i { 1.0 } else { 0.0 }).collect();
-            return Self {
-                reflectance_bases: std::array::from_fn(unit),
-                emission_bases: std::array::from_fn(unit),
-            };
-        }
+    /// The bases on `channels`.
+    pub fn new(channels: &(impl Into<Channels> + Copy)) -> Self {
+        let grid = match (*channels).into() {
+            Channels::Spectral(grid) => grid,
+            Channels::LinearSrgb => {
+                // A colour is its own "spectrum"; (1, 1, 1) has luminance 1 under
+                // the sRGB luminance weights.
+                let unit = |i: usize| (0..3).map(|k| if k == i { 1.0 } else { 0.0 }).collect();
+                return Self {
+                    reflectance_bases: std::array::from_fn(unit),
+                    emission_bases: std::array::from_fn(unit),
+                };
+            }
+        };
+        let grid = &grid;
         let colorimeter = Colorimeter::new(Illuminant::D65, Observer::Cie1931TwoDegree, grid);
         let unit = [
             LinSrgb::new(1.0, 0.0, 0.0),
@@ -213,8 +217,8 @@ fn sigmoid(x: f64) -> f64 {
 pub fn spectral_luminance_weights(grid: &WavelengthGrid) -> Vec<f32> {
     let n = grid.len();
     let mut w = vec![0.0f64; n];
-    let first = 380.0f64.min(grid.start_nm()).floor() as i32;
-    let last = 780.0f64.max(grid.end_nm()).ceil() as i32;
+    let first = VISIBLE.start_nm.min(grid.start_nm()).floor() as i32;
+    let last = VISIBLE.end_nm.max(grid.end_nm()).ceil() as i32;
     for nm in first..=last {
         let l = f64::from(nm);
         let y = Observer::Cie1931TwoDegree.cmf_at_nm(l)[1];

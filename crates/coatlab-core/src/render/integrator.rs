@@ -285,8 +285,8 @@ impl<'a> PathTracer<'a> {
     /// setup have one.
     ///
     /// # Panics
-    /// If the environment and the shading are on grids of different lengths (a
-    /// programming error: the renderer builds both on one grid).
+    /// If the environment and the shading have different numbers of channels (a
+    /// programming error: the renderer builds both on the same channels).
     pub fn new(
         geometry: &'a RenderGeometry,
         environment: &'a Environment,
@@ -294,9 +294,9 @@ impl<'a> PathTracer<'a> {
         settings: IntegratorSettings,
     ) -> Self {
         assert_eq!(
-            environment.grid().len(),
+            environment.channels().len(),
             shading.len(),
-            "environment and shading on different wavelength grids"
+            "environment and shading on different channels"
         );
         let floor = environment
             .floor()

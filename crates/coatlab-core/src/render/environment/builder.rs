@@ -8,7 +8,7 @@ use super::emitters::{Patch, Shape};
 use super::facing_up::FacingUpSampling;
 use super::map::{MAX_MAP_CHANNELS, RadianceMap, Texel};
 use super::{Environment, EnvironmentKind, Floor, dot_f32, luminance_weights};
-use crate::colour::spectrum::WavelengthGrid;
+use crate::colour::spectrum::Channels;
 use crate::sampling::{AliasEntry, Distribution1D, alias_table};
 
 /// Sampling weight of the map below the horizon relative to its power: the floor
@@ -22,7 +22,7 @@ const MAX_VALUE_SAMPLING_WEIGHT: f64 = 0.05;
 
 /// Assembles an environment in arbitrary units, then normalises it.
 pub(super) struct Builder {
-    grid: WavelengthGrid,
+    radiance_channels: Channels,
     channels: Vec<Vec<f32>>,
     /// Luminance of each channel spectrum.
     pub(super) channel_luminance: Vec<f64>,
@@ -40,9 +40,9 @@ pub(super) struct Builder {
 
 impl Builder {
     /// A black map of `width × height` texels combining `channels` (1 to
-    /// [`MAX_MAP_CHANNELS`] spectra on `grid`), and no emitters.
+    /// [`MAX_MAP_CHANNELS`] spectra on `radiance_channels`), and no emitters.
     pub(super) fn new(
-        grid: &WavelengthGrid,
+        radiance_channels: &Channels,
         channels: Vec<Vec<f32>>,
         width: usize,
         height: usize,
@@ -51,7 +51,7 @@ impl Builder {
             (1..=MAX_MAP_CHANNELS).contains(&channels.len()),
             "a map combines 1 to {MAX_MAP_CHANNELS} channel spectra"
         );
-        let luminance_weights = luminance_weights(grid);
+        let luminance_weights = luminance_weights(radiance_channels);
         let channel_luminance = channels
             .iter()
             .map(|c| f64::from(dot_f32(&luminance_weights, c)))
@@ -69,7 +69,7 @@ impl Builder {
             .collect();
         let coeffs = vec![0.0; width * height * channels.len()];
         Self {
-            grid: *grid,
+            radiance_channels: *radiance_channels,
             channels,
             channel_luminance,
             luminance_weights,
@@ -118,7 +118,7 @@ impl Builder {
         let (row_weights, column_weights) = self.texel_weights();
         let map = self.map(&row_weights, &column_weights);
         let Builder {
-            grid,
+            radiance_channels,
             luminance_weights,
             patches,
             ..
@@ -152,14 +152,14 @@ impl Builder {
         );
         Some(Environment {
             kind,
-            grid,
+            channels: radiance_channels,
             luminance_weights,
             patches: emitters,
             map,
             components: Distribution1D::new(&component_weights),
             facing_up,
             floor: Some(Floor {
-                reflectance: vec![floor_reflectance; grid.len()],
+                reflectance: vec![floor_reflectance; radiance_channels.len()],
             }),
             sun_dir: None,
         })
@@ -206,7 +206,7 @@ impl Builder {
         let n = self.channels.len();
         let mut row_weights = vec![0.0; self.height];
         let mut column_weights = Vec::with_capacity(self.height);
-        let mut texel_spectrum = vec![0.0f32; self.grid.len()];
+        let mut texel_spectrum = vec![0.0f32; self.radiance_channels.len()];
         for (row, row_weight) in row_weights.iter_mut().enumerate() {
             let solid_angle =
                 2.0 * PI / self.width as f64 * (self.row_cos[row] - self.row_cos[row + 1]);

@@ -42,7 +42,7 @@ impl Environment {
     /// # Panics
     /// If `out.len()` differs from the grid's length.
     pub fn radiance_and_pdf(&self, dir: [f32; 3], out: &mut [f32]) -> f32 {
-        assert_eq!(out.len(), self.grid.len(), "radiance buffer length");
+        assert_eq!(out.len(), self.channels.len(), "radiance buffer length");
         out.fill(0.0);
         let Some(d) = normalised(dir) else { return 0.0 };
         self.evaluate(&mut Query::new(d), Some(out)) as f32
@@ -220,7 +220,7 @@ impl Environment {
     /// # Panics
     /// If `out.len()` differs from the grid's length.
     pub(crate) fn finish_radiance_and_pdf(&self, begun: &DirectionLookUp, out: &mut [f32]) -> f32 {
-        assert_eq!(out.len(), self.grid.len(), "radiance buffer length");
+        assert_eq!(out.len(), self.channels.len(), "radiance buffer length");
         out.fill(0.0);
         match begun.query {
             LookUpQuery::Degenerate => 0.0,

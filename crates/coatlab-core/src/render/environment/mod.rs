@@ -47,7 +47,7 @@
 use thiserror::Error;
 
 use crate::colour::cie::Illuminant;
-use crate::colour::spectrum::WavelengthGrid;
+use crate::colour::spectrum::Channels;
 use crate::colour::upsampling::spectral_luminance_weights;
 use crate::io::rgb_image::ImageReadError;
 use crate::sampling::Distribution1D;
@@ -136,7 +136,7 @@ pub enum EnvironmentKind {
 #[derive(Debug, Clone)]
 pub struct Environment {
     kind: EnvironmentKind,
-    grid: WavelengthGrid,
+    channels: Channels,
     luminance_weights: Vec<f32>,
     patches: Vec<Patch>,
     map: RadianceMap,
@@ -155,9 +155,9 @@ impl Environment {
         self.kind
     }
 
-    /// The wavelength grid of all spectra here.
-    pub fn grid(&self) -> &WavelengthGrid {
-        &self.grid
+    /// What the radiance values here are for: a wavelength grid, or linear sRGB.
+    pub fn channels(&self) -> &Channels {
+        &self.channels
     }
 
     /// The floor plane y = 0 of the setup, if any.
@@ -184,14 +184,14 @@ impl Environment {
     }
 }
 
-/// Luminance weights on `grid` (Σ wᵢ Lᵢ is the luminance of L, a flat spectrum of 1
+/// Luminance weights on `channels` (Σ wᵢ Lᵢ is the luminance of L, a flat spectrum of 1
 /// has luminance 1): [`spectral_luminance_weights`] on a spectral grid, the sRGB
-/// luminance coefficients on the RGB shortcut's grid.
-pub fn luminance_weights(grid: &WavelengthGrid) -> Vec<f32> {
-    if grid.is_linear_srgb() {
-        return crate::render::rgb::LUMINANCE.to_vec();
+/// luminance coefficients on linear-sRGB channels.
+pub fn luminance_weights(channels: &(impl Into<Channels> + Copy)) -> Vec<f32> {
+    match (*channels).into() {
+        Channels::Spectral(grid) => spectral_luminance_weights(&grid),
+        Channels::LinearSrgb => crate::colour::SRGB_LUMINANCE.to_vec(),
     }
-    spectral_luminance_weights(grid)
 }
 
 /// Σ aᵢbᵢ in f32, summed in order: the luminance of a spectrum against its weights.

@@ -13,7 +13,7 @@ use super::direction::{
 use super::emitters::Shape;
 use super::{Environment, EnvironmentError, EnvironmentKind};
 use crate::colour::cie::{Illuminant, daylight_spd};
-use crate::colour::spectrum::WavelengthGrid;
+use crate::colour::spectrum::{Channels, WavelengthGrid};
 use crate::colour::upsampling::RgbUpsampler;
 use crate::io::exr_read::read_exr;
 use crate::io::hdr::read_hdr;
@@ -56,10 +56,11 @@ impl Environment {
     /// The default photo studio: three large softboxes (key overhead-front, fill at
     /// the side, rim behind) of CIE daylight 5500 K on a grey cyclorama, grey floor
     /// ρ = 0.25.
-    pub fn studio(grid: &WavelengthGrid) -> Self {
-        let spectrum = daylight_on_grid(STUDIO_CCT_K, grid);
+    pub fn studio(channels: &(impl Into<Channels> + Copy)) -> Self {
+        let channels: Channels = (*channels).into();
+        let spectrum = daylight_on_grid(STUDIO_CCT_K, &channels);
         let (width, height) = (1, 64);
-        let mut b = Builder::new(grid, vec![spectrum], width, height);
+        let mut b = Builder::new(&channels, vec![spectrum], width, height);
         // Cyclorama lit by the softboxes: brighter at the sweep, darker overhead.
         for row in 0..height / 2 {
             let y = 0.5 * (b.row_cos[row] + b.row_cos[row + 1]);
@@ -79,19 +80,21 @@ impl Environment {
 
     /// A paint light booth: an overhead diffuser emitting `illuminant`, mid-grey
     /// walls (ρ = 0.2) lit by it as a dim uniform background, grey floor ρ = 0.2.
-    pub fn booth(illuminant: Illuminant, grid: &WavelengthGrid) -> Self {
-        let spectrum: Vec<f32> = if grid.is_linear_srgb() {
-            rgb_light(illuminant.spd(&WavelengthGrid::reference()).values())
-        } else {
-            illuminant
+    pub fn booth(illuminant: Illuminant, channels: &(impl Into<Channels> + Copy)) -> Self {
+        let channels: Channels = (*channels).into();
+        let spectrum: Vec<f32> = match &channels {
+            Channels::LinearSrgb => {
+                rgb_light(illuminant.spd(&WavelengthGrid::reference()).values())
+            }
+            Channels::Spectral(grid) => illuminant
                 .spd(grid)
                 .values()
                 .iter()
                 .map(|&v| (v / 100.0) as f32)
-                .collect()
+                .collect(),
         };
         let (width, height) = (1, 64);
-        let mut b = Builder::new(grid, vec![spectrum], width, height);
+        let mut b = Builder::new(&channels, vec![spectrum], width, height);
         for row in 0..height / 2 {
             b.coeffs[row] = (BOOTH_WALL_REFLECTANCE * BOOTH_WALL_VIEW_FACTOR) as f32;
         }
@@ -111,15 +114,16 @@ impl Environment {
     /// Sun and clear sky: the sun a 0.53° disc at 45° elevation (CIE daylight
     /// 5500 K), the sky the CIE clear-sky luminance distribution in CIE daylight
     /// 10000 K, the sky giving 20 % of the horizontal illuminance; ground ρ = 0.15.
-    pub fn outdoor(grid: &WavelengthGrid) -> Self {
-        let sky = daylight_on_grid(SKY_CCT_K, grid);
-        let sun = daylight_on_grid(SUN_CCT_K, grid);
+    pub fn outdoor(channels: &(impl Into<Channels> + Copy)) -> Self {
+        let channels: Channels = (*channels).into();
+        let sky = daylight_on_grid(SKY_CCT_K, &channels);
+        let sun = daylight_on_grid(SUN_CCT_K, &channels);
         let (width, height) = (256, 128);
         let sun_axis = direction_from_azimuth_elevation(
             SUN_AZIMUTH_DEG.to_radians(),
             SUN_ELEVATION_DEG.to_radians(),
         );
-        let mut b = Builder::new(grid, vec![sky, sun], width, height);
+        let mut b = Builder::new(&channels, vec![sky, sun], width, height);
         let zenith_sun = (90.0 - SUN_ELEVATION_DEG).to_radians();
         for row in 0..height / 2 {
             let y = 0.5 * (b.row_cos[row] + b.row_cos[row + 1]);
@@ -150,10 +154,11 @@ impl Environment {
     /// direction, and no floor. An object that neither absorbs nor emits is
     /// invisible in it; anything else shows its directional albedo. For tests and
     /// for checking a design's energy balance.
-    pub fn uniform(grid: &WavelengthGrid) -> Self {
-        let flat = vec![1.0f32; grid.len()];
+    pub fn uniform(channels: &(impl Into<Channels> + Copy)) -> Self {
+        let channels: Channels = (*channels).into();
+        let flat = vec![1.0f32; channels.len()];
         let (width, height) = (1, 2);
-        let mut b = Builder::new(grid, vec![flat], width, height);
+        let mut b = Builder::new(&channels, vec![flat], width, height);
         b.coeffs.fill(1.0);
         let env = b
             .finish(EnvironmentKind::Uniform, 0.0, false)
@@ -166,7 +171,11 @@ impl Environment {
     /// G and B channels, any compression the `exr` crate reads; alpha ignored).
     /// Linear sRGB (Rec. 709) primaries are assumed; see
     /// [`Environment::from_rgb_image`].
-    pub fn from_image(path: &Path, grid: &WavelengthGrid) -> Result<Self, EnvironmentError> {
+    pub fn from_image(
+        path: &Path,
+        channels: &(impl Into<Channels> + Copy),
+    ) -> Result<Self, EnvironmentError> {
+        let channels: Channels = (*channels).into();
         let name = path.display().to_string();
         let extension = path
             .extension()
@@ -177,7 +186,7 @@ impl Environment {
             Some("exr") => read_exr(path)?,
             _ => return Err(EnvironmentError::UnknownFormat { path: name }),
         };
-        Self::from_rgb_image(&image, &name, grid)
+        Self::from_rgb_image(&image, &name, &channels)
     }
 
     /// An environment from an equirectangular linear-sRGB image (top row at the
@@ -188,17 +197,18 @@ impl Environment {
     pub fn from_rgb_image(
         image: &RgbImage,
         name: &str,
-        grid: &WavelengthGrid,
+        channels: &(impl Into<Channels> + Copy),
     ) -> Result<Self, EnvironmentError> {
+        let radiance_channels: Channels = (*channels).into();
         let factor = image.width().div_ceil(IMAGE_MAX_WIDTH).max(1);
         let image = if factor > 1 {
             image.box_downsample(factor)
         } else {
             image.clone()
         };
-        let upsampler = RgbUpsampler::new(grid);
+        let upsampler = RgbUpsampler::new(&radiance_channels);
         let channels = upsampler.emission_bases().to_vec();
-        let mut b = Builder::new(grid, channels, image.width(), image.height());
+        let mut b = Builder::new(&radiance_channels, channels, image.width(), image.height());
         for (coeffs, rgb) in b.coeffs.chunks_exact_mut(3).zip(image.pixels()) {
             for (c, v) in coeffs.iter_mut().zip(rgb) {
                 *c = v.max(0.0);
@@ -220,11 +230,14 @@ fn cie_clear_sky(zenith: f64, gamma: f64, zenith_sun: f64) -> f64 {
     indicatrix(gamma) * gradation(zenith) / (indicatrix(zenith_sun) * gradation(0.0))
 }
 
-fn daylight_on_grid(cct_k: f64, grid: &WavelengthGrid) -> Vec<f32> {
+fn daylight_on_grid(cct_k: f64, channels: &Channels) -> Vec<f32> {
     let spd = daylight_spd(cct_k).expect("the CCT constants are in the CIE daylight range");
-    if grid.is_linear_srgb() {
-        return rgb_light(spd.to_grid(&WavelengthGrid::reference()).values());
-    }
+    let grid = match channels {
+        Channels::Spectral(grid) => grid,
+        Channels::LinearSrgb => {
+            return rgb_light(spd.to_grid(&WavelengthGrid::reference()).values());
+        }
+    };
     spd.to_grid(grid)
         .values()
         .iter()
@@ -235,7 +248,7 @@ fn daylight_on_grid(cct_k: f64, grid: &WavelengthGrid) -> Vec<f32> {
 /// A light's relative spectrum on the reference grid (100 at 560 nm) as the linear
 /// sRGB triple of the RGB shortcut, scaled like the spectra (1 at 560 nm).
 fn rgb_light(reference_values: &[f64]) -> Vec<f32> {
-    crate::render::rgb::reduce_emission(reference_values)
+    crate::colour::linear_srgb_of_emission(reference_values)
         .iter()
         .map(|&v| (v / 100.0) as f32)
         .collect()

@@ -6,6 +6,7 @@ use std::f64::consts::PI;
 
 use super::map::MapDraw;
 use super::*;
+use crate::colour::spectrum::WavelengthGrid;
 use crate::io::rgb_image::RgbImage;
 use crate::sampling::ONE_BELOW;
 use crate::sampling::test_support::uniform;
