@@ -9,17 +9,17 @@
 //! [`Change::Nothing`]); what the back-end reports reaches [`advance`] as an
 //! [`Outcome`].
 //!
-//! | change | phase after | rebuilds |
-//! |---|---|---|
-//! | `Nothing` | unchanged | nothing |
-//! | `Paint` (gloss kept), one view at full size | `EditPending` | tables, shading; re-shade |
-//! | `Paint` otherwise, `Gloss` | `Coarse` | tables, shading (second view's too); retrace |
-//! | `Views` | `Coarse` | shading; second view's shading built or dropped; retrace |
-//! | `PaintMaterials` | `Coarse` | shading (both views); retrace |
-//! | `Scene` | `Coarse` | BVH (when taken), tables from scratch, shading (both); retrace |
-//! | `Lighting` | `Coarse` | lighting (when taken); retrace |
-//! | `Grid` | `Coarse` | lighting (when taken), tables from scratch, shading (both), renders; retrace |
-//! | `Camera`, `Size`, `Target` | `Coarse` | nothing; retrace |
+//! | change | phase after | pairing after | rebuilds |
+//! |---|---|---|---|
+//! | `Nothing` | unchanged | unchanged | nothing |
+//! | `Paint` (gloss kept), one view, at full size | `EditPending` | `Single` | tables (updated), shading; re-shade |
+//! | `Paint` otherwise, `Gloss` | `Coarse` | `Fitting` if two views | tables (updated), shading, second shading; retrace |
+//! | `Views` | `Coarse` | `Fitting` or `Single` | shading; second shading built or dropped; retrace |
+//! | `PaintMaterials` | `Coarse` | `Fitting` if two views | shading, second shading; retrace |
+//! | `Scene` | `Coarse` | `Fitting` if two views | BVH (when taken), tables from scratch, shading, second shading; retrace |
+//! | `Lighting` | `Coarse` | unchanged | lighting (when taken); retrace |
+//! | `Grid` | `Coarse` | `Fitting` if two views | lighting (when taken), tables from scratch, shading, second shading, renders; retrace |
+//! | `Camera`, `Size`, `Target` | `Coarse` | unchanged | nothing; retrace |
 //!
 //! | outcome | from | to |
 //! |---|---|---|
