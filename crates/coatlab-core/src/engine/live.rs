@@ -1,5 +1,5 @@
 //! [`LiveEngine`]: the views, what they are rendered from, and the state
-//! machine's state; commands taken here, render steps in [`super::step`].
+//! machine's state; commands taken here, render steps in `step.rs` ([`LiveEngine::step`]).
 
 use std::path::PathBuf;
 use std::sync::Arc;
