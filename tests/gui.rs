@@ -9,6 +9,7 @@ use coatlab_app::gui::dialogs::{
 };
 use coatlab_app::gui::storage::Storage;
 use coatlab_app::gui::{AppOptions, CoatlabApp, app::Tab};
+use coatlab_core::render::lighting::Lighting;
 use egui::accesskit::Role;
 use egui_kittest::Harness;
 use egui_kittest::kittest::{NodeT, Queryable};
@@ -750,13 +751,8 @@ fn dropped_scenes_and_environment_maps_go_to_the_preview_and_bad_ones_change_not
     write_hdr(&hdr);
     h.input_mut().dropped_files.push(Arc::new(Dropped(hdr)));
     wait_until(&mut h, "the environment map", |app| {
-        app.preview().is_some_and(|p| {
-            p.environment()
-                == (
-                    coatlab_app::gui::preview::EnvironmentChoice::Image,
-                    Some("sky.hdr"),
-                )
-        })
+        app.preview()
+            .is_some_and(|p| matches!(p.environment(), (Lighting::Map(_), Some("sky.hdr"))))
     });
     assert!(has_notice(h.state(), false, "environment map"));
     let bad = dir.join("bad.hdr");
@@ -1023,13 +1019,10 @@ fn the_preview_exports_png_and_exr_and_the_exr_lights_the_car() {
             app.preview_status()
                 .is_some_and(|s| s.epoch > epoch && !s.coarse && s.samples_per_pixel >= 2)
         });
-        assert_eq!(
+        assert!(matches!(
             preview(h.state()).environment(),
-            (
-                coatlab_app::gui::preview::EnvironmentChoice::Image,
-                Some("sky.exr")
-            )
-        );
+            (Lighting::Map(_), Some("sky.exr"))
+        ));
         let png = dir.join(name);
         let since = h.state().notices().len();
         h.state_mut().export_preview(&png);

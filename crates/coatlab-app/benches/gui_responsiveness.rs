@@ -27,7 +27,7 @@
 //! for a single view set to Phong (best fit). Not a timed test: it prints figures
 //! for `docs/benchmarks.md` ("GUI responsiveness").
 //!
-//!     cargo bench -p coatlab-app --bench gui_responsiveness
+//!     cargo bench -p coatlab-app --features frame-log --bench gui_responsiveness
 //!
 //! Options after `--`: `--seconds S` of paced frames per case (default 10),
 //! `--changes N` (default 30), `--real-window-seconds S` (default 20; 0 skips it),

@@ -14,6 +14,7 @@
 pub mod accel;
 pub mod colour;
 pub mod design;
+pub mod engine;
 pub mod instruments;
 pub mod io;
 pub mod paint;

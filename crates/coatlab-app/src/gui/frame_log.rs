@@ -15,6 +15,9 @@
 //! person drags a control), so the log shows the frame rate the window can hold,
 //! not only how often a new preview image arrives. The responsiveness bench
 //! (`benches/gui_responsiveness.rs`) starts the binary under Xvfb with it.
+//!
+//! Built only with the `frame-log` feature (the bench requires it); the shipped
+//! binary ignores the variable.
 
 use std::fs::File;
 use std::io::Write;

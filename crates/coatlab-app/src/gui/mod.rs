@@ -12,9 +12,9 @@
 //! | [`storage`] | recent files, autosave and crash recovery |
 //! | [`dialogs`] | choosing files: the system file dialog (rfd, XDG portal or zenity) on its own thread, else the in-app browser |
 //! | [`file_browser`] | the in-app open/save browser |
-//! | [`frame_log`] | per-frame timestamps of the real window (`COATLAB_FRAME_LOG`) |
+//! | `frame_log` | per-frame timestamps of the real window (`COATLAB_FRAME_LOG`; feature `frame-log`) |
 //! | [`export`] | readings as CSV and JSON |
-//! | [`preview`] | the live path-traced preview on a background thread; scenes, lighting maps, export |
+//! | [`preview`] | the live preview: a widget over the core's live engine ([`coatlab_core::engine`]); scenes, lighting maps, export |
 //! | [`priority`] | the render threads at a lower OS priority than the window |
 //! | [`quality`] | quality presets from the measured speed/accuracy front (docs/tradeoff.md) |
 //! | [`compare`] | comparison modes and layouts, the ΔE00 map and its legend |
@@ -26,6 +26,7 @@ pub mod curve_editor;
 pub mod dialogs;
 pub mod export;
 pub mod file_browser;
+#[cfg(feature = "frame-log")]
 pub mod frame_log;
 pub mod history;
 pub mod instruments_panel;
@@ -49,6 +50,7 @@ pub fn run(options: AppOptions) -> anyhow::Result<()> {
         renderer: eframe::Renderer::Wgpu,
         ..Default::default()
     };
+    #[cfg(feature = "frame-log")]
     let frame_log = frame_log::FrameLog::from_environment()?;
     // Before anything uses rayon: the render threads yield the CPU to the window.
     if let Err(e) = priority::install_render_pool(priority::RENDER_NICE) {
@@ -59,11 +61,11 @@ pub fn run(options: AppOptions) -> anyhow::Result<()> {
         native,
         Box::new(move |_cc| {
             let app = CoatlabApp::new(options);
-            let app: Box<dyn eframe::App> = match frame_log {
-                Some(log) => Box::new(frame_log::FrameLogged::new(app, log)),
-                None => Box::new(app),
-            };
-            Ok(app)
+            #[cfg(feature = "frame-log")]
+            if let Some(log) = frame_log {
+                return Ok(Box::new(frame_log::FrameLogged::new(app, log)) as Box<dyn eframe::App>);
+            }
+            Ok(Box::new(app) as Box<dyn eframe::App>)
         }),
     )
     .map_err(|e| anyhow::anyhow!("cannot open the Coatlab window: {e}"))

@@ -10,7 +10,8 @@
 //!
 //! [`install_render_pool`] builds rayon's global pool (the tracer's tiles, the film's
 //! conversion, the ΔE00 map) with its threads niced and named `coatlab-render-N`;
-//! [`lower_render_thread`] is called by the preview's own threads when they start.
+//! [`lower_render_thread`] is the live engine's thread hook: the engine's own
+//! threads (the render thread, the second view's shading) call it when they start.
 //! Both apply only once [`install_render_pool`] enabled them (the window does; the
 //! headless tests and benches leave every thread at normal priority).
 //!

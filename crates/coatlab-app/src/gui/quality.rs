@@ -9,44 +9,14 @@
 use std::sync::OnceLock;
 
 use coatlab_core::colour::spectrum::{MAX_VISIBLE_SAMPLES, WavelengthGrid};
-use coatlab_core::render::environment::Environment;
-use coatlab_core::render::lighting::Lighting;
 use egui::Ui;
 use serde::Deserialize;
 
 /// The presets file, as the bench wrote it.
 pub const PRESETS_TOML: &str = include_str!("../../../../assets/quality-presets.toml");
 
-/// Knobs of the preview that a preset sets.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct QualityKnobs {
-    /// Wavelengths per path.
-    pub wavelengths: usize,
-    /// Refinement stops at this many samples per pixel.
-    pub max_spp: u32,
-    /// The preview renders at 1/divisor of its size and is scaled up on screen.
-    pub resolution_divisor: u32,
-}
-
-impl Default for QualityKnobs {
-    /// The preview's behaviour without a preset: 32 wavelengths (as
-    /// `coatlab render`), refinement to 1024 spp, full resolution.
-    fn default() -> Self {
-        Self {
-            wavelengths: super::preview::PREVIEW_WAVELENGTHS,
-            max_spp: super::preview::MAX_SPP,
-            resolution_divisor: 1,
-        }
-    }
-}
-
-impl QualityKnobs {
-    /// The render size for a pane of `size` pixels.
-    pub fn divide(&self, size: (u32, u32)) -> (u32, u32) {
-        let d = self.resolution_divisor.max(1);
-        ((size.0 / d).max(1), (size.1 / d).max(1))
-    }
-}
+/// Knobs of the preview that a preset sets (the live engine's).
+pub use coatlab_core::engine::QualityKnobs;
 
 /// One preset with what the bench measured for it.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -240,12 +210,6 @@ pub fn quality_ui(ui: &mut Ui, selector: &mut QualitySelector) -> Option<Quality
         .map(QualityPreset::knobs)
         .unwrap_or_default();
     Some(selector.knobs)
-}
-
-/// `environment` rebuilt on `grid`, for a change of wavelength count; `None` for
-/// an image map (its file would have to be read again: the caller keeps the grid).
-pub fn environment_on(environment: &Environment, grid: &WavelengthGrid) -> Option<Environment> {
-    Lighting::of_kind(environment.kind())?.build(grid).ok()
 }
 
 #[cfg(test)]

@@ -17,13 +17,15 @@
 //! in a fixed order from the film, so adaptive renders are deterministic for a
 //! seed too.
 //!
-//! What lives how long, so a change recomputes only what it touches:
+//! What lives how long, so a change recomputes only what it touches (the live
+//! engine, [`crate::engine`], decides which of these a change of the preview
+//! rebuilds; the batch renderer builds them once):
 //!
 //! | value | rebuilt when | cost (default car) |
 //! |---|---|---|
 //! | [`RenderScene`] (mesh, BVH, materials) | the scene file changes | ~0.1 s |
 //! | [`Environment`] | the lighting setup or grid changes | ms |
-//! | [`Shading`] | the design, the model or the scene's materials change | ≤ 1 ms (tables come from [`crate::paint::PaintModel`]) |
+//! | [`Shading`] | the design, the model or the scene's materials change | ≤ 1 ms (tables come from [`crate::paint::model::PaintModel`]) |
 //! | [`Camera`], film | the view or the size changes | – |
 //! | edit base (film + [`PathCache`]) | the scene, lighting, view, size or settings change | – |
 //!

@@ -1,0 +1,235 @@
+//! The preview's controls above the picture: lighting, model, comparison and
+//! its layout, the second design, the ΔE00 scale; the scene and its paint
+//! material; export.
+
+use coatlab_core::design::presets::Preset;
+use coatlab_core::paint::phong::PhongVariant;
+use coatlab_core::render::lighting::Lighting;
+use coatlab_core::render::material::ShadingModel;
+use egui::{RichText, Ui};
+
+use super::super::compare::{CompareLayout, CompareMode, SCALES};
+use super::{Preview, PreviewRequest, panes};
+
+impl Preview {
+    /// The first row: lighting, model, comparison.
+    pub(super) fn toolbar_ui(
+        &mut self,
+        ui: &mut Ui,
+        presets: &[Preset],
+        requests: &mut Vec<PreviewRequest>,
+    ) {
+        ui.horizontal_wrapped(|ui| {
+            self.lighting_ui(ui, requests);
+            ui.separator();
+            self.model_ui(ui);
+            ui.separator();
+            self.compare_ui(ui, presets);
+            if self.compare == CompareMode::Designs {
+                self.second_design_ui(ui, presets, requests);
+            }
+            if self.compare != CompareMode::Off && self.layout == CompareLayout::DeltaE {
+                self.scale_ui(ui);
+            }
+        });
+    }
+
+    /// The lighting setups, and the map opened last.
+    fn lighting_ui(&mut self, ui: &mut Ui, requests: &mut Vec<PreviewRequest>) {
+        let mut lighting = self.lighting.clone();
+        let map = self
+            .map
+            .as_ref()
+            .map(|(path, name)| (Lighting::Map(path.clone()), format!("Map: {name}")));
+        let shown = match (&lighting, &map) {
+            (Lighting::Map(_), Some((_, label))) => label.clone(),
+            (Lighting::Map(_), None) => String::new(),
+            (setup, _) => setup.label(),
+        };
+        egui::ComboBox::from_label("Lighting")
+            .selected_text(shown)
+            .show_ui(ui, |ui| {
+                for setup in Lighting::SETUPS {
+                    let label = setup.label();
+                    ui.selectable_value(&mut lighting, setup, label);
+                }
+                if let Some((entry, label)) = map {
+                    ui.selectable_value(&mut lighting, entry, label);
+                }
+            });
+        self.set_lighting(lighting);
+        if ui
+            .button("Open map…")
+            .on_hover_text("An equirectangular environment map (.hdr or .exr)")
+            .clicked()
+        {
+            requests.push(PreviewRequest::OpenEnvironment);
+        }
+    }
+
+    /// The model of the view, or the Phong variant against the paint model.
+    fn model_ui(&mut self, ui: &mut Ui) {
+        if self.compare == CompareMode::Models {
+            let mut phong = self.phong;
+            ui.label("against");
+            for v in [PhongVariant::Naive, PhongVariant::BestFit] {
+                ui.selectable_value(&mut phong, v, v.label());
+            }
+            if phong != self.phong {
+                self.phong = phong;
+                self.send_views();
+            }
+            return;
+        }
+        let mut model = self.model;
+        for m in [
+            ShadingModel::Paint,
+            ShadingModel::Phong(PhongVariant::Naive),
+            ShadingModel::Phong(PhongVariant::BestFit),
+        ] {
+            ui.selectable_value(&mut model, m, m.label());
+        }
+        if model != self.model {
+            self.model = model;
+            self.send_views();
+        }
+    }
+
+    /// The comparison mode and its layout.
+    fn compare_ui(&mut self, ui: &mut Ui, presets: &[Preset]) {
+        let mut mode = self.compare;
+        egui::ComboBox::from_label("Compare")
+            .selected_text(mode.label())
+            .show_ui(ui, |ui| {
+                for m in CompareMode::ALL {
+                    ui.selectable_value(&mut mode, m, m.label());
+                }
+            });
+        if mode == CompareMode::Designs && self.second.is_none() {
+            // Something to compare with at once: the first preset unlike the
+            // design; the combo beside it changes it.
+            if let Some(p) = presets.iter().find(|p| p.design.name != self.design_name) {
+                self.second = Some((p.design.name.clone(), p.design.clone()));
+            }
+        }
+        if mode != self.compare {
+            self.set_compare(mode, self.layout);
+        }
+        if self.compare != CompareMode::Off {
+            let mut layout = self.layout;
+            for l in CompareLayout::ALL {
+                ui.selectable_value(&mut layout, l, l.label());
+            }
+            self.layout = layout;
+        }
+    }
+
+    /// The second design: a preset, or a file.
+    fn second_design_ui(
+        &mut self,
+        ui: &mut Ui,
+        presets: &[Preset],
+        requests: &mut Vec<PreviewRequest>,
+    ) {
+        let current = self
+            .second
+            .as_ref()
+            .map(|(l, _)| l.clone())
+            .unwrap_or_default();
+        let mut chosen = None;
+        egui::ComboBox::from_label("Second design")
+            .selected_text(current)
+            .show_ui(ui, |ui| {
+                for (i, p) in presets.iter().enumerate() {
+                    if ui.selectable_label(false, &p.design.name).clicked() {
+                        chosen = Some(i);
+                    }
+                }
+            });
+        if let Some(p) = chosen.and_then(|i| presets.get(i)) {
+            let (name, design) = (p.design.name.clone(), p.design.clone());
+            self.set_second_design(&name, &design);
+        }
+        if ui.button("Second design from file…").clicked() {
+            requests.push(PreviewRequest::SecondDesignFile);
+        }
+    }
+
+    /// The top of the ΔE00 map's scale.
+    fn scale_ui(&mut self, ui: &mut Ui) {
+        let mut scale = self.map_scale;
+        egui::ComboBox::from_label("Scale")
+            .selected_text(format!("0–{scale:.0} ΔE00"))
+            .show_ui(ui, |ui| {
+                for s in SCALES {
+                    ui.selectable_value(&mut scale, s, format!("0–{s:.0} ΔE00"));
+                }
+            });
+        self.map_scale = scale;
+    }
+
+    /// The second row: the scene, its paint material, export.
+    pub(super) fn scene_ui(&mut self, ui: &mut Ui, requests: &mut Vec<PreviewRequest>) {
+        ui.horizontal_wrapped(|ui| {
+            let name = self
+                .scene
+                .as_ref()
+                .map(|s| s.name.clone())
+                .unwrap_or_else(|| "Built-in car".into());
+            ui.label(format!("Scene: {name}"));
+            if ui
+                .button("Open scene…")
+                .on_hover_text("A glTF 2.0 scene (.glb or .gltf); or drop one on the window")
+                .clicked()
+            {
+                requests.push(PreviewRequest::OpenScene);
+            }
+            if self.scene.as_ref().is_some_and(|s| s.path.is_some())
+                && ui.button("Built-in car").clicked()
+            {
+                self.built_in_scene();
+            }
+            self.paint_material_ui(ui);
+            ui.separator();
+            if ui
+                .button("Export image…")
+                .on_hover_text("The preview as PNG (as shown) or EXR (linear)")
+                .clicked()
+            {
+                requests.push(PreviewRequest::Export);
+            }
+        });
+    }
+
+    /// Which of the scene's materials carries the paint, and the load's warnings.
+    fn paint_material_ui(&mut self, ui: &mut Ui) {
+        let Some(scene) = self.scene.clone() else {
+            return;
+        };
+        let automatic = format!(
+            "automatic ({})",
+            panes::names_of(&scene.materials, &scene.automatic_paint)
+        );
+        let selected = match self.paint_override {
+            Some(i) => scene.materials.get(i as usize).cloned().unwrap_or_default(),
+            None => automatic.clone(),
+        };
+        let mut choice = self.paint_override;
+        egui::ComboBox::from_label("Paint material")
+            .selected_text(selected)
+            .show_ui(ui, |ui| {
+                ui.selectable_value(&mut choice, None, &automatic);
+                for (i, m) in scene.materials.iter().enumerate() {
+                    ui.selectable_value(&mut choice, Some(i as u32), m);
+                }
+            });
+        self.set_paint_material(choice);
+        if !scene.warnings.is_empty() {
+            ui.label(
+                RichText::new(format!("{} warning(s)", scene.warnings.len()))
+                    .color(ui.visuals().warn_fg_color),
+            )
+            .on_hover_text(scene.warnings.join("\n"));
+        }
+    }
+}

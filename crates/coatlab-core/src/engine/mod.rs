@@ -1,0 +1,84 @@
+//! The live-rendering engine: what the designer's preview renders, and when.
+//!
+//! One type, [`LiveEngine`], owns the one or two views of the preview (the
+//! second for a comparison), takes [`Command`]s — the design, the views' models
+//! and the comparison, the scene, the lighting, the camera, the size, the
+//! quality knobs — and decides by itself what to re-shade, re-trace or rebuild.
+//! The decisions are an explicit state machine ([`plan`]): a command becomes a
+//! [`plan::Change`], [`plan::transition`] gives the next [`plan::State`] and the
+//! [`plan::Actions`] (which derived tables, BVH, lighting, renders and caches to
+//! rebuild; whether to re-shade or restart), and what the back-end reports
+//! moves the state on through [`plan::advance`]. [`EngineCounters`] records
+//! every build, so the tests check each transition without a window.
+//!
+//! | module | what |
+//! | --- | --- |
+//! | [`command`] | the commands and the values they carry |
+//! | [`plan`] | the state machine: states, changes, outcomes, actions |
+//! | [`live`] | [`LiveEngine`]: the commands taken |
+//! | `step` | [`LiveEngine::step`]: actions done, passes rendered, images published |
+//! | `inputs`, `world` | what is set, and what is derived from it (grid, BVH, lighting, tables) |
+//! | `views` | the first view, and the second: shared or rendered apart |
+//! | [`frame`] | the published images |
+//! | [`delta_e`] | the ΔE00 map between the views |
+//! | [`backend`], [`cpu`] | the seam for a back-end, and the CPU path tracer behind it |
+//! | [`events`] | loads, failures, the scene as shown |
+//! | [`thread`] | the engine on a render thread, commands in, images out |
+//!
+//! The engine knows no window: the app's preview sends commands to an
+//! [`EngineThread`] and shows the images it posts.
+
+pub mod backend;
+pub mod command;
+mod counters;
+pub mod cpu;
+pub mod delta_e;
+pub mod events;
+pub mod frame;
+mod inputs;
+pub mod live;
+pub mod plan;
+mod step;
+pub mod thread;
+mod views;
+mod world;
+
+#[cfg(test)]
+mod tests;
+
+use std::sync::Arc;
+
+pub use backend::{BackendView, RenderBackend, ViewSetup};
+pub use command::{Command, QualityKnobs, SceneSource, SecondView, Views};
+pub use counters::EngineCounters;
+pub use cpu::CpuBackend;
+pub use delta_e::DeltaEMap;
+pub use events::{EngineError, EngineEvent, SceneInfo, file_name};
+pub use frame::{Frame, SecondSource, SecondUpdate, ViewsUpdate};
+pub use live::{LiveEngine, Output, Progress};
+pub use plan::{Pairing, Phase, State};
+pub use thread::{EngineThread, Job, Mailbox, ThreadHooks};
+pub use views::SecondImage;
+
+/// Wavelengths per path without a quality preset: as `coatlab render` by default.
+pub const DEFAULT_WAVELENGTHS: usize = 32;
+/// Refinement stops here without a quality preset; the image is then as good as
+/// the preview gets.
+pub const MAX_SPP: u32 = 1024;
+/// The coarse first pass after a change renders at 1/COARSE_FACTOR of the
+/// resolution, so a change shows within a frame or two.
+pub const COARSE_FACTOR: u32 = 4;
+/// Samples per pixel whose paths the first view records for re-shading paint
+/// edits (memory bounded by the core's default path-cache budget).
+pub const RESHADE_SAMPLES: u32 = 4;
+/// Samples per pixel the first view records in a comparison, for the second
+/// view to be re-shaded from: the difference between the panes has the noise
+/// of this many samples of the difference. The memory budget
+/// ([`crate::render::progressive::DEFAULT_PATH_CACHE_BUDGET_BYTES`]) stops the
+/// recording earlier if it must.
+pub const COMPARE_CACHE_SAMPLES: u32 = 16;
+/// The image size an engine starts at, before it is told its pane's.
+pub const INITIAL_SIZE: (u32, u32) = (320, 200);
+
+/// A function run first on every thread the engine starts.
+pub type ThreadHook = Arc<dyn Fn() + Send + Sync>;

@@ -1,0 +1,462 @@
+//! [`LiveEngine::step`]: the actions the commands asked for, then one pass of
+//! the views, published. What each outcome does next is [`super::plan::advance`].
+
+use std::ops::ControlFlow;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+
+use crate::render::material::Shading;
+use crate::render::progressive::{EditOutcome, PassStats};
+
+use super::backend::{BackendView, RenderBackend, ViewSetup};
+use super::events::{EngineError, EngineEvent};
+use super::frame::{
+    SecondUpdate, ViewsUpdate, display_of, edit_update, film_frame, map_due, pair_update,
+    shared_update,
+};
+use super::live::{LiveEngine, Output, Progress};
+use super::plan::{self, Actions, Outcome, Phase, Restart, Second, Tables};
+use super::views::{SecondSpec, independent_reason, spawn_second_shading};
+use super::{COARSE_FACTOR, COMPARE_CACHE_SAMPLES, RESHADE_SAMPLES};
+
+impl<B: RenderBackend> LiveEngine<B> {
+    /// Does what the commands taken since the last step asked for, then renders
+    /// one pass of the views (or re-shades an edit) and publishes the images
+    /// through `out`. `cancel` stops a pass between tiles: set it when a command
+    /// is waiting.
+    pub fn step(&mut self, cancel: &AtomicBool, out: &mut dyn FnMut(Output)) -> Progress {
+        let actions = std::mem::take(&mut self.pending);
+        if actions.any() && self.execute(actions, out).is_break() {
+            return Progress::Stepped;
+        }
+        if self.state.phase == Phase::Converged {
+            return Progress::Idle;
+        }
+        let coarse = self.state.phase == Phase::Coarse;
+        let Some(resized) = self.fit_resolution(coarse) else {
+            return Progress::Stepped;
+        };
+        // With no further edit waiting (the commands were just taken), the
+        // re-shade from all recorded samples comes before fresh passes.
+        if self.state.phase == Phase::EditShown && self.views.first.refine_edit() {
+            self.publish_edit(PassStats::default(), out);
+            self.advance(Outcome::EditRefined);
+            return Progress::Stepped;
+        }
+        let Some(stats) = self.views.first.render_pass(cancel) else {
+            return Progress::Cancelled;
+        };
+        self.counters.passes += 1;
+        let converged = self.views.first.samples_per_pixel() >= self.inputs.quality.max_spp;
+        self.advance(if coarse {
+            Outcome::CoarseDone
+        } else {
+            Outcome::PassDone { converged }
+        });
+        self.after_first_pass(stats, (coarse, resized), cancel, out)
+    }
+
+    /// Moves to the state after `outcome`; returns what it asks for.
+    fn advance(&mut self, outcome: Outcome) -> Actions {
+        let (state, actions) = plan::advance(self.state, outcome);
+        self.state = state;
+        actions
+    }
+
+    /// Rebuilds and restarts as `actions` say. Breaks when the step is over: an
+    /// edit was shown re-shaded, or the design cannot be modelled.
+    fn execute(&mut self, actions: Actions, out: &mut dyn FnMut(Output)) -> ControlFlow<()> {
+        let shading = if actions.shading {
+            let Some(shading) = self.first_shading(actions.tables == Tables::Rebuild) else {
+                // The last image stays (the paint panel says what is wrong); what
+                // was asked for is done with the next command.
+                self.deferred = actions;
+                let converged = self.views.first.samples_per_pixel() >= self.inputs.quality.max_spp;
+                self.advance(Outcome::DesignInvalid { converged });
+                return ControlFlow::Break(());
+            };
+            Some(shading)
+        } else {
+            None
+        };
+        if actions.renders
+            && let Some(shading) = &shading
+        {
+            self.new_renders(shading.clone(), out);
+        }
+        if actions.relight {
+            self.relight(out);
+        }
+        let mut restart = actions.restart;
+        if let Some(shading) = shading {
+            if restart == Restart::Reshade {
+                if self.try_reshade(shading.clone(), out) {
+                    return ControlFlow::Break(());
+                }
+                restart = Restart::Retrace;
+            }
+            self.retrace_with(shading, actions, out);
+        }
+        if restart == Restart::Retrace {
+            self.counters.retraces += 1;
+        }
+        ControlFlow::Continue(())
+    }
+
+    /// The first view's shading from the paint model brought up to the design
+    /// (from scratch if `rebuild`); `None` if the design cannot be modelled.
+    fn first_shading(&mut self, rebuild: bool) -> Option<Arc<Shading>> {
+        let scene = self.world.scene.clone();
+        let paint = self.inputs.paint_materials(scene.paint_materials());
+        let model = self
+            .world
+            .model_for(&self.inputs.design, rebuild, &mut self.counters)?;
+        let shading = Shading::new(model, self.inputs.views.first, scene.materials(), &paint);
+        self.counters.shading_builds += 1;
+        Some(Arc::new(shading))
+    }
+
+    /// A new first render on the new grid; the second view's is made again.
+    fn new_renders(&mut self, shading: Arc<Shading>, out: &mut dyn FnMut(Output)) {
+        let setup = ViewSetup {
+            scene: self.world.scene.clone(),
+            environment: self.world.environment.clone(),
+            shading,
+            camera: self.inputs.camera.clone(),
+        };
+        match self.backend.view(setup) {
+            Ok(mut first) => {
+                self.counters.render_builds += 1;
+                first.set_path_cache_samples(self.views.cache_samples);
+                self.views.first = first;
+                self.views.second = None;
+            }
+            Err(e) => failed(out, e.into()),
+        }
+    }
+
+    /// The views lit by the new lighting.
+    fn relight(&mut self, out: &mut dyn FnMut(Output)) {
+        let environment = &self.world.environment;
+        let views = std::iter::once(&mut self.views.first).chain(self.views.second.as_mut());
+        for view in views {
+            if let Err(e) = view.set_environment(environment.clone()) {
+                failed(out, e.into());
+            }
+        }
+    }
+
+    /// Shows the edit re-shaded from the edit base; false when the back-end
+    /// refuses (it is then traced fresh).
+    fn try_reshade(&mut self, shading: Arc<Shading>, out: &mut dyn FnMut(Output)) -> bool {
+        match self.views.first.edit_shading(shading) {
+            Ok(EditOutcome::Reshaded) => {
+                self.counters.reshades += 1;
+                self.last_refusal = None;
+                self.advance(Outcome::EditReshaded);
+                self.publish_edit(PassStats::default(), out);
+                return true;
+            }
+            Ok(EditOutcome::Fresh(reason)) => self.last_refusal = Some(reason),
+            Err(e) => failed(out, e.into()),
+        }
+        self.advance(Outcome::EditRefused);
+        false
+    }
+
+    /// The first view restarted with `shading` (and the new scene), recording as
+    /// many samples as the views need; the second view rebuilt or dropped.
+    fn retrace_with(
+        &mut self,
+        shading: Arc<Shading>,
+        actions: Actions,
+        out: &mut dyn FnMut(Output),
+    ) {
+        let first = &mut self.views.first;
+        let result = if actions.rescene {
+            first.set_scene(self.world.scene.clone(), shading)
+        } else if actions.renders {
+            // The new render has this shading already.
+            Ok(())
+        } else {
+            first.set_shading(shading)
+        };
+        if let Err(e) = result {
+            failed(out, e.into());
+        }
+        // A comparison records more of the first view's paths, for the second
+        // view to be re-shaded from.
+        self.views.record(if self.inputs.views.second.is_some() {
+            COMPARE_CACHE_SAMPLES
+        } else {
+            RESHADE_SAMPLES
+        });
+        match actions.second {
+            Second::Rebuild => self.rebuild_second(actions.rescene),
+            Second::Drop => self.views.drop_second(),
+            Second::Keep => {}
+        }
+    }
+
+    /// Starts building the second view's shading; how the second view is made is
+    /// decided once it is ready. A job still running for an older change
+    /// finishes unobserved.
+    fn rebuild_second(&mut self, new_scene: bool) {
+        self.views.shared = None;
+        if new_scene {
+            // Made again with the new scene once its shading is ready.
+            self.views.second = None;
+        }
+        let Some(second) = &self.inputs.views.second else {
+            self.views.drop_second();
+            return;
+        };
+        let spec = SecondSpec {
+            design: second
+                .design
+                .as_deref()
+                .unwrap_or(&self.inputs.design)
+                .clone(),
+            model: second.model,
+            grid: self.world.grid,
+            materials: self.world.scene.materials().to_vec(),
+            paint_materials: self
+                .inputs
+                .paint_materials(self.world.scene.paint_materials()),
+        };
+        self.counters.second_shading_builds += 1;
+        self.views.job = spawn_second_shading(spec, self.on_thread_start.clone());
+    }
+
+    /// Sets the first view's resolution for the pass: 1/[`COARSE_FACTOR`] of
+    /// the size for the coarse pass, the size otherwise. Whether it changed
+    /// (restarting the view); `None` if the back-end refused.
+    fn fit_resolution(&mut self, coarse: bool) -> Option<bool> {
+        let size = self.inputs.size;
+        let target = if coarse {
+            (
+                (size.0 / COARSE_FACTOR).max(1),
+                (size.1 / COARSE_FACTOR).max(1),
+            )
+        } else if self.views.first.resolution() != size {
+            size
+        } else {
+            return Some(false);
+        };
+        self.inputs.camera.set_resolution(target.0, target.1);
+        self.views
+            .first
+            .set_camera(self.inputs.camera.clone())
+            .ok()
+            .map(|()| true)
+    }
+
+    /// After the first view's pass: the second view decided, rendered or
+    /// re-shaded, and the images published.
+    fn after_first_pass(
+        &mut self,
+        stats: PassStats,
+        (coarse, resized): (bool, bool),
+        cancel: &AtomicBool,
+        out: &mut dyn FnMut(Output),
+    ) -> Progress {
+        if let Some(job) = self.views.job.take() {
+            // Show the first view's new image while the second's shading is
+            // still being fitted.
+            if !job.is_finished() {
+                self.publish_first_only(stats, coarse, out);
+            }
+            let shading = job.join().ok().flatten();
+            self.take_second_shading(shading, out);
+        }
+        if let Some(shading) = self.views.shared.clone() {
+            self.publish_shared(&shading, stats, coarse, out);
+            return Progress::Stepped;
+        }
+        if self.views.second.is_some() {
+            return self.step_second(stats, (coarse, resized), cancel, out);
+        }
+        if self.views.first.is_reshaded() {
+            self.publish_edit(stats, out);
+        } else {
+            let display = self.take_display();
+            let first = film_frame(&self.views.first, stats, &display, coarse);
+            publish(out, first, SecondUpdate::Clear, Some(None));
+        }
+        Progress::Stepped
+    }
+
+    /// The second view's new shading: shared where the first view's paths
+    /// re-shade into it, a render of its own where not.
+    fn take_second_shading(&mut self, shading: Option<Arc<Shading>>, out: &mut dyn FnMut(Output)) {
+        let Some(shading) = shading else {
+            failed(out, EngineError::SecondDesignInvalid);
+            self.views.second = None;
+            self.advance(Outcome::SecondInvalid);
+            return;
+        };
+        self.counters.pane_reshades += 1;
+        match self.views.first.reshade_recorded(&shading) {
+            Ok(_) => {
+                self.views.shared = Some(shading);
+                self.views.second = None;
+                self.advance(Outcome::SecondShared);
+            }
+            Err(e) => {
+                self.views.reason = independent_reason(&e);
+                let existing = self.views.second.take();
+                self.views.second = self.second_view(existing, shading, out);
+                self.advance(if self.views.second.is_some() {
+                    Outcome::SecondIndependent
+                } else {
+                    Outcome::SecondInvalid
+                });
+            }
+        }
+    }
+
+    /// The second view's render with new shading: `existing` re-shaded, or a
+    /// new one.
+    fn second_view(
+        &mut self,
+        existing: Option<B::View>,
+        shading: Arc<Shading>,
+        out: &mut dyn FnMut(Output),
+    ) -> Option<B::View> {
+        let result = match existing {
+            Some(mut render) => render.set_shading(shading).map(|()| render),
+            None => {
+                self.counters.render_builds += 1;
+                self.backend.view(ViewSetup {
+                    scene: self.world.scene.clone(),
+                    environment: self.world.environment.clone(),
+                    shading,
+                    camera: self.inputs.camera.clone(),
+                })
+            }
+        };
+        result.map_err(|e| failed(out, e.into())).ok()
+    }
+
+    /// Both panes from the first view's paths, re-shaded (two replays) when the
+    /// map is due; the first view alone in between.
+    fn publish_shared(
+        &mut self,
+        second: &Arc<Shading>,
+        stats: PassStats,
+        coarse: bool,
+        out: &mut dyn FnMut(Output),
+    ) {
+        let spp = self.views.first.samples_per_pixel();
+        if !map_due(coarse, spp, self.inputs.quality.max_spp) {
+            self.publish_first_only(stats, coarse, out);
+            return;
+        }
+        let first = &self.views.first;
+        self.counters.pane_reshades += 2;
+        match (
+            first.reshade_recorded(first.shading()),
+            first.reshade_recorded(second),
+        ) {
+            (Ok(ra), Ok(rb)) => {
+                let display = self.take_display();
+                let update = shared_update(&self.views.first, [&ra, &rb], stats, &display, coarse);
+                out(Output::Views(update));
+            }
+            (Err(e), _) | (_, Err(e)) => {
+                self.views.reason = independent_reason(&e);
+                self.views.shared = None;
+                self.views.second = self.second_view(None, second.clone(), out);
+                let retrace = self.advance(Outcome::SharedFailed);
+                self.pending = self.pending.merge(retrace);
+            }
+        }
+    }
+
+    /// The second view rendered apart: kept on the first view's camera and
+    /// samples, one pass, both published.
+    fn step_second(
+        &mut self,
+        stats_a: PassStats,
+        (coarse, resized): (bool, bool),
+        cancel: &AtomicBool,
+        out: &mut dyn FnMut(Output),
+    ) -> Progress {
+        let spp = self.views.first.samples_per_pixel();
+        let Some(second) = self.views.second.as_mut() else {
+            return Progress::Stepped;
+        };
+        if resized || second.samples_per_pixel() + 1 != spp {
+            if second.set_camera(self.inputs.camera.clone()).is_err() {
+                self.views.second = None;
+                return Progress::Stepped;
+            }
+            if spp != 1 {
+                // Out of step (a pass of the second view was cancelled): both
+                // start again.
+                self.out_of_step();
+                return Progress::Stepped;
+            }
+        }
+        let Some(stats_b) = second.render_pass(cancel) else {
+            self.out_of_step();
+            return Progress::Cancelled;
+        };
+        self.counters.second_passes += 1;
+        let display = self.take_display();
+        let due = map_due(coarse, spp, self.inputs.quality.max_spp);
+        let Some(second) = &self.views.second else {
+            return Progress::Stepped;
+        };
+        let update = pair_update(
+            [&self.views.first, second],
+            [stats_a, stats_b],
+            &self.views.reason,
+            &display,
+            (coarse, due),
+        );
+        out(Output::Views(update));
+        Progress::Stepped
+    }
+
+    fn out_of_step(&mut self) {
+        let retrace = self.advance(Outcome::OutOfStep);
+        self.pending = self.pending.merge(retrace);
+    }
+
+    /// The display settings for the images about to be published, kept for an
+    /// export: one for both views, from the first view's film.
+    fn take_display(&mut self) -> crate::render::film::DisplaySettings {
+        self.views.display = display_of(&self.views.first);
+        self.views.display
+    }
+
+    /// The first view alone; the second keeps its last image (its new one is on
+    /// the way) and the map stays.
+    fn publish_first_only(&mut self, stats: PassStats, coarse: bool, out: &mut dyn FnMut(Output)) {
+        let display = self.take_display();
+        let first = film_frame(&self.views.first, stats, &display, coarse);
+        publish(out, first, SecondUpdate::Keep, None);
+    }
+
+    /// The first view while an edit is shown re-shaded, in the last image's
+    /// display settings.
+    fn publish_edit(&self, stats: PassStats, out: &mut dyn FnMut(Output)) {
+        if let Some(update) = edit_update(&self.views.first, stats, &self.views.display) {
+            out(Output::Views(update));
+        }
+    }
+}
+
+fn publish(
+    out: &mut dyn FnMut(Output),
+    first: super::frame::Frame,
+    second: SecondUpdate,
+    map: Option<Option<super::delta_e::DeltaEMap>>,
+) {
+    out(Output::Views(ViewsUpdate { first, second, map }));
+}
+
+fn failed(out: &mut dyn FnMut(Output), error: EngineError) {
+    out(Output::Event(EngineEvent::Failed(error)));
+}

@@ -1,0 +1,885 @@
+//! Each transition of the live engine, driven without a window: what a command
+//! rebuilds is read from [`EngineCounters`], where the state machine goes from
+//! [`LiveEngine::state`], and what is shown from the published updates.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+use crate::colour::cie::Illuminant;
+use crate::design::{PaintDesign, RefractiveIndex, presets};
+use crate::paint::phong::PhongVariant;
+use crate::render::camera::Camera;
+use crate::render::environment::Environment;
+use crate::render::film::Film;
+use crate::render::lighting::Lighting;
+use crate::render::material::{Shading, ShadingModel};
+use crate::render::progressive::{
+    EditOutcome, PassStats, ProgressiveRender, RenderError, RenderScene, RenderSettings,
+};
+use crate::render::reshade::{ReshadeError, Reshaded};
+
+use super::plan::{Actions, Change, Outcome, Restart, Second, Tables, advance, settle, transition};
+use super::*;
+
+/// A small image, so a pass takes milliseconds.
+const SIZE: (u32, u32) = (48, 30);
+/// Refinement stops here in these tests: past the recording of the path cache.
+const TARGET: u32 = 6;
+
+fn design() -> PaintDesign {
+    presets::all().swap_remove(0).design
+}
+
+fn knobs(wavelengths: usize, max_spp: u32) -> QualityKnobs {
+    QualityKnobs {
+        wavelengths,
+        max_spp,
+        resolution_divisor: 1,
+    }
+}
+
+/// A CPU engine at [`SIZE`] refining to [`TARGET`], its commands' first step done.
+fn engine() -> LiveEngine {
+    let mut engine = LiveEngine::new(CpuBackend::default(), design(), Arc::new(|| {}))
+        .expect("the engine starts");
+    apply(&mut engine, Command::Size(SIZE.0, SIZE.1));
+    apply(
+        &mut engine,
+        Command::Quality(knobs(DEFAULT_WAVELENGTHS, TARGET)),
+    );
+    engine
+}
+
+fn apply(engine: &mut LiveEngine, command: Command) -> Vec<Output> {
+    let mut outputs = Vec::new();
+    engine.apply(command, &mut |o| outputs.push(o));
+    outputs
+}
+
+fn step(engine: &mut LiveEngine) -> (Progress, Vec<Output>) {
+    let never = AtomicBool::new(false);
+    let mut outputs = Vec::new();
+    let progress = engine.step(&never, &mut |o| outputs.push(o));
+    (progress, outputs)
+}
+
+/// Steps until the engine waits for a command; the updates published.
+fn converge(engine: &mut LiveEngine) -> Vec<ViewsUpdate> {
+    let mut updates = Vec::new();
+    for _ in 0..100 {
+        let (progress, outputs) = step(engine);
+        updates.extend(outputs.into_iter().map(|o| match o {
+            Output::Views(update) => update,
+            Output::Event(e) => panic!("unexpected event {e:?}"),
+        }));
+        if progress == Progress::Idle {
+            return updates;
+        }
+    }
+    panic!("the engine did not converge: {:?}", engine.state());
+}
+
+/// A converged engine, and its counters.
+fn converged() -> (LiveEngine, EngineCounters) {
+    let mut engine = engine();
+    converge(&mut engine);
+    assert_eq!(engine.state().phase, Phase::Converged);
+    assert_eq!(engine.samples_per_pixel(), TARGET);
+    let counters = engine.counters();
+    (engine, counters)
+}
+
+/// Only the named counters moved, by the amounts given.
+fn assert_built(engine: &LiveEngine, before: &EngineCounters, expected: EngineCounters) {
+    let mut done = engine.counters().since(before);
+    // Passes depend on how far the test steps; the builds are what is asserted.
+    done.passes = 0;
+    done.second_passes = 0;
+    done.pane_reshades = 0;
+    assert_eq!(done, expected);
+}
+
+fn updates(outputs: Vec<Output>) -> Vec<ViewsUpdate> {
+    outputs
+        .into_iter()
+        .filter_map(|o| match o {
+            Output::Views(update) => Some(update),
+            Output::Event(_) => None,
+        })
+        .collect()
+}
+
+fn events(outputs: &[Output]) -> Vec<&EngineEvent> {
+    outputs
+        .iter()
+        .filter_map(|o| match o {
+            Output::Event(event) => Some(event),
+            Output::Views(_) => None,
+        })
+        .collect()
+}
+
+const RETRACE_ONLY: EngineCounters = EngineCounters {
+    retraces: 1,
+    ..ZERO
+};
+
+const ZERO: EngineCounters = EngineCounters {
+    bvh_builds: 0,
+    lighting_builds: 0,
+    table_builds: 0,
+    shading_builds: 0,
+    second_shading_builds: 0,
+    render_builds: 0,
+    retraces: 0,
+    reshades: 0,
+    pane_reshades: 0,
+    passes: 0,
+    second_passes: 0,
+};
+
+#[test]
+fn a_new_engine_builds_each_thing_once_and_starts_coarse() {
+    let engine = LiveEngine::new(CpuBackend::default(), design(), Arc::new(|| {})).expect("start");
+    assert_eq!(engine.state(), State::START);
+    assert_eq!(
+        engine.counters(),
+        EngineCounters {
+            bvh_builds: 1,
+            lighting_builds: 1,
+            table_builds: 1,
+            shading_builds: 1,
+            render_builds: 1,
+            ..ZERO
+        }
+    );
+    assert_eq!(engine.recording_target(), RESHADE_SAMPLES);
+    assert_eq!(engine.grid().len(), DEFAULT_WAVELENGTHS);
+}
+
+#[test]
+fn a_change_shows_coarse_first_then_refines_at_full_size_to_the_target() {
+    let mut engine = engine();
+    let (_, outputs) = step(&mut engine);
+    let first = &updates(outputs)[0].first;
+    assert!(first.coarse);
+    assert_eq!(
+        (first.width, first.height),
+        (SIZE.0 / COARSE_FACTOR, SIZE.1 / COARSE_FACTOR)
+    );
+    assert_eq!(engine.state().phase, Phase::CoarseShown);
+    let rest = converge(&mut engine);
+    assert!(
+        rest.iter()
+            .all(|u| !u.first.coarse && u.first.width == SIZE.0)
+    );
+    assert_eq!(rest.last().map(|u| u.first.samples_per_pixel), Some(TARGET));
+    assert_eq!(engine.state().phase, Phase::Converged);
+}
+
+#[test]
+fn commands_that_change_nothing_rebuild_nothing() {
+    let (mut engine, before) = converged();
+    let state = engine.state();
+    let same = [
+        Command::Design(Box::new(design())),
+        Command::Views(Views::single(ShadingModel::Paint)),
+        Command::Lighting(Lighting::Studio),
+        Command::PaintMaterial(None),
+        Command::Size(SIZE.0, SIZE.1),
+        Command::Size(0, 10),
+        Command::Orbit(0.0, 0.0),
+        Command::Zoom(1.0),
+        Command::Pan(0.0, 0.0),
+        Command::Quality(knobs(DEFAULT_WAVELENGTHS, TARGET)),
+    ];
+    for command in same {
+        assert!(apply(&mut engine, command).is_empty());
+        assert_eq!(engine.state(), state);
+        let (progress, outputs) = step(&mut engine);
+        assert_eq!(progress, Progress::Idle);
+        assert!(outputs.is_empty());
+    }
+    assert_built(&engine, &before, ZERO);
+    assert_eq!(engine.counters().passes, before.passes);
+}
+
+#[test]
+fn a_paint_edit_is_shown_re_shaded_then_refined_from_all_recorded_samples() {
+    let (mut engine, before) = converged();
+    let mut edited = design();
+    edited.thickness_um += 20.0;
+    apply(&mut engine, Command::Design(Box::new(edited)));
+    assert_eq!(engine.state().phase, Phase::EditPending);
+    let (_, outputs) = step(&mut engine);
+    let shown = &updates(outputs)[0];
+    assert_eq!(shown.first.reshaded, Some(0.0));
+    assert!(!shown.first.coarse);
+    assert_eq!((shown.first.width, shown.first.height), SIZE);
+    assert_eq!(engine.state().phase, Phase::EditShown);
+    assert_built(
+        &engine,
+        &before,
+        EngineCounters {
+            table_builds: 1,
+            shading_builds: 1,
+            reshades: 1,
+            ..ZERO
+        },
+    );
+    // The re-shade from all recorded samples, then fresh passes blend in.
+    let (_, outputs) = step(&mut engine);
+    assert!(updates(outputs)[0].first.reshaded.is_some());
+    assert_eq!(engine.state().phase, Phase::Refining);
+    assert_eq!(engine.counters().passes, before.passes);
+    converge(&mut engine);
+    assert_eq!(engine.counters().retraces, before.retraces);
+}
+
+/// n + 0.1 under the design's gloss reading keeps the reading but widens the
+/// lobe: the planner asks for a re-shade, the back-end refuses it
+/// (`ReshadeError::LobeWidened`) and the edit is traced fresh, coarse first.
+#[test]
+fn an_edit_that_widens_the_lobe_is_traced_fresh() {
+    let (mut engine, before) = converged();
+    let mut widened = design();
+    match &mut widened.refractive_index {
+        RefractiveIndex::Cauchy { a, .. } => *a += 0.1,
+        RefractiveIndex::Table(_) => panic!("the preset's index is a Cauchy fit"),
+    }
+    assert_eq!(widened.gloss, design().gloss);
+    apply(&mut engine, Command::Design(Box::new(widened)));
+    assert_eq!(engine.state().phase, Phase::EditPending);
+    let (_, outputs) = step(&mut engine);
+    assert!(matches!(
+        engine.last_edit_refusal(),
+        Some(ReshadeError::LobeWidened { .. })
+    ));
+    let first = &updates(outputs)[0].first;
+    assert!(first.coarse && first.reshaded.is_none());
+    assert_built(
+        &engine,
+        &before,
+        EngineCounters {
+            table_builds: 1,
+            shading_builds: 1,
+            retraces: 1,
+            ..ZERO
+        },
+    );
+}
+
+#[test]
+fn a_gloss_edit_is_traced_fresh_without_a_re_shade() {
+    let (mut engine, before) = converged();
+    let mut glossier = design();
+    glossier.gloss.gu += 5.0;
+    apply(&mut engine, Command::Design(Box::new(glossier)));
+    assert_eq!(engine.state().phase, Phase::Coarse);
+    let (_, outputs) = step(&mut engine);
+    assert!(updates(outputs)[0].first.coarse);
+    assert!(
+        engine.last_edit_refusal().is_none(),
+        "no re-shade was tried"
+    );
+    assert_built(
+        &engine,
+        &before,
+        EngineCounters {
+            table_builds: 1,
+            shading_builds: 1,
+            retraces: 1,
+            ..ZERO
+        },
+    );
+}
+
+#[test]
+fn a_model_change_rebuilds_the_shading_but_not_the_tables() {
+    let (mut engine, before) = converged();
+    apply(
+        &mut engine,
+        Command::Views(Views::single(ShadingModel::Phong(PhongVariant::Naive))),
+    );
+    assert_eq!(engine.state().phase, Phase::Coarse);
+    step(&mut engine);
+    assert_built(
+        &engine,
+        &before,
+        EngineCounters {
+            shading_builds: 1,
+            retraces: 1,
+            ..ZERO
+        },
+    );
+}
+
+#[test]
+fn a_scene_change_builds_its_bvh_and_a_failed_load_changes_nothing() {
+    let (mut engine, before) = converged();
+    let outputs = apply(&mut engine, Command::Scene(SceneSource::BuiltInCar));
+    assert!(matches!(
+        events(&outputs)[..],
+        [EngineEvent::SceneLoaded(SceneInfo { path: None, .. })]
+    ));
+    step(&mut engine);
+    // The tables start from scratch with a new scene, as the first design did.
+    assert_built(
+        &engine,
+        &before,
+        EngineCounters {
+            bvh_builds: 1,
+            table_builds: 1,
+            shading_builds: 1,
+            retraces: 1,
+            ..ZERO
+        },
+    );
+    converge(&mut engine);
+    let before = engine.counters();
+    let state = engine.state();
+    let missing = PathBuf::from("/nonexistent/car.glb");
+    let outputs = apply(&mut engine, Command::Scene(SceneSource::File(missing)));
+    assert!(matches!(
+        events(&outputs)[..],
+        [EngineEvent::Failed(EngineError::Scene(_))]
+    ));
+    assert_eq!(engine.state(), state);
+    assert_eq!(step(&mut engine).0, Progress::Idle);
+    assert_built(&engine, &before, ZERO);
+}
+
+#[test]
+fn a_lighting_change_builds_the_lighting_only() {
+    let (mut engine, before) = converged();
+    apply(
+        &mut engine,
+        Command::Lighting(Lighting::Booth(Illuminant::D65)),
+    );
+    assert_eq!(engine.state().phase, Phase::Coarse);
+    step(&mut engine);
+    assert_built(
+        &engine,
+        &before,
+        EngineCounters {
+            lighting_builds: 1,
+            retraces: 1,
+            ..ZERO
+        },
+    );
+}
+
+#[test]
+fn an_environment_map_is_read_once_and_keeps_its_grid() {
+    let dir = std::env::temp_dir().join(format!("coatlab-engine-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let map = dir.join("sky.hdr");
+    write_hdr(&map);
+    let (mut engine, before) = converged();
+    let outputs = apply(&mut engine, Command::OpenMap(map.clone()));
+    assert!(matches!(events(&outputs)[..], [EngineEvent::MapLoaded(_)]));
+    apply(&mut engine, Command::Lighting(Lighting::Studio));
+    // Back to the map read last: not read again.
+    apply(&mut engine, Command::Lighting(Lighting::Map(map.clone())));
+    step(&mut engine);
+    assert_built(
+        &engine,
+        &before,
+        EngineCounters {
+            lighting_builds: 2,
+            retraces: 1,
+            ..ZERO
+        },
+    );
+    // A new wavelength count cannot rebuild a map without reading it: refused.
+    let outputs = apply(&mut engine, Command::Quality(knobs(16, TARGET)));
+    assert!(matches!(
+        events(&outputs)[..],
+        [EngineEvent::Failed(EngineError::MapKeepsGrid(32))]
+    ));
+    assert_eq!(engine.grid().len(), DEFAULT_WAVELENGTHS);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn a_camera_move_restarts_from_a_coarse_pass_and_rebuilds_nothing() {
+    for command in [
+        Command::Orbit(10.0, 0.0),
+        Command::Zoom(0.9),
+        Command::Pan(3.0, 0.0),
+        Command::Size(SIZE.0 + 8, SIZE.1),
+    ] {
+        let (mut engine, before) = converged();
+        apply(&mut engine, command);
+        assert_eq!(engine.state().phase, Phase::Coarse);
+        let (_, outputs) = step(&mut engine);
+        assert!(updates(outputs)[0].first.coarse);
+        assert_built(&engine, &before, RETRACE_ONLY);
+    }
+}
+
+#[test]
+fn a_quality_preset_with_another_grid_rebuilds_lighting_tables_and_renders_on_it() {
+    let (mut engine, before) = converged();
+    apply(&mut engine, Command::Quality(knobs(16, TARGET)));
+    assert_eq!(engine.grid().len(), 16);
+    step(&mut engine);
+    assert_built(
+        &engine,
+        &before,
+        EngineCounters {
+            lighting_builds: 1,
+            table_builds: 1,
+            shading_builds: 1,
+            render_builds: 1,
+            retraces: 1,
+            ..ZERO
+        },
+    );
+    assert_eq!(engine.first().film().channels().len(), 16);
+    converge(&mut engine);
+    // The sample target alone: a restart, nothing rebuilt.
+    let before = engine.counters();
+    apply(&mut engine, Command::Quality(knobs(16, TARGET + 2)));
+    converge(&mut engine);
+    assert_built(&engine, &before, RETRACE_ONLY);
+    assert_eq!(engine.samples_per_pixel(), TARGET + 2);
+}
+
+#[test]
+fn a_paint_material_change_rebuilds_the_shading() {
+    let (mut engine, before) = converged();
+    apply(&mut engine, Command::PaintMaterial(Some(0)));
+    step(&mut engine);
+    assert_built(
+        &engine,
+        &before,
+        EngineCounters {
+            shading_builds: 1,
+            retraces: 1,
+            ..ZERO
+        },
+    );
+}
+
+#[test]
+fn a_comparison_shares_the_first_views_paths_and_switching_it_off_drops_the_second() {
+    let (mut engine, before) = converged();
+    apply(
+        &mut engine,
+        Command::Views(Views::models(PhongVariant::BestFit)),
+    );
+    assert_eq!(
+        engine.state(),
+        State {
+            phase: Phase::Coarse,
+            pairing: Pairing::Fitting
+        }
+    );
+    let published = converge(&mut engine);
+    assert_eq!(engine.state().pairing, Pairing::Shared);
+    assert_eq!(engine.recording_target(), COMPARE_CACHE_SAMPLES);
+    let last = published.last().expect("images");
+    assert!(matches!(
+        &last.second,
+        SecondUpdate::Set(Frame {
+            source: Some(SecondSource::Shared { .. }),
+            ..
+        })
+    ));
+    assert!(matches!(&last.map, Some(Some(map)) if map.samples_per_pixel == TARGET));
+    assert_built(
+        &engine,
+        &before,
+        EngineCounters {
+            shading_builds: 1,
+            second_shading_builds: 1,
+            retraces: 1,
+            ..ZERO
+        },
+    );
+    let before = engine.counters();
+    apply(
+        &mut engine,
+        Command::Views(Views::single(ShadingModel::Paint)),
+    );
+    assert_eq!(engine.state().pairing, Pairing::Single);
+    let published = converge(&mut engine);
+    assert_eq!(engine.recording_target(), RESHADE_SAMPLES);
+    assert!(
+        published
+            .iter()
+            .all(|u| u.second == SecondUpdate::Clear && u.map == Some(None))
+    );
+    assert_built(
+        &engine,
+        &before,
+        EngineCounters {
+            shading_builds: 1,
+            retraces: 1,
+            ..ZERO
+        },
+    );
+}
+
+#[test]
+fn in_a_comparison_edits_are_traced_fresh_and_the_second_view_follows() {
+    let (mut engine, _) = converged();
+    // The design with a thicker coat: its lobe is the first's, so the first
+    // view's paths re-shade into it.
+    let mut second = design();
+    second.thickness_um += 5.0;
+    apply(
+        &mut engine,
+        Command::Views(Views::designs(ShadingModel::Paint, Some(&second))),
+    );
+    converge(&mut engine);
+    assert_eq!(engine.state().pairing, Pairing::Shared);
+    // The second design edited: the second shading is built again, the first
+    // view's tables are kept.
+    let before = engine.counters();
+    second.thickness_um += 10.0;
+    apply(
+        &mut engine,
+        Command::Views(Views::designs(ShadingModel::Paint, Some(&second))),
+    );
+    converge(&mut engine);
+    assert_built(
+        &engine,
+        &before,
+        EngineCounters {
+            shading_builds: 1,
+            second_shading_builds: 1,
+            retraces: 1,
+            ..ZERO
+        },
+    );
+    // A paint edit of the first design: no re-shade with two views.
+    let before = engine.counters();
+    let mut edited = design();
+    edited.thickness_um += 20.0;
+    apply(&mut engine, Command::Design(Box::new(edited)));
+    assert_eq!(
+        engine.state(),
+        State {
+            phase: Phase::Coarse,
+            pairing: Pairing::Fitting
+        }
+    );
+    converge(&mut engine);
+    assert_built(
+        &engine,
+        &before,
+        EngineCounters {
+            table_builds: 1,
+            shading_builds: 1,
+            second_shading_builds: 1,
+            retraces: 1,
+            ..ZERO
+        },
+    );
+}
+
+/// A mirror paint cannot be re-shaded into Phong: the second view is rendered
+/// apart, in step with the first, and says why.
+#[test]
+fn a_mirror_against_phong_is_rendered_apart_in_step() {
+    let (mut engine, _) = converged();
+    let mut mirror = design();
+    mirror.gloss.gu = 1000.0;
+    apply(&mut engine, Command::Design(Box::new(mirror)));
+    converge(&mut engine);
+    let before = engine.counters();
+    apply(
+        &mut engine,
+        Command::Views(Views::models(PhongVariant::Naive)),
+    );
+    let published = converge(&mut engine);
+    assert_eq!(engine.state().pairing, Pairing::Independent);
+    let last = published.last().expect("images");
+    let SecondUpdate::Set(second) = &last.second else {
+        panic!("no second image: {:?}", last.second);
+    };
+    assert!(
+        matches!(&second.source, Some(SecondSource::Independent { reason }) if reason.contains("ideal-mirror"))
+    );
+    assert_eq!(second.samples_per_pixel, last.first.samples_per_pixel);
+    let done = engine.counters().since(&before);
+    assert_eq!(done.second_passes, done.passes);
+    assert_eq!(done.render_builds, 1);
+}
+
+#[test]
+fn the_planner_merges_a_batch_into_one_set_of_actions() {
+    let refining = State {
+        phase: Phase::Refining,
+        pairing: Pairing::Single,
+    };
+    let (state, edit) = transition(refining, Change::Paint);
+    assert_eq!(state.phase, Phase::EditPending);
+    assert_eq!(edit.restart, Restart::Reshade);
+    // A camera move in the same batch turns the re-shade into a retrace.
+    let (state, moved) = transition(state, Change::Camera);
+    let merged = edit.merge(moved);
+    assert_eq!(merged.restart, Restart::Retrace);
+    assert_eq!(merged.tables, Tables::Update);
+    assert_eq!(settle(state, merged).phase, Phase::Coarse);
+    // An edit during the coarse pass is traced fresh.
+    let (_, coarse_edit) = transition(State::START, Change::Paint);
+    assert_eq!(coarse_edit.restart, Restart::Retrace);
+    // Second view on then off in one batch: dropped; off then on: rebuilt.
+    let (_, on) = transition(refining, Change::Views { second: true });
+    let (_, off) = transition(refining, Change::Views { second: false });
+    assert_eq!(on.merge(off).second, Second::Drop);
+    assert_eq!(off.merge(on).second, Second::Rebuild);
+    assert_eq!(
+        transition(refining, Change::Nothing),
+        (refining, Actions::NONE)
+    );
+    // Outcomes.
+    let pending = State {
+        phase: Phase::EditPending,
+        ..refining
+    };
+    assert_eq!(
+        advance(pending, Outcome::EditRefused).0.phase,
+        Phase::Coarse
+    );
+    assert_eq!(
+        advance(pending, Outcome::EditReshaded).0.phase,
+        Phase::EditShown
+    );
+}
+
+/// The engine renders the same film as the progressive renderer driven by hand
+/// (same scene, lighting, shading, camera and seed): it adds no work per
+/// sample. Prints the time of both, per pass.
+#[test]
+fn the_engine_renders_the_same_bits_as_the_renderer_alone_at_the_same_speed() {
+    const PASSES: u32 = 8;
+    let mut engine = engine();
+    apply(
+        &mut engine,
+        Command::Quality(knobs(DEFAULT_WAVELENGTHS, PASSES)),
+    );
+    converge(&mut engine);
+    let mut camera = engine.inputs.camera.clone();
+    camera.set_resolution(SIZE.0, SIZE.1);
+    let mut alone = ProgressiveRender::new(
+        engine.world.scene.clone(),
+        engine.world.environment.clone(),
+        engine.first().shading().clone(),
+        camera,
+        RenderSettings::default(),
+    )
+    .expect("a render");
+    alone.set_path_cache_samples(RESHADE_SAMPLES);
+    for _ in 0..PASSES {
+        alone.render_pass(1);
+    }
+    assert_eq!(
+        engine.first().film().to_display(&Default::default()),
+        alone.film().to_display(&Default::default())
+    );
+    assert_films_equal(engine.first().film(), alone.film());
+    // Speed per sample: the passes' own rate through the engine (as its frames
+    // report it) and alone, interleaved, the coarse passes left out.
+    let (mut through, mut direct) = (Vec::new(), Vec::new());
+    for round in 0..3 {
+        apply(&mut engine, Command::Orbit(1.0 + round as f32, 0.0));
+        through.extend(
+            converge(&mut engine)
+                .iter()
+                .filter(|u| !u.first.coarse)
+                .map(|u| u.first.samples_per_second),
+        );
+        alone.restart();
+        for _ in 0..PASSES {
+            direct.push(alone.render_pass(1).samples_per_second());
+        }
+    }
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let (through, direct) = (median(through), median(direct));
+    println!(
+        "passes at {}×{}: median {:.0} k samples/s through the engine, {:.0} k alone (ratio {:.3})",
+        SIZE.0,
+        SIZE.1,
+        through / 1e3,
+        direct / 1e3,
+        through / direct
+    );
+}
+
+fn assert_films_equal(a: &Film, b: &Film) {
+    assert_eq!((a.width(), a.height()), (b.width(), b.height()));
+    for y in 0..a.height() {
+        for x in 0..a.width() {
+            let (ma, mb) = (a.mean_xyz(x, y), b.mean_xyz(x, y));
+            assert_eq!(
+                [ma.x, ma.y, ma.z].map(f64::to_bits),
+                [mb.x, mb.y, mb.z].map(f64::to_bits),
+                "pixel ({x}, {y})"
+            );
+        }
+    }
+}
+
+/// A back-end that counts what the engine asks of it, around the CPU's.
+struct Counting {
+    cpu: CpuBackend,
+    passes: Arc<AtomicU64>,
+    views: Arc<AtomicU64>,
+}
+
+struct CountingView {
+    render: ProgressiveRender,
+    passes: Arc<AtomicU64>,
+}
+
+impl RenderBackend for Counting {
+    type View = CountingView;
+
+    fn view(&self, setup: ViewSetup) -> Result<CountingView, RenderError> {
+        self.views.fetch_add(1, Ordering::Relaxed);
+        Ok(CountingView {
+            render: self.cpu.view(setup)?,
+            passes: self.passes.clone(),
+        })
+    }
+}
+
+impl BackendView for CountingView {
+    fn set_camera(&mut self, camera: Camera) -> Result<(), RenderError> {
+        BackendView::set_camera(&mut self.render, camera)
+    }
+    fn set_shading(&mut self, shading: Arc<Shading>) -> Result<(), RenderError> {
+        BackendView::set_shading(&mut self.render, shading)
+    }
+    fn set_environment(&mut self, environment: Arc<Environment>) -> Result<(), RenderError> {
+        BackendView::set_environment(&mut self.render, environment)
+    }
+    fn set_scene(
+        &mut self,
+        scene: Arc<RenderScene>,
+        shading: Arc<Shading>,
+    ) -> Result<(), RenderError> {
+        BackendView::set_scene(&mut self.render, scene, shading)
+    }
+    fn set_path_cache_samples(&mut self, samples: u32) {
+        BackendView::set_path_cache_samples(&mut self.render, samples);
+    }
+    fn edit_shading(&mut self, shading: Arc<Shading>) -> Result<EditOutcome, RenderError> {
+        BackendView::edit_shading(&mut self.render, shading)
+    }
+    fn refine_edit(&mut self) -> bool {
+        BackendView::refine_edit(&mut self.render)
+    }
+    fn is_reshaded(&self) -> bool {
+        BackendView::is_reshaded(&self.render)
+    }
+    fn edit_estimate(&self) -> Option<(Reshaded, f64)> {
+        BackendView::edit_estimate(&self.render)
+    }
+    fn render_pass(&mut self, cancel: &AtomicBool) -> Option<PassStats> {
+        self.passes.fetch_add(1, Ordering::Relaxed);
+        BackendView::render_pass(&mut self.render, cancel)
+    }
+    fn reshade_recorded(&self, shading: &Shading) -> Result<Reshaded, ReshadeError> {
+        BackendView::reshade_recorded(&self.render, shading)
+    }
+    fn recorded_samples(&self) -> u32 {
+        BackendView::recorded_samples(&self.render)
+    }
+    fn film(&self) -> &Film {
+        BackendView::film(&self.render)
+    }
+    fn samples_per_pixel(&self) -> u32 {
+        BackendView::samples_per_pixel(&self.render)
+    }
+    fn resolution(&self) -> (u32, u32) {
+        BackendView::resolution(&self.render)
+    }
+    fn shading(&self) -> &Arc<Shading> {
+        BackendView::shading(&self.render)
+    }
+    fn noise_estimate(
+        &self,
+        display: &crate::render::film::DisplaySettings,
+    ) -> Option<crate::render::film::NoiseEstimate> {
+        BackendView::noise_estimate(&self.render, display)
+    }
+}
+
+#[test]
+fn every_render_and_pass_goes_through_the_back_end() {
+    let passes = Arc::new(AtomicU64::new(0));
+    let views = Arc::new(AtomicU64::new(0));
+    let backend = Counting {
+        cpu: CpuBackend::default(),
+        passes: passes.clone(),
+        views: views.clone(),
+    };
+    let mut engine = LiveEngine::new(backend, design(), Arc::new(|| {})).expect("start");
+    let never = AtomicBool::new(false);
+    engine.apply(Command::Size(SIZE.0, SIZE.1), &mut |_| {});
+    engine.apply(Command::Quality(knobs(24, TARGET)), &mut |_| {});
+    while engine.step(&never, &mut |_| {}) != Progress::Idle {}
+    let counters = engine.counters();
+    assert_eq!(passes.load(Ordering::Relaxed), counters.passes);
+    assert_eq!(views.load(Ordering::Relaxed), counters.render_builds);
+    assert_eq!(
+        counters.render_builds, 2,
+        "the first render, then one on 24 λ"
+    );
+}
+
+/// On its thread: images stamped with the last command they show, and a
+/// command that changes nothing shown at once by the images already there.
+#[test]
+fn the_render_thread_stamps_images_with_the_commands_they_show() {
+    let mut thread = EngineThread::spawn(CpuBackend::default(), design(), ThreadHooks::default());
+    thread.send(Command::Size(SIZE.0, SIZE.1));
+    let epoch = thread.send(Command::Quality(knobs(DEFAULT_WAVELENGTHS, TARGET)));
+    let shown = |thread: &EngineThread| {
+        let mailbox = thread.mailbox();
+        mailbox.frames[0]
+            .as_ref()
+            .map(|f| (f.epoch, f.samples_per_pixel, f.coarse))
+    };
+    let wait = |thread: &EngineThread, done: &dyn Fn(Option<(u64, u32, bool)>) -> bool| {
+        let start = Instant::now();
+        while !done(shown(thread)) {
+            assert!(
+                start.elapsed() < Duration::from_secs(60),
+                "{:?}",
+                shown(thread)
+            );
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    };
+    wait(&thread, &|s| s == Some((epoch, TARGET, false)));
+    assert!(thread.mailbox().scene.is_some());
+    let epoch = thread.send(Command::Zoom(1.0));
+    wait(&thread, &|s| s == Some((epoch, TARGET, false)));
+    let epoch = thread.send(Command::Orbit(5.0, 0.0));
+    wait(&thread, &|s| {
+        s.is_some_and(|(e, spp, _)| e == epoch && spp == TARGET)
+    });
+}
+
+fn write_hdr(path: &Path) {
+    let (w, h) = (16usize, 8usize);
+    let mut bytes = format!("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n").into_bytes();
+    for y in 0..h {
+        for x in 0..w {
+            let level = if y < h / 2 { 200u8 } else { 60 };
+            bytes.extend_from_slice(&[level, level, (level as usize * x / w) as u8 + 10, 129]);
+        }
+    }
+    std::fs::write(path, bytes).expect("write .hdr");
+}

@@ -1,0 +1,128 @@
+//! The one or two views the engine renders: the first view's render, and the
+//! second view of a comparison, either re-shaded from the first view's paths
+//! (its shading alone) or rendered apart (a render of its own).
+
+use std::sync::Arc;
+use std::thread::JoinHandle;
+
+use crate::colour::spectrum::WavelengthGrid;
+use crate::design::PaintDesign;
+use crate::render::film::DisplaySettings;
+use crate::render::material::{Shading, ShadingModel};
+use crate::render::reshade::{ReshadeError, Reshaded};
+use crate::scene::SceneMaterial;
+
+use super::ThreadHook;
+use super::backend::BackendView;
+
+/// The views' renders and what the second view is made of.
+pub(super) struct ViewSet<V> {
+    /// The first view's render.
+    pub first: V,
+    /// The second view's render, when it is rendered apart.
+    pub second: Option<V>,
+    /// The second view's shading, when it is re-shaded from the first view's paths.
+    pub shared: Option<Arc<Shading>>,
+    /// The second view's shading being built; `None` inside: the design is invalid.
+    pub job: Option<JoinHandle<Option<Arc<Shading>>>>,
+    /// Why the second view is rendered apart, as the user reads it.
+    pub reason: String,
+    /// Samples per pixel whose paths the first view records.
+    pub cache_samples: u32,
+    /// The display settings of the last published images (what an export writes).
+    pub display: DisplaySettings,
+}
+
+impl<V: BackendView> ViewSet<V> {
+    /// One view, recording `cache_samples` samples per pixel.
+    pub fn new(mut first: V, cache_samples: u32) -> Self {
+        first.set_path_cache_samples(cache_samples);
+        Self {
+            first,
+            second: None,
+            shared: None,
+            job: None,
+            reason: String::new(),
+            cache_samples,
+            display: DisplaySettings::default(),
+        }
+    }
+
+    /// Records `samples` samples per pixel of the first view's paths, if that is
+    /// not what it records (restarts the first view).
+    pub fn record(&mut self, samples: u32) {
+        if samples != self.cache_samples {
+            self.cache_samples = samples;
+            self.first.set_path_cache_samples(samples);
+        }
+    }
+
+    /// No second view.
+    pub fn drop_second(&mut self) {
+        self.second = None;
+        self.shared = None;
+        self.job = None;
+    }
+
+    /// The second view's image for an export.
+    pub fn second_image(&self) -> SecondImage<'_> {
+        match (&self.second, &self.shared) {
+            (Some(render), _) => SecondImage::Film(render.film()),
+            (None, Some(shading)) => SecondImage::Reshaded(self.first.reshade_recorded(shading)),
+            (None, None) => SecondImage::None,
+        }
+    }
+}
+
+/// The second view's image, for an export.
+#[derive(Debug)]
+pub enum SecondImage<'a> {
+    /// There is no second view.
+    None,
+    /// Rendered apart: its film.
+    Film(&'a crate::render::film::Film),
+    /// Re-shaded from the first view's paths: that image (it has no film).
+    Reshaded(Result<Reshaded, ReshadeError>),
+}
+
+/// What the second view's shading is built from.
+pub(super) struct SecondSpec {
+    pub design: PaintDesign,
+    pub model: ShadingModel,
+    pub grid: WavelengthGrid,
+    pub materials: Vec<SceneMaterial>,
+    pub paint_materials: Vec<u32>,
+}
+
+/// Starts building the second view's shading on a thread of its own: a best-fit
+/// Phong takes tens of milliseconds to fit, which then overlaps the first view's
+/// coarse pass instead of delaying the first new image.
+pub(super) fn spawn_second_shading(
+    spec: SecondSpec,
+    on_start: ThreadHook,
+) -> Option<JoinHandle<Option<Arc<Shading>>>> {
+    std::thread::Builder::new()
+        .name("coatlab-preview-shading".into())
+        .spawn(move || {
+            on_start();
+            let paint = spec.design.model(spec.grid).ok()?;
+            Some(Arc::new(Shading::new(
+                &paint,
+                spec.model,
+                &spec.materials,
+                &spec.paint_materials,
+            )))
+        })
+        .ok()
+}
+
+/// Why the second view cannot be re-shaded from the first view's paths, as the
+/// user reads it.
+pub(super) fn independent_reason(e: &ReshadeError) -> String {
+    match e {
+        ReshadeError::DeltaChanged => "an ideal-mirror paint cannot be re-shaded into the other \
+             view (a mirror bounce has no lobe to re-weight)"
+            .to_owned(),
+        other => format!("the first view's paths cannot be re-shaded ({other})"),
+    }
+}
