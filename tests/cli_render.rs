@@ -428,7 +428,10 @@ fn exr_options_and_the_header_record() {
             &["--size", "8x8", "--spp", "1", flag, value],
         );
         let message = failure(&output, exit::USAGE);
-        assert!(message.contains(flag) && message.contains(refusal), "{message}");
+        assert!(
+            message.contains(flag) && message.contains(refusal),
+            "{message}"
+        );
     }
     let output = render_to(
         &out_path("bad-options.exr"),

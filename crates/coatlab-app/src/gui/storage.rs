@@ -81,9 +81,8 @@ impl Storage {
     /// folder (Linux), else its local data folder (macOS, Windows); none, with the
     /// reason, when neither is there.
     fn choose(chosen: Option<PathBuf>, platform: Option<&ProjectDirs>) -> Self {
-        let dir = chosen.or_else(|| {
-            platform.map(|p| p.state_dir().unwrap_or(p.data_local_dir()).to_owned())
-        });
+        let dir = chosen
+            .or_else(|| platform.map(|p| p.state_dir().unwrap_or(p.data_local_dir()).to_owned()));
         match dir {
             Some(dir) => Self::in_dir(dir),
             None => Self {
@@ -273,7 +272,10 @@ mod tests {
         let nowhere = Storage::choose(None, None);
         assert_eq!(nowhere.dir(), None);
         let why = nowhere.unavailable().expect("a reason");
-        assert!(why.contains(STATE_DIR_VAR) && why.contains("autosave"), "{why}");
+        assert!(
+            why.contains(STATE_DIR_VAR) && why.contains("autosave"),
+            "{why}"
+        );
         assert!(nowhere.add_recent(Path::new("/x.toml")).is_ok());
         assert!(Storage::none().unavailable().is_none(), "off by choice");
     }

@@ -98,7 +98,8 @@ mod tests {
     use super::*;
 
     fn scratch(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("coatlab-atomic-{name}-{}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("coatlab-atomic-{name}-{}", std::process::id()));
         let _ = fs::remove_dir_all(&dir);
         fs::create_dir_all(&dir).unwrap();
         dir
@@ -161,6 +162,9 @@ mod tests {
     #[test]
     fn a_path_without_a_file_name_is_refused() {
         let error = write_bytes_atomically(Path::new("/"), b"x").unwrap_err();
-        assert!(error.to_string().contains("does not name a file"), "{error}");
+        assert!(
+            error.to_string().contains("does not name a file"),
+            "{error}"
+        );
     }
 }

@@ -89,7 +89,9 @@ impl ExrCompression {
 /// How an EXR is written.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct ExrOptions {
+    /// 32-bit or 16-bit floats.
     pub precision: ExrPrecision,
+    /// The lossless compression.
     pub compression: ExrCompression,
     /// Text attributes for the header, (name, value). Names are ASCII, 1–31
     /// bytes, and must not be one of OpenEXR's own; values are stored as UTF-8.
@@ -99,11 +101,13 @@ pub struct ExrOptions {
 /// What went wrong writing an EXR; each names the file.
 #[derive(Debug, Error)]
 pub enum ExrWriteError {
+    /// The `exr` crate refused the image.
     #[error("encoding OpenEXR {}: {error}", path.display())]
     Encode {
         path: PathBuf,
         error: exr::error::Error,
     },
+    /// The pixels do not fill the image (a caller's mistake).
     #[error("{}: {pixels} pixels given for a {width}×{height} image", path.display())]
     PixelCount {
         path: PathBuf,
@@ -111,11 +115,13 @@ pub enum ExrWriteError {
         height: usize,
         pixels: usize,
     },
+    /// A header attribute's name OpenEXR cannot store.
     #[error(
         "{}: the header attribute name '{name}' is not 1–31 ASCII characters without NUL",
         path.display()
     )]
     AttributeName { path: PathBuf, name: String },
+    /// The file could not be written.
     #[error(transparent)]
     Write(#[from] WriteError),
 }
@@ -140,7 +146,8 @@ pub fn write_linear_srgb_exr(
     }
     let mut layer_attributes = LayerAttributes::default();
     for (name, value) in &options.attributes {
-        let valid = !name.is_empty() && name.len() <= 31 && name.bytes().all(|b| b.is_ascii() && b != 0);
+        let valid =
+            !name.is_empty() && name.len() <= 31 && name.bytes().all(|b| b.is_ascii() && b != 0);
         if !valid {
             return Err(ExrWriteError::AttributeName {
                 path: path.to_owned(),
@@ -244,4 +251,54 @@ fn canonical_attribute_order(file: &mut [u8]) -> Result<(), &'static str> {
     }
     file[HEADER_START..at].copy_from_slice(&sorted);
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Caller mistakes are refused, naming the file, before anything is written.
+    #[test]
+    fn bad_attribute_names_and_pixel_counts_are_refused_by_name() {
+        let path =
+            std::env::temp_dir().join(format!("coatlab-exr-refused-{}.exr", std::process::id()));
+        let pixels = vec![LinSrgb::new(0.5, 0.25, 0.125); 6];
+        let error =
+            write_linear_srgb_exr(&path, 4, 2, &pixels, &ExrOptions::default()).unwrap_err();
+        assert!(
+            matches!(error, ExrWriteError::PixelCount { pixels: 6, .. }),
+            "{error}"
+        );
+        for name in [
+            "",
+            "a name far longer than thirty-one bytes",
+            "nul\0inside",
+            "é",
+        ] {
+            let options = ExrOptions {
+                attributes: vec![(name.to_owned(), "value".to_owned())],
+                ..ExrOptions::default()
+            };
+            let error = write_linear_srgb_exr(&path, 3, 2, &pixels, &options).unwrap_err();
+            assert!(
+                matches!(error, ExrWriteError::AttributeName { .. }),
+                "{name:?}"
+            );
+            assert!(error.to_string().contains("coatlab-exr-refused"), "{error}");
+        }
+        assert!(!path.exists());
+    }
+
+    #[test]
+    fn compressions_are_named_as_on_the_command_line() {
+        for compression in ExrCompression::ALL {
+            assert_eq!(
+                ExrCompression::from_name(compression.name()),
+                Some(compression)
+            );
+        }
+        assert_eq!(ExrCompression::from_name("dwaa"), None);
+        assert_eq!(ExrCompression::default(), ExrCompression::Zip);
+        assert_eq!(ExrPrecision::default(), ExrPrecision::Float);
+    }
 }

@@ -10,11 +10,13 @@ use super::atomic::{WriteError, write_bytes_atomically};
 /// What went wrong writing a PNG; each names the file.
 #[derive(Debug, Error)]
 pub enum PngWriteError {
+    /// The encoder refused the image.
     #[error("encoding PNG {}: {error}", path.display())]
     Encode {
         path: PathBuf,
         error: png::EncodingError,
     },
+    /// The pixels do not fill the image (a caller's mistake).
     #[error("{}: {pixels} pixels given for a {width}×{height} image", path.display())]
     PixelCount {
         path: PathBuf,
@@ -22,6 +24,7 @@ pub enum PngWriteError {
         height: u32,
         pixels: usize,
     },
+    /// The file could not be written.
     #[error(transparent)]
     Write(#[from] WriteError),
 }

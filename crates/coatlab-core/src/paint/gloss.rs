@@ -265,8 +265,8 @@ impl Glossmeter {
             for yw in ys.windows(2) {
                 rule.for_each_node(xw[0], xw[1], |x, wx| {
                     rule.for_each_node(yw[0], yw[1], |y, wy| {
-                        let v = self.axis
-                            + (self.across_in_plane * x + self.across_perpendicular * y);
+                        let v =
+                            self.axis + (self.across_in_plane * x + self.across_perpendicular * y);
                         let len2 = v.length_squared();
                         let wo = v * (1.0 / len2.sqrt());
                         // Solid angle of a focal-plane element: dx dy / (1 + x² + y²)^{3/2}.

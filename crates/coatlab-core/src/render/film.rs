@@ -76,10 +76,13 @@ const ENCODE_LUT_LEN: usize = 1 << 16;
 /// What went wrong writing an image; each names the file.
 #[derive(Debug, Error)]
 pub enum FilmError {
+    /// Writing the PNG failed.
     #[error(transparent)]
     Png(#[from] PngWriteError),
+    /// Writing the EXR failed.
     #[error(transparent)]
     Exr(#[from] ExrWriteError),
+    /// A film without pixels has no image to write.
     #[error("{}: cannot write a {width}×{height} image (needs at least 1×1)", path.display())]
     EmptyImage {
         path: PathBuf,
@@ -141,8 +144,11 @@ pub struct RenderRecord {
 /// goes in the header.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct ExrOutput {
+    /// 32-bit (the default: the values exactly) or 16-bit floats.
     pub precision: ExrPrecision,
+    /// The lossless compression (ZIP unless chosen).
     pub compression: ExrCompression,
+    /// What made the image, for the header.
     pub record: RenderRecord,
 }
 
@@ -985,10 +991,10 @@ fn tone_map(rgb: [f32; 3], tone_mapping: ToneMapping) -> [f32; 3] {
     }
 }
 
-/// CIELAB of the displayed colour of `xyz` (display white L* = 100).
-/// The displayable pixels (RGBA8, sRGB-encoded) of mean XYZ values (white at
-/// Y = 1), as [`Film::to_display`] shows a film's means: for images that are
-/// estimates but not films (a re-shaded image, `render::reshade`).
+/// The displayable pixels (RGBA8, sRGB-encoded, as GPU textures take them) of
+/// mean XYZ values (white at Y = 1), as [`Film::to_display`] shows a film's
+/// means: for images that are estimates but not films (a re-shaded image,
+/// `render::reshade`).
 pub fn display_xyz(xyz: &[[f32; 3]], settings: &DisplaySettings) -> Vec<[u8; 4]> {
     use rayon::prelude::*;
     let m = display_matrix(settings.adapt_white, settings.exposure_stops);
