@@ -658,6 +658,42 @@ fn half_exr_is_within_half_precision() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A re-shaded image (mean XYZ, no film) exported as shown: the PNG holds
+/// `display_xyz` of the values.
+#[test]
+fn xyz_png_holds_the_displayed_colours() {
+    use coatlab_core::render::film::{display_xyz, write_xyz_png};
+    let (width, height) = (7u32, 3u32);
+    let xyz: Vec<[f32; 3]> = (0..width * height)
+        .map(|i| {
+            let v = i as f32 / 10.0;
+            [0.9 * v, v, 1.1 * v]
+        })
+        .collect();
+    let settings = DisplaySettings::default();
+    let dir = scratch_dir("xyz-png");
+    let path = dir.join("second.png");
+    write_xyz_png(&path, width, height, &xyz, &settings).unwrap();
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buffer = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buffer).unwrap();
+    assert_eq!((info.width, info.height), (width, height));
+    let expected: Vec<u8> = display_xyz(&xyz, &settings)
+        .into_iter()
+        .flat_map(|[r, g, b, _]| [r, g, b])
+        .collect();
+    assert_eq!(&buffer[..info.buffer_size()], &expected[..]);
+    assert_eq!(
+        std::fs::read_dir(&dir).unwrap().count(),
+        1,
+        "no temporary left"
+    );
+    let short = write_xyz_png(&path, width, height + 1, &xyz, &settings).unwrap_err();
+    assert!(short.to_string().contains("second.png"), "{short}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn writing_to_a_missing_folder_names_the_file() {
     let film = Film::new(2, 2, WavelengthGrid::visible(4).unwrap());

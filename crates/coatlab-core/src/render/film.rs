@@ -996,6 +996,11 @@ fn tone_map(rgb: [f32; 3], tone_mapping: ToneMapping) -> [f32; 3] {
 /// means: for images that are estimates but not films (a re-shaded image,
 /// `render::reshade`).
 pub fn display_xyz(xyz: &[[f32; 3]], settings: &DisplaySettings) -> Vec<[u8; 4]> {
+    palette::cast::into_array_vec(display_xyz_srgba(xyz, settings))
+}
+
+/// [`display_xyz`] as `Srgba<u8>`.
+pub fn display_xyz_srgba(xyz: &[[f32; 3]], settings: &DisplaySettings) -> Vec<Srgba<u8>> {
     use rayon::prelude::*;
     let m = display_matrix(settings.adapt_white, settings.exposure_stops);
     let lut = encode_lut();
@@ -1003,9 +1008,35 @@ pub fn display_xyz(xyz: &[[f32; 3]], settings: &DisplaySettings) -> Vec<[u8; 4]>
         .map(|&v| {
             let rgb = tone_map(mul(&m, v), settings.tone_mapping);
             let [r, g, b] = rgb.map(|c| encode(lut, c));
-            [r, g, b, 255]
+            Srgba::new(r, g, b, 255)
         })
         .collect()
+}
+
+/// Writes mean XYZ values (`width` × `height`, row-major from the top-left) as
+/// [`display_xyz`] shows them, as an 8-bit sRGB PNG, atomically: the export of
+/// an image that is not a film (a re-shaded view), as [`Film::write_png`] writes
+/// a film's.
+pub fn write_xyz_png(
+    path: &Path,
+    width: u32,
+    height: u32,
+    xyz: &[[f32; 3]],
+    settings: &DisplaySettings,
+) -> Result<(), FilmError> {
+    if width == 0 || height == 0 {
+        return Err(FilmError::EmptyImage {
+            path: path.to_owned(),
+            width,
+            height,
+        });
+    }
+    let rgb: Vec<Srgb<u8>> = display_xyz_srgba(xyz, settings)
+        .into_iter()
+        .map(|p| p.color)
+        .collect();
+    write_srgb8_png(path, width, height, &rgb)?;
+    Ok(())
 }
 
 /// CIELAB of the colour a mean XYZ is displayed in with `settings`, as
