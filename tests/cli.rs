@@ -9,6 +9,7 @@ mod common;
 
 use coatlab_core::paint::coat::body_albedo;
 use coatlab_core::paint::fresnel::reflectance;
+use coatlab_core::paint::parameters::{ALBEDO, GLOSS, OPTICAL_DEPTH, Parameter, REFRACTIVE_INDEX};
 use common::{coatlab, exit, failure, parse_rows, stdout};
 
 const BRDF_HEADER: &str = "n,rho,kh,theta_i_deg,theta_o_deg,dphi_deg";
@@ -315,6 +316,43 @@ fn brdf_reports_bad_rows_with_row_and_column() {
     assert!(message.contains("\"albedo\""), "{message}");
 }
 
+/// The model's columns are checked against the paint parameter table: accepted
+/// exactly at the ends of each range, refused just beyond, with the table's name
+/// for the parameter and its range in the message.
+#[test]
+fn brdf_refuses_exactly_outside_the_parameter_table_and_names_it() {
+    type Row = fn(f64) -> [f64; 3];
+    let cases: [(&Parameter, &str, Row); 3] = [
+        (&REFRACTIVE_INDEX, "n", |v| [v, 0.5, 0.01]),
+        (&ALBEDO, "rho", |v| [1.5, v, 0.01]),
+        (&OPTICAL_DEPTH, "kh", |v| [1.5, 0.5, v]),
+    ];
+    for (parameter, column, row) in cases {
+        let range = parameter.range;
+        let mut values = vec![(range.min, true), (range.min.next_down(), false)];
+        if range.max.is_finite() {
+            values.extend([(range.max, true), (range.max.next_up(), false)]);
+        }
+        for (value, inside) in values {
+            let [n, rho, kh] = row(value);
+            let input = format!("{BRDF_HEADER}\n{n},{rho},{kh},30,30,180\n");
+            let output = coatlab(&["brdf"], &input);
+            if inside {
+                stdout(&output);
+                continue;
+            }
+            let message = failure(&output, exit::DATA);
+            for part in [
+                format!("column \"{column}\": {value} "),
+                parameter.label(),
+                parameter.range_text(),
+            ] {
+                assert!(message.contains(&part), "{column} = {value}: {message}");
+            }
+        }
+    }
+}
+
 #[test]
 fn brdf_sweeps_ten_thousand_rows() {
     let mut input = format!("{BRDF_HEADER},id\n");
@@ -454,6 +492,18 @@ fn gloss_reports_invalid_arguments() {
         assert!(
             message.contains("lobe exponent") && message.contains("non-negative"),
             "--m {m}: {message}"
+        );
+    }
+    // The index and the reading are checked against the paint parameter table,
+    // whose words for them the message uses.
+    for (args, parameter) in [
+        (["--n", "0.9", "--gu", "50"], &REFRACTIVE_INDEX),
+        (["--n", "1.5", "--gu", "-3"], &GLOSS),
+    ] {
+        let message = gloss_failure(&args);
+        assert!(
+            message.contains(&parameter.label()) && message.contains(&parameter.range_text()),
+            "{args:?}: {message}"
         );
     }
     // Below what the broadest lobe (m = 0) reads: the message gives that minimum.

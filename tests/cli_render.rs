@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use coatlab_core::colour::spectrum::WavelengthGrid;
+use coatlab_core::colour::spectrum::{MAX_VISIBLE_SAMPLES, WavelengthGrid};
 use coatlab_core::design::presets;
 use coatlab_core::render::environment::Environment;
 use coatlab_core::render::film::Film;
@@ -74,6 +74,38 @@ fn render_to(out: &PathBuf, extra: &[&str]) -> std::process::Output {
         .arg(out)
         .output()
         .expect("coatlab runs")
+}
+
+/// `--wavelengths` takes exactly the counts a visible grid can have, and its help
+/// and its refusal state that range from the grid's limits.
+#[test]
+fn the_wavelength_count_is_checked_against_the_grid_s_limits() {
+    let range = format!("1–{MAX_VISIBLE_SAMPLES}");
+    let help = stdout(&common::coatlab(&["render", "--help"], ""));
+    assert!(help.contains(&range), "{help}");
+    let out = out_path("wavelengths-limit.png");
+    let fine = ["--size", "4x3", "--spp", "1", "--wavelengths"];
+    for (count, accepted) in [
+        (1, true),
+        (0, false),
+        (MAX_VISIBLE_SAMPLES, true),
+        (MAX_VISIBLE_SAMPLES + 1, false),
+    ] {
+        let count_text = count.to_string();
+        let mut args = fine.to_vec();
+        args.push(&count_text);
+        let output = render_to(&out, &args);
+        if accepted {
+            stdout(&output);
+        } else {
+            let message = failure(&output, exit::USAGE);
+            assert!(
+                message.contains(&format!("--wavelengths {count}"))
+                    && message.contains(&format!("1 to {MAX_VISIBLE_SAMPLES}")),
+                "{message}"
+            );
+        }
+    }
 }
 
 #[test]

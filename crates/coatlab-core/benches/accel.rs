@@ -713,8 +713,9 @@ fn queries(mesh: &TriangleMesh, which: &str) -> Vec<RayQuery> {
 /// bounces through `closest_hits` in chunks of 4096 on this thread, 15 times each
 /// in turn; M rays per second of this thread's CPU time and of wall-clock time, each
 /// the best of the 15. (The thread's CPU time, read from `/proc`, advances by
-/// scheduler ticks, so runs of well over 100 ms are needed; this VM's other tenants
-/// slow single runs by up to 30 %, which the best of many filters out.)
+/// scheduler ticks, so runs of well over 100 ms are needed; other processes on a
+/// shared machine slow single runs by tens of per cent, which the best of many
+/// filters out.)
 fn cpu_rates() {
     for (name, mesh) in meshes() {
         let accel = Accel::build_with(

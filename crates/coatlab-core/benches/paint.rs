@@ -54,7 +54,7 @@ fn red_albedo(wavelengths_nm: &[f64], edge_nm: f64) -> Vec<f64> {
 fn realistic_params(grid: WavelengthGrid) -> PaintParams {
     let wl: Vec<f64> = grid.wavelengths_nm().collect();
     PaintParams {
-        grid,
+        channels: grid.into(),
         albedo: red_albedo(&wl, 600.0),
         refractive_index: wl.iter().map(|&l| cauchy_index(1.492, l)).collect(),
         index_at_gloss_wavelength: cauchy_index(1.492, 587.6),
@@ -376,7 +376,7 @@ mod variants {
 
     impl Tables {
         pub fn new(model: &PaintModel) -> Self {
-            let len = model.grid().len();
+            let len = model.channels().len();
             let stride = len.div_ceil(LANES) * LANES;
             let (n, tau) = (model.refractive_index(), model.optical_depth());
             let mut through = vec![0.0; stride * (MU_INTERVALS + 1)];

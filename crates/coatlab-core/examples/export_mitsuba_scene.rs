@@ -267,7 +267,7 @@ fn direction(u: f64, v: f64) -> [f32; 3] {
 /// Linear sRGB (D65 white, Y = 1 → (1, 1, 1), as Coatlab's EXR output) of the
 /// environment's mean radiance over each texel.
 fn bake(env: &Environment, film: &Film) -> Vec<[f32; 3]> {
-    let mut radiance = vec![0.0f32; env.grid().len()];
+    let mut radiance = vec![0.0f32; env.channels().len()];
     let white = srgb_white();
     let mut pixels = Vec::with_capacity(MAP_WIDTH * MAP_HEIGHT);
     for row in 0..MAP_HEIGHT {
@@ -299,7 +299,7 @@ fn bake(env: &Environment, film: &Film) -> Vec<[f32; 3]> {
 /// luminance of the texel's RGB: the median over the upper hemisphere's texels
 /// brighter than a tenth of the mean (up-sampling keeps luminance, so all agree).
 fn normalisation_factor(env: &Environment, film: &Film, pixels: &[[f32; 3]]) -> f64 {
-    let mut radiance = vec![0.0f32; env.grid().len()];
+    let mut radiance = vec![0.0f32; env.channels().len()];
     let luminance = |p: &[f32; 3]| {
         0.212_639 * f64::from(p[0]) + 0.715_169 * f64::from(p[1]) + 0.072_192 * f64::from(p[2])
     };

@@ -179,7 +179,8 @@ mod preview {
                     let pos = u0 * pa + u1 * pb + u2 * pc;
                     let v = (eye - pos).normalize();
                     let diffuse = 0.2 + 0.8 * n.dot(light).max(0.0);
-                    let mut c = material.base_color.map(|b| b * diffuse);
+                    let base = material.base_color;
+                    let mut c = [base.red, base.green, base.blue].map(|b| b * diffuse);
                     if material.metallic < 0.5 && material.roughness < 0.3 {
                         // Mirror reflection of a sky with a bright band near the horizon.
                         let r = 2.0 * n.dot(v) * n - v;

@@ -195,9 +195,9 @@ pub enum ReferenceSplits {
     /// references (SBVH-style, on `threads` threads, the same result for any
     /// count); its partition is kept as the top of the tree. The default: on the
     /// Lamborghini ×1.13–1.30 the rays per second, at about 1.7 times the
-    /// build's time (session 7: 122–150 against 63–88 ms on one thread, 97–101
-    /// against 58–60 on two, within the 150 ms target; docs/benchmarks.md); no
-    /// loss on the default car or the torus. Real car models are Lamborghini-like
+    /// build's time, still within the 150 ms build target on two threads
+    /// (docs/benchmarks.md, "Spatial splits"); no loss on the default car or the
+    /// torus. Real car models are Lamborghini-like
     /// (long, thin, overlapping triangles), and a preview traces one tree for
     /// seconds to minutes.
     Spatial,

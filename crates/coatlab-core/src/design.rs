@@ -1,17 +1,20 @@
 //! Paint design files: one gloss solid paint (spec section 1) as a versioned,
 //! human-readable TOML document.
 //!
-//! | field | unit | range | file key |
-//! | --- | --- | --- | --- |
-//! | name | — | not blank | `name` |
-//! | description | — | optional | `description` |
-//! | pigment diffuse albedo ρ(λ) | — | [0, 1] | `pigment.albedo` (table) |
-//! | clear coat refractive index n(λ) | — | ≥ 1 over 380–780 nm | `clear_coat.refractive_index` (`cauchy` or `table`) |
-//! | clear coat absorption k(λ) | 1/µm | ≥ 0 | `clear_coat.absorption_per_um` (`constant` or `table`) |
-//! | clear coat thickness h | µm | ≥ 0 | `clear_coat.thickness_um` |
-//! | gloss g | GU | [reading of m = 0, ∞) | `gloss.gu` |
-//! | glossmeter geometry | degrees | 20, 60, 85 | `gloss.geometry_deg` |
-//! | specular lobe | — | `normalised`, `paper` | `gloss.lobe` |
+//! Units and ranges are those of the paint model's parameter table
+//! ([`crate::paint::parameters`]); validation reads them from there.
+//!
+//! | field | parameter | file key |
+//! | --- | --- | --- |
+//! | name | not blank | `name` |
+//! | description | optional | `description` |
+//! | pigment diffuse albedo ρ(λ) | [`ALBEDO`] | `pigment.albedo` (table) |
+//! | clear coat refractive index n(λ) | [`REFRACTIVE_INDEX`] over [`VISIBLE`]; [`CAUCHY_A`], [`CAUCHY_B`] | `clear_coat.refractive_index` (`cauchy` or `table`) |
+//! | clear coat absorption k(λ) | [`ABSORPTION`] | `clear_coat.absorption_per_um` (`constant` or `table`) |
+//! | clear coat thickness h | [`THICKNESS`] | `clear_coat.thickness_um` |
+//! | gloss g | [`GLOSS`], at least the reading of m = 0 | `gloss.gu` |
+//! | glossmeter geometry | 20°, 60°, 85° ([`GlossGeometry`]) | `gloss.geometry_deg` |
+//! | specular lobe | `normalised`, `paper` ([`LobeKind`]) | `gloss.lobe` |
 //!
 //! Tables are `{ wavelength_nm = [...], value = [...] }` with strictly increasing
 //! wavelengths covering at least 400–700 nm; between samples a table is linear, beyond
@@ -53,21 +56,22 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 use thiserror::Error;
 
-use crate::colour::spectrum::{SampledSpectrum, TabulatedSpectrum, WavelengthGrid};
+use crate::colour::spectrum::{SampledSpectrum, TabulatedSpectrum, VISIBLE, WavelengthGrid};
 use crate::io::atomic::write_bytes_atomically;
 use crate::paint::gloss::{
     GLOSS_WAVELENGTH_NM, GlossError, GlossExponent, GlossGeometry, exponent_from_reading,
+    reading_from_exponent,
 };
 use crate::paint::lobe::LobeKind;
 use crate::paint::model::{GlossSetting, PaintModel, PaintParams};
+use crate::paint::parameters::{
+    ABSORPTION, ALBEDO, CAUCHY_A, CAUCHY_B, GLOSS, Parameter, REFRACTIVE_INDEX, THICKNESS,
+};
 
 /// The `format` key every design file starts with.
 pub const FORMAT_NAME: &str = "coatlab-paint-design";
 /// The file format version this Coatlab writes (and the newest it reads).
 pub const FORMAT_VERSION: i64 = 1;
-/// The range over which a Cauchy refractive index must be ≥ 1: the visible range
-/// every renderer grid lies in (spec section 6).
-pub const INDEX_CHECK_RANGE_NM: (f64, f64) = (380.0, 780.0);
 /// Every tabulated spectrum must cover at least this range, where colour is decided;
 /// beyond its ends a table is held constant.
 pub const REQUIRED_COVERAGE_NM: (f64, f64) = (400.0, 700.0);
@@ -105,6 +109,11 @@ pub enum DesignError {
     /// (`pigment.albedo.value[12]`), `message` the whole sentence, field included.
     #[error("{message}")]
     Invalid { field: String, message: String },
+    /// A model on linear-sRGB channels was to be updated from the design's
+    /// spectra, which need wavelengths (an RGB model is built by
+    /// [`crate::render::rgb::paint_model`]).
+    #[error("{name}: a design's spectra need a wavelength grid, not linear-sRGB channels")]
+    NotSpectral { name: String },
     /// The gloss reading cannot be turned into a lobe exponent.
     #[error("gloss.gu = {gu}: {error}")]
     Gloss { gu: f64, error: GlossError },
@@ -199,6 +208,41 @@ impl RefractiveIndex {
     }
 }
 
+impl RefractiveIndex {
+    /// The Cauchy index A + B/λ² (λ in µm) nearest a table in the least-squares
+    /// sense: linear regression of n on 1/λ² over the table's samples in
+    /// [`VISIBLE`]. With fewer than two samples there, the constant
+    /// n(587.6 nm) (at least 1).
+    pub fn cauchy_fit(table: &TabulatedSpectrum) -> RefractiveIndex {
+        let samples: Vec<(f64, f64)> = table
+            .wavelengths_nm()
+            .iter()
+            .zip(table.values())
+            .filter(|(l, _)| VISIBLE.contains(**l))
+            .map(|(&l, &n)| (1.0 / (l * 1e-3).powi(2), n))
+            .collect();
+        if samples.len() < 2 {
+            return RefractiveIndex::Cauchy {
+                a: table.value_at_nm(GLOSS_WAVELENGTH_NM).max(1.0),
+                b_um2: 0.0,
+            };
+        }
+        let count = samples.len() as f64;
+        let mean_x = samples.iter().map(|s| s.0).sum::<f64>() / count;
+        let mean_y = samples.iter().map(|s| s.1).sum::<f64>() / count;
+        let sxx: f64 = samples.iter().map(|s| (s.0 - mean_x).powi(2)).sum();
+        let sxy: f64 = samples
+            .iter()
+            .map(|s| (s.0 - mean_x) * (s.1 - mean_y))
+            .sum();
+        let b_um2 = if sxx > 0.0 { sxy / sxx } else { 0.0 };
+        RefractiveIndex::Cauchy {
+            a: mean_y - b_um2 * mean_x,
+            b_um2,
+        }
+    }
+}
+
 /// Clear coat absorption coefficient k(λ), 1/µm.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Absorption {
@@ -233,6 +277,18 @@ pub struct Gloss {
     pub gu: f64,
     /// ISO 2813 geometry.
     pub geometry: GlossGeometry,
+}
+
+impl Gloss {
+    /// The reading at geometry `to` of the lobe this reading gives on a coat of
+    /// index `n` (at 587.6 nm): the same paint, read by another glossmeter. A
+    /// reading no lobe gives (or an invalid n) is kept as it is, at `to`.
+    pub fn at_geometry(self, to: GlossGeometry, n: f64) -> Gloss {
+        let gu = exponent_from_reading(self.geometry, n, self.gu)
+            .and_then(|m| reading_from_exponent(to, n, m))
+            .unwrap_or(self.gu);
+        Gloss { gu, geometry: to }
+    }
 }
 
 /// One gloss solid paint: the parameters of spec section 1 plus gloss and lobe.
@@ -310,7 +366,7 @@ impl PaintDesign {
             "pigment.albedo",
             self.albedo.wavelengths_nm(),
             self.albedo.values(),
-            UNIT_RANGE,
+            &ALBEDO,
         )?;
         match &self.refractive_index {
             RefractiveIndex::Cauchy { a, b_um2 } => check_cauchy(*a, *b_um2)?,
@@ -318,43 +374,22 @@ impl PaintDesign {
                 "clear_coat.refractive_index.table",
                 table.wavelengths_nm(),
                 table.values(),
-                INDEX_RANGE,
+                &REFRACTIVE_INDEX,
             )?,
         }
         match &self.absorption_per_um {
             Absorption::Constant(k) => {
-                let field = "clear_coat.absorption_per_um.constant";
-                check_finite(field, *k)?;
-                if *k < 0.0 {
-                    return Err(invalid(
-                        field,
-                        format!("{field} = {k} is negative (k is in 1/µm, ≥ 0)"),
-                    ));
-                }
+                check_value("clear_coat.absorption_per_um.constant", *k, &ABSORPTION)?;
             }
             Absorption::Table(table) => check_table(
                 "clear_coat.absorption_per_um.table",
                 table.wavelengths_nm(),
                 table.values(),
-                NON_NEGATIVE_RANGE,
+                &ABSORPTION,
             )?,
         }
-        let field = "clear_coat.thickness_um";
-        check_finite(field, self.thickness_um)?;
-        if self.thickness_um < 0.0 {
-            return Err(invalid(
-                field,
-                format!("{field} = {} is negative", self.thickness_um),
-            ));
-        }
-        let field = "gloss.gu";
-        check_finite(field, self.gloss.gu)?;
-        if self.gloss.gu < 0.0 {
-            return Err(invalid(
-                field,
-                format!("{field} = {} is negative", self.gloss.gu),
-            ));
-        }
+        check_value("clear_coat.thickness_um", self.thickness_um, &THICKNESS)?;
+        check_value("gloss.gu", self.gloss.gu, &GLOSS)?;
         self.exponent().map(|_| ())
     }
 
@@ -382,7 +417,7 @@ impl PaintDesign {
     pub fn model(&self, grid: WavelengthGrid) -> Result<PaintModel, DesignError> {
         self.validate()?;
         let params = PaintParams {
-            grid,
+            channels: grid.into(),
             albedo: self.albedo_on(&grid).into_values(),
             refractive_index: self.refractive_index_on(&grid).into_values(),
             index_at_gloss_wavelength: self.refractive_index_at_nm(GLOSS_WAVELENGTH_NM),
@@ -411,7 +446,11 @@ impl PaintDesign {
         model: &mut PaintModel,
     ) -> Result<(), DesignError> {
         self.validate()?;
-        let grid = *model.grid();
+        let Some(&grid) = model.channels().grid() else {
+            return Err(DesignError::NotSpectral {
+                name: self.name.clone(),
+            });
+        };
         let mut apply = || -> Result<(), crate::paint::model::ParamError> {
             if self.albedo != previous.albedo {
                 model.set_albedo(self.albedo_on(&grid).into_values())?;
@@ -460,35 +499,21 @@ impl PaintDesign {
 // ---------------------------------------------------------------------------------
 // Checks
 
-/// The allowed values of a tabulated quantity, for messages.
-#[derive(Clone, Copy)]
-struct Range {
-    min: f64,
-    max: f64,
-    /// How a value below `min` is described.
-    below: &'static str,
-    /// How a value above `max` is described.
-    above: &'static str,
+/// `field = value` against its parameter's range; the message names the field, the
+/// value, the parameter and its range.
+fn check_value(field: &str, value: f64, parameter: &'static Parameter) -> Result<(), DesignError> {
+    match parameter.range.violation(value) {
+        None => Ok(()),
+        Some(violation) => Err(invalid(
+            field,
+            format!(
+                "{field} = {value} {violation}: {} must lie in {}",
+                parameter.label(),
+                parameter.range_text()
+            ),
+        )),
+    }
 }
-
-const UNIT_RANGE: Range = Range {
-    min: 0.0,
-    max: 1.0,
-    below: "is outside [0, 1]",
-    above: "is outside [0, 1]",
-};
-const INDEX_RANGE: Range = Range {
-    min: 1.0,
-    max: f64::INFINITY,
-    below: "is below 1",
-    above: "",
-};
-const NON_NEGATIVE_RANGE: Range = Range {
-    min: 0.0,
-    max: f64::INFINITY,
-    below: "is negative",
-    above: "",
-};
 
 fn check_finite(field: &str, value: f64) -> Result<(), DesignError> {
     if value.is_finite() {
@@ -506,7 +531,7 @@ fn check_table(
     field: &str,
     wavelengths_nm: &[f64],
     values: &[f64],
-    range: Range,
+    parameter: &'static Parameter,
 ) -> Result<(), DesignError> {
     if values.len() != wavelengths_nm.len() {
         return Err(invalid(
@@ -558,39 +583,42 @@ fn check_table(
         ));
     }
     for (index, (&value, &wavelength_nm)) in values.iter().zip(wavelengths_nm).enumerate() {
-        let element = format!("{field}.value[{index}]");
-        let problem = if !value.is_finite() {
-            "is not a finite number"
-        } else if value < range.min {
-            range.below
-        } else if value > range.max {
-            range.above
-        } else {
+        let Some(violation) = parameter.range.violation(value) else {
             continue;
         };
+        let element = format!("{field}.value[{index}]");
         return Err(invalid(
             element.clone(),
-            format!("{element} = {value} at {wavelength_nm} nm {problem}"),
+            format!(
+                "{element} = {value} at {wavelength_nm} nm {violation}: {} must lie in {}",
+                parameter.label(),
+                parameter.range_text()
+            ),
         ));
     }
     Ok(())
 }
 
-/// Finite coefficients and n ≥ 1 over the visible range. n(λ) is monotonic in λ, so
-/// its minimum over the range is at one end: 780 nm for normal dispersion (b > 0),
-/// 380 nm otherwise.
+/// Coefficients in their ranges and n(λ) in [`REFRACTIVE_INDEX`]'s range over the
+/// visible range. n(λ) is monotonic in λ, so its minimum over the range is at one
+/// end: 780 nm for normal dispersion (b > 0), 380 nm otherwise.
 fn check_cauchy(a: f64, b_um2: f64) -> Result<(), DesignError> {
-    check_finite("clear_coat.refractive_index.cauchy.a", a)?;
-    check_finite("clear_coat.refractive_index.cauchy.b_um2", b_um2)?;
+    check_value("clear_coat.refractive_index.cauchy.a", a, &CAUCHY_A)?;
+    check_value("clear_coat.refractive_index.cauchy.b_um2", b_um2, &CAUCHY_B)?;
     let index = RefractiveIndex::Cauchy { a, b_um2 };
-    let (lo_nm, hi_nm) = INDEX_CHECK_RANGE_NM;
-    let at_nm = if b_um2 >= 0.0 { hi_nm } else { lo_nm };
+    let at_nm = if b_um2 >= 0.0 {
+        VISIBLE.end_nm
+    } else {
+        VISIBLE.start_nm
+    };
     let n = index.at_nm(at_nm);
-    if n < 1.0 {
+    if let Some(violation) = REFRACTIVE_INDEX.range.violation(n) {
         return Err(invalid(
             "clear_coat.refractive_index",
             format!(
-                "clear_coat.refractive_index: Cauchy n({at_nm} nm) = {n:.4} is below 1 (a = {a}, b_um2 = {b_um2}); n must be ≥ 1 over {lo_nm}–{hi_nm} nm"
+                "clear_coat.refractive_index: Cauchy n({at_nm} nm) = {n:.4} {violation} (a = {a}, b_um2 = {b_um2}); {} must lie in {} over {VISIBLE}",
+                REFRACTIVE_INDEX.label(),
+                REFRACTIVE_INDEX.range_text()
             ),
         ));
     }
@@ -676,8 +704,12 @@ struct TableFile {
 
 impl TableFile {
     /// Checks with field names, then builds the spectrum (whose own checks then pass).
-    fn into_spectrum(self, field: &str, range: Range) -> Result<TabulatedSpectrum, DesignError> {
-        check_table(field, &self.wavelength_nm, &self.value, range)?;
+    fn into_spectrum(
+        self,
+        field: &str,
+        parameter: &'static Parameter,
+    ) -> Result<TabulatedSpectrum, DesignError> {
+        check_table(field, &self.wavelength_nm, &self.value, parameter)?;
         TabulatedSpectrum::new(self.wavelength_nm, self.value)
             .map_err(|error| invalid(field, format!("{field}: {error}")))
     }
@@ -722,13 +754,13 @@ fn parse_design(text: &str) -> Result<PaintDesign, DesignError> {
     let refractive_index = match file.clear_coat.refractive_index {
         IndexFile::Cauchy(CauchyFile { a, b_um2 }) => RefractiveIndex::Cauchy { a, b_um2 },
         IndexFile::Table(table) => RefractiveIndex::Table(
-            table.into_spectrum("clear_coat.refractive_index.table", INDEX_RANGE)?,
+            table.into_spectrum("clear_coat.refractive_index.table", &REFRACTIVE_INDEX)?,
         ),
     };
     let absorption_per_um = match file.clear_coat.absorption_per_um {
         AbsorptionFile::Constant(k) => Absorption::Constant(k),
         AbsorptionFile::Table(table) => Absorption::Table(
-            table.into_spectrum("clear_coat.absorption_per_um.table", NON_NEGATIVE_RANGE)?,
+            table.into_spectrum("clear_coat.absorption_per_um.table", &ABSORPTION)?,
         ),
     };
     let design = PaintDesign {
@@ -737,7 +769,7 @@ fn parse_design(text: &str) -> Result<PaintDesign, DesignError> {
         albedo: file
             .pigment
             .albedo
-            .into_spectrum("pigment.albedo", UNIT_RANGE)?,
+            .into_spectrum("pigment.albedo", &ALBEDO)?,
         refractive_index,
         absorption_per_um,
         thickness_um: file.clear_coat.thickness_um,
@@ -907,6 +939,7 @@ pub mod presets {
     use crate::colour::spectrum::{TabulatedSpectrum, WavelengthGrid};
     use crate::paint::gloss::GlossGeometry;
     use crate::paint::lobe::LobeKind;
+    use crate::paint::parameters;
 
     /// A preset: its file stem and its design.
     #[derive(Debug, Clone, PartialEq)]
@@ -1012,12 +1045,10 @@ pub mod presets {
         }
     }
 
-    /// Cauchy coefficients of the presets' clear coat: n(587.6 nm) = 1.528, inside the
-    /// 1.50–1.53 of automotive 2K polyurethane and acrylic-melamine clears. A coat of
-    /// n = 1.50 reads only 82 GU at 20° even as a perfect mirror; this one reads ~88.6,
-    /// which leaves room for the 85–89 GU of a good automotive finish with a finite m.
-    const CAUCHY_A: f64 = 1.515;
-    const CAUCHY_B_UM2: f64 = 0.0045;
+    /// Cauchy coefficients of the presets' clear coat: the parameter table's
+    /// defaults (n(587.6 nm) = 1.528; see there why).
+    const CAUCHY_A: f64 = parameters::CAUCHY_A.default;
+    const CAUCHY_B_UM2: f64 = parameters::CAUCHY_B.default;
 
     fn preset(
         slug: &'static str,

@@ -18,6 +18,7 @@
 use std::f64::consts::PI;
 
 use crate::colour::cie::{Colorimeter, Illuminant, Observer};
+use crate::colour::spectrum::WavelengthGrid;
 use crate::colour::{Lab, ciede2000};
 use crate::paint::coat::body_brdf;
 use crate::paint::fresnel::reflectance;
@@ -29,6 +30,33 @@ use crate::paint::model::PaintModel;
 pub const ILLUMINATION_DEG: f64 = 45.0;
 /// Aspecular detection angles, degrees.
 pub const ASPECULAR_DEG: [f64; 5] = [15.0, 25.0, 45.0, 75.0, 110.0];
+
+/// Why an instrument cannot measure a model.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum InstrumentError {
+    /// The model is on linear-sRGB channels (the renderer's RGB shortcut): the
+    /// instruments weigh wavelengths by the CIE tables, and these have none.
+    #[error(
+        "the instruments measure spectra, but this paint model is on linear-sRGB channels, which have no wavelengths"
+    )]
+    NotSpectral,
+}
+
+fn spectral_grid(model: &PaintModel) -> Result<WavelengthGrid, InstrumentError> {
+    model
+        .channels()
+        .grid()
+        .copied()
+        .ok_or(InstrumentError::NotSpectral)
+}
+
+/// The glossmeter's weight of each sample of `grid`: ȳ(λ)·S_D65(λ), summing to 1.
+pub fn glossmeter_weights(grid: &WavelengthGrid) -> Vec<f64> {
+    let luminance = Colorimeter::new(Illuminant::D65, Observer::Cie1931TwoDegree, grid);
+    let weights = luminance.luminance_weights();
+    let weight_sum: f64 = weights.iter().sum();
+    weights.iter().map(|x| x / weight_sum).collect()
+}
 
 /// One detection angle of the multi-angle instrument.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -85,9 +113,9 @@ fn in_plane_direction(signed_deg: f64) -> [f64; 3] {
     [t.sin(), 0.0, t.cos()]
 }
 
-/// Measures a design with both instruments.
-pub fn measure(model: &PaintModel) -> Measurement {
-    let grid = *model.grid();
+/// Measures a design with both instruments; errors for a model that is not spectral.
+pub fn measure(model: &PaintModel) -> Result<Measurement, InstrumentError> {
+    let grid = spectral_grid(model)?;
     let colorimeter = Colorimeter::new(Illuminant::D65, Observer::Cie1964TenDegree, &grid);
     // Illuminator on the −x side, so the specular direction is +45°.
     let wi = in_plane_direction(-ILLUMINATION_DEG);
@@ -111,23 +139,23 @@ pub fn measure(model: &PaintModel) -> Measurement {
     let gloss = GlossGeometry::ALL
         .iter()
         .map(|&g| gloss_reading(model, g))
-        .collect();
-    Measurement {
+        .collect::<Result<_, _>>()?;
+    Ok(Measurement {
         wavelength_nm: grid.wavelengths_nm().collect(),
         angles,
         gloss,
-    }
+    })
 }
 
-/// The glossmeter's specular-only and total readings of a design at one geometry.
-pub fn gloss_reading(model: &PaintModel, geometry: GlossGeometry) -> GlossReading {
-    let grid = *model.grid();
+/// The glossmeter's specular-only and total readings of a design at one geometry;
+/// errors for a model that is not spectral.
+pub fn gloss_reading(
+    model: &PaintModel,
+    geometry: GlossGeometry,
+) -> Result<GlossReading, InstrumentError> {
+    let grid = spectral_grid(model)?;
     let meter = crate::paint::gloss::Glossmeter::new(geometry);
-    // Luminance weights ȳ(λ)·S_D65(λ), normalised to sum 1.
-    let luminance = Colorimeter::new(Illuminant::D65, Observer::Cie1931TwoDegree, &grid);
-    let weights = luminance.luminance_weights();
-    let weight_sum: f64 = weights.iter().sum();
-    let w: Vec<f64> = weights.iter().map(|x| x / weight_sum).collect();
+    let w = glossmeter_weights(&grid);
 
     let exponent = model.exponent();
     let index = model.refractive_index();
@@ -169,11 +197,11 @@ pub fn gloss_reading(model: &PaintModel, geometry: GlossGeometry) -> GlossReadin
                 .sum()
         })
     });
-    GlossReading {
+    Ok(GlossReading {
         geometry,
         specular_gu: specular,
         total_gu: specular + body,
-    }
+    })
 }
 
 /// CIEDE2000 between a design and a target design at each aspecular angle.
@@ -200,7 +228,7 @@ pub fn specular_reading_tabulated(model: &PaintModel, geometry: GlossGeometry) -
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::colour::spectrum::WavelengthGrid;
+    use crate::colour::spectrum::Channels;
     use crate::paint::model::{GlossSetting, PaintParams};
 
     fn grey(rho: f64, gloss: GlossSetting) -> PaintModel {
@@ -224,7 +252,7 @@ mod tests {
                 geometry: GlossGeometry::Deg20,
             },
         );
-        let m = measure(&model);
+        let m = measure(&model).expect("spectral");
         assert_eq!(m.angles.len(), 5);
         for a in &m.angles {
             assert!(a.lab.a.abs() < 0.5 && a.lab.b.abs() < 0.5, "{a:?}");
@@ -239,7 +267,7 @@ mod tests {
         // Below the coat's mirror reading (82.0 GU at 20° for n = 1.5).
         for (gu, geometry) in [(75.0, GlossGeometry::Deg20), (60.0, GlossGeometry::Deg60)] {
             let model = grey(0.0, GlossSetting::Reading { gu, geometry });
-            let reading = gloss_reading(&model, geometry);
+            let reading = gloss_reading(&model, geometry).expect("spectral");
             assert!(
                 (reading.specular_gu - gu).abs() < 0.05,
                 "{geometry}: {reading:?} vs {gu}"
@@ -260,14 +288,32 @@ mod tests {
                 geometry: GlossGeometry::Deg20,
             },
         );
-        let reading = gloss_reading(&model, GlossGeometry::Deg60);
+        let reading = gloss_reading(&model, GlossGeometry::Deg60).expect("spectral");
         assert!(reading.total_gu > reading.specular_gu + 0.01, "{reading:?}");
     }
 
     #[test]
     fn delta_e_to_itself_is_zero() {
         let model = grey(0.4, GlossSetting::Exponent(GlossExponent::Finite(200.0)));
-        let m = measure(&model);
+        let m = measure(&model).expect("spectral");
         assert!(delta_e_per_angle(&m, &m).iter().all(|d| *d == 0.0));
+    }
+
+    #[test]
+    fn the_instruments_refuse_a_model_without_wavelengths() {
+        let model = PaintModel::new(PaintParams::grey(
+            Channels::LinearSrgb,
+            0.5,
+            1.5,
+            0.0,
+            40.0,
+            GlossSetting::Exponent(GlossExponent::Finite(200.0)),
+        ))
+        .expect("valid model");
+        assert_eq!(measure(&model), Err(InstrumentError::NotSpectral));
+        assert_eq!(
+            gloss_reading(&model, GlossGeometry::Deg60),
+            Err(InstrumentError::NotSpectral)
+        );
     }
 }

@@ -378,7 +378,8 @@ fn glb_parses_back_to_the_same_mesh() {
         .expect("body material")
         .pbr_metallic_roughness()
         .base_color_factor();
-    assert_eq!(&base[..3], &scene.materials[0].base_color[..]);
+    let colour = scene.materials[0].base_color;
+    assert_eq!(base[..3], [colour.red, colour.green, colour.blue]);
 }
 
 #[test]

@@ -1,16 +1,23 @@
 //! Paint design files: the presets against their generator, round trips, every
-//! refusal (with the field and value named), grid sampling and atomic saves.
+//! refusal (with the field and value named), refusal exactly outside the parameter
+//! table's ranges, grid sampling, atomic saves, and the physics behind the paint
+//! panel's controls (Cauchy fit, gloss at another geometry, the gloss span).
 
 use std::collections::BTreeSet;
 use std::fs;
 use std::path::{Path, PathBuf};
 
-use coatlab_core::colour::spectrum::{TabulatedSpectrum, WavelengthGrid};
+use coatlab_core::colour::spectrum::{TabulatedSpectrum, VISIBLE, WavelengthGrid};
 use coatlab_core::design::{
     Absorption, DesignError, FORMAT_VERSION, Gloss, PaintDesign, RefractiveIndex, presets,
 };
-use coatlab_core::paint::gloss::{GLOSS_WAVELENGTH_NM, GlossExponent, GlossGeometry};
+use coatlab_core::paint::gloss::{
+    GLOSS_WAVELENGTH_NM, GlossExponent, GlossGeometry, reading_from_exponent, reading_range,
+};
 use coatlab_core::paint::lobe::LobeKind;
+use coatlab_core::paint::parameters::{
+    ABSORPTION, ALBEDO, Bounds, CAUCHY_B, GLOSS, Parameter, REFRACTIVE_INDEX, THICKNESS,
+};
 
 fn presets_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/presets")
@@ -680,4 +687,235 @@ fn save_into_a_read_only_directory_fails_cleanly() {
         assert_eq!(fs::read_to_string(&path).unwrap(), "old contents");
         assert_eq!(files_in(&dir), BTreeSet::from(["design.toml".to_owned()]));
     }
+}
+
+// ---------------------------------------------------------------------------------
+// The parameter table: validation refuses exactly what lies outside its ranges
+
+/// The values at and just beyond each finite end of `bounds`, each with whether it
+/// lies inside, plus the non-finite values (never accepted).
+fn boundary_values(bounds: Bounds) -> Vec<(f64, bool)> {
+    let mut values = vec![(f64::NAN, false), (f64::INFINITY, false)];
+    if bounds.min.is_finite() {
+        values.extend([(bounds.min, true), (bounds.min.next_down(), false)]);
+    }
+    if bounds.max.is_finite() {
+        values.extend([(bounds.max, true), (bounds.max.next_up(), false)]);
+    }
+    values
+}
+
+/// `design` with albedo value 0 (at 380 nm) set to `value`.
+fn with_first_albedo(design: &PaintDesign, value: f64) -> PaintDesign {
+    with_albedo_value(design, 0, value)
+}
+
+#[test]
+fn validation_refuses_exactly_outside_the_table_s_ranges() {
+    type Setter = fn(&mut PaintDesign, f64);
+    // (parameter, field, setter, whether the field is a table: a table cannot hold
+    // a non-finite value at all, and its reading is tested with the TOML above).
+    let cases: [(&Parameter, &str, Setter, bool); 5] = [
+        (
+            &ALBEDO,
+            "pigment.albedo.value[0]",
+            |d, v| *d = with_first_albedo(d, v),
+            true,
+        ),
+        (
+            &ABSORPTION,
+            "clear_coat.absorption_per_um.constant",
+            |d, v| d.absorption_per_um = Absorption::Constant(v),
+            false,
+        ),
+        (
+            &THICKNESS,
+            "clear_coat.thickness_um",
+            |d, v| d.thickness_um = v,
+            false,
+        ),
+        (
+            &REFRACTIVE_INDEX,
+            "clear_coat.refractive_index.table.value[1]",
+            |d, v| {
+                d.refractive_index = RefractiveIndex::Table(
+                    TabulatedSpectrum::new(vec![380.0, 587.6, 780.0], vec![1.5, v, 1.5]).unwrap(),
+                );
+            },
+            true,
+        ),
+        (
+            &CAUCHY_B,
+            "clear_coat.refractive_index.cauchy.b_um2",
+            |d, v| d.refractive_index = RefractiveIndex::Cauchy { a: 1.5, b_um2: v },
+            false,
+        ),
+    ];
+    for (parameter, field, set, table) in cases {
+        for (value, inside) in boundary_values(parameter.range) {
+            if table && !value.is_finite() {
+                continue;
+            }
+            let mut design = base();
+            // A gloss every index here can give, so only the parameter decides.
+            design.gloss = Gloss {
+                gu: 50.0,
+                geometry: GlossGeometry::Deg60,
+            };
+            set(&mut design, value);
+            let result = design.validate();
+            assert_eq!(
+                result.is_ok(),
+                inside,
+                "{} = {value}: {result:?}",
+                parameter.label()
+            );
+            if let Err(error) = result {
+                assert_names(
+                    &error.to_string(),
+                    &[field, &parameter.label(), &parameter.range_text()],
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_cauchy_index_is_refused_exactly_where_n_leaves_its_range_in_the_visible() {
+    let mut design = base();
+    design.gloss = Gloss {
+        gu: 10.0,
+        geometry: GlossGeometry::Deg60,
+    };
+    // b = 0: n is a everywhere.
+    for (a, inside) in [(1.0, true), (1.0f64.next_down(), false)] {
+        design.refractive_index = RefractiveIndex::Cauchy { a, b_um2: 0.0 };
+        assert_eq!(design.validate().is_ok(), inside, "a = {a}");
+    }
+    // b < 0: the minimum is at the short end of the visible range.
+    let b_um2 = -0.01;
+    let at_start = 1.0 - b_um2 / (VISIBLE.start_nm * 1e-3).powi(2);
+    design.refractive_index = RefractiveIndex::Cauchy {
+        a: at_start + 1e-12,
+        b_um2,
+    };
+    assert!(design.validate().is_ok());
+    design.refractive_index = RefractiveIndex::Cauchy {
+        a: at_start - 1e-12,
+        b_um2,
+    };
+    let message = design.validate().unwrap_err().to_string();
+    assert_names(
+        &message,
+        &[
+            &format!("Cauchy n({} nm)", VISIBLE.start_nm),
+            &REFRACTIVE_INDEX.range_text(),
+            &VISIBLE.to_string(),
+        ],
+    );
+}
+
+#[test]
+fn a_gloss_reading_is_refused_exactly_below_the_broadest_lobe_s() {
+    let mut design = base();
+    let n = design.refractive_index_at_nm(GLOSS_WAVELENGTH_NM);
+    for geometry in GlossGeometry::ALL {
+        let range = reading_range(geometry, n).unwrap();
+        for (gu, inside) in [
+            (range.min, true),
+            (range.min.next_down(), false),
+            (range.max, true),
+            (range.max * 2.0, true),
+        ] {
+            design.gloss = Gloss { gu, geometry };
+            assert_eq!(design.validate().is_ok(), inside, "{gu} GU at {geometry}");
+        }
+    }
+    for (gu, inside) in boundary_values(GLOSS.range) {
+        if inside {
+            continue; // 0 GU is in range but below every lobe's reading (above).
+        }
+        design.gloss.gu = gu;
+        assert_names(
+            &design.validate().unwrap_err().to_string(),
+            &["gloss.gu", &GLOSS.label(), &GLOSS.range_text()],
+        );
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// The physics behind the paint panel's controls
+
+#[test]
+fn the_cauchy_fit_recovers_a_cauchy_table() {
+    let w: Vec<f64> = (0..=40).map(|i| 380.0 + 10.0 * f64::from(i)).collect();
+    let v = w
+        .iter()
+        .map(|l| 1.5 + 0.0042 / (l * 1e-3f64).powi(2))
+        .collect();
+    let fit = RefractiveIndex::cauchy_fit(&TabulatedSpectrum::new(w, v).expect("valid"));
+    let RefractiveIndex::Cauchy { a, b_um2 } = fit else {
+        panic!("a fit is a Cauchy index: {fit:?}");
+    };
+    assert!(
+        (a - 1.5).abs() < 1e-9 && (b_um2 - 0.0042).abs() < 1e-9,
+        "{a} {b_um2}"
+    );
+}
+
+#[test]
+fn the_cauchy_fit_ignores_samples_outside_the_visible_range() {
+    // Far off the curve outside 380–780 nm, on it inside.
+    let w = vec![300.0, 380.0, 500.0, 780.0, 830.0];
+    let cauchy = |l: f64| 1.52 + 0.004 / (l * 1e-3).powi(2);
+    let v = w
+        .iter()
+        .map(|&l| if VISIBLE.contains(l) { cauchy(l) } else { 3.0 })
+        .collect();
+    let fit = RefractiveIndex::cauchy_fit(&TabulatedSpectrum::new(w, v).unwrap());
+    for l in [400.0, 600.0] {
+        assert!((fit.at_nm(l) - cauchy(l)).abs() < 1e-12, "{fit:?}");
+    }
+    // One sample inside: a constant, n(587.6 nm) of the table, at least 1.
+    let table = TabulatedSpectrum::new(vec![300.0, 550.0, 900.0], vec![0.9, 0.95, 0.9]).unwrap();
+    assert_eq!(
+        RefractiveIndex::cauchy_fit(&table),
+        RefractiveIndex::Cauchy { a: 1.0, b_um2: 0.0 }
+    );
+}
+
+#[test]
+fn changing_the_geometry_keeps_the_lobe() {
+    let g = Gloss {
+        gu: 50.0,
+        geometry: GlossGeometry::Deg20,
+    };
+    let g60 = g.at_geometry(GlossGeometry::Deg60, 1.5);
+    assert_eq!(g60.geometry, GlossGeometry::Deg60);
+    let back = g60.at_geometry(GlossGeometry::Deg20, 1.5);
+    assert!((back.gu - 50.0).abs() < 1e-6, "{back:?}");
+    // A reading no lobe gives is kept, at the new geometry.
+    let low = Gloss {
+        gu: 0.001,
+        geometry: GlossGeometry::Deg20,
+    };
+    assert_eq!(
+        low.at_geometry(GlossGeometry::Deg85, 1.5),
+        Gloss {
+            gu: 0.001,
+            geometry: GlossGeometry::Deg85
+        }
+    );
+}
+
+#[test]
+fn the_gloss_reading_range_runs_from_the_broadest_lobe_to_the_mirror() {
+    for geometry in GlossGeometry::ALL {
+        let range = reading_range(geometry, 1.5).unwrap();
+        let broadest = reading_from_exponent(geometry, 1.5, GlossExponent::Finite(0.0)).unwrap();
+        let mirror = reading_from_exponent(geometry, 1.5, GlossExponent::Mirror).unwrap();
+        assert_eq!((range.min, range.max), (broadest, mirror));
+        assert!(range.min < range.max && GLOSS.accepts(range.min));
+    }
+    assert!(reading_range(GlossGeometry::Deg20, 0.9).is_err());
 }

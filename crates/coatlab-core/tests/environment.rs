@@ -1,16 +1,20 @@
-//! Lighting environments: sampling against the pdf, normalisation, spectra, the
-//! Radiance .hdr reader and RGB upsampling (docs/lighting.md).
+//! Lighting environments: sampling against the pdf, normalisation, spectra, maps
+//! read from Radiance .hdr and OpenEXR files, and RGB emission (docs/lighting.md).
+//! The readers' and the upsampler's own unit tests are in `io/` and
+//! `colour/upsampling.rs`.
 
 use std::f64::consts::PI;
 use std::path::PathBuf;
 
-use coatlab_core::colour::cie::{Colorimeter, Illuminant, Observer};
+use coatlab_core::colour::cie::Illuminant;
 use coatlab_core::colour::spectrum::WavelengthGrid;
-use coatlab_core::colour::{linear_srgb_from_xyz, srgb_white};
+use coatlab_core::colour::upsampling::RgbUpsampler;
+use coatlab_core::io::hdr::{decode_hdr, read_hdr};
+use coatlab_core::io::rgb_image::{ImageReadError, RgbImage};
 use coatlab_core::render::environment::{
-    Environment, EnvironmentError, EnvironmentKind, RgbImage, RgbUpsampler, SUN_HALF_ANGLE_DEG,
-    decode_hdr, read_hdr,
+    Environment, EnvironmentError, EnvironmentKind, SUN_HALF_ANGLE_DEG,
 };
+use glam::DVec3;
 use palette::LinSrgb;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
@@ -32,26 +36,28 @@ fn grid() -> WavelengthGrid {
 fn quadrature(env: &Environment, mut visit: impl FnMut([f32; 3], f64)) {
     let (na, ny) = (2048usize, 1024usize);
     let weight = 4.0 * PI / (na * ny) as f64;
-    let sun = env.sun_direction().map(|d| d.map(f64::from));
+    let sun = env
+        .sun_direction()
+        .map(|d| DVec3::from_array(d.map(f64::from)));
     let one_minus_cos_sun = 1.0 - SUN_HALF_ANGLE_DEG.to_radians().cos();
     for j in 0..ny {
         let y = -1.0 + 2.0 * (j as f64 + 0.5) / ny as f64;
         let r = (1.0 - y * y).sqrt();
         for i in 0..na {
             let a = 2.0 * PI * (i as f64 + 0.5) / na as f64;
-            let d = [r * a.sin(), y, r * a.cos()];
+            let d = DVec3::new(r * a.sin(), y, r * a.cos());
             if let Some(s) = sun
-                && 1.0 - (d[0] * s[0] + d[1] * s[1] + d[2] * s[2]) <= one_minus_cos_sun
+                && 1.0 - d.dot(s) <= one_minus_cos_sun
             {
                 continue;
             }
-            visit(d.map(|v| v as f32), weight);
+            visit(d.as_vec3().to_array(), weight);
         }
     }
     if let Some(s) = sun {
-        let helper = [1.0, 0.0, 0.0];
-        let t = normalise(cross(helper, s));
-        let b = cross(s, t);
+        let across = DVec3::X.cross(s);
+        let t = across / across.length();
+        let b = s.cross(t);
         let (nr, nphi) = (64usize, 64usize);
         let w = 2.0 * PI * one_minus_cos_sun / (nr * nphi) as f64;
         for j in 0..nr {
@@ -59,26 +65,11 @@ fn quadrature(env: &Environment, mut visit: impl FnMut([f32; 3], f64)) {
             let (cos_t, sin_t) = (1.0 - omc, (omc * (2.0 - omc)).sqrt());
             for i in 0..nphi {
                 let phi = 2.0 * PI * (i as f64 + 0.5) / nphi as f64;
-                let d: [f64; 3] = std::array::from_fn(|k| {
-                    sin_t * (phi.cos() * t[k] + phi.sin() * b[k]) + cos_t * s[k]
-                });
-                visit(d.map(|v| v as f32), w);
+                let d = sin_t * (phi.cos() * t + phi.sin() * b) + cos_t * s;
+                visit(d.as_vec3().to_array(), w);
             }
         }
     }
-}
-
-fn normalise(d: [f64; 3]) -> [f64; 3] {
-    let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-    d.map(|v| v / l)
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 /// Mean and standard error of the mean.
@@ -146,7 +137,7 @@ fn sampling_checks(
     name: &str,
     densities: &[Density],
 ) -> (Vec<Vec<String>>, [f64; 2]) {
-    let n = env.grid().len();
+    let n = env.channels().len();
     let mut l = vec![0.0f32; n];
 
     // Quadrature: ∫ pdf and ∫ pdf over each half, ∫ L (luminance and per
@@ -347,7 +338,7 @@ fn check_environment(env: &Environment, name: &str) {
 
 fn check_radiance_is_finite_and_non_negative(env: &Environment, name: &str) {
     let mut rng = Pcg64::seed_from_u64(11);
-    let mut l = vec![0.0f32; env.grid().len()];
+    let mut l = vec![0.0f32; env.channels().len()];
     let special = [
         [0.0, 1.0, 0.0],
         [0.0, -1.0, 0.0],
@@ -406,7 +397,7 @@ fn outdoor_samples_match_its_pdf_and_the_sun_dominates() {
     check_radiance_is_finite_and_non_negative(&env, "outdoor");
     let sun = env.sun_direction().expect("a sun");
     assert!((f64::from(sun[1]) - 45f64.to_radians().sin()).abs() < 1e-6);
-    let mut l = vec![0.0f32; env.grid().len()];
+    let mut l = vec![0.0f32; env.channels().len()];
     env.radiance(sun, &mut l);
     let sun_luminance = env.luminance(&l);
     env.radiance([0.0, 1.0, 0.0], &mut l);
@@ -622,7 +613,7 @@ fn hdr_reader_refuses_truncated_and_foreign_files_with_clear_messages() {
         let err = read_hdr(&path).unwrap_err();
         let message = err.to_string();
         assert!(
-            matches!(err, EnvironmentError::Truncated { row: 2, .. }),
+            matches!(err, ImageReadError::Truncated { row: 2, .. }),
             "{message}"
         );
         assert!(
@@ -632,7 +623,7 @@ fn hdr_reader_refuses_truncated_and_foreign_files_with_clear_messages() {
     }
     let err = decode_hdr(b"P6\n4 4\n255\n", "photo.ppm").unwrap_err();
     assert!(err.to_string().contains("photo.ppm"), "{err}");
-    assert!(matches!(err, EnvironmentError::BadHeader { .. }));
+    assert!(matches!(err, ImageReadError::BadHeader { .. }));
     let err = decode_hdr(
         b"#?RADIANCE\nFORMAT=32-bit_rle_xyze\n\n-Y 1 +X 1\n\0\0\0\0",
         "x.hdr",
@@ -645,63 +636,28 @@ fn hdr_reader_refuses_truncated_and_foreign_files_with_clear_messages() {
     bytes.extend_from_slice(&[2, 2, 0, 8, 128 + 9, 1]);
     let err = decode_hdr(&bytes, "bad.hdr").unwrap_err();
     assert!(
-        matches!(err, EnvironmentError::CorruptScanline { .. }),
+        matches!(err, ImageReadError::CorruptScanline { .. }),
         "{err}"
     );
 
     let err = Environment::from_image(&temp_path("studio.exr"), &grid()).unwrap_err();
-    assert!(matches!(err, EnvironmentError::Io { .. }), "{err}");
+    assert!(
+        matches!(err, EnvironmentError::Read(ImageReadError::Io { .. })),
+        "{err}"
+    );
     assert!(err.to_string().contains("studio.exr"), "{err}");
     let err = Environment::from_image(&temp_path("missing.hdr"), &grid()).unwrap_err();
-    assert!(matches!(err, EnvironmentError::Io { .. }));
+    assert!(matches!(
+        err,
+        EnvironmentError::Read(ImageReadError::Io { .. })
+    ));
     assert!(err.to_string().contains("missing.hdr"), "{err}");
 }
 
 // ---------------------------------------------------------------------------
 // RGB upsampling
 
-/// Linear sRGB of a reflectance seen under D65 (sRGB white scale).
-fn round_trip(grid: &WavelengthGrid, upsampler: &RgbUpsampler, rgb: [f32; 3]) -> [f64; 3] {
-    let colorimeter = Colorimeter::new(Illuminant::D65, Observer::Cie1931TwoDegree, grid);
-    let mut r = vec![0.0f32; grid.len()];
-    upsampler.reflectance(LinSrgb::new(rgb[0], rgb[1], rgb[2]), &mut r);
-    assert!(
-        r.iter().all(|&v| v >= 0.0),
-        "negative reflectance for {rgb:?}"
-    );
-    let values: Vec<f64> = r.iter().map(|&v| f64::from(v)).collect();
-    let out = linear_srgb_from_xyz(colorimeter.xyz(&values), srgb_white());
-    [out.red, out.green, out.blue]
-}
-
-#[test]
-fn rgb_upsampling_round_trips_and_is_non_negative() {
-    // The bases are refitted to each grid's colorimetry: exact to f32 storage
-    // (measured 5e-8, 9e-8, 1.2e-7 on 81, 16, 8 samples). Three samples cannot
-    // reach the primaries (0.84 off): not held there.
-    for (grid, tolerance) in [
-        (WavelengthGrid::reference(), 1e-6),
-        (WavelengthGrid::visible(16).expect("grid"), 1e-6),
-        (WavelengthGrid::visible(8).expect("grid"), 1e-6),
-    ] {
-        let upsampler = RgbUpsampler::new(&grid);
-        let mut rng = Pcg64::seed_from_u64(5);
-        let mut worst = 0.0f64;
-        let corners = (0..8).map(|k| [k & 1, (k >> 1) & 1, (k >> 2) & 1].map(|b| b as f32));
-        let random = (0..500).map(|_| std::array::from_fn(|_| rng.random::<f32>()));
-        for rgb in corners.chain(random) {
-            let back = round_trip(&grid, &upsampler, rgb);
-            for k in 0..3 {
-                worst = worst.max((back[k] - f64::from(rgb[k])).abs());
-            }
-        }
-        assert!(
-            worst < tolerance,
-            "{} samples: worst error {worst}",
-            grid.len()
-        );
-    }
-}
+// The round trip of reflectances is tested in colour/upsampling.rs.
 
 #[test]
 fn rgb_emission_is_d65_shaped_with_unit_luminance_for_white() {
@@ -783,11 +739,17 @@ fn exr_maps_light_the_scene_like_the_same_hdr_map() {
     let cut = temp_path("cut.exr");
     std::fs::write(&cut, &bytes[..bytes.len() / 2]).expect("write");
     let err = Environment::from_image(&cut, &grid()).unwrap_err();
-    assert!(matches!(err, EnvironmentError::BadExr { .. }), "{err}");
+    assert!(
+        matches!(err, EnvironmentError::Read(ImageReadError::BadExr { .. })),
+        "{err}"
+    );
     assert!(err.to_string().contains("cut.exr"), "{err}");
     // Not an EXR at all.
     let fake = temp_path("fake.exr");
     std::fs::write(&fake, b"#?RADIANCE\nnot an exr").expect("write");
     let err = Environment::from_image(&fake, &grid()).unwrap_err();
-    assert!(matches!(err, EnvironmentError::BadExr { .. }), "{err}");
+    assert!(
+        matches!(err, EnvironmentError::Read(ImageReadError::BadExr { .. })),
+        "{err}"
+    );
 }

@@ -108,7 +108,7 @@ fn packed_model(m: GlossExponent, lobe: LobeKind) -> (PaintModel, Vec<Corner>) {
     let corners = corners();
     let grid = WavelengthGrid::visible(corners.len()).expect("grid");
     let params = PaintParams {
-        grid,
+        channels: grid.into(),
         albedo: corners.iter().map(|c| c.rho).collect(),
         refractive_index: corners.iter().map(|c| c.n).collect(),
         index_at_gloss_wavelength: 1.5,

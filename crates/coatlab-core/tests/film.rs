@@ -3,7 +3,7 @@
 
 use coatlab_core::colour::Xyz;
 use coatlab_core::colour::cie::{Colorimeter, Illuminant, Observer};
-use coatlab_core::colour::spectrum::WavelengthGrid;
+use coatlab_core::colour::spectrum::{Channels, WavelengthGrid};
 use coatlab_core::render::film::{DisplaySettings, Film, ToneMapping};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
@@ -32,7 +32,7 @@ fn d65_radiance(grid: &WavelengthGrid, scale: f64) -> Vec<f32> {
 
 /// D65 radiance scaled to Y = 1 on the film's scale.
 fn unit_d65(film: &Film) -> Vec<f32> {
-    let grid = *film.grid();
+    let grid = *film.channels().grid().expect("a spectral film");
     let y = film.xyz_of(&d65_radiance(&grid, 1.0)).y;
     d65_radiance(&grid, 1.0 / y)
 }
@@ -593,7 +593,7 @@ fn exr_options_and_header_attributes_read_back() {
     }
     // Without a record: the film's own count, wavelengths and adaptation only; an
     // RGB film says so.
-    let mut rgb = Film::new(2, 1, WavelengthGrid::linear_srgb());
+    let mut rgb = Film::new(2, 1, Channels::LinearSrgb);
     rgb.add_sample(0, 0, &[1.0, 0.5, 0.25]);
     rgb.add_sample(1, 0, &[1.0, 0.5, 0.25]);
     rgb.add_sample(1, 0, &[1.0, 0.5, 0.25]);

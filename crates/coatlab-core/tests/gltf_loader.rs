@@ -140,7 +140,7 @@ fn clear_coat_car_paint_loads_despite_its_required_extensions() {
             .any(|w| w.starts_with("KHR_materials_clearcoat: clear coat ignored"))
     );
     let m = &scene.materials[0];
-    assert!((m.base_color[0] - 0.7).abs() < 1e-6 && m.base_color[1] == 0.0);
+    assert!((m.base_color.red - 0.7).abs() < 1e-6 && m.base_color.green == 0.0);
     assert!((m.roughness - 0.4).abs() < 1e-6 && (m.metallic - 0.3).abs() < 1e-6);
 }
 

@@ -46,7 +46,7 @@ fn realistic_model(gu: f64) -> PaintModel {
         .map(|l| 0.0004 + 0.2 / (1.0 + ((l - 390.0) / 6.0).exp()))
         .collect();
     let params = PaintParams {
-        grid,
+        channels: grid.into(),
         albedo,
         refractive_index: index,
         index_at_gloss_wavelength: 1.492 + 0.0045 / 0.5876_f64.powi(2),
@@ -131,7 +131,7 @@ fn invalid_parameters_are_refused_with_their_value() {
 /// (relative to the value plus 1e-3/sr), over directions up to 85° from the normal
 /// and over grazing ones (85°–89.9°), separately.
 fn worst_f32_error(model: &PaintModel) -> (f64, f64) {
-    let len = model.grid().len();
+    let len = model.channels().len();
     let (mut reference, mut single) = (vec![0.0; len], vec![0.0_f32; len]);
     let (mut worst, mut worst_grazing) = (0.0_f64, 0.0_f64);
     for &ti in &[0.0, 10.0, 33.0, 60.0, 80.0, 85.0, 88.0, 89.9] {
@@ -364,7 +364,7 @@ fn white_furnace_by_importance_sampling() {
 fn view_side_albedo_exceeds_one_only_by_the_measured_amount() {
     // Seen from the camera, the white furnace integrates R(μi)/N(μi) over ωi, which
     // the normalisation does not make exactly 1 (the lobe is normalised over ωo).
-    // Measured (400 000 samples, n = 1.5), recorded in docs/paint-model-notes.md:
+    // Measured (400 000 samples, n = 1.5), recorded in docs/model.md, section 9:
     // the largest excess is 4.0 % (m = 5 at 40°), 3.2 % (m = 30 at 60°), 1.3 %
     // (m = 300 at 75°), 0.36 % (m = 3000 at 85°); at grazing views it falls below 1
     // as the lobe about the mirror of ωo dips under the horizon.
@@ -553,5 +553,55 @@ fn chi_square_test_rejects_a_ten_percent_error_in_the_lobe_exponent() {
             test.p_value < 1e-9,
             "m {exponent} {lobe:?} θ {theta}: χ² accepted a 10 % exponent error: {test:?}"
         );
+    }
+}
+
+/// The model refuses a parameter exactly outside the parameter table's range, at
+/// any channel, naming the parameter, the channel and the range.
+#[test]
+fn the_model_refuses_exactly_outside_the_parameter_table() {
+    use coatlab_core::colour::spectrum::Channels;
+    use coatlab_core::paint::parameters::{
+        ABSORPTION, ALBEDO, Parameter, REFRACTIVE_INDEX, THICKNESS,
+    };
+
+    let grid = WavelengthGrid::visible(4).expect("grid");
+    let gloss = GlossSetting::Exponent(GlossExponent::Finite(100.0));
+    type Setter = fn(&mut PaintParams, f64);
+    let cases: [(&Parameter, Setter); 4] = [
+        (&ALBEDO, |p, v| p.albedo[2] = v),
+        (&REFRACTIVE_INDEX, |p, v| p.refractive_index[2] = v),
+        (&ABSORPTION, |p, v| p.absorption_per_um[2] = v),
+        (&THICKNESS, |p, v| p.thickness_um = v),
+    ];
+    for channels in [Channels::Spectral(grid), Channels::LinearSrgb] {
+        for (parameter, set) in cases {
+            let range = parameter.range;
+            let mut values = vec![(f64::NAN, false), (f64::INFINITY, false)];
+            values.extend([(range.min, true), (range.min.next_down(), false)]);
+            if range.max.is_finite() {
+                values.extend([(range.max, true), (range.max.next_up(), false)]);
+            }
+            for (value, inside) in values {
+                let mut params = PaintParams::grey(channels, 0.5, 1.5, 0.001, 40.0, gloss);
+                set(&mut params, value);
+                match PaintModel::new(params) {
+                    Ok(_) => assert!(inside, "{} = {value} accepted", parameter.label()),
+                    Err(error) => {
+                        assert!(!inside, "{} = {value}: {error}", parameter.label());
+                        let message = error.to_string();
+                        assert!(
+                            message.contains(&parameter.label())
+                                && message.contains(&parameter.range_text()),
+                            "{message}"
+                        );
+                        if parameter.symbol != "h" {
+                            let at = channels.channel(2).to_string();
+                            assert!(message.contains(&at), "{message} lacks {at}");
+                        }
+                    }
+                }
+            }
+        }
     }
 }

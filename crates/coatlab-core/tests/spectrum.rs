@@ -1,8 +1,8 @@
 //! Wavelength grids, resampling and spectra CSV import.
 
 use coatlab_core::colour::spectrum::{
-    SampledSpectrum, SpectrumError, TabulatedSpectrum, ValueBounds, WavelengthGrid,
-    read_spectra_csv,
+    Channel, Channels, MAX_VISIBLE_SAMPLES, REFERENCE_LEN, REFERENCE_STEP_NM, SampledSpectrum,
+    SpectrumError, TabulatedSpectrum, VISIBLE, ValueBounds, WavelengthGrid, read_spectra_csv,
 };
 use proptest::prelude::*;
 
@@ -64,6 +64,63 @@ fn bad_grids_are_rejected() {
         .unwrap_err()
         .to_string();
     assert!(message.contains("step"), "{message}");
+}
+
+/// The visible range and the grid constants are one definition: the reference
+/// grid and every visible grid tile [`VISIBLE`] exactly, up to the finest count.
+#[test]
+fn every_visible_grid_tiles_the_one_visible_range() {
+    assert_eq!((VISIBLE.start_nm, VISIBLE.end_nm), (380.0, 780.0));
+    let reference = WavelengthGrid::reference();
+    assert_eq!(reference.len(), REFERENCE_LEN);
+    assert_eq!(reference.step_nm(), REFERENCE_STEP_NM);
+    assert_eq!(reference.start_nm(), VISIBLE.start_nm);
+    assert_eq!(reference.end_nm(), VISIBLE.end_nm);
+    for count in [1, 2, 3, 16, 32, 80, 82, 400, MAX_VISIBLE_SAMPLES] {
+        let grid = WavelengthGrid::visible(count).unwrap();
+        let half = 0.5 * grid.bin_width_nm();
+        assert!(
+            close(grid.start_nm() - half, VISIBLE.start_nm, 1e-9),
+            "{count}"
+        );
+        assert!(close(grid.end_nm() + half, VISIBLE.end_nm, 1e-9), "{count}");
+        assert!(grid.wavelengths_nm().all(|nm| VISIBLE.contains(nm)));
+    }
+    assert!(WavelengthGrid::visible(MAX_VISIBLE_SAMPLES + 1).is_err());
+    assert!(VISIBLE.contains(380.0) && VISIBLE.contains(780.0));
+    assert!(!VISIBLE.contains(379.999) && !VISIBLE.contains(780.001));
+    assert_eq!(VISIBLE.to_string(), "380–780 nm");
+}
+
+/// RGB rendering is a kind of channels with no wavelengths, not a grid: it cannot
+/// be asked for one, and its channels are named as primaries.
+#[test]
+fn linear_srgb_channels_have_no_wavelengths() {
+    let rgb = Channels::LinearSrgb;
+    assert_eq!(rgb.len(), 3);
+    assert_eq!(rgb.grid(), None);
+    assert_eq!(
+        [0, 1, 2].map(|i| rgb.channel(i)),
+        [Channel::Red, Channel::Green, Channel::Blue]
+    );
+    assert_eq!(rgb.channel(0).to_string(), "in the red channel");
+    assert_eq!(rgb.to_string(), "linear sRGB");
+
+    let grid = WavelengthGrid::visible(4).unwrap();
+    let spectral = Channels::from(grid);
+    assert_eq!(spectral, Channels::Spectral(grid));
+    assert_eq!(spectral.len(), 4);
+    assert_eq!(spectral.grid(), Some(&grid));
+    assert_eq!(
+        spectral.channel(1),
+        Channel::Wavelength(grid.wavelength_nm(1))
+    );
+    assert_eq!(spectral.channel(1).to_string(), "at 530 nm");
+    assert_ne!(spectral, rgb);
+    // No three-sample grid stands for RGB any more: a 3-sample grid is spectral.
+    let three = Channels::from(WavelengthGrid::visible(3).unwrap());
+    assert_ne!(three, rgb);
+    assert!(three.grid().is_some());
 }
 
 // ---------------------------------------------------------------------------------

@@ -18,7 +18,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::Context;
-use coatlab_core::colour::spectrum::WavelengthGrid;
+use coatlab_core::colour::spectrum::{Channels, WavelengthGrid};
 use coatlab_core::design::{PaintDesign, presets};
 use coatlab_core::paint::coat::CoatIntegralMethod;
 use coatlab_core::paint::lobe::LobeKind;
@@ -477,7 +477,7 @@ fn render(
     let cpu_start = process_cpu_seconds();
     let (grid, model) = if setting.rgb {
         let model = rgb::paint_model(&prepared.design).context("cannot reduce the paint to RGB")?;
-        (WavelengthGrid::linear_srgb(), model)
+        (Channels::LinearSrgb, model)
     } else {
         let grid = WavelengthGrid::visible(setting.wavelengths)
             .with_context(|| format!("{} wavelengths", setting.wavelengths))?;
@@ -485,7 +485,7 @@ fn render(
             .design
             .model(grid)
             .context("cannot build the paint model")?;
-        (grid, model)
+        (Channels::Spectral(grid), model)
     };
     let mut model = model;
     model.set_coat_integral_method(setting.coat);

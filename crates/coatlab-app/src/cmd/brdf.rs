@@ -1,14 +1,17 @@
 //! `coatlab brdf`: the body BRDF and the directional albedo of grey parameters, CSV
 //! in, CSV out.
 //!
-//! | column | unit | range | meaning |
-//! | --- | --- | --- | --- |
-//! | `n` | — | finite, ≥ 1 | refractive index of the clear coat |
-//! | `rho` | — | [0, 1] | diffuse albedo ρ of the pigment layer |
-//! | `kh` | — | finite, ≥ 0 | optical depth τ = k·h of the coat |
-//! | `theta_i_deg` | degrees | [0, 90] | polar angle of incidence (90 = grazing) |
-//! | `theta_o_deg` | degrees | [0, 90] | polar angle of the outgoing direction |
-//! | `dphi_deg` | degrees | finite | φo − φi (180 = plane of incidence, mirror side) |
+//! | column | unit, range | meaning |
+//! | --- | --- | --- |
+//! | `n` | [`REFRACTIVE_INDEX`] | refractive index of the clear coat |
+//! | `rho` | [`ALBEDO`] | diffuse albedo ρ of the pigment layer |
+//! | `kh` | [`OPTICAL_DEPTH`] | optical depth τ = k·h of the coat |
+//! | `theta_i_deg` | degrees, [`POLAR_ANGLE_DEG`] | polar angle of incidence (90 = grazing) |
+//! | `theta_o_deg` | degrees, [`POLAR_ANGLE_DEG`] | polar angle of the outgoing direction |
+//! | `dphi_deg` | degrees, finite | φo − φi (180 = plane of incidence, mirror side) |
+//!
+//! The first three are the paint model's parameters: their ranges, and the
+//! messages refusing a value outside them, come from its parameter table.
 //!
 //! The columns may come in any order; other columns pass through unchanged, in their
 //! input position. Two columns are appended to each row:
@@ -19,7 +22,7 @@
 //!   as its specular part, R(μi) + ∫ f_body cos θo dωo. It is 1 for ρ = 1, τ = 0
 //!   (white furnace) and at grazing incidence for n > 1.
 //!
-//! The coat integrals C(n, τ) and E(n, τ) cost about 10 µs each, so they are
+//! The coat integrals C(n, τ) and E(n, τ) cost microseconds each, so they are
 //! computed once per distinct (n, kh) pair; a sweep over angles costs almost nothing
 //! per row.
 
@@ -28,11 +31,14 @@ use std::io::{Read, Write};
 
 use coatlab_core::paint::coat::{CoatIntegrals, body_brdf};
 use coatlab_core::paint::fresnel::reflectance;
+use coatlab_core::paint::parameters::{ALBEDO, Bounds, OPTICAL_DEPTH, REFRACTIVE_INDEX};
 
 use super::table::map_numeric_rows;
 
 const INPUT_COLUMNS: [&str; 6] = ["n", "rho", "kh", "theta_i_deg", "theta_o_deg", "dphi_deg"];
 const OUTPUT_COLUMNS: [&str; 2] = ["f_body", "albedo"];
+/// Polar angles of directions above the surface, degrees.
+pub const POLAR_ANGLE_DEG: Bounds = Bounds::new(0.0, 90.0);
 
 /// C and E per distinct (n, kh): a sweep over angles reuses them (each costs
 /// microseconds), keyed on the bit patterns of the two numbers.
@@ -76,17 +82,17 @@ pub fn run(input: impl Read, out: &mut impl Write) -> anyhow::Result<()> {
 
 /// The range each input column must lie in; `value` is already finite.
 fn check(column: &str, value: f64) -> Result<(), String> {
-    match column {
-        "n" if value < 1.0 => Err(format!(
-            "{value} is below 1; a refractive index must be ≥ 1"
-        )),
-        "rho" if !(0.0..=1.0).contains(&value) => Err(format!("{value} is outside [0, 1]")),
-        "kh" if value < 0.0 => Err(format!(
-            "{value} is negative; the optical depth k·h must be ≥ 0"
-        )),
-        "theta_i_deg" | "theta_o_deg" if !(0.0..=90.0).contains(&value) => {
-            Err(format!("{value} is outside [0, 90] degrees"))
+    let parameter = match column {
+        "n" => &REFRACTIVE_INDEX,
+        "rho" => &ALBEDO,
+        "kh" => &OPTICAL_DEPTH,
+        "theta_i_deg" | "theta_o_deg" => {
+            return match POLAR_ANGLE_DEG.violation(value) {
+                None => Ok(()),
+                Some(violation) => Err(format!("{value} {violation} degrees")),
+            };
         }
-        _ => Ok(()),
-    }
+        _ => return Ok(()),
+    };
+    parameter.check(value).map_err(|error| error.to_string())
 }

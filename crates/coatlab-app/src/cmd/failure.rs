@@ -26,6 +26,7 @@ use std::io;
 use coatlab_core::colour::cie::CieError;
 use coatlab_core::colour::spectrum::SpectrumError;
 use coatlab_core::design::DesignError;
+use coatlab_core::io::rgb_image::ImageReadError;
 use coatlab_core::paint::gloss::GlossError;
 use coatlab_core::render::environment::EnvironmentError;
 use coatlab_core::render::film::FilmError;
@@ -197,7 +198,7 @@ fn class_of(cause: &(dyn StdError + 'static)) -> Option<Failure> {
     }
     if let Some(e) = cause.downcast_ref::<EnvironmentError>() {
         return Some(match e {
-            EnvironmentError::Io { .. } => Failure::NoInput,
+            EnvironmentError::Read(ImageReadError::Io { .. }) => Failure::NoInput,
             _ => Failure::Data,
         });
     }

@@ -29,7 +29,8 @@ fn measure_file(path: &PathBuf) -> anyhow::Result<(PaintDesign, Measurement)> {
         .model(WavelengthGrid::reference())
         .with_context(|| format!("cannot build the paint model of {}", path.display()))
         .or_fail(Failure::Data)?;
-    Ok((design, measure(&model)))
+    let measurement = measure(&model).or_fail(Failure::Internal)?;
+    Ok((design, measurement))
 }
 
 pub fn run(args: &MeasureArgs, out: &mut impl Write) -> anyhow::Result<()> {

@@ -7,7 +7,9 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
-use coatlab_core::colour::spectrum::WavelengthGrid;
+use coatlab_core::colour::spectrum::{
+    Channels, MAX_VISIBLE_SAMPLES, REFERENCE_LEN, REFERENCE_STEP_NM, WavelengthGrid,
+};
 use coatlab_core::design::{PaintDesign, presets};
 use coatlab_core::io::exr_write::{ExrCompression, ExrPrecision};
 use coatlab_core::paint::phong::PhongVariant;
@@ -57,8 +59,8 @@ pub struct RenderArgs {
     /// Image size, WIDTHxHEIGHT.
     #[arg(long, default_value = "960x540", value_parser = parse_size)]
     pub size: (u32, u32),
-    /// Wavelengths carried by every path (1–401; 81 is the 5 nm reference grid).
-    #[arg(long, default_value_t = DEFAULT_WAVELENGTHS)]
+    // The help states the range from the grid's own limits.
+    #[arg(long, default_value_t = DEFAULT_WAVELENGTHS, help = wavelengths_help())]
     pub wavelengths: usize,
     /// Seed of the random numbers: the same seed gives the same image.
     #[arg(long, default_value_t = 0)]
@@ -115,6 +117,13 @@ fn parse_exr_compression(text: &str) -> Result<ExrCompression, String> {
     })
 }
 
+/// `--wavelengths`' help: the range [`WavelengthGrid::visible`] accepts.
+fn wavelengths_help() -> String {
+    format!(
+        "Wavelengths carried by every path (1–{MAX_VISIBLE_SAMPLES}; {REFERENCE_LEN} is the {REFERENCE_STEP_NM} nm reference grid)"
+    )
+}
+
 /// `--adaptive` unless given: see docs/tradeoff.md, "Adaptive sampling".
 pub const DEFAULT_ADAPTIVE: &str = "off";
 
@@ -161,8 +170,12 @@ pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
-/// The lighting setup named on the command line, or an environment map file.
-pub fn environment(name: &str, grid: &WavelengthGrid) -> anyhow::Result<Environment> {
+/// The lighting setup named on the command line, or an environment map file, on
+/// `channels` (a wavelength grid, or linear sRGB).
+pub fn environment(
+    name: &str,
+    channels: &(impl Into<Channels> + Copy),
+) -> anyhow::Result<Environment> {
     let not_found = |failure: Failure| {
         failure.error(format!(
             "--environment '{name}': not a lighting setup ({}) and no such file",
@@ -176,7 +189,7 @@ pub fn environment(name: &str, grid: &WavelengthGrid) -> anyhow::Result<Environm
     {
         return Err(not_found(Failure::NoInput));
     }
-    Ok(lighting.build(grid)?)
+    Ok(lighting.build(channels)?)
 }
 
 /// The lighting's name for the record of a render: a setup's own name (whatever

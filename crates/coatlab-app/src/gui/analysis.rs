@@ -96,7 +96,7 @@ impl Analysis {
     ) -> Result<Analysis, String> {
         let grid = WavelengthGrid::reference();
         let model = design.model(grid).map_err(|e| e.to_string())?;
-        let measurement = instruments::measure(&model);
+        let measurement = instruments::measure(&model).map_err(|e| e.to_string())?;
         let target_model = match target {
             Some(t) => Some((
                 t.name.clone(),
@@ -104,9 +104,13 @@ impl Analysis {
             )),
             None => None,
         };
-        let target_measurement = target_model
-            .as_ref()
-            .map(|(name, m)| (name.clone(), instruments::measure(m)));
+        let target_measurement = match &target_model {
+            Some((name, m)) => Some((
+                name.clone(),
+                instruments::measure(m).map_err(|e| format!("target design: {e}"))?,
+            )),
+            None => None,
+        };
         let delta_e = target_measurement
             .as_ref()
             .map(|(_, t)| instruments::delta_e_per_angle(&measurement, t));
@@ -114,7 +118,7 @@ impl Analysis {
             PhongVariant::Naive => PhongParams::naive(&model),
             PhongVariant::BestFit => PhongParams::best_fit(&model),
         };
-        let weights = luminance_weights(&grid);
+        let weights = instruments::glossmeter_weights(&grid);
         let distributions = FIGURE_INCIDENCE_DEG
             .iter()
             .map(|&deg| distribution(&model, &phong, &weights, deg))
@@ -138,15 +142,6 @@ impl Analysis {
             swatches,
         })
     }
-}
-
-/// ȳ(λ)·S_D65(λ) per grid sample, summing to 1: the glossmeter's weighting, used to
-/// turn spectral BRDFs into one luminance curve per figure.
-fn luminance_weights(grid: &WavelengthGrid) -> Vec<f64> {
-    let colorimeter = Colorimeter::new(Illuminant::D65, Observer::Cie1931TwoDegree, grid);
-    let w = colorimeter.luminance_weights();
-    let sum: f64 = w.iter().sum();
-    w.iter().map(|x| x / sum).collect()
 }
 
 fn in_plane(signed_deg: f64) -> [f64; 3] {

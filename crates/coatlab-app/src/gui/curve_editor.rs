@@ -11,7 +11,7 @@
 //! be set from the keyboard (arrow keys when focused), by a screen reader, or by a
 //! test.
 
-use coatlab_core::colour::spectrum::TabulatedSpectrum;
+use coatlab_core::colour::spectrum::{TabulatedSpectrum, VISIBLE};
 use egui::{Color32, Pos2, Rect, Sense, Stroke, Ui, Vec2, pos2, vec2};
 
 /// The vertical scale of an editor, which is also the range values are clamped to.
@@ -60,13 +60,13 @@ impl CurveScale {
 }
 
 /// The control wavelengths of a table: every `step_nm` from the first multiple of
-/// the step at or after the table's start, to its end.
+/// the step at or after the table's start, to its end, within the visible range.
 pub fn control_wavelengths(table: &TabulatedSpectrum, step_nm: f64) -> Vec<f64> {
     let w = table.wavelengths_nm();
     let (Some(&first), Some(&last)) = (w.first(), w.last()) else {
         return Vec::new();
     };
-    let (first, last) = (first.max(380.0), last.min(780.0));
+    let (first, last) = (first.max(VISIBLE.start_nm), last.min(VISIBLE.end_nm));
     let mut out = Vec::new();
     let mut l = (first / step_nm).ceil() * step_nm;
     while l <= last + 1e-9 {
@@ -128,8 +128,6 @@ pub struct CurveEditor<'a> {
     pub colour: Color32,
 }
 
-const WAVELENGTH_RANGE_NM: (f64, f64) = (380.0, 780.0);
-
 impl CurveEditor<'_> {
     /// Draws the curve and handles dragging; `Some(new table)` on a change.
     pub fn show(&self, ui: &mut Ui, table: &TabulatedSpectrum) -> Option<TabulatedSpectrum> {
@@ -137,7 +135,7 @@ impl CurveEditor<'_> {
         let (rect, _) = ui.allocate_exact_size(vec2(width, self.height), Sense::hover());
         let plot = Rect::from_min_max(rect.min + vec2(40.0, 6.0), rect.max - vec2(8.0, 18.0));
         let x_of = |l: f64| {
-            let u = (l - WAVELENGTH_RANGE_NM.0) / (WAVELENGTH_RANGE_NM.1 - WAVELENGTH_RANGE_NM.0);
+            let u = (l - VISIBLE.start_nm) / VISIBLE.width_nm();
             plot.left() + u as f32 * plot.width()
         };
         let y_of = |v: f64| plot.bottom() - self.scale.to_unit(v) as f32 * plot.height();
@@ -186,7 +184,7 @@ impl CurveEditor<'_> {
             .wavelengths_nm()
             .iter()
             .zip(table.values())
-            .filter(|(l, _)| (WAVELENGTH_RANGE_NM.0..=WAVELENGTH_RANGE_NM.1).contains(*l))
+            .filter(|(l, _)| VISIBLE.contains(**l))
             .map(|(&l, &v)| pos2(x_of(l), y_of(v)))
             .collect();
         painter.add(egui::Shape::line(points, Stroke::new(2.0, self.colour)));

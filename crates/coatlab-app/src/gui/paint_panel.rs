@@ -1,32 +1,65 @@
 //! The paint controls: every parameter of a [`PaintDesign`] with its unit and range.
 //!
-//! Widgets are bounded to each parameter's valid range (a slider cannot leave it), so
-//! almost nothing invalid can be entered. What bounds cannot express — n(λ) from a
-//! Cauchy pair dipping below 1 somewhere in 380–780 nm, say — is reported by the
+//! Units, ranges and the spans of the controls are those of the paint model's
+//! parameter table ([`coatlab_core::paint::parameters`]); the physics behind the
+//! controls (the Cauchy fit of a table, the span of gloss readings, a reading at
+//! another geometry) is the core's. Widgets are bounded to each parameter's control
+//! span, within its valid range (a slider cannot leave it), so almost nothing
+//! invalid can be entered. What bounds cannot express — n(λ) from a Cauchy pair
+//! dipping below 1 somewhere in the visible range, say — is reported by the
 //! design's own validation, in red, under the control it concerns.
 
-use coatlab_core::colour::spectrum::TabulatedSpectrum;
+use std::ops::RangeInclusive;
+
+use coatlab_core::colour::spectrum::{TabulatedSpectrum, VISIBLE, WavelengthGrid};
 use coatlab_core::design::{Absorption, DesignError, Gloss, PaintDesign, RefractiveIndex};
 use coatlab_core::paint::gloss::{
-    GLOSS_WAVELENGTH_NM, GlossExponent, GlossGeometry, reading_from_exponent,
+    GLOSS_WAVELENGTH_NM, GlossExponent, GlossGeometry, reading_range,
 };
 use coatlab_core::paint::lobe::LobeKind;
+use coatlab_core::paint::parameters::{
+    ABSORPTION, ALBEDO, Bounds, CAUCHY_A, CAUCHY_B, GLOSS, Parameter, REFRACTIVE_INDEX, THICKNESS,
+};
+use coatlab_core::units::Unit;
 use egui::{Color32, RichText, Ui};
 use egui_plot::{Line, Plot, PlotPoints};
 
 use super::curve_editor::{CurveEditor, CurveScale};
 
-/// Ranges of the controls (the design format allows more; these are the paints the
-/// model is meant for, and what a slider can usefully span).
-pub const THICKNESS_RANGE_UM: (f64, f64) = (0.0, 200.0);
-pub const CAUCHY_A_RANGE: (f64, f64) = (1.0, 2.5);
-pub const CAUCHY_B_RANGE_UM2: (f64, f64) = (-0.02, 0.1);
-pub const ABSORPTION_RANGE_PER_UM: (f64, f64) = (0.0, 1.0);
+/// The bottom of the logarithmic k controls, standing for 0 (a log axis has no
+/// place for it): through 200 µm, the thickest coat the control offers, k = 1e-5
+/// /µm absorbs 0.2 %.
+pub const ABSORPTION_LOG_FLOOR_PER_UM: f64 = 1e-5;
 const K_CURVE_SCALE: CurveScale = CurveScale::Log10 {
-    min: 1e-5,
-    max: 1.0,
+    min: ABSORPTION_LOG_FLOOR_PER_UM,
+    max: control_span(&ABSORPTION).max,
 };
-const RHO_SCALE: CurveScale = CurveScale::Linear { min: 0.0, max: 1.0 };
+const RHO_SCALE: CurveScale = CurveScale::Linear {
+    min: control_span(&ALBEDO).min,
+    max: control_span(&ALBEDO).max,
+};
+
+/// The span a control offers for `parameter`: the table's control span, or its
+/// range where the table gives none.
+pub const fn control_span(parameter: &Parameter) -> Bounds {
+    match parameter.control {
+        Some(span) => span,
+        None => parameter.range,
+    }
+}
+
+fn slider_range(parameter: &Parameter) -> RangeInclusive<f64> {
+    let span = control_span(parameter);
+    span.min..=span.max
+}
+
+/// A slider's accessible label: "Thickness h (µm)", "Cauchy A".
+pub fn slider_label(word: &str, parameter: &Parameter) -> String {
+    match parameter.unit {
+        Unit::Dimensionless => format!("{word} {}", parameter.symbol),
+        unit => format!("{word} {} ({unit})", parameter.symbol),
+    }
+}
 
 /// What the panel asks the app to do (things that need files or the whole app).
 #[derive(Debug, Clone, PartialEq)]
@@ -77,13 +110,17 @@ pub fn paint_controls_ui(
     });
 
     ui.separator();
+    let rho_span = control_span(&ALBEDO);
     section(
         ui,
         "Pigment albedo ρ(λ)",
-        "dimensionless, 0–1; drag the points",
+        &format!(
+            "dimensionless, {}–{}; drag the points",
+            rho_span.min, rho_span.max
+        ),
     );
     if let Some(table) = (CurveEditor {
-        label: "ρ",
+        label: ALBEDO.symbol,
         unit: "",
         scale: RHO_SCALE,
         control_step_nm: 25.0,
@@ -100,26 +137,35 @@ pub fn paint_controls_ui(
     section(
         ui,
         "Clear coat refractive index n(λ)",
-        "n = A + B/λ², λ in µm; n ≥ 1 over 380–780 nm",
+        &format!(
+            "n = A + B/λ², λ in µm; n ≥ {} over {VISIBLE}",
+            REFRACTIVE_INDEX.range.min
+        ),
     );
     refractive_index_ui(ui, design);
     show_error(ui, error_for("clear_coat.refractive_index"));
 
     ui.separator();
-    section(ui, "Clear coat absorption k(λ)", "1/µm, ≥ 0");
+    section(
+        ui,
+        "Clear coat absorption k(λ)",
+        &format!("{}, ≥ {}", ABSORPTION.unit, ABSORPTION.range.min),
+    );
     absorption_ui(ui, design);
     show_error(ui, error_for("clear_coat.absorption"));
 
     ui.separator();
-    section(ui, "Clear coat thickness h", "µm, 0–200");
+    let h_span = control_span(&THICKNESS);
+    section(
+        ui,
+        "Clear coat thickness h",
+        &format!("{}, {}–{}", THICKNESS.unit, h_span.min, h_span.max),
+    );
     ui.add(
-        egui::Slider::new(
-            &mut design.thickness_um,
-            THICKNESS_RANGE_UM.0..=THICKNESS_RANGE_UM.1,
-        )
-        .text("Thickness h (µm)")
-        .suffix(" µm")
-        .max_decimals(1),
+        egui::Slider::new(&mut design.thickness_um, slider_range(&THICKNESS))
+            .text(slider_label("Thickness", &THICKNESS))
+            .suffix(THICKNESS.unit.suffix())
+            .max_decimals(1),
     );
     show_error(ui, error_for("clear_coat.thickness"));
 
@@ -151,14 +197,14 @@ fn refractive_index_ui(ui: &mut Ui, design: &mut PaintDesign) {
     match &mut design.refractive_index {
         RefractiveIndex::Cauchy { a, b_um2 } => {
             ui.add(
-                egui::Slider::new(a, CAUCHY_A_RANGE.0..=CAUCHY_A_RANGE.1)
-                    .text("Cauchy A")
+                egui::Slider::new(a, slider_range(&CAUCHY_A))
+                    .text(slider_label("Cauchy", &CAUCHY_A))
                     .max_decimals(4),
             );
             ui.add(
-                egui::Slider::new(b_um2, CAUCHY_B_RANGE_UM2.0..=CAUCHY_B_RANGE_UM2.1)
-                    .text("Cauchy B (µm²)")
-                    .suffix(" µm²")
+                egui::Slider::new(b_um2, slider_range(&CAUCHY_B))
+                    .text(slider_label("Cauchy", &CAUCHY_B))
+                    .suffix(CAUCHY_B.unit.suffix())
                     .max_decimals(5),
             );
         }
@@ -171,11 +217,12 @@ fn refractive_index_ui(ui: &mut Ui, design: &mut PaintDesign) {
             ));
             if ui
                 .button("Replace by a Cauchy fit")
-                .on_hover_text("Least-squares A + B/λ² through the table's samples in 380–780 nm")
+                .on_hover_text(format!(
+                    "Least-squares A + B/λ² through the table's samples in {VISIBLE}"
+                ))
                 .clicked()
             {
-                let (a, b_um2) = cauchy_fit(table);
-                design.refractive_index = RefractiveIndex::Cauchy { a, b_um2 };
+                design.refractive_index = RefractiveIndex::cauchy_fit(table);
             }
         }
     }
@@ -186,9 +233,9 @@ fn refractive_index_ui(ui: &mut Ui, design: &mut PaintDesign) {
         ))
         .weak(),
     );
-    let points: PlotPoints = (380..=780)
-        .step_by(5)
-        .map(|l| [f64::from(l), design.refractive_index_at_nm(f64::from(l))])
+    let points: PlotPoints = WavelengthGrid::reference()
+        .wavelengths_nm()
+        .map(|l| [l, design.refractive_index_at_nm(l)])
         .collect::<Vec<_>>()
         .into();
     Plot::new("n_plot")
@@ -198,31 +245,6 @@ fn refractive_index_ui(ui: &mut Ui, design: &mut PaintDesign) {
         .allow_scroll(false)
         .x_axis_label("λ (nm)")
         .show(ui, |p| p.line(Line::new("n(λ)", points)));
-}
-
-/// Least-squares Cauchy coefficients (A, B in µm²) through a table's samples in
-/// 380–780 nm: linear regression of n on 1/λ².
-pub fn cauchy_fit(table: &TabulatedSpectrum) -> (f64, f64) {
-    let samples: Vec<(f64, f64)> = table
-        .wavelengths_nm()
-        .iter()
-        .zip(table.values())
-        .filter(|(l, _)| (380.0..=780.0).contains(*l))
-        .map(|(&l, &n)| (1.0 / (l * 1e-3).powi(2), n))
-        .collect();
-    let count = samples.len() as f64;
-    if samples.len() < 2 {
-        return (table.value_at_nm(GLOSS_WAVELENGTH_NM).max(1.0), 0.0);
-    }
-    let mean_x = samples.iter().map(|s| s.0).sum::<f64>() / count;
-    let mean_y = samples.iter().map(|s| s.1).sum::<f64>() / count;
-    let sxx: f64 = samples.iter().map(|s| (s.0 - mean_x).powi(2)).sum();
-    let sxy: f64 = samples
-        .iter()
-        .map(|s| (s.0 - mean_x) * (s.1 - mean_y))
-        .sum();
-    let b = if sxx > 0.0 { sxy / sxx } else { 0.0 };
-    (mean_y - b * mean_x, b)
 }
 
 fn absorption_ui(ui: &mut Ui, design: &mut PaintDesign) {
@@ -244,17 +266,17 @@ fn absorption_ui(ui: &mut Ui, design: &mut PaintDesign) {
     match &mut design.absorption_per_um {
         Absorption::Constant(k) => {
             ui.add(
-                egui::Slider::new(k, ABSORPTION_RANGE_PER_UM.0..=ABSORPTION_RANGE_PER_UM.1)
+                egui::Slider::new(k, slider_range(&ABSORPTION))
                     .logarithmic(true)
-                    .smallest_positive(1e-5)
-                    .text("Absorption k (1/µm)")
-                    .suffix(" /µm"),
+                    .smallest_positive(ABSORPTION_LOG_FLOOR_PER_UM)
+                    .text(slider_label("Absorption", &ABSORPTION))
+                    .suffix(ABSORPTION.unit.suffix()),
             );
         }
         Absorption::Table(table) => {
             if let Some(t) = (CurveEditor {
-                label: "k",
-                unit: "1/µm",
+                label: ABSORPTION.symbol,
+                unit: ABSORPTION.unit.symbol(),
                 scale: K_CURVE_SCALE,
                 control_step_nm: 20.0,
                 height: 120.0,
@@ -278,37 +300,32 @@ fn mean_visible(absorption: &Absorption) -> f64 {
     samples.iter().sum::<f64>() / samples.len() as f64
 }
 
-/// The readings the gloss slider spans at one geometry and index: the broadest lobe
-/// (m = 0) and the ideal mirror.
-pub fn gloss_range(geometry: GlossGeometry, n: f64) -> Option<(f64, f64)> {
-    let lo = reading_from_exponent(geometry, n, GlossExponent::Finite(0.0)).ok()?;
-    let hi = reading_from_exponent(geometry, n, GlossExponent::Mirror).ok()?;
-    Some((lo, hi))
-}
-
 fn gloss_ui(ui: &mut Ui, design: &mut PaintDesign) {
     let n = design.refractive_index_at_nm(GLOSS_WAVELENGTH_NM);
     let Gloss { gu, geometry } = design.gloss;
-    let range = gloss_range(geometry, n);
+    let range = reading_range(geometry, n).ok();
     let range_text = match range {
-        Some((lo, hi)) => format!("GU at {geometry}, {lo:.1}–{hi:.1} (top = ideal mirror)"),
-        None => "GU".to_owned(),
+        Some(Bounds { min, max }) => format!(
+            "{} at {geometry}, {min:.1}–{max:.1} (top = ideal mirror)",
+            GLOSS.unit
+        ),
+        None => GLOSS.unit.to_string(),
     };
     section(ui, "Gloss g", &range_text);
     ui.horizontal(|ui| {
         ui.label("Geometry");
         for g in GlossGeometry::ALL {
             if ui.radio(geometry == g, g.to_string()).clicked() && g != geometry {
-                design.gloss = convert_gloss(design.gloss, g, n);
+                design.gloss = design.gloss.at_geometry(g, n);
             }
         }
     });
-    if let Some((lo, hi)) = range {
-        let mut value = gu.clamp(lo, hi);
+    if let Some(Bounds { min, max }) = range {
+        let mut value = gu.clamp(min, max);
         let response = ui.add(
-            egui::Slider::new(&mut value, lo..=hi)
-                .text("Gloss g (GU)")
-                .suffix(" GU")
+            egui::Slider::new(&mut value, min..=max)
+                .text(slider_label("Gloss", &GLOSS))
+                .suffix(GLOSS.unit.suffix())
                 .max_decimals(2),
         );
         if response.changed() {
@@ -349,44 +366,77 @@ fn gloss_ui(ui: &mut Ui, design: &mut PaintDesign) {
     });
 }
 
-/// The reading at another geometry that gives the same lobe, so changing the
-/// geometry changes the number shown, not the paint.
-pub fn convert_gloss(gloss: Gloss, to: GlossGeometry, n: f64) -> Gloss {
-    let exponent = coatlab_core::paint::gloss::exponent_from_reading(gloss.geometry, n, gloss.gu);
-    let gu = exponent
-        .ok()
-        .and_then(|m| reading_from_exponent(to, n, m).ok())
-        .unwrap_or(gloss.gu);
-    Gloss { gu, geometry: to }
-}
-
 #[cfg(test)]
 mod tests {
+    use coatlab_core::design::presets;
+    use egui::accesskit::Role;
+    use egui_kittest::Harness;
+    use egui_kittest::kittest::{NodeT, Queryable};
+
     use super::*;
 
-    #[test]
-    fn the_cauchy_fit_recovers_a_cauchy_table() {
-        let w: Vec<f64> = (0..=40).map(|i| 380.0 + 10.0 * f64::from(i)).collect();
-        let v = w
-            .iter()
-            .map(|l| 1.5 + 0.0042 / (l * 1e-3f64).powi(2))
-            .collect();
-        let (a, b) = cauchy_fit(&TabulatedSpectrum::new(w, v).expect("valid"));
-        assert!(
-            (a - 1.5).abs() < 1e-9 && (b - 0.0042).abs() < 1e-9,
-            "{a} {b}"
-        );
+    /// The span a slider reports to assistive technology (and so to a test), by
+    /// its accessible label.
+    fn reported_span(harness: &Harness<'_>, label: &str) -> (Option<f64>, Option<f64>) {
+        let node = harness.get_by_role_and_label(Role::Slider, label);
+        let node = node.accesskit_node();
+        (node.min_numeric_value(), node.max_numeric_value())
     }
 
     #[test]
-    fn changing_the_geometry_keeps_the_lobe() {
-        let g = Gloss {
-            gu: 50.0,
-            geometry: GlossGeometry::Deg20,
-        };
-        let g60 = convert_gloss(g, GlossGeometry::Deg60, 1.5);
-        assert_eq!(g60.geometry, GlossGeometry::Deg60);
-        let back = convert_gloss(g60, GlossGeometry::Deg20, 1.5);
-        assert!((back.gu - 50.0).abs() < 1e-6, "{back:?}");
+    fn every_slider_spans_its_parameter_s_control_in_the_table() {
+        // A Cauchy index and a constant k: every slider of the panel is shown.
+        let mut design = presets::all().remove(0).design;
+        design.absorption_per_um = Absorption::Constant(ABSORPTION.default);
+        let (geometry, n) = (
+            design.gloss.geometry,
+            design.refractive_index_at_nm(GLOSS_WAVELENGTH_NM),
+        );
+        let presets = presets::all();
+        let harness = Harness::new_ui(|ui| {
+            paint_controls_ui(ui, &mut design, &presets);
+        });
+        let gloss = reading_range(geometry, n).expect("the preset's gloss");
+        for (label, parameter, span) in [
+            ("Thickness h (µm)", &THICKNESS, THICKNESS.control),
+            ("Cauchy A", &CAUCHY_A, CAUCHY_A.control),
+            ("Cauchy B (µm²)", &CAUCHY_B, CAUCHY_B.control),
+            ("Absorption k (1/µm)", &ABSORPTION, ABSORPTION.control),
+            ("ρ at 550 nm", &ALBEDO, ALBEDO.control),
+            ("Gloss g (GU)", &GLOSS, Some(gloss)),
+        ] {
+            let span = span.expect("a control span");
+            assert_eq!(
+                reported_span(&harness, label),
+                (Some(span.min), Some(span.max)),
+                "{label}"
+            );
+            for end in [span.min, span.max] {
+                assert!(parameter.accepts(end), "{label}: {end} outside the range");
+            }
+        }
+    }
+
+    #[test]
+    fn the_k_curve_spans_the_table_s_control_down_to_the_log_floor() {
+        let mut design = presets::all().remove(0).design;
+        assert!(matches!(design.absorption_per_um, Absorption::Table(_)));
+        let presets = presets::all();
+        let harness = Harness::new_ui(|ui| {
+            paint_controls_ui(ui, &mut design, &presets);
+        });
+        let span = control_span(&ABSORPTION);
+        assert_eq!(
+            reported_span(&harness, "k at 400 nm"),
+            (Some(ABSORPTION_LOG_FLOOR_PER_UM), Some(span.max))
+        );
+        assert!(span.min < ABSORPTION_LOG_FLOOR_PER_UM);
+    }
+
+    #[test]
+    fn slider_labels_carry_symbol_and_unit() {
+        assert_eq!(slider_label("Thickness", &THICKNESS), "Thickness h (µm)");
+        assert_eq!(slider_label("Cauchy", &CAUCHY_A), "Cauchy A");
+        assert_eq!(slider_label("Gloss", &GLOSS), "Gloss g (GU)");
     }
 }

@@ -8,7 +8,7 @@
 
 use std::sync::OnceLock;
 
-use coatlab_core::colour::spectrum::WavelengthGrid;
+use coatlab_core::colour::spectrum::{MAX_VISIBLE_SAMPLES, WavelengthGrid};
 use coatlab_core::render::environment::Environment;
 use coatlab_core::render::lighting::Lighting;
 use egui::Ui;
@@ -133,7 +133,10 @@ impl QualityPresets {
                 return bad("name", "is used twice");
             }
             if WavelengthGrid::visible(p.wavelengths).is_err() {
-                return bad("wavelengths", "must be 1 to 401");
+                return bad(
+                    "wavelengths",
+                    &format!("must be 1 to {MAX_VISIBLE_SAMPLES}"),
+                );
             }
             if p.samples_per_pixel == 0 {
                 return bad("samples_per_pixel", "must be at least 1");

@@ -17,12 +17,11 @@
 //! box of at least one of its pieces, as the watertight traversal needs: a point on
 //! a split plane belongs to both closed halves.
 //!
-//! With `ReferenceSplits::Spatial` the references then go through an SBVH-style
-//! pass (module `spatial` below): ×1.13–1.19 rays per CPU-second on the
-//! Lamborghini (×1.26–1.30 on two cores in session 7), none on the default car and
-//! the torus, at about 1.7 times the build's time (session 7: 122–150 against
-//! 63–88 ms on one thread); the default (docs/benchmarks.md, "A faster pass", "SAH
-//! collapse" and "Faster build (session 7)").
+//! With `ReferenceSplits::Spatial` (the default) the references then go through an
+//! SBVH-style pass (module `spatial` below): ×1.13–1.30 the rays per second on the
+//! Lamborghini, no change on the default car and the torus, at about 1.7 times the
+//! build's time (docs/benchmarks.md, "Spatial splits", "SAH collapse" and "Build
+//! time").
 
 use super::wide::TopNode;
 use super::{Bounds, ReferenceSplits};
@@ -166,9 +165,8 @@ fn split(
 /// split cuts the references that straddle its plane into a piece on each side.
 /// The references come out in the partition's order, with the partition itself
 /// ([`TopNode`]s), which the ordinary builder keeps as the top of its binary tree
-/// and builds below (until session 6 it rebuilt the whole tree over the
-/// references: the same rays per second within 2 %, at 200 instead of 163 ms of
-/// CPU on the Lamborghini).
+/// and builds below (rebuilding the whole tree over the references instead gives
+/// the same rays per second within 2 % at about a fifth more build time).
 ///
 /// **Cost.** The pass is built to stay within the build target (docs/benchmarks.md,
 /// "Spatial splits"): the chopped binning clips a straddling reference's *box* to

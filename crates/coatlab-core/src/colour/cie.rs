@@ -20,16 +20,12 @@ use std::sync::OnceLock;
 
 use thiserror::Error;
 
-use crate::colour::spectrum::{SampledSpectrum, TabulatedSpectrum, WavelengthGrid};
+use crate::colour::spectrum::{SampledSpectrum, TabulatedSpectrum, VISIBLE, WavelengthGrid};
 use crate::colour::{Lab, Xyz, lab_from_xyz};
 
 const CIE_TABLES_CSV: &str = include_str!("../../data/cie_tables.csv");
 const DAYLIGHT_BASIS_CSV: &str = include_str!("../../data/cie_daylight_basis.csv");
 const TABLE_STEP_NM: f64 = 5.0;
-/// The range every [`Colorimeter`] integrates over at least: the reference grid's
-/// (spec section 6), whatever the renderer's grid.
-const COLORIMETER_START_NM: f64 = 380.0;
-const COLORIMETER_END_NM: f64 = 780.0;
 
 /// Errors naming an observer, illuminant or integration the tables cannot serve.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -305,8 +301,8 @@ impl TristimulusWeights {
 /// through its samples, and a constant spectrum gives exactly the white point. On the
 /// reference grid every hat is one table row, so this is plain 5 nm summation.
 ///
-/// The integration runs over the table rows in 380–780 nm (spec section 6), widened
-/// to the grid's own span if that reaches further.
+/// The integration runs over the table rows in [`VISIBLE`] (spec section 6), whatever
+/// the renderer's grid, widened to the grid's own span if that reaches further.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Colorimeter {
     grid: WavelengthGrid,
@@ -463,7 +459,7 @@ struct Tables {
 
 /// For each sample of `grid`, the integrals over the 5 nm table of
 /// weighting(λ)·x̄(λ), ·ȳ(λ), ·z̄(λ) times the sample's linear-interpolation (hat)
-/// basis function, the end samples' hats extended as constants; over 380–780 nm,
+/// basis function, the end samples' hats extended as constants; over [`VISIBLE`],
 /// widened to the grid's span if it reaches further. A spectrum reconstructed by
 /// linear interpolation between the grid's samples therefore integrates exactly
 /// against the tables, on any grid. Unscaled: Δλ = 5 nm is included.
@@ -474,8 +470,8 @@ pub fn hat_weighted_cmfs(
 ) -> [Vec<f64>; 3] {
     let n = grid.len();
     let (mut x, mut y, mut z) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-    let first_nm = COLORIMETER_START_NM.min(grid.start_nm());
-    let last_nm = COLORIMETER_END_NM.max(grid.end_nm());
+    let first_nm = VISIBLE.start_nm.min(grid.start_nm());
+    let last_nm = VISIBLE.end_nm.max(grid.end_nm());
     for wavelength_nm in table_wavelengths_nm() {
         if wavelength_nm < first_nm || wavelength_nm > last_nm {
             continue;

@@ -1,5 +1,6 @@
 //! Spectra and colour: wavelength grids and spectra ([`spectrum`]), the CIE tables
-//! and colorimeter ([`cie`]), and here the colour spaces and colour difference.
+//! and colorimeter ([`cie`]), RGB → spectrum upsampling ([`upsampling`]), and here
+//! the colour spaces and colour difference.
 //!
 //! Colour spaces and colour difference (spec section 6): CIELAB relative to a
 //! run-time white, CIEDE2000, and XYZ → sRGB for display with Bradford chromatic
@@ -14,6 +15,7 @@
 
 pub mod cie;
 pub mod spectrum;
+pub mod upsampling;
 
 use std::sync::OnceLock;
 
@@ -209,6 +211,59 @@ pub fn linear_srgb_from_xyz(xyz: Xyz, white: Xyz) -> LinSrgb<f64> {
 pub fn xyz_from_linear_srgb(rgb: LinSrgb<f64>) -> Xyz {
     let [x, y, z] = mul(srgb_matrices().1, [rgb.red, rgb.green, rgb.blue]);
     Xyz::new(100.0 * x, 100.0 * y, 100.0 * z)
+}
+
+/// The luminance row of linear sRGB: Y of (r, g, b), the white (1, 1, 1) at Y = 1.
+pub const SRGB_LUMINANCE: [f32; 3] = [0.2126, 0.7152, 0.0722];
+
+/// The rows of the linear-sRGB → XYZ matrix with the white (1, 1, 1) at Y = 1: what
+/// the film applies to a triple of [`spectrum::Channels::LinearSrgb`].
+pub fn xyz_rows_of_linear_srgb() -> [[f64; 3]; 3] {
+    let columns = [
+        LinSrgb::new(1.0, 0.0, 0.0),
+        LinSrgb::new(0.0, 1.0, 0.0),
+        LinSrgb::new(0.0, 0.0, 1.0),
+    ]
+    .map(|c| {
+        let xyz = xyz_from_linear_srgb(c);
+        [xyz.x / 100.0, xyz.y / 100.0, xyz.z / 100.0]
+    });
+    std::array::from_fn(|row| std::array::from_fn(|col| columns[col][row]))
+}
+
+/// The linear sRGB of an emission spectrum on the reference grid, on the film's
+/// scale (Y = ∫ L ȳ dλ / ∫ ȳ dλ): the triple whose XYZ on a
+/// [`spectrum::Channels::LinearSrgb`] film equals the spectrum's on a spectral one.
+pub fn linear_srgb_of_emission(reference_values: &[f64]) -> [f64; 3] {
+    linear_srgb_weighted(reference_values, |_| 1.0)
+}
+
+/// The linear sRGB under D65 of a reflectance (or any spectral factor) on the
+/// reference grid, white-normalised: a constant c gives (c, c, c).
+pub fn linear_srgb_of_reflectance(reference_values: &[f64]) -> [f64; 3] {
+    let d65 = cie::Illuminant::D65;
+    // The white of D65 at Y = 1 is the sRGB white: no adaptation, only the matrix.
+    linear_srgb_weighted(reference_values, |nm| d65.spd_at_nm(nm))
+}
+
+/// Linear sRGB of XYZ = ∫ values·w·(x̄, ȳ, z̄) dλ / ∫ w·ȳ dλ on the reference grid.
+fn linear_srgb_weighted(reference_values: &[f64], weight: impl Fn(f64) -> f64) -> [f64; 3] {
+    let grid = spectrum::WavelengthGrid::reference();
+    let [x, y, z] = cie::hat_weighted_cmfs(cie::Observer::Cie1931TwoDegree, &grid, weight);
+    let norm: f64 = y.iter().sum();
+    let dot = |w: &[f64]| {
+        w.iter()
+            .zip(reference_values)
+            .map(|(a, b)| a * b)
+            .sum::<f64>()
+            / norm
+    };
+    let white = srgb_white();
+    let rgb = linear_srgb_from_xyz(
+        Xyz::new(dot(&x) * white.y, dot(&y) * white.y, dot(&z) * white.y),
+        white,
+    );
+    [rgb.red, rgb.green, rgb.blue]
 }
 
 /// sRGB-encoded values (IEC 61966-2-1 transfer function).

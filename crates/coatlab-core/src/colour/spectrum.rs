@@ -1,10 +1,11 @@
 //! Wavelength grids, sampled and tabulated spectra, and spectra CSV import.
 //!
 //! The renderer works on a [`WavelengthGrid`]: the 5 nm reference grid of spec
-//! section 6, or fewer, wider bins over the same 380–780 nm range when speed matters
+//! section 6, or fewer, wider bins over the same [`VISIBLE`] range when speed matters
 //! more than accuracy. Measured or published data arrive as [`TabulatedSpectrum`]s at
 //! their own (possibly irregular) wavelengths and are brought onto a grid with
-//! [`TabulatedSpectrum::to_grid`].
+//! [`TabulatedSpectrum::to_grid`]. What one value of the tracer's per-path arrays
+//! stands for — a wavelength of a grid, or a linear-sRGB primary — is a [`Channels`].
 //!
 //! Resampling rule (both [`SampledSpectrum::resample`] and
 //! [`TabulatedSpectrum::to_grid`]): the source is the piecewise-linear function through
@@ -26,13 +27,47 @@ pub const CSV_MIN_WAVELENGTH_NM: f64 = 300.0;
 /// Longest wavelength accepted from a spectra file (nm): the end of the CIE tables.
 pub const CSV_MAX_WAVELENGTH_NM: f64 = 830.0;
 
-/// Visible range covered by [`WavelengthGrid::visible`] (spec section 6).
-const VISIBLE_START_NM: f64 = 380.0;
-const VISIBLE_END_NM: f64 = 780.0;
-const REFERENCE_STEP_NM: f64 = 5.0;
-const REFERENCE_LEN: usize = 81;
-/// One sample per nanometre is the finest grid the renderer has any use for.
-const VISIBLE_MAX_COUNT: usize = 401;
+/// A closed range of wavelengths.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WavelengthRange {
+    /// Shortest wavelength (nm).
+    pub start_nm: f64,
+    /// Longest wavelength (nm).
+    pub end_nm: f64,
+}
+
+impl WavelengthRange {
+    /// Whether `wavelength_nm` lies in the range, ends included.
+    pub fn contains(&self, wavelength_nm: f64) -> bool {
+        (self.start_nm..=self.end_nm).contains(&wavelength_nm)
+    }
+
+    /// `end_nm − start_nm`.
+    pub fn width_nm(&self) -> f64 {
+        self.end_nm - self.start_nm
+    }
+}
+
+impl fmt::Display for WavelengthRange {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}–{} nm", self.start_nm, self.end_nm)
+    }
+}
+
+/// The visible range of spec section 6, 380–780 nm: every renderer grid tiles it
+/// ([`WavelengthGrid::visible`]), colour is integrated over it, a design's
+/// refractive index must be ≥ 1 over it, and the GUI draws spectra over it.
+pub const VISIBLE: WavelengthRange = WavelengthRange {
+    start_nm: 380.0,
+    end_nm: 780.0,
+};
+/// Spacing of the reference grid (nm): the CIE tables' own.
+pub const REFERENCE_STEP_NM: f64 = 5.0;
+/// Samples of the reference grid: [`VISIBLE`] every [`REFERENCE_STEP_NM`], ends included.
+pub const REFERENCE_LEN: usize = 81;
+/// Most samples [`WavelengthGrid::visible`] takes: one per nanometre is the finest
+/// grid the renderer has any use for.
+pub const MAX_VISIBLE_SAMPLES: usize = 401;
 
 /// What went wrong building a grid or a spectrum, or reading a spectra file.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -46,7 +81,7 @@ pub enum SpectrumError {
         reason: &'static str,
     },
     /// `WavelengthGrid::visible` asked for an unsupported number of samples.
-    #[error("a visible wavelength grid needs 1 to {VISIBLE_MAX_COUNT} samples, got {count}")]
+    #[error("a visible wavelength grid needs 1 to {MAX_VISIBLE_SAMPLES} samples, got {count}")]
     VisibleCount { count: usize },
     /// Values and wavelengths of different lengths.
     #[error("spectrum has {found} values but {expected} wavelengths")]
@@ -165,48 +200,31 @@ impl WavelengthGrid {
         })
     }
 
-    /// The reference grid of spec section 6: 380–780 nm every 5 nm, 81 samples.
+    /// The reference grid of spec section 6: [`VISIBLE`] every 5 nm, 81 samples.
     pub const fn reference() -> Self {
         Self {
-            start_nm: VISIBLE_START_NM,
+            start_nm: VISIBLE.start_nm,
             step_nm: REFERENCE_STEP_NM,
             len: REFERENCE_LEN,
         }
     }
 
-    /// The three linear-sRGB channels R, G, B as a three-sample "grid" (nominal
-    /// wavelengths 1, 2, 3 nm, which no spectral grid uses): the renderer's RGB
-    /// shortcut ([`crate::render::rgb`]); the film, the lighting and the RGB
-    /// upsampler recognise it and work in linear sRGB.
-    pub const fn linear_srgb() -> Self {
-        Self {
-            start_nm: 1.0,
-            step_nm: 1.0,
-            len: 3,
-        }
-    }
-
-    /// Whether this is [`Self::linear_srgb`].
-    pub fn is_linear_srgb(&self) -> bool {
-        *self == Self::linear_srgb()
-    }
-
     /// `count` samples over the visible range: 81 gives [`Self::reference`]; any other
     /// count places the samples at the centres of `count` equal bins tiling
-    /// 380–780 nm (3 gives 446.67, 580, 713.33 nm).
+    /// [`VISIBLE`] (3 gives 446.67, 580, 713.33 nm).
     ///
     /// Fewer samples is the renderer's speed/accuracy knob. Errors unless
-    /// `1 <= count <= 401`.
+    /// `1 <= count <=` [`MAX_VISIBLE_SAMPLES`].
     pub fn visible(count: usize) -> Result<Self, SpectrumError> {
         if count == REFERENCE_LEN {
             return Ok(Self::reference());
         }
-        if !(1..=VISIBLE_MAX_COUNT).contains(&count) {
+        if !(1..=MAX_VISIBLE_SAMPLES).contains(&count) {
             return Err(SpectrumError::VisibleCount { count });
         }
-        let step_nm = (VISIBLE_END_NM - VISIBLE_START_NM) / count as f64;
+        let step_nm = VISIBLE.width_nm() / count as f64;
         Ok(Self {
-            start_nm: VISIBLE_START_NM + 0.5 * step_nm,
+            start_nm: VISIBLE.start_nm + 0.5 * step_nm,
             step_nm,
             len: count,
         })
@@ -254,6 +272,111 @@ impl WavelengthGrid {
     pub fn wavelengths_nm(&self) -> impl ExactSizeIterator<Item = f64> + use<> {
         let grid = *self;
         (0..grid.len).map(move |i| grid.wavelength_nm(i))
+    }
+}
+
+/// What the values of the tracer's per-path arrays (radiance, BSDF values, path
+/// weights, film samples) stand for: one wavelength each of a grid, or the three
+/// linear-sRGB primaries of the RGB shortcut ([`crate::render::rgb`]).
+///
+/// The paint formulas run per channel alike; what differs is only how a channel
+/// meets colour: a spectral channel has a wavelength (the film weighs it by the
+/// colour-matching functions, lights and base colours are spectra on the grid), an
+/// RGB channel has none (the film applies the sRGB → XYZ matrix, lights and base
+/// colours are their linear-sRGB triples). Code that needs a wavelength asks
+/// [`Channels::grid`] and must say what it does without one.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Channels {
+    /// Spectral radiance at the samples of a wavelength grid.
+    Spectral(WavelengthGrid),
+    /// Linear sRGB (Rec. 709 primaries, D65 white (1, 1, 1)), in the order R, G, B.
+    LinearSrgb,
+}
+
+impl Channels {
+    /// Number of channels: the grid's samples, or 3.
+    pub const fn len(&self) -> usize {
+        match self {
+            Channels::Spectral(grid) => grid.len(),
+            Channels::LinearSrgb => 3,
+        }
+    }
+
+    /// Always false: there is at least one channel. Present for API symmetry with
+    /// `len`.
+    pub const fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The wavelength grid of spectral channels; `None` for linear sRGB, whose
+    /// channels have no wavelength.
+    pub const fn grid(&self) -> Option<&WavelengthGrid> {
+        match self {
+            Channels::Spectral(grid) => Some(grid),
+            Channels::LinearSrgb => None,
+        }
+    }
+}
+
+impl Channels {
+    /// Channel `index`, for messages; not bounds-checked (as
+    /// [`WavelengthGrid::wavelength_nm`]).
+    pub fn channel(&self, index: usize) -> Channel {
+        match self {
+            Channels::Spectral(grid) => Channel::Wavelength(grid.wavelength_nm(index)),
+            Channels::LinearSrgb => match index {
+                0 => Channel::Red,
+                1 => Channel::Green,
+                _ => Channel::Blue,
+            },
+        }
+    }
+}
+
+/// One channel of a [`Channels`], as messages name it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Channel {
+    /// A wavelength (nm).
+    Wavelength(f64),
+    /// The linear-sRGB red primary.
+    Red,
+    /// The linear-sRGB green primary.
+    Green,
+    /// The linear-sRGB blue primary.
+    Blue,
+}
+
+impl fmt::Display for Channel {
+    /// "at 550 nm", "in the red channel".
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Channel::Wavelength(nm) => write!(f, "at {nm} nm"),
+            Channel::Red => f.write_str("in the red channel"),
+            Channel::Green => f.write_str("in the green channel"),
+            Channel::Blue => f.write_str("in the blue channel"),
+        }
+    }
+}
+
+impl From<WavelengthGrid> for Channels {
+    fn from(grid: WavelengthGrid) -> Self {
+        Channels::Spectral(grid)
+    }
+}
+
+impl fmt::Display for Channels {
+    /// "32 wavelengths, 380–780 nm" or "linear sRGB".
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Channels::Spectral(grid) => write!(
+                f,
+                "{} wavelengths, {}–{} nm",
+                grid.len(),
+                grid.start_nm(),
+                grid.end_nm()
+            ),
+            Channels::LinearSrgb => f.write_str("linear sRGB"),
+        }
     }
 }
 

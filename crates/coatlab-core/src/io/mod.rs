@@ -2,5 +2,8 @@
 //! them safely. Nothing here knows about paint or rendering.
 
 pub mod atomic;
+pub mod exr_read;
 pub mod exr_write;
+pub mod hdr;
 pub mod png_write;
+pub mod rgb_image;

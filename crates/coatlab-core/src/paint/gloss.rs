@@ -19,7 +19,8 @@
 //! The fraction F of the lobe's flux that reaches the receptor does not depend on
 //! n, only the Fresnel factor does, so F is tabulated once per geometry and source
 //! point over x = ln(1 + m) and m(g) is a root-find on the interpolated reading —
-//! cheap enough for a slider (the table itself costs ~0.2 s, once per process).
+//! cheap enough for a slider (each node of the table is computed once per process,
+//! when first needed).
 
 use std::sync::OnceLock;
 
@@ -27,6 +28,7 @@ use glam::DVec3;
 
 use super::fresnel::reflectance;
 use super::lobe::{one_minus_cos_to_mirror, phong_normalisation};
+use super::parameters::{Bounds, GLOSS, REFRACTIVE_INDEX};
 use crate::quadrature::GaussLegendre;
 
 /// Refractive index of the black glass standard that defines 100 GU (at 587.6 nm).
@@ -130,13 +132,21 @@ pub enum GlossError {
     #[error("glossmeter geometry {0}° is not one of ISO 2813's 20°, 60°, 85°")]
     UnknownGeometry(u32),
     /// NaN, infinite or negative gloss.
-    #[error("gloss {0} GU is not a finite, non-negative number")]
+    #[error(
+        "gloss {0} GU is not a finite, non-negative number: {parameter} must lie in {range}",
+        parameter = GLOSS.label(),
+        range = GLOSS.range_text()
+    )]
     InvalidGloss(f64),
     /// NaN, infinite or negative exponent.
     #[error("lobe exponent {0} is not a finite, non-negative number")]
     InvalidExponent(f64),
     /// Refractive index below 1 or not finite.
-    #[error("refractive index {0} must be a finite number ≥ 1")]
+    #[error(
+        "refractive index {0} is not a finite number ≥ 1: {parameter} must lie in {range}",
+        parameter = REFRACTIVE_INDEX.label(),
+        range = REFRACTIVE_INDEX.range_text()
+    )]
     InvalidIndex(f64),
     /// Below what the broadest lobe (m = 0) reads.
     #[error(
@@ -357,7 +367,8 @@ struct FractionTable {
     /// fractions[node][source], each node computed when first read: a node costs
     /// thousands of receptor quadratures, and a reading needs only the four nodes
     /// around its x. Converting a mirror-like gloss reads six of the 129 (the
-    /// ends); computing them all took about 0.1 s of every render's start-up.
+    /// ends); computing them all up front was a visible part of every render's
+    /// start-up.
     fractions: Vec<OnceLock<Vec<f64>>>,
 }
 
@@ -424,7 +435,7 @@ impl FractionTable {
 }
 
 fn check_index(n: f64) -> Result<(), GlossError> {
-    if n.is_finite() && n >= 1.0 {
+    if REFRACTIVE_INDEX.accepts(n) {
         Ok(())
     } else {
         Err(GlossError::InvalidIndex(n))
@@ -454,6 +465,16 @@ pub fn reading_from_exponent(
     }
 }
 
+/// The readings a gloss lobe can give on a coat of index n (at 587.6 nm) in
+/// `geometry`: from the broadest lobe's (m = 0) to the ideal mirror's. Below it no
+/// exponent exists; at and above its top the paint is the mirror. The GUI's gloss
+/// control spans it.
+pub fn reading_range(geometry: GlossGeometry, n: f64) -> Result<Bounds, GlossError> {
+    let broadest = reading_from_exponent(geometry, n, GlossExponent::Finite(0.0))?;
+    let mirror = reading_from_exponent(geometry, n, GlossExponent::Mirror)?;
+    Ok(Bounds::new(broadest, mirror))
+}
+
 /// m(g): the exponent whose simulated reading is `gu` (spec 4.3). Readings at or
 /// above what m = 1e9 reads (within 1e-6 GU of the mirror's own reading) give the
 /// ideal mirror; readings below the broadest lobe's are an error.
@@ -463,7 +484,7 @@ pub fn exponent_from_reading(
     gu: f64,
 ) -> Result<GlossExponent, GlossError> {
     check_index(n)?;
-    if !(gu.is_finite() && gu >= 0.0) {
+    if !GLOSS.accepts(gu) {
         return Err(GlossError::InvalidGloss(gu));
     }
     let table = fraction_table(geometry);

@@ -216,7 +216,8 @@ impl NormalisationTable {
     /// cost of a gloss edit, and the renderer's own tolerance is 1e-3).
     const INTERVALS: usize = 64;
 
-    /// Builds the table for exponent m ≥ 0 (about 0.5 ms).
+    /// Builds the table for exponent m ≥ 0 (a gloss edit pays this; its cost is in
+    /// docs/benchmarks.md, "Paint model").
     pub fn new(m: f64) -> Self {
         let mu_max = (8.0 / (m + 2.0).sqrt()).min(1.0);
         let correction = (0..=Self::INTERVALS)

@@ -1,25 +1,33 @@
-//! The paint model on a wavelength grid: parameters ("set") and the tables derived
-//! from them ("derive"), kept apart so an edit recomputes only what it touches.
+//! The paint model on a wavelength grid (or on linear-sRGB channels): parameters
+//! ("set") and the tables derived from them ("derive"), kept apart so an edit
+//! recomputes only what it touches.
 //!
-//! | parameter | symbol | unit | range | typical |
-//! | --- | --- | --- | --- | --- |
-//! | pigment albedo | ρ(λ) | — | [0, 1] | 0.03–0.9 |
-//! | coat refractive index | n(λ) | — | [1, ∞) (tested to 4) | 1.48–1.55 |
-//! | coat absorption | k(λ) | 1/µm | [0, ∞) | < 0.002 in the visible |
-//! | coat thickness | h | µm | [0, ∞) | 35–55 |
-//! | gloss | g | GU at 20°/60°/85° | see [`super::gloss`] | 80–92 at 20° (needs n(587.6 nm) ≳ 1.52 above 82 GU) |
-//! | lobe | — | normalised / paper | — | normalised |
+//! The parameters, with their units, accepted ranges and defaults, are those of
+//! the table in [`super::parameters`]; what paints use:
+//!
+//! | parameter | table entry | typical |
+//! | --- | --- | --- |
+//! | pigment albedo ρ(λ) | [`ALBEDO`] | 0.03–0.9 |
+//! | coat refractive index n(λ) | [`REFRACTIVE_INDEX`] (tested to 4) | 1.48–1.55 |
+//! | coat absorption k(λ) | [`ABSORPTION`] | < 0.002 /µm in the visible |
+//! | coat thickness h | [`THICKNESS`] | 35–55 µm |
+//! | gloss g at 20°/60°/85° | [`super::parameters::GLOSS`], [`super::gloss`] | 80–92 GU at 20° (needs n(587.6 nm) ≳ 1.52 above 82 GU) |
+//! | lobe | [`LobeKind`]: normalised / paper | normalised |
 //!
 //! Derived, and what each depends on:
 //!
-//! | derived | from | cost (81 λ) |
-//! | --- | --- | --- |
-//! | τ(λ) = k·h | k, h | trivial |
-//! | C(λ), E(λ) (coat integrals) | n, τ | ~0.5 ms |
-//! | body factor ρ/(n²(π − ρC)) | ρ, n, C | trivial |
-//! | through-coat and Fresnel tables over μ | n, τ | ~0.3 ms |
-//! | m | g, geometry, n(587.6 nm) | ~15 µs |
-//! | lobe normalisation table N(μ) | m | ~3 ms |
+//! | derived | from |
+//! | --- | --- |
+//! | τ(λ) = k·h | k, h |
+//! | C(λ), E(λ) (coat integrals) | n, τ |
+//! | body factor ρ/(n²(π − ρC)) | ρ, n, C |
+//! | through-coat and Fresnel tables over μ | n, τ |
+//! | m | g, geometry, n(587.6 nm) |
+//! | lobe normalisation table N(μ) | m |
+//!
+//! Each is built in under a millisecond for 81 wavelengths (m once the glossmeter's
+//! table nodes it reads exist: they are computed once per process), so any single
+//! edit stays within a slider's budget (figures: docs/benchmarks.md, "Paint model").
 //!
 //! The renderer's evaluation factors the body term as
 //! f_body = K(λ)·A(λ, μi)·A(λ, μo), A = T(μ)·exp(−τ/μ′), and the specular term as
@@ -38,36 +46,39 @@ use super::lobe::{
     LobeKind, NormalisationTable, mirror, paper_lobe, phong_lobe, phong_lobe_pdf,
     phong_normalisation, sample_phong_lobe,
 };
-use crate::colour::spectrum::WavelengthGrid;
+use super::parameters::{
+    ABSORPTION, ALBEDO, Parameter, REFRACTIVE_INDEX, RangeError, THICKNESS, Violation,
+};
+use crate::colour::spectrum::{Channel, Channels};
 
 /// Errors setting paint parameters.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ParamError {
-    /// A spectral parameter has the wrong number of samples for the grid.
-    #[error("{name} has {got} samples but the wavelength grid has {want}")]
+    /// A spectral parameter has the wrong number of samples for the channels.
+    #[error("{} has {got} samples but there are {want} channels", .parameter.label())]
     Length {
         /// Which parameter.
-        name: &'static str,
+        parameter: &'static Parameter,
         /// Its length.
         got: usize,
-        /// The grid's.
+        /// The channels'.
         want: usize,
     },
-    /// A value outside its range.
-    #[error("{name} = {value} at {wavelength_nm} nm is outside {range}")]
+    /// A value of a spectral parameter outside the parameter's range.
+    #[error("{} = {value} {at} {violation}: it must lie in {}", .parameter.label(), .parameter.range_text())]
     OutOfRange {
         /// Which parameter.
-        name: &'static str,
+        parameter: &'static Parameter,
         /// The value.
         value: f64,
-        /// Where on the grid.
-        wavelength_nm: f64,
-        /// The allowed range, in words.
-        range: &'static str,
+        /// Which channel: a wavelength of the grid, or an sRGB primary.
+        at: Channel,
+        /// What is wrong with the value.
+        violation: Violation,
     },
-    /// Thickness negative or not finite.
-    #[error("coat thickness {0} µm must be a finite number ≥ 0")]
-    Thickness(f64),
+    /// A scalar parameter (the coat's thickness) outside its range.
+    #[error(transparent)]
+    Range(#[from] RangeError),
     /// Gloss could not be converted.
     #[error(transparent)]
     Gloss(#[from] GlossError),
@@ -119,11 +130,11 @@ pub struct RecomputeCounts {
     pub body_factor: u32,
 }
 
-/// A paint design's physical parameters on one wavelength grid, with all derived
-/// tables up to date.
+/// A paint design's physical parameters on one set of channels (a wavelength grid,
+/// or linear sRGB), with all derived tables up to date.
 #[derive(Debug, Clone)]
 pub struct PaintModel {
-    grid: WavelengthGrid,
+    channels: Channels,
     albedo: Vec<f64>,
     index: Vec<f64>,
     index_at_gloss_wavelength: f64,
@@ -146,8 +157,8 @@ pub struct PaintModel {
 /// Everything needed to build a [`PaintModel`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct PaintParams {
-    /// Wavelength grid of the spectral values.
-    pub grid: WavelengthGrid,
+    /// What the per-channel values are for: the wavelengths of a grid, or linear sRGB.
+    pub channels: Channels,
     /// ρ(λ) in [0, 1].
     pub albedo: Vec<f64>,
     /// n(λ) ≥ 1.
@@ -168,16 +179,17 @@ impl PaintParams {
     /// Grey parameters (the same value at every wavelength), for the CLI, tests and
     /// benchmarks.
     pub fn grey(
-        grid: WavelengthGrid,
+        channels: impl Into<Channels>,
         rho: f64,
         n: f64,
         absorption_per_um: f64,
         thickness_um: f64,
         gloss: GlossSetting,
     ) -> Self {
-        let len = grid.len();
+        let channels = channels.into();
+        let len = channels.len();
         Self {
-            grid,
+            channels,
             albedo: vec![rho; len],
             refractive_index: vec![n; len],
             index_at_gloss_wavelength: n,
@@ -189,54 +201,30 @@ impl PaintParams {
     }
 }
 
+/// Every value of a spectral parameter against the parameter's range.
 fn check_spectrum(
-    name: &'static str,
+    parameter: &'static Parameter,
     values: &[f64],
-    grid: &WavelengthGrid,
-    valid: impl Fn(f64) -> bool,
-    range: &'static str,
+    channels: &Channels,
 ) -> Result<(), ParamError> {
-    if values.len() != grid.len() {
+    if values.len() != channels.len() {
         return Err(ParamError::Length {
-            name,
+            parameter,
             got: values.len(),
-            want: grid.len(),
+            want: channels.len(),
         });
     }
-    for (i, &v) in values.iter().enumerate() {
-        if !(v.is_finite() && valid(v)) {
+    for (i, &value) in values.iter().enumerate() {
+        if let Some(violation) = parameter.range.violation(value) {
             return Err(ParamError::OutOfRange {
-                name,
-                value: v,
-                wavelength_nm: grid.wavelength_nm(i),
-                range,
+                parameter,
+                value,
+                at: channels.channel(i),
+                violation,
             });
         }
     }
     Ok(())
-}
-
-fn check_albedo(values: &[f64], grid: &WavelengthGrid) -> Result<(), ParamError> {
-    check_spectrum(
-        "pigment albedo ρ",
-        values,
-        grid,
-        |v| (0.0..=1.0).contains(&v),
-        "[0, 1]",
-    )
-}
-fn check_index(values: &[f64], grid: &WavelengthGrid) -> Result<(), ParamError> {
-    check_spectrum("refractive index n", values, grid, |v| v >= 1.0, "[1, ∞)")
-}
-fn check_absorption(values: &[f64], grid: &WavelengthGrid) -> Result<(), ParamError> {
-    check_spectrum("absorption k (1/µm)", values, grid, |v| v >= 0.0, "[0, ∞)")
-}
-fn check_thickness(h: f64) -> Result<(), ParamError> {
-    if h.is_finite() && h >= 0.0 {
-        Ok(())
-    } else {
-        Err(ParamError::Thickness(h))
-    }
 }
 
 fn resolve_exponent(gloss: GlossSetting, n_gloss: f64) -> Result<GlossExponent, ParamError> {
@@ -252,20 +240,18 @@ fn resolve_exponent(gloss: GlossSetting, n_gloss: f64) -> Result<GlossExponent, 
 impl PaintModel {
     /// Validates the parameters and derives every table.
     pub fn new(params: PaintParams) -> Result<Self, ParamError> {
-        let grid = params.grid;
-        check_albedo(&params.albedo, &grid)?;
-        check_index(&params.refractive_index, &grid)?;
-        check_absorption(&params.absorption_per_um, &grid)?;
-        check_thickness(params.thickness_um)?;
-        if !(params.index_at_gloss_wavelength.is_finite()
-            && params.index_at_gloss_wavelength >= 1.0)
-        {
+        let channels = params.channels;
+        check_spectrum(&ALBEDO, &params.albedo, &channels)?;
+        check_spectrum(&REFRACTIVE_INDEX, &params.refractive_index, &channels)?;
+        check_spectrum(&ABSORPTION, &params.absorption_per_um, &channels)?;
+        THICKNESS.check(params.thickness_um)?;
+        if !REFRACTIVE_INDEX.accepts(params.index_at_gloss_wavelength) {
             return Err(GlossError::InvalidIndex(params.index_at_gloss_wavelength).into());
         }
         let exponent = resolve_exponent(params.gloss, params.index_at_gloss_wavelength)?;
-        let len = grid.len();
+        let len = channels.len();
         let mut model = Self {
-            grid,
+            channels,
             albedo: params.albedo,
             index: params.refractive_index,
             index_at_gloss_wavelength: params.index_at_gloss_wavelength,
@@ -292,7 +278,7 @@ impl PaintModel {
 
     /// Sets ρ(λ): only the body factor changes.
     pub fn set_albedo(&mut self, albedo: Vec<f64>) -> Result<(), ParamError> {
-        check_albedo(&albedo, &self.grid)?;
+        check_spectrum(&ALBEDO, &albedo, &self.channels)?;
         self.albedo = albedo;
         self.derive_body_factor();
         Ok(())
@@ -305,7 +291,7 @@ impl PaintModel {
         index: Vec<f64>,
         index_at_gloss_wavelength: f64,
     ) -> Result<(), ParamError> {
-        check_index(&index, &self.grid)?;
+        check_spectrum(&REFRACTIVE_INDEX, &index, &self.channels)?;
         let exponent = resolve_exponent(self.gloss, index_at_gloss_wavelength)?;
         self.index = index;
         self.index_at_gloss_wavelength = index_at_gloss_wavelength;
@@ -324,7 +310,7 @@ impl PaintModel {
 
     /// Sets k(λ) in 1/µm: τ changes, so coat integrals, angular tables, body factor.
     pub fn set_absorption(&mut self, absorption_per_um: Vec<f64>) -> Result<(), ParamError> {
-        check_absorption(&absorption_per_um, &self.grid)?;
+        check_spectrum(&ABSORPTION, &absorption_per_um, &self.channels)?;
         self.absorption_per_um = absorption_per_um;
         self.derive_optical_depth();
         self.derive_coat_integrals();
@@ -335,7 +321,7 @@ impl PaintModel {
 
     /// Sets h in µm: as for k.
     pub fn set_thickness(&mut self, thickness_um: f64) -> Result<(), ParamError> {
-        check_thickness(thickness_um)?;
+        THICKNESS.check(thickness_um)?;
         self.thickness_um = thickness_um;
         self.derive_optical_depth();
         self.derive_coat_integrals();
@@ -389,7 +375,7 @@ impl PaintModel {
 
     fn derive_coat_integrals(&mut self) {
         self.counts.coat_integrals += 1;
-        for i in 0..self.grid.len() {
+        for i in 0..self.channels.len() {
             let (n, tau) = (self.index[i], self.tau[i]);
             self.c[i] = c_integral_with(self.coat_method, n, tau);
             self.escape[i] = escape_integral_scaled(n, tau) * (-tau).exp();
@@ -401,7 +387,7 @@ impl PaintModel {
         let stride = self.spectral.stride;
         for j in 0..=MU_INTERVALS {
             let mu = mu_node(j);
-            for i in 0..self.grid.len() {
+            for i in 0..self.channels.len() {
                 let n = self.index[i];
                 let (r, mu_t) = reflectance_and_cos_refracted(mu, n);
                 let through = (1.0 - r) * attenuation(self.tau[i], mu_t);
@@ -413,7 +399,7 @@ impl PaintModel {
 
     fn derive_body_factor(&mut self) {
         self.counts.body_factor += 1;
-        for i in 0..self.grid.len() {
+        for i in 0..self.channels.len() {
             let k = self.body_factor_f64(i);
             self.spectral.body_factor[i] = k as f32;
             self.spectral.albedo_factor[i] = (k * self.escape[i]) as f32;
@@ -453,7 +439,7 @@ impl PaintModel {
     /// The probability of sampling the specular part, tabulated over μo: the mean
     /// specular albedo against the mean body albedo (both ≈ what each part returns).
     fn derive_sampling_weights(&mut self) {
-        let len = self.grid.len();
+        let len = self.channels.len();
         let stride = self.spectral.stride;
         for j in 0..=MU_INTERVALS {
             let (mut spec, mut body) = (0.0_f64, 0.0_f64);
@@ -472,9 +458,9 @@ impl PaintModel {
         }
     }
 
-    /// The wavelength grid.
-    pub fn grid(&self) -> &WavelengthGrid {
-        &self.grid
+    /// What the per-channel values are for: a wavelength grid, or linear sRGB.
+    pub fn channels(&self) -> &Channels {
+        &self.channels
     }
     /// ρ(λ).
     pub fn albedo(&self) -> &[f64] {
@@ -528,7 +514,7 @@ impl PaintModel {
     /// Directional albedo of the body term at incidence cosine μ, per wavelength
     /// (double precision).
     pub fn body_albedo(&self, cos_i: f64, out: &mut [f64]) {
-        for (i, o) in out.iter_mut().enumerate().take(self.grid.len()) {
+        for (i, o) in out.iter_mut().enumerate().take(self.channels.len()) {
             let n = self.index[i];
             let through =
                 transmittance(cos_i, n) * attenuation(self.tau[i], cos_refracted(cos_i, n));
@@ -546,7 +532,7 @@ impl PaintModel {
             return;
         }
         let lobe = self.lobe_value_reference(wi, wo);
-        for (i, o) in out.iter_mut().enumerate().take(self.grid.len()) {
+        for (i, o) in out.iter_mut().enumerate().take(self.channels.len()) {
             let n = self.index[i];
             let body = body_brdf(self.albedo[i], n, self.tau[i], self.c[i], mu_i, mu_o);
             *o = body + reflectance(mu_i, n) * lobe;

@@ -113,7 +113,7 @@ fn finite_exponent(model: &PaintModel) -> f64 {
 impl PhongParams {
     /// The naive translation of a paint design.
     pub fn naive(model: &PaintModel) -> Self {
-        let len = model.grid().len();
+        let len = model.channels().len();
         let mut diffuse = vec![0.0; len];
         model.body_albedo(1.0, &mut diffuse);
         let specular = model
@@ -131,7 +131,7 @@ impl PhongParams {
 
     /// The least-squares fit to the paint BRDF (see the module documentation).
     pub fn best_fit(model: &PaintModel) -> Self {
-        let len = model.grid().len();
+        let len = model.channels().len();
         let SpecularFit { ks, exponent } = specular_fit(model);
         Self {
             variant: PhongVariant::BestFit,
@@ -148,7 +148,7 @@ impl PhongParams {
     /// diagnostic, not part of the fit.
     pub fn fit_residual_rms(&self, model: &PaintModel) -> f64 {
         let quadrature = Quadrature::new(model);
-        let len = model.grid().len();
+        let len = model.channels().len();
         let mut paint = vec![0.0; len];
         let mut phong = vec![0.0; len];
         let (mut residual, mut weight) = (0.0, 0.0);
@@ -188,12 +188,13 @@ impl PhongParams {
         } else {
             0.5
         };
-        SpectralPhong {
-            diffuse_over_pi: self.diffuse.iter().map(|k| (k / PI) as f32).collect(),
-            specular: self.specular.iter().map(|&k| k as f32).collect(),
-            exponent: self.exponent as f32,
-            specular_probability: p.clamp(0.05, 0.95) as f32,
-        }
+        SpectralPhong::new(
+            self.diffuse.iter().map(|k| (k / PI) as f32).collect(),
+            self.specular.iter().map(|&k| k as f32).collect(),
+            self.exponent as f32,
+            p.clamp(0.05, 0.95) as f32,
+            PhongNormalisation::Energy,
+        )
     }
 }
 
@@ -217,7 +218,7 @@ fn model_eval_fit(model: &PaintModel, wi: [f64; 3], wo: [f64; 3], lobe: f64, out
 /// kd(λ) of the best fit: the mean body albedo over the fit's incidence angles
 /// (the exact least-squares solution; see the module documentation).
 fn fitted_diffuse(model: &PaintModel) -> Vec<f64> {
-    let len = model.grid().len();
+    let len = model.channels().len();
     let mut sum = vec![0.0; len];
     let mut albedo = vec![0.0; len];
     for theta in FIT_INCIDENCE_DEG {
@@ -291,7 +292,7 @@ fn specular_fit(model: &PaintModel) -> SpecularFit {
 
 /// The specular fit itself (no cache).
 fn fit_specular(model: &PaintModel) -> SpecularFit {
-    let len = model.grid().len();
+    let len = model.channels().len();
     if matches!(model.exponent(), GlossExponent::Mirror) {
         // No lobe to fit: the mirror's mean Fresnel reflectance on a needle-sharp
         // lobe.
@@ -377,7 +378,7 @@ struct Quadrature {
 
 impl Quadrature {
     fn new(model: &PaintModel) -> Self {
-        let len = model.grid().len();
+        let len = model.channels().len();
         let paint_m = finite_exponent(model);
         let is_mirror = matches!(model.exponent(), GlossExponent::Mirror);
         let mut incidences = Vec::with_capacity(FIT_INCIDENCE_DEG.len());
@@ -528,19 +529,78 @@ fn radical_inverse(mut bits: u32) -> f64 {
     f64::from(bits) / 4_294_967_296.0
 }
 
-/// Phong in single precision for the renderer.
-#[derive(Debug, Clone)]
+/// How the lobe of a [`SpectralPhong`] is normalised.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PhongNormalisation {
+    /// (m + 2)/(2π)·cos^m α: the energy-normalised Phong of spec 5, what the
+    /// design's Phong translations use.
+    Energy,
+    /// (m + 1)/(2π)·cos^m α / max(cos θi, cos θo): reciprocal, and a sharp lobe
+    /// reflects ks at every angle as a mirror does; the scene's simple materials
+    /// ([`crate::render::material::SimpleMaterial`]) use it.
+    Reciprocal,
+}
+
+/// A Lambertian term under a Phong lobe in single precision for the renderer:
+///
+///   f = kd(λ)/π + ks(λ)·S(ωi, ωo), S the lobe normalised by [`PhongNormalisation`],
+///
+/// sampled as a mixture: the lobe around the mirror direction with the specular
+/// probability, the cosine hemisphere otherwise. The design's Phong translations
+/// and the scene's simple materials are both this; they differ in how their
+/// parameters and the lobe's normalisation are chosen.
+#[derive(Debug, Clone, PartialEq)]
 pub struct SpectralPhong {
     diffuse_over_pi: Vec<f32>,
     specular: Vec<f32>,
     exponent: f32,
     specular_probability: f32,
+    normalisation: PhongNormalisation,
 }
 
 impl SpectralPhong {
+    /// From kd/π and ks per channel (equal lengths), the lobe exponent m, the
+    /// probability of sampling the lobe (0: never, and the lobe is then left out
+    /// of f, since ks must be 0) and the lobe's normalisation.
+    pub fn new(
+        diffuse_over_pi: Vec<f32>,
+        specular: Vec<f32>,
+        exponent: f32,
+        specular_probability: f32,
+        normalisation: PhongNormalisation,
+    ) -> Self {
+        debug_assert_eq!(diffuse_over_pi.len(), specular.len());
+        Self {
+            diffuse_over_pi,
+            specular,
+            exponent,
+            specular_probability,
+            normalisation,
+        }
+    }
+
     /// The specular lobe's exponent.
     pub fn exponent(&self) -> f32 {
         self.exponent
+    }
+
+    /// S(ωi, ωo), both above the surface.
+    #[inline]
+    fn lobe_value(&self, wi: [f32; 3], wo: [f32; 3]) -> f32 {
+        if self.specular_probability > 0.0 {
+            let m = self.exponent;
+            match self.normalisation {
+                PhongNormalisation::Energy => {
+                    (m + 2.0) / (2.0 * std::f32::consts::PI) * phong_lobe(wi, wo, m)
+                }
+                PhongNormalisation::Reciprocal => {
+                    (m + 1.0) / (2.0 * std::f32::consts::PI) * phong_lobe(wi, wo, m)
+                        / wi[2].max(wo[2])
+                }
+            }
+        } else {
+            0.0
+        }
     }
 }
 
@@ -549,13 +609,13 @@ impl SpectralBsdf for SpectralPhong {
         self.diffuse_over_pi.len()
     }
 
+    #[inline]
     fn eval(&self, wi: [f32; 3], wo: [f32; 3], out: &mut [f32]) {
         if wi[2] <= 0.0 || wo[2] <= 0.0 {
-            out.iter_mut().for_each(|o| *o = 0.0);
+            out.fill(0.0);
             return;
         }
-        let m = self.exponent;
-        let lobe = (m + 2.0) / (2.0 * std::f32::consts::PI) * phong_lobe(wi, wo, m);
+        let lobe = self.lobe_value(wi, wo);
         for ((o, kd), ks) in out
             .iter_mut()
             .zip(&self.diffuse_over_pi)
@@ -570,7 +630,12 @@ impl SpectralBsdf for SpectralPhong {
             return 0.0;
         }
         let p = self.specular_probability;
-        p * phong_lobe_pdf(wo, wi, self.exponent) + (1.0 - p) * wi[2] * std::f32::consts::FRAC_1_PI
+        let lobe = if p > 0.0 {
+            p * phong_lobe_pdf(wo, wi, self.exponent)
+        } else {
+            0.0
+        };
+        lobe + (1.0 - p) * wi[2] * std::f32::consts::FRAC_1_PI
     }
 
     fn sample(&self, wo: [f32; 3], u: [f32; 3], weight: &mut [f32]) -> Option<BsdfSample> {
@@ -668,7 +733,7 @@ mod tests {
     fn fitted_kd_is_the_quadratures_body_mean() {
         let paint = model(GlossExponent::Finite(300.0));
         let quadrature = Quadrature::new(&paint);
-        let len = paint.grid().len();
+        let len = paint.channels().len();
         let (mut sum, mut weight) = (vec![0.0; len], 0.0);
         let mut out = vec![0.0; len];
         for q in &quadrature.points {
@@ -710,7 +775,7 @@ mod tests {
         PhongParams {
             variant: PhongVariant::BestFit,
             diffuse: fitted_diffuse(model),
-            specular: vec![ks; model.grid().len()],
+            specular: vec![ks; model.channels().len()],
             exponent,
         }
     }
@@ -752,5 +817,46 @@ mod tests {
                 assert!((weight[0] - want).abs() <= 1e-5 * want.max(1e-6));
             }
         }
+    }
+
+    /// One mixture, two normalisations: each evaluates to its formula with the
+    /// same arithmetic, so the design's Phong and the scene's simple materials
+    /// shade exactly as when each had its own code.
+    #[test]
+    fn each_normalisation_evaluates_its_formula() {
+        let (kd, ks, m) = (vec![0.1_f32, 0.2], vec![0.04_f32, 0.5], 40.0_f32);
+        let wi = [0.3_f32, 0.0, (1.0_f32 - 0.09).sqrt()];
+        let wo = [-0.28_f32, 0.05, (1.0_f32 - 0.0809).sqrt()];
+        let lobe = phong_lobe(wi, wo, m);
+        let two_pi = 2.0 * std::f32::consts::PI;
+        for (normalisation, s) in [
+            (PhongNormalisation::Energy, (m + 2.0) / two_pi * lobe),
+            (
+                PhongNormalisation::Reciprocal,
+                (m + 1.0) / two_pi * lobe / wi[2].max(wo[2]),
+            ),
+        ] {
+            let phong = SpectralPhong::new(kd.clone(), ks.clone(), m, 0.5, normalisation);
+            let mut out = [0.0_f32; 2];
+            phong.eval(wi, wo, &mut out);
+            for c in 0..2 {
+                assert_eq!(out[c], kd[c] + ks[c] * s, "{normalisation:?} channel {c}");
+            }
+            // Below the surface: nothing.
+            phong.eval([wi[0], wi[1], -wi[2]], wo, &mut out);
+            assert_eq!(out, [0.0; 2]);
+        }
+        // A lobe never sampled has no weight in f either (its ks is 0).
+        let lambertian = SpectralPhong::new(
+            kd.clone(),
+            vec![0.0; 2],
+            m,
+            0.0,
+            PhongNormalisation::Reciprocal,
+        );
+        let mut out = [0.0_f32; 2];
+        lambertian.eval(wi, wo, &mut out);
+        assert_eq!(out, [kd[0], kd[1]]);
+        assert_eq!(lambertian.pdf(wo, wi), wi[2] * std::f32::consts::FRAC_1_PI);
     }
 }

@@ -55,9 +55,10 @@ use std::sync::{Arc, OnceLock};
 use thiserror::Error;
 
 use crate::colour::cie::{Observer, hat_weighted_cmfs};
-use crate::colour::spectrum::WavelengthGrid;
+use crate::colour::spectrum::{Channels, WavelengthGrid};
 use crate::colour::{
-    Lab, Xyz, ciede2000, lab_from_xyz, linear_srgb_from_xyz, srgb_white, xyz_from_linear_srgb,
+    Lab, SRGB_LUMINANCE, Xyz, ciede2000, lab_from_xyz, linear_srgb_from_xyz, srgb_white,
+    xyz_from_linear_srgb, xyz_rows_of_linear_srgb,
 };
 use crate::io::exr_write::{
     ExrCompression, ExrOptions, ExrPrecision, ExrWriteError, write_linear_srgb_exr,
@@ -196,10 +197,10 @@ pub struct DisplaySettings {
     pub tone_mapping: ToneMapping,
 }
 
-/// Per-grid-sample XYZ weights, shared by a film and its tiles.
+/// Per-channel XYZ weights, shared by a film and its tiles.
 #[derive(Debug)]
 struct Weights {
-    grid: WavelengthGrid,
+    channels: Channels,
     x: Vec<f32>,
     y: Vec<f32>,
     z: Vec<f32>,
@@ -212,18 +213,21 @@ impl Weights {
     /// Mirrors the hat-basis integration of [`crate::colour::cie::Colorimeter::new`] with the
     /// illuminant left out: each 5 nm table row's x̄, ȳ, z̄ splits between the two grid
     /// samples around it, the end samples' hats extended as constants.
-    fn new(grid: WavelengthGrid) -> Self {
-        if grid.is_linear_srgb() {
-            // The RGB shortcut: channels are linear sRGB, XYZ by the sRGB matrix.
-            let rows = crate::render::rgb::xyz_rows();
-            let row = |r: usize| rows[r].iter().map(|&v| v as f32).collect();
-            return Self {
-                grid,
-                x: row(0),
-                y: row(1),
-                z: row(2),
-            };
-        }
+    fn new(channels: Channels) -> Self {
+        let grid = match channels {
+            Channels::Spectral(grid) => grid,
+            Channels::LinearSrgb => {
+                // XYZ by the sRGB matrix.
+                let rows = xyz_rows_of_linear_srgb();
+                let row = |r: usize| rows[r].iter().map(|&v| v as f32).collect();
+                return Self {
+                    channels,
+                    x: row(0),
+                    y: row(1),
+                    z: row(2),
+                };
+            }
+        };
         let observer = Observer::Cie1931TwoDegree;
         let [x, y, z] = hat_weighted_cmfs(observer, &grid, |_| 1.0);
         // ∫ȳ over 380–780 nm: every table row's hat shares sum to 1, so the ȳ
@@ -233,7 +237,7 @@ impl Weights {
             .sum();
         let scale = |w: Vec<f64>| w.into_iter().map(|v| (v / y_norm) as f32).collect();
         Self {
-            grid,
+            channels,
             x: scale(x),
             y: scale(y),
             z: scale(z),
@@ -246,7 +250,7 @@ impl Weights {
         assert_eq!(
             radiance.len(),
             self.x.len(),
-            "radiance has {} samples but the film's grid has {}",
+            "radiance has {} samples but the film has {} channels",
             radiance.len(),
             self.x.len()
         );
@@ -416,10 +420,11 @@ pub struct Film {
 }
 
 impl Film {
-    /// An empty film of `width` × `height` pixels for radiance on `grid`.
-    pub fn new(width: u32, height: u32, grid: WavelengthGrid) -> Self {
+    /// An empty film of `width` × `height` pixels for radiance on `channels` (a
+    /// wavelength grid, or linear sRGB).
+    pub fn new(width: u32, height: u32, channels: impl Into<Channels>) -> Self {
         Self {
-            weights: Arc::new(Weights::new(grid)),
+            weights: Arc::new(Weights::new(channels.into())),
             image_width: width,
             image_height: height,
             origin: [0, 0],
@@ -476,8 +481,8 @@ impl Film {
     /// this film's region (programming errors).
     pub fn merge(&mut self, other: &Film) {
         assert!(
-            self.weights.grid == other.weights.grid,
-            "merging films on different wavelength grids"
+            self.weights.channels == other.weights.channels,
+            "merging films on different channels"
         );
         assert!(
             (self.image_width, self.image_height) == (other.image_width, other.image_height),
@@ -637,9 +642,9 @@ impl Film {
         self.rejected = 0;
     }
 
-    /// The wavelength grid radiance samples must be on.
-    pub fn grid(&self) -> &WavelengthGrid {
-        &self.weights.grid
+    /// The channels radiance samples must be on: a wavelength grid, or linear sRGB.
+    pub fn channels(&self) -> &Channels {
+        &self.weights.channels
     }
 
     /// Width of this film's region, pixels.
@@ -875,16 +880,14 @@ impl Film {
     /// The samples per pixel are the film's least count unless `record` says
     /// otherwise; the wavelengths and the adaptation are the film's.
     pub fn exr_attributes(&self, record: &RenderRecord) -> Vec<(String, String)> {
-        let grid = self.grid();
-        let wavelengths = if grid.is_linear_srgb() {
-            "linear sRGB".to_owned()
-        } else {
-            format!(
+        let wavelengths = match self.channels() {
+            Channels::LinearSrgb => "linear sRGB".to_owned(),
+            Channels::Spectral(grid) => format!(
                 "{} from {} to {} nm",
                 grid.len(),
                 short_nm(grid.start_nm()),
                 short_nm(grid.end_nm())
-            )
+            ),
         };
         let samples = record
             .samples_per_pixel
@@ -964,15 +967,14 @@ fn display_matrix(adapt_white: Option<Xyz>, exposure_stops: f32) -> Mat3f {
     [0, 1, 2].map(|r| [0, 1, 2].map(|c| (column(c)[r] * scale) as f32))
 }
 
-/// Linear sRGB luminance coefficients (the Y row of the sRGB matrix).
-const LUMINANCE: [f32; 3] = [0.2126, 0.7152, 0.0722];
-
 #[inline]
 fn tone_map(rgb: [f32; 3], tone_mapping: ToneMapping) -> [f32; 3] {
     match tone_mapping {
         ToneMapping::Clip => rgb,
         ToneMapping::ReinhardLuminance { white_luminance } => {
-            let luminance = LUMINANCE[0] * rgb[0] + LUMINANCE[1] * rgb[1] + LUMINANCE[2] * rgb[2];
+            let luminance = SRGB_LUMINANCE[0] * rgb[0]
+                + SRGB_LUMINANCE[1] * rgb[1]
+                + SRGB_LUMINANCE[2] * rgb[2];
             if luminance.is_nan() || luminance <= 0.0 {
                 return [0.0; 3];
             }
@@ -1209,7 +1211,7 @@ mod tests {
     /// samples 0–1's and 2–3's means, scaled by √(4/5).
     #[test]
     fn error_of_mean_is_the_half_difference_of_the_prefix_halves() {
-        let grid = WavelengthGrid::linear_srgb();
+        let grid = Channels::LinearSrgb;
         let mut film = Film::new(1, 1, grid);
         let ys = [1.0f32, 3.0, 2.0, 6.0, 100.0];
         for y in ys {

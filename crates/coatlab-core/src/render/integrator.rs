@@ -30,8 +30,8 @@
 //! After [`IntegratorSettings::roulette_start`] bounces, Russian roulette ends paths
 //! with probability 1 − min(0.95, max_λ throughput) and divides the survivors by
 //! the survival probability, which keeps the estimate unbiased. Paths also end at
-//! [`IntegratorSettings::max_bounces`] (a bias toward darker images, measured to be
-//! far below the noise for the car: see `docs/benchmarks.md`).
+//! [`IntegratorSettings::max_bounces`] (a bias toward darker images, taken to be far
+//! below the noise for the car; no measurement of it is recorded).
 //!
 //! Surfaces reflect only (no transmission): the car's glass is a dark, glossy
 //! reflector, which is how it reads in a paint preview. Every surface is two-sided.
@@ -285,8 +285,8 @@ impl<'a> PathTracer<'a> {
     /// setup have one.
     ///
     /// # Panics
-    /// If the environment and the shading are on grids of different lengths (a
-    /// programming error: the renderer builds both on one grid).
+    /// If the environment and the shading have different numbers of channels (a
+    /// programming error: the renderer builds both on the same channels).
     pub fn new(
         geometry: &'a RenderGeometry,
         environment: &'a Environment,
@@ -294,9 +294,9 @@ impl<'a> PathTracer<'a> {
         settings: IntegratorSettings,
     ) -> Self {
         assert_eq!(
-            environment.grid().len(),
+            environment.channels().len(),
             shading.len(),
-            "environment and shading on different wavelength grids"
+            "environment and shading on different channels"
         );
         let floor = environment
             .floor()

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 use crate::colour::cie::Illuminant;
-use crate::colour::spectrum::WavelengthGrid;
+use crate::colour::spectrum::Channels;
 use crate::render::environment::{Environment, EnvironmentError, EnvironmentKind};
 
 /// A lighting setup or an environment map file.
@@ -109,14 +109,19 @@ impl Lighting {
         }
     }
 
-    /// The environment on `grid`. Only a map can fail (its file is read here).
-    pub fn build(&self, grid: &WavelengthGrid) -> Result<Environment, EnvironmentError> {
+    /// The environment on `channels` (a wavelength grid, or linear sRGB). Only a
+    /// map can fail (its file is read here).
+    pub fn build(
+        &self,
+        channels: &(impl Into<Channels> + Copy),
+    ) -> Result<Environment, EnvironmentError> {
+        let channels: Channels = (*channels).into();
         Ok(match self {
-            Lighting::Studio => Environment::studio(grid),
-            Lighting::Booth(illuminant) => Environment::booth(*illuminant, grid),
-            Lighting::Outdoor => Environment::outdoor(grid),
-            Lighting::Uniform => Environment::uniform(grid),
-            Lighting::Map(path) => Environment::from_image(path, grid)?,
+            Lighting::Studio => Environment::studio(&channels),
+            Lighting::Booth(illuminant) => Environment::booth(*illuminant, &channels),
+            Lighting::Outdoor => Environment::outdoor(&channels),
+            Lighting::Uniform => Environment::uniform(&channels),
+            Lighting::Map(path) => Environment::from_image(path, &channels)?,
         })
     }
 }
@@ -130,6 +135,7 @@ impl fmt::Display for Lighting {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::colour::spectrum::WavelengthGrid;
 
     #[test]
     fn every_setup_name_parses_back_to_its_setup() {

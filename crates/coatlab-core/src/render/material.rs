@@ -29,13 +29,10 @@ use std::sync::Arc;
 
 use palette::LinSrgb;
 
-use crate::colour::spectrum::WavelengthGrid;
-use crate::paint::lobe::{mirror, phong_lobe, phong_lobe_pdf, sample_phong_lobe};
-use crate::paint::model::{
-    BsdfSample, PaintModel, SpectralBsdf, SpectralPaint, cosine_hemisphere, weigh_sample,
-};
-use crate::paint::phong::{PhongParams, PhongVariant, SpectralPhong};
-use crate::render::environment::RgbUpsampler;
+use crate::colour::spectrum::Channels;
+use crate::colour::upsampling::RgbUpsampler;
+use crate::paint::model::{BsdfSample, PaintModel, SpectralBsdf, SpectralPaint};
+use crate::paint::phong::{PhongNormalisation, PhongParams, PhongVariant, SpectralPhong};
 use crate::scene::SceneMaterial;
 
 /// Sharpest lobe a simple material gets (roughness 0 would otherwise give an
@@ -47,7 +44,7 @@ const DIELECTRIC_F0: f32 = 0.04;
 /// Which model renders the designed paint.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum ShadingModel {
-    /// The paint model of `docs/paint-model.md`.
+    /// The paint model of `docs/model.md`.
     #[default]
     Paint,
     /// Phong with the parameters of [`PhongVariant`].
@@ -124,33 +121,31 @@ impl SpectralBsdf for DesignBsdf {
     }
 }
 
-/// A non-paint material (see the module documentation).
+/// A non-paint material (see the module documentation): a Phong mixture with the
+/// reciprocal normalisation.
 #[derive(Debug, Clone, PartialEq)]
-pub struct SimpleMaterial {
-    /// (1 − F₀) a / π per wavelength.
-    diffuse_over_pi: Vec<f32>,
-    /// F₀ per wavelength.
-    specular: Vec<f32>,
-    exponent: f32,
-    /// Probability of sampling the lobe rather than the cosine hemisphere.
-    specular_probability: f32,
-}
+pub struct SimpleMaterial(SpectralPhong);
 
 impl SimpleMaterial {
-    /// A Lambertian reflector with reflectance `albedo` per wavelength.
+    /// A Lambertian reflector with reflectance `albedo` per channel.
     pub fn lambertian(albedo: &[f32]) -> Self {
         Self::new(albedo, &vec![0.0; albedo.len()], 1.0)
     }
 
-    /// The material of a glTF metallic-roughness description on `grid`.
+    /// The material of a glTF metallic-roughness description on `channels`.
     pub fn from_scene_material(
         material: &SceneMaterial,
         upsampler: &RgbUpsampler,
-        grid: &WavelengthGrid,
+        channels: &Channels,
     ) -> Self {
-        let [r, g, b] = material.base_color.map(|c| c.clamp(0.0, 1.0));
-        let mut base = vec![0.0; grid.len()];
-        upsampler.reflectance(LinSrgb::new(r, g, b), &mut base);
+        let colour = material.base_color;
+        let clamped = LinSrgb::new(
+            colour.red.clamp(0.0, 1.0),
+            colour.green.clamp(0.0, 1.0),
+            colour.blue.clamp(0.0, 1.0),
+        );
+        let mut base = vec![0.0; channels.len()];
+        upsampler.reflectance(clamped, &mut base);
         let metallic = material.metallic.clamp(0.0, 1.0);
         let albedo: Vec<f32> = base
             .iter()
@@ -188,63 +183,34 @@ impl SimpleMaterial {
         } else {
             (specular_mean / (specular_mean + diffuse_mean)).clamp(0.1, 0.9)
         };
-        Self {
+        Self(SpectralPhong::new(
             diffuse_over_pi,
-            specular: specular.to_vec(),
-            exponent: exponent.clamp(0.0, MAX_SIMPLE_EXPONENT),
+            specular.to_vec(),
+            exponent.clamp(0.0, MAX_SIMPLE_EXPONENT),
             specular_probability,
-        }
+            PhongNormalisation::Reciprocal,
+        ))
     }
 }
 
 impl SpectralBsdf for SimpleMaterial {
     fn len(&self) -> usize {
-        self.specular.len()
+        self.0.len()
     }
 
+    #[inline]
     fn eval(&self, wi: [f32; 3], wo: [f32; 3], out: &mut [f32]) {
-        if wi[2] <= 0.0 || wo[2] <= 0.0 {
-            out.fill(0.0);
-            return;
-        }
-        let lobe = if self.specular_probability > 0.0 {
-            let m = self.exponent;
-            (m + 1.0) / (2.0 * std::f32::consts::PI) * phong_lobe(wi, wo, m) / wi[2].max(wo[2])
-        } else {
-            0.0
-        };
-        for ((o, kd), ks) in out
-            .iter_mut()
-            .zip(&self.diffuse_over_pi)
-            .zip(&self.specular)
-        {
-            *o = kd + ks * lobe;
-        }
+        self.0.eval(wi, wo, out);
     }
 
+    #[inline]
     fn pdf(&self, wo: [f32; 3], wi: [f32; 3]) -> f32 {
-        if wi[2] <= 0.0 || wo[2] <= 0.0 {
-            return 0.0;
-        }
-        let p = self.specular_probability;
-        let lobe = if p > 0.0 {
-            p * phong_lobe_pdf(wo, wi, self.exponent)
-        } else {
-            0.0
-        };
-        lobe + (1.0 - p) * wi[2] * std::f32::consts::FRAC_1_PI
+        self.0.pdf(wo, wi)
     }
 
+    #[inline]
     fn sample(&self, wo: [f32; 3], u: [f32; 3], weight: &mut [f32]) -> Option<BsdfSample> {
-        if wo[2] <= 0.0 {
-            return None;
-        }
-        let wi = if u[0] < self.specular_probability {
-            sample_phong_lobe(mirror(wo), self.exponent, [u[1], u[2]])?
-        } else {
-            cosine_hemisphere([u[1], u[2]])
-        };
-        weigh_sample(self, wo, wi, weight)
+        self.0.sample(wo, u, weight)
     }
 }
 
@@ -254,7 +220,7 @@ impl SpectralBsdf for SimpleMaterial {
 /// and its BVH are not touched.
 #[derive(Debug, Clone)]
 pub struct Shading {
-    grid: WavelengthGrid,
+    channels: Channels,
     model: ShadingModel,
     design: DesignBsdf,
     simple: Vec<SimpleMaterial>,
@@ -270,7 +236,7 @@ impl Shading {
         materials: &[SceneMaterial],
         paint_materials: &[u32],
     ) -> Self {
-        let grid = paint.grid();
+        let channels = paint.channels();
         let design = match model {
             ShadingModel::Paint => DesignBsdf::Paint(paint.spectral().clone()),
             ShadingModel::Phong(PhongVariant::Naive) => {
@@ -280,10 +246,10 @@ impl Shading {
                 DesignBsdf::Phong(PhongParams::best_fit(paint).spectral())
             }
         };
-        let upsampler = RgbUpsampler::new(grid);
+        let upsampler = RgbUpsampler::new(channels);
         let simple = materials
             .iter()
-            .map(|m| SimpleMaterial::from_scene_material(m, &upsampler, grid))
+            .map(|m| SimpleMaterial::from_scene_material(m, &upsampler, channels))
             .collect();
         let mut painted = vec![false; materials.len()];
         for &index in paint_materials {
@@ -292,7 +258,7 @@ impl Shading {
             }
         }
         Self {
-            grid: *grid,
+            channels: *channels,
             model,
             design,
             simple,
@@ -300,9 +266,9 @@ impl Shading {
         }
     }
 
-    /// The wavelength grid of every spectrum here.
-    pub fn grid(&self) -> &WavelengthGrid {
-        &self.grid
+    /// What the per-channel values here are for: a wavelength grid, or linear sRGB.
+    pub fn channels(&self) -> &Channels {
+        &self.channels
     }
 
     /// The model the design is rendered with.
@@ -315,12 +281,12 @@ impl Shading {
         &self.design
     }
 
-    /// Number of wavelengths.
+    /// Number of channels.
     pub fn len(&self) -> usize {
         self.design.len()
     }
 
-    /// Whether there are no wavelengths.
+    /// Whether there are no channels.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
@@ -350,9 +316,10 @@ pub type SharedShading = Arc<Shading>;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::colour::spectrum::WavelengthGrid;
 
-    fn grid() -> WavelengthGrid {
-        WavelengthGrid::visible(16).expect("grid")
+    fn grid() -> Channels {
+        Channels::Spectral(WavelengthGrid::visible(16).expect("grid"))
     }
 
     fn directional_albedo(material: &SimpleMaterial, wo: [f32; 3]) -> f32 {
@@ -392,7 +359,7 @@ mod tests {
         for (roughness, metallic) in [(0.0, 0.0), (0.3, 0.0), (0.3, 1.0), (1.0, 0.5), (0.05, 1.0)] {
             let scene_material = SceneMaterial {
                 name: "test".into(),
-                base_color: [1.0, 1.0, 1.0],
+                base_color: LinSrgb::new(1.0, 1.0, 1.0),
                 roughness,
                 metallic,
                 area_m2: 1.0,

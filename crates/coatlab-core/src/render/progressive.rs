@@ -379,7 +379,7 @@ impl ProgressiveRender {
                 Some(spare)
                     if (spare.width(), spare.height())
                         == (self.camera.width(), self.camera.height())
-                        && spare.grid() == self.environment.grid() =>
+                        && spare.channels() == self.environment.channels() =>
                 {
                     spare
                 }
@@ -694,7 +694,7 @@ impl ProgressiveRender {
             .then(|| (self.samples_per_pixel, BaseImage::of(&self.film)));
         let spare_fits = self.spare_film.as_ref().is_some_and(|f| {
             (f.width(), f.height()) == (self.film.width(), self.film.height())
-                && f.grid() == self.film.grid()
+                && f.channels() == self.film.channels()
         });
         if !spare_fits
             && self.cache_complete()
@@ -838,7 +838,7 @@ impl ProgressiveRender {
     /// New lighting; restarts. The shading must be on the same grid.
     pub fn set_environment(&mut self, environment: Arc<Environment>) -> Result<(), RenderError> {
         check_grids(&environment, &self.shading)?;
-        if environment.grid() != self.film.grid() {
+        if environment.channels() != self.film.channels() {
             self.film = new_film(&self.camera, &environment)?;
             self.tiles = self.film.tiles(self.settings.tile_size);
             self.cache = cache_for(&self.tiles);
@@ -1011,9 +1011,9 @@ fn cache_for(tiles: &[Film]) -> PathCache {
 }
 
 fn check_grids(environment: &Environment, shading: &Shading) -> Result<(), RenderError> {
-    if environment.grid() != shading.grid() {
+    if environment.channels() != shading.channels() {
         return Err(RenderError::GridMismatch {
-            environment: environment.grid().len(),
+            environment: environment.channels().len(),
             shading: shading.len(),
         });
     }
@@ -1025,5 +1025,5 @@ fn new_film(camera: &Camera, environment: &Environment) -> Result<Film, RenderEr
     if width == 0 || height == 0 {
         return Err(RenderError::EmptyImage { width, height });
     }
-    Ok(Film::new(width, height, *environment.grid()))
+    Ok(Film::new(width, height, *environment.channels()))
 }

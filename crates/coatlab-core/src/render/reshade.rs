@@ -574,7 +574,7 @@ pub fn reshade(
     shading: &Shading,
     floor: bool,
 ) -> Result<Reshaded, ReshadeError> {
-    if shading.grid() != base.grid() || environment.grid() != base.grid() {
+    if shading.channels() != base.channels() || environment.channels() != base.channels() {
         return Err(ReshadeError::GridChanged);
     }
     reshade_prepared(
@@ -628,7 +628,7 @@ pub fn reshade_prepared_samples(
     floor: bool,
     samples: u32,
 ) -> Result<Reshaded, ReshadeError> {
-    if shading.grid() != film.grid() || environment.grid() != film.grid() {
+    if shading.channels() != film.channels() || environment.channels() != film.channels() {
         return Err(ReshadeError::GridChanged);
     }
     // A recorded mirror bounce meets a finite lobe in the replay, but a new mirror

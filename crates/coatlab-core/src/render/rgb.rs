@@ -2,95 +2,39 @@
 //! instead of wavelengths — what a user of an RGB renderer does — so its error
 //! against the spectral reference can be measured (`coatlab bench tradeoff`).
 //!
-//! The channels travel through the tracer as a three-sample "grid",
-//! [`WavelengthGrid::linear_srgb`]: the paint formulas run per channel exactly as
-//! per wavelength; the film turns a channel triple into XYZ by the sRGB→XYZ matrix
-//! (white (1, 1, 1) → Y = 1); the lighting's spectra are reduced to their linear
-//! sRGB colour (same XYZ as the spectrum on the film), its luminance weights are
-//! the sRGB luminance row, and scene materials keep their glTF base colour as is.
+//! The channels travel through the tracer as [`Channels::LinearSrgb`]: the paint
+//! formulas run per channel exactly as per wavelength; the film turns a channel
+//! triple into XYZ by the sRGB→XYZ matrix (white (1, 1, 1) → Y = 1); the lighting's
+//! spectra are reduced to their linear sRGB colour
+//! ([`crate::colour::linear_srgb_of_emission`]: same XYZ as the spectrum on the
+//! film), its luminance weights are the sRGB luminance row, and scene materials keep
+//! their glTF base colour as is.
 //!
 //! The design's spectra are reduced the way an RGB user would pick values:
-//! - ρ: its colour under D65, as linear sRGB (a constant ρ stays ρ in all three);
+//! - ρ: its colour under D65, as linear sRGB
+//!   ([`crate::colour::linear_srgb_of_reflectance`]; a constant ρ stays ρ in all
+//!   three);
 //! - n and k: the same D65-weighted per-channel average (the sRGB "colour-matching
 //!   functions" r̄, ḡ, b̄ times D65, normalised so a constant stays constant),
 //!   clamped to n ≥ 1 and k ≥ 0 (the r̄ lobe is negative around 440–540 nm).
 
-use palette::LinSrgb;
-
-use crate::colour::cie::{Illuminant, Observer, hat_weighted_cmfs};
-use crate::colour::spectrum::WavelengthGrid;
-use crate::colour::{Xyz, linear_srgb_from_xyz, srgb_white, xyz_from_linear_srgb};
+use crate::colour::linear_srgb_of_reflectance;
+use crate::colour::spectrum::{Channels, WavelengthGrid};
 use crate::design::{DesignError, PaintDesign};
 use crate::paint::model::{PaintModel, PaintParams};
 
-/// The sRGB luminance row: Y of linear sRGB (white Y = 1).
-pub const LUMINANCE: [f32; 3] = [0.2126, 0.7152, 0.0722];
-
-/// The rows of the linear-sRGB → XYZ matrix (white (1, 1, 1) → Y = 1): what the
-/// film applies to a channel triple.
-pub fn xyz_rows() -> [[f64; 3]; 3] {
-    let columns = [
-        LinSrgb::new(1.0, 0.0, 0.0),
-        LinSrgb::new(0.0, 1.0, 0.0),
-        LinSrgb::new(0.0, 0.0, 1.0),
-    ]
-    .map(|c| {
-        let xyz = xyz_from_linear_srgb(c);
-        [xyz.x / 100.0, xyz.y / 100.0, xyz.z / 100.0]
-    });
-    std::array::from_fn(|row| std::array::from_fn(|col| columns[col][row]))
-}
-
-fn to_linear_srgb(xyz: [f64; 3]) -> [f64; 3] {
-    let white = srgb_white();
-    let rgb = linear_srgb_from_xyz(
-        Xyz::new(xyz[0] * white.y, xyz[1] * white.y, xyz[2] * white.y),
-        white,
-    );
-    [rgb.red, rgb.green, rgb.blue]
-}
-
-/// The linear sRGB of an emission spectrum on the reference grid, with the film's
-/// scale (Y = ∫ L ȳ dλ / ∫ ȳ dλ): the triple whose film XYZ equals the spectrum's.
-pub fn reduce_emission(reference_values: &[f64]) -> [f64; 3] {
-    linear_srgb_weighted(reference_values, |_| 1.0)
-}
-
-/// The linear sRGB under D65 of a spectrum on the reference grid, white-normalised
-/// (a constant c gives (c, c, c)): how ρ, and likewise n and k, become three values.
-pub fn reduce_reflectance(reference_values: &[f64]) -> [f64; 3] {
-    let d65 = Illuminant::D65;
-    // The white of D65 at Y = 1 is the sRGB white: no adaptation, only the matrix.
-    linear_srgb_weighted(reference_values, |nm| d65.spd_at_nm(nm))
-}
-
-/// Linear sRGB of XYZ = ∫ values·w·(x̄, ȳ, z̄) dλ / ∫ w·ȳ dλ on the reference grid.
-fn linear_srgb_weighted(reference_values: &[f64], weight: impl Fn(f64) -> f64) -> [f64; 3] {
-    let grid = WavelengthGrid::reference();
-    let [x, y, z] = hat_weighted_cmfs(Observer::Cie1931TwoDegree, &grid, weight);
-    let norm: f64 = y.iter().sum();
-    let dot = |w: &[f64]| {
-        w.iter()
-            .zip(reference_values)
-            .map(|(a, b)| a * b)
-            .sum::<f64>()
-            / norm
-    };
-    to_linear_srgb([dot(&x), dot(&y), dot(&z)])
-}
-
-/// The design's paint model on [`WavelengthGrid::linear_srgb`] (see the module
+/// The design's paint model on [`Channels::LinearSrgb`] (see the module
 /// documentation for the reduction).
 pub fn paint_model(design: &PaintDesign) -> Result<PaintModel, DesignError> {
     let spectral = design.model(WavelengthGrid::reference())?;
     let reduce = |v: &[f64], min: f64, max: f64| -> Vec<f64> {
-        reduce_reflectance(v)
+        linear_srgb_of_reflectance(v)
             .iter()
             .map(|c| c.clamp(min, max))
             .collect()
     };
     let params = PaintParams {
-        grid: WavelengthGrid::linear_srgb(),
+        channels: Channels::LinearSrgb,
         albedo: reduce(spectral.albedo(), 0.0, 1.0),
         refractive_index: reduce(spectral.refractive_index(), 1.0, f64::INFINITY),
         index_at_gloss_wavelength: spectral.index_at_gloss_wavelength(),
@@ -107,20 +51,24 @@ pub fn paint_model(design: &PaintDesign) -> Result<PaintModel, DesignError> {
 
 #[cfg(test)]
 mod tests {
+    use palette::LinSrgb;
+
     use super::*;
-    use crate::render::environment::{Environment, RgbUpsampler, luminance_weights};
+    use crate::colour::upsampling::RgbUpsampler;
+    use crate::colour::{SRGB_LUMINANCE, linear_srgb_of_emission, srgb_white};
+    use crate::render::environment::{Environment, luminance_weights};
     use crate::render::film::Film;
 
     #[test]
     fn constant_reflectances_stay_constant_and_the_white_is_white() {
         for c in [0.0, 0.3, 1.0, 1.5] {
-            let rgb = reduce_reflectance(&vec![c; 81]);
+            let rgb = linear_srgb_of_reflectance(&vec![c; 81]);
             for v in rgb {
                 assert!((v - c).abs() < 1e-3, "{c}: {rgb:?}");
             }
         }
         // The film maps (1, 1, 1) to the sRGB white at Y = 1.
-        let film = Film::new(1, 1, WavelengthGrid::linear_srgb());
+        let film = Film::new(1, 1, Channels::LinearSrgb);
         let xyz = film.xyz_of(&[1.0, 1.0, 1.0]);
         let white = srgb_white();
         assert!((xyz.y - 1.0).abs() < 1e-6, "{xyz:?}");
@@ -132,8 +80,8 @@ mod tests {
         let spectrum: Vec<f64> = (0..81).map(|i| 0.2 + 0.01 * i as f64).collect();
         let spectral = Film::new(1, 1, WavelengthGrid::reference())
             .xyz_of(&spectrum.iter().map(|&v| v as f32).collect::<Vec<_>>());
-        let rgb = reduce_emission(&spectrum).map(|v| v as f32);
-        let reduced = Film::new(1, 1, WavelengthGrid::linear_srgb()).xyz_of(&rgb);
+        let rgb = linear_srgb_of_emission(&spectrum).map(|v| v as f32);
+        let reduced = Film::new(1, 1, Channels::LinearSrgb).xyz_of(&rgb);
         for (a, b) in [
             (spectral.x, reduced.x),
             (spectral.y, reduced.y),
@@ -148,14 +96,14 @@ mod tests {
 
     #[test]
     fn lighting_and_materials_on_the_rgb_grid_use_rgb_values() {
-        let grid = WavelengthGrid::linear_srgb();
-        assert_eq!(luminance_weights(&grid), LUMINANCE.to_vec());
-        let up = RgbUpsampler::new(&grid);
+        let rgb = Channels::LinearSrgb;
+        assert_eq!(luminance_weights(&rgb), SRGB_LUMINANCE.to_vec());
+        let up = RgbUpsampler::new(&rgb);
         let mut out = [0.0f32; 3];
         up.reflectance(LinSrgb::new(0.2, 0.5, 0.7), &mut out);
         assert_eq!(out, [0.2, 0.5, 0.7]);
         // The studio's light on three channels has the luminance of the spectral one.
-        let studio = Environment::studio(&grid);
+        let studio = Environment::studio(&rgb);
         let spectral = Environment::studio(&WavelengthGrid::reference());
         let (mut a, mut b) = (vec![0.0f32; 3], vec![0.0f32; 81]);
         let up = [0.0, 1.0, 0.0];
@@ -169,7 +117,7 @@ mod tests {
     fn the_default_design_reduces_to_a_red_paint_on_three_channels() {
         let design = crate::design::presets::all().remove(0).design;
         let model = paint_model(&design).unwrap();
-        assert_eq!(model.grid().len(), 3);
+        assert_eq!(model.channels(), &Channels::LinearSrgb);
         let rho = model.albedo();
         assert!(rho[0] > 2.0 * rho[1] && rho[0] > 2.0 * rho[2], "{rho:?}");
         assert!(model.refractive_index().iter().all(|&n| n > 1.4 && n < 1.7));

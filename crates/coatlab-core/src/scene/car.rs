@@ -82,6 +82,7 @@
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 use glam::DVec3;
+use palette::LinSrgb;
 
 use super::{Scene, SceneMaterial, TriangleMesh};
 
@@ -348,11 +349,11 @@ pub fn generate(parameters: &CarParameters) -> Scene {
         }
     }
     let mut materials = vec![
-        material("body", [0.55, 0.04, 0.03], 0.05, 0.0),
-        material("glass", [0.01, 0.012, 0.015], 0.02, 0.0),
-        material("tyre", [0.025, 0.025, 0.025], 0.85, 0.0),
-        material("rim", [0.62, 0.62, 0.64], 0.25, 1.0),
-        material("trim", [0.015, 0.015, 0.015], 0.6, 0.0),
+        material("body", LinSrgb::new(0.55, 0.04, 0.03), 0.05, 0.0),
+        material("glass", LinSrgb::new(0.01, 0.012, 0.015), 0.02, 0.0),
+        material("tyre", LinSrgb::new(0.025, 0.025, 0.025), 0.85, 0.0),
+        material("rim", LinSrgb::new(0.62, 0.62, 0.64), 0.25, 1.0),
+        material("trim", LinSrgb::new(0.015, 0.015, 0.015), 0.6, 0.0),
     ];
     for t in 0..mesh.triangle_count() {
         materials[mesh.triangle_material[t] as usize].area_m2 += mesh.triangle_area(t);
@@ -365,7 +366,7 @@ pub fn generate(parameters: &CarParameters) -> Scene {
     }
 }
 
-fn material(name: &str, base_color: [f32; 3], roughness: f32, metallic: f32) -> SceneMaterial {
+fn material(name: &str, base_color: LinSrgb<f32>, roughness: f32, metallic: f32) -> SceneMaterial {
     SceneMaterial {
         name: name.to_owned(),
         base_color,
@@ -1141,9 +1142,9 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, GlbWriteError> {
             name: Some(m.name.clone()),
             pbr_metallic_roughness: json::material::PbrMetallicRoughness {
                 base_color_factor: json::material::PbrBaseColorFactor([
-                    m.base_color[0],
-                    m.base_color[1],
-                    m.base_color[2],
+                    m.base_color.red,
+                    m.base_color.green,
+                    m.base_color.blue,
                     1.0,
                 ]),
                 metallic_factor: json::material::StrengthFactor(m.metallic),

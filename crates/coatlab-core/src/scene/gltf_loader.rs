@@ -22,6 +22,7 @@ use std::path::{Path, PathBuf};
 
 use gltf::json;
 use gltf::mesh::Mode;
+use palette::LinSrgb;
 
 use super::{Scene, SceneMaterial, TriangleMesh};
 
@@ -267,7 +268,7 @@ fn load_from_bytes(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<S
                 None => *default_material.get_or_insert_with(|| {
                     materials.push(SceneMaterial {
                         name: "(glTF default material)".into(),
-                        base_color: [1.0; 3],
+                        base_color: LinSrgb::new(1.0, 1.0, 1.0),
                         roughness: 1.0,
                         metallic: 1.0,
                         area_m2: 0.0,
@@ -911,16 +912,16 @@ fn document_materials(document: &gltf::Document, warnings: &mut Vec<String>) -> 
                     "material '{name}': base-colour texture not used, its factor stands in"
                 ));
             }
-            let [r, g, b, _] = pbr.base_color_factor();
+            let [r, g, b, _] = pbr.base_color_factor().map(|c| {
+                if c.is_finite() {
+                    c.clamp(0.0, 1.0)
+                } else {
+                    1.0
+                }
+            });
             SceneMaterial {
                 name,
-                base_color: [r, g, b].map(|c| {
-                    if c.is_finite() {
-                        c.clamp(0.0, 1.0)
-                    } else {
-                        1.0
-                    }
-                }),
+                base_color: LinSrgb::new(r, g, b),
                 roughness: finite_unit(pbr.roughness_factor()),
                 metallic: finite_unit(pbr.metallic_factor()),
                 area_m2: 0.0,
@@ -1291,7 +1292,7 @@ mod tests {
     fn heuristic_prefers_paint_names_then_area() {
         let m = |name: &str, area: f32| SceneMaterial {
             name: name.into(),
-            base_color: [0.5; 3],
+            base_color: LinSrgb::new(0.5, 0.5, 0.5),
             roughness: 0.5,
             metallic: 0.0,
             area_m2: area,

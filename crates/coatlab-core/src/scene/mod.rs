@@ -4,6 +4,8 @@
 //! Everything is flattened on load: node hierarchies and instances become one
 //! triangle list in world space, which is what the BVH and the tracer consume.
 
+use palette::LinSrgb;
+
 pub mod car;
 pub mod gltf_loader;
 
@@ -59,8 +61,8 @@ impl TriangleMesh {
 pub struct SceneMaterial {
     /// Name in the file (or a generated one for unnamed materials).
     pub name: String,
-    /// Linear-RGB base colour (glTF `baseColorFactor`), each in [0, 1].
-    pub base_color: [f32; 3],
+    /// Base colour (glTF `baseColorFactor`, linear sRGB), each component in [0, 1].
+    pub base_color: LinSrgb<f32>,
     /// glTF roughness in [0, 1].
     pub roughness: f32,
     /// glTF metallic in [0, 1].

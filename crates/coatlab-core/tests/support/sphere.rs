@@ -38,7 +38,7 @@ pub fn sphere(rings: u32) -> Scene {
         mesh,
         materials: vec![SceneMaterial {
             name: "paint".into(),
-            base_color: [0.5; 3],
+            base_color: palette::LinSrgb::new(0.5, 0.5, 0.5),
             roughness: 0.5,
             metallic: 0.0,
             area_m2: 4.0 * std::f32::consts::PI,
