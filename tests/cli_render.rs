@@ -3,8 +3,8 @@
 
 mod common;
 
+use std::collections::BTreeMap;
 use std::path::PathBuf;
-
 use std::sync::Arc;
 
 use coatlab_core::colour::spectrum::{MAX_VISIBLE_SAMPLES, WavelengthGrid};
@@ -219,6 +219,11 @@ fn film_of_the_default_render(
 /// The EXR's pixel (x, y) against the film's mean linear sRGB: equal to f32
 /// rounding (the writer converts the same f64 means with the same f32 matrix).
 fn assert_exr_holds_film(image: &ExrImage, film: &Film) {
+    assert_exr_holds_film_within(image, film, |want| 1e-6 * want.abs().max(1e-3));
+}
+
+/// [`assert_exr_holds_film`] to a tolerance that depends on the film's value.
+fn assert_exr_holds_film_within(image: &ExrImage, film: &Film, tolerance: impl Fn(f32) -> f32) {
     assert_eq!(
         (image.width, image.height),
         (film.width() as usize, film.height() as usize)
@@ -228,9 +233,10 @@ fn assert_exr_holds_film(image: &ExrImage, film: &Film) {
         for x in 0..film.width() {
             let got = image.rgb[(y * film.width() + x) as usize];
             let want = film.mean_linear_srgb(x, y);
+            let want = [want.red, want.green, want.blue];
             for c in 0..3 {
                 assert!(
-                    (got[c] - want[c]).abs() <= 1e-6 * want[c].abs().max(1e-3),
+                    (got[c] - want[c]).abs() <= tolerance(want[c]),
                     "pixel ({x}, {y}) channel {}: EXR {got:?}, film {want:?}",
                     ["R", "G", "B"][c]
                 );
@@ -283,6 +289,26 @@ fn the_exr_is_the_films_linear_srgb_in_32_bit_floats() {
         film_of_the_default_render(size, spp, wavelengths, seed, Environment::studio(&grid));
     assert_exr_holds_film(&image, render.film());
     // The same seed gives the same file; another seed another image.
+    let same = out_path("film-seed-7.exr");
+    let output = render_to(
+        &same,
+        &[
+            "--size",
+            "24x16",
+            "--spp",
+            "3",
+            "--wavelengths",
+            "8",
+            "--seed",
+            "7",
+        ],
+    );
+    stdout(&output);
+    assert_eq!(
+        std::fs::read(&same).expect("written"),
+        std::fs::read(&exr).expect("written"),
+        "the same command, another file"
+    );
     let again = out_path("film-seed-8.exr");
     let output = render_to(
         &again,
@@ -306,6 +332,145 @@ fn the_exr_is_the_films_linear_srgb_in_32_bit_floats() {
         .filter(|(a, b)| a != b)
         .count();
     assert!(differing > image.rgb.len() / 4, "{differing} pixels differ");
+}
+
+/// The text attributes of an EXR's header (UTF-8), by name, and its compression.
+fn exr_header(path: &std::path::Path) -> (BTreeMap<String, String>, exr::prelude::Compression) {
+    use exr::prelude::{AttributeValue, MetaData};
+    let meta = MetaData::read_from_file(path, false).expect("an EXR header");
+    let header = &meta.headers[0];
+    let texts = header
+        .own_attributes
+        .other
+        .iter()
+        .chain(&header.shared_attributes.other)
+        .filter_map(|(name, value)| match value {
+            AttributeValue::Text(text) => Some((
+                name.to_string(),
+                String::from_utf8(text.bytes().to_vec()).expect("UTF-8"),
+            )),
+            _ => None,
+        })
+        .collect();
+    (texts, header.compression)
+}
+
+/// `--exr-precision half --exr-compression piz`: half floats within half
+/// precision of the film, PIZ in the file, and the header says what made the
+/// image (the lighting by its own name, whatever the case it was typed in). The
+/// options are refused for a PNG.
+#[test]
+fn exr_options_and_the_header_record() {
+    use coatlab_core::render::film::{EXR_ADAPTATION, exr_attribute};
+    use exr::prelude::Compression;
+
+    let exr = out_path("half-piz.exr");
+    let _ = std::fs::remove_file(&exr);
+    let (size, spp, wavelengths, seed) = ((24, 16), 3, 8, 5);
+    let output = render_to(
+        &exr,
+        &[
+            "--size",
+            "24x16",
+            "--spp",
+            "3",
+            "--wavelengths",
+            "8",
+            "--seed",
+            "5",
+            "--environment",
+            "Booth-A",
+            "--exr-precision",
+            "half",
+            "--exr-compression",
+            "piz",
+        ],
+    );
+    stdout(&output);
+    let image = read_exr(&exr);
+    assert_eq!(
+        image.channels,
+        [
+            ("B".into(), "f16"),
+            ("G".into(), "f16"),
+            ("R".into(), "f16")
+        ]
+    );
+    let grid = WavelengthGrid::visible(wavelengths).expect("grid");
+    let (render, _) = film_of_the_default_render(
+        size,
+        spp,
+        wavelengths,
+        seed,
+        Environment::booth(coatlab_core::colour::cie::Illuminant::A, &grid),
+    );
+    // Rounded to the nearest half: half an ulp, a relative 2⁻¹¹ (2⁻²⁵ absolute
+    // below the normal halves).
+    assert_exr_holds_film_within(&image, render.film(), |want| {
+        (want.abs() * 2f32.powi(-11)).max(2f32.powi(-25))
+    });
+    let (attributes, compression) = exr_header(&exr);
+    assert_eq!(compression, Compression::PIZ);
+    let design = presets::all().into_iter().next().expect("a preset").design;
+    let expected: BTreeMap<String, String> = [
+        (exr_attribute::DESIGN, design.name.as_str()),
+        (exr_attribute::SAMPLES_PER_PIXEL, "3"),
+        (exr_attribute::SEED, "5"),
+        (exr_attribute::WAVELENGTHS, "8 from 405 to 755 nm"),
+        (exr_attribute::LIGHTING, "booth-a"),
+        (exr_attribute::ADAPTATION, EXR_ADAPTATION),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_owned(), v.to_owned()))
+    .collect();
+    assert_eq!(attributes, expected);
+
+    // The defaults: 32-bit floats, ZIP; adaptive sampling says its mean.
+    let default = out_path("default-options.exr");
+    let output = render_to(
+        &default,
+        &[
+            "--size",
+            "16x9",
+            "--spp",
+            "4",
+            "--wavelengths",
+            "4",
+            "--adaptive",
+            "on",
+        ],
+    );
+    stdout(&output);
+    assert!(read_exr(&default).channels.iter().all(|(_, t)| *t == "f32"));
+    let (attributes, compression) = exr_header(&default);
+    assert_eq!(compression, Compression::ZIP16);
+    assert_eq!(
+        attributes[exr_attribute::SAMPLES_PER_PIXEL],
+        "4 mean, adaptive"
+    );
+    assert_eq!(attributes[exr_attribute::LIGHTING], "studio");
+    assert_eq!(attributes[exr_attribute::SEED], "0");
+
+    for (flag, value, refusal) in [
+        ("--exr-compression", "zip", "only for .exr output"),
+        ("--exr-precision", "half", "only for .exr output"),
+    ] {
+        let output = render_to(
+            &out_path("options.png"),
+            &["--size", "8x8", "--spp", "1", flag, value],
+        );
+        let message = failure(&output, exit::USAGE);
+        assert!(
+            message.contains(flag) && message.contains(refusal),
+            "{message}"
+        );
+    }
+    let output = render_to(
+        &out_path("bad-options.exr"),
+        &["--size", "8x8", "--spp", "1", "--exr-compression", "dwaa"],
+    );
+    let message = failure(&output, exit::USAGE);
+    assert!(message.contains("none, rle, zips, zip, piz"), "{message}");
 }
 
 /// Share of blue in the light of the body side's pixels: B / (R + G + B) of their

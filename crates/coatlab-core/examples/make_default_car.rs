@@ -10,6 +10,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use coatlab_core::io::atomic::write_bytes_atomically;
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{self, CarParameters};
 
@@ -36,8 +37,8 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    if let Err(error) = std::fs::write(&output, &bytes) {
-        eprintln!("error: cannot write {}: {error}", output.display());
+    if let Err(error) = write_bytes_atomically(&output, &bytes) {
+        eprintln!("error: {error}");
         return ExitCode::FAILURE;
     }
     let (lo, hi) = scene.mesh.bounds().unwrap_or_default();
@@ -59,8 +60,8 @@ fn main() -> ExitCode {
     }
     if let Some(path) = preview {
         let image = preview::render(&scene, 720, 450);
-        if let Err(error) = std::fs::write(&path, image) {
-            eprintln!("error: cannot write {}: {error}", path.display());
+        if let Err(error) = write_bytes_atomically(&path, &image) {
+            eprintln!("error: {error}");
             return ExitCode::FAILURE;
         }
         println!("preview: {}", path.display());
@@ -70,35 +71,17 @@ fn main() -> ExitCode {
 
 /// A throwaway z-buffer rasteriser, enough to see the shape.
 mod preview {
+    use glam::Vec3;
+
     use super::Scene;
-
-    type V3 = [f32; 3];
-
-    fn sub(a: V3, b: V3) -> V3 {
-        [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-    }
-    fn dot(a: V3, b: V3) -> f32 {
-        a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-    }
-    fn cross(a: V3, b: V3) -> V3 {
-        [
-            a[1] * b[2] - a[2] * b[1],
-            a[2] * b[0] - a[0] * b[2],
-            a[0] * b[1] - a[1] * b[0],
-        ]
-    }
-    fn normalise(a: V3) -> V3 {
-        let l = dot(a, a).sqrt();
-        [a[0] / l, a[1] / l, a[2] / l]
-    }
 
     /// Four views in a 2 × 2 mosaic, as a binary PPM.
     pub fn render(scene: &Scene, width: usize, height: usize) -> Vec<u8> {
-        let views: [(V3, V3, f32); 4] = [
-            ([5.2, 1.7, 5.6], [0.0, 0.55, 0.0], 30.0),
-            ([-5.0, 1.9, -5.8], [0.0, 0.55, 0.0], 30.0),
-            ([9.0, 0.8, 0.0], [0.0, 0.6, 0.0], 30.0),
-            ([0.01, 10.0, 0.0], [0.0, 0.0, 0.0], 30.0),
+        let views: [(Vec3, Vec3, f32); 4] = [
+            (Vec3::new(5.2, 1.7, 5.6), Vec3::new(0.0, 0.55, 0.0), 30.0),
+            (Vec3::new(-5.0, 1.9, -5.8), Vec3::new(0.0, 0.55, 0.0), 30.0),
+            (Vec3::new(9.0, 0.8, 0.0), Vec3::new(0.0, 0.6, 0.0), 30.0),
+            (Vec3::new(0.01, 10.0, 0.0), Vec3::ZERO, 30.0),
         ];
         let mut image = vec![[0.0f32; 3]; 4 * width * height];
         for (k, &(eye, target, fov)) in views.iter().enumerate() {
@@ -119,113 +102,98 @@ mod preview {
         ppm
     }
 
-    fn view(scene: &Scene, eye: V3, target: V3, fov_deg: f32, w: usize, h: usize) -> Vec<[f32; 3]> {
-        let forward = normalise(sub(target, eye));
-        let right = normalise(cross(forward, [0.0, 1.0, 0.0]));
-        let up = cross(right, forward);
+    fn view(
+        scene: &Scene,
+        eye: Vec3,
+        target: Vec3,
+        fov_deg: f32,
+        w: usize,
+        h: usize,
+    ) -> Vec<[f32; 3]> {
+        let forward = (target - eye).normalize();
+        let right = forward.cross(Vec3::Y).normalize();
+        let up = right.cross(forward);
         let focal = 0.5 * h as f32 / (0.5 * fov_deg.to_radians()).tan();
         let mut colour = vec![[0.0f32; 3]; w * h];
         let mut depth = vec![f32::INFINITY; w * h];
         // Background: sky above the horizon, ground below.
         for y in 0..h {
             for x in 0..w {
-                let dir = normalise([
-                    forward[0] * focal + right[0] * (x as f32 - 0.5 * w as f32)
-                        - up[0] * (y as f32 - 0.5 * h as f32),
-                    forward[1] * focal + right[1] * (x as f32 - 0.5 * w as f32)
-                        - up[1] * (y as f32 - 0.5 * h as f32),
-                    forward[2] * focal + right[2] * (x as f32 - 0.5 * w as f32)
-                        - up[2] * (y as f32 - 0.5 * h as f32),
-                ]);
-                colour[y * w + x] = if dir[1] < 0.0 {
+                let dir = forward * focal + right * (x as f32 - 0.5 * w as f32)
+                    - up * (y as f32 - 0.5 * h as f32);
+                colour[y * w + x] = if dir.y < 0.0 {
                     [0.25, 0.25, 0.23]
                 } else {
                     [0.55, 0.62, 0.75]
                 };
             }
         }
-        let project = |p: V3| {
-            let q = sub(p, eye);
-            let z = dot(q, forward);
-            [
-                0.5 * w as f32 + focal * dot(q, right) / z,
-                0.5 * h as f32 - focal * dot(q, up) / z,
+        let project = |p: Vec3| {
+            let q = p - eye;
+            let z = q.dot(forward);
+            Vec3::new(
+                0.5 * w as f32 + focal * q.dot(right) / z,
+                0.5 * h as f32 - focal * q.dot(up) / z,
                 z,
-            ]
+            )
         };
-        let light = normalise([0.4, 0.8, 0.45]);
+        let light = Vec3::new(0.4, 0.8, 0.45).normalize();
         let mesh = &scene.mesh;
-        let screen: Vec<[f32; 3]> = mesh.positions.iter().map(|&p| project(p)).collect();
+        let screen: Vec<Vec3> = mesh
+            .positions
+            .iter()
+            .map(|&p| project(Vec3::from(p)))
+            .collect();
         for (t, tri) in mesh.triangles.iter().enumerate() {
             let [a, b, c] = tri.map(|i| screen[i as usize]);
-            if a[2] <= 0.0 || b[2] <= 0.0 || c[2] <= 0.0 {
+            if a.z <= 0.0 || b.z <= 0.0 || c.z <= 0.0 {
                 continue;
             }
-            let area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+            let area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
             if area.abs() < 1e-12 {
                 continue;
             }
-            let x0 = a[0].min(b[0]).min(c[0]).floor().max(0.0) as usize;
-            let x1 = (a[0].max(b[0]).max(c[0]).ceil() as usize).min(w - 1);
-            let y0 = a[1].min(b[1]).min(c[1]).floor().max(0.0) as usize;
-            let y1 = (a[1].max(b[1]).max(c[1]).ceil() as usize).min(h - 1);
+            let x0 = a.x.min(b.x).min(c.x).floor().max(0.0) as usize;
+            let x1 = (a.x.max(b.x).max(c.x).ceil() as usize).min(w - 1);
+            let y0 = a.y.min(b.y).min(c.y).floor().max(0.0) as usize;
+            let y1 = (a.y.max(b.y).max(c.y).ceil() as usize).min(h - 1);
             let material = &scene.materials[mesh.triangle_material[t] as usize];
+            let [na, nb, nc] = tri.map(|i| Vec3::from(mesh.normals[i as usize]));
+            let [pa, pb, pc] = tri.map(|i| Vec3::from(mesh.positions[i as usize]));
             for y in y0..=y1 {
                 for x in x0..=x1 {
                     let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
-                    let w0 = ((b[0] - px) * (c[1] - py) - (b[1] - py) * (c[0] - px)) / area;
-                    let w1 = ((c[0] - px) * (a[1] - py) - (c[1] - py) * (a[0] - px)) / area;
+                    let w0 = ((b.x - px) * (c.y - py) - (b.y - py) * (c.x - px)) / area;
+                    let w1 = ((c.x - px) * (a.y - py) - (c.y - py) * (a.x - px)) / area;
                     let w2 = 1.0 - w0 - w1;
                     if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
                         continue;
                     }
-                    let z = 1.0 / (w0 / a[2] + w1 / b[2] + w2 / c[2]);
+                    let z = 1.0 / (w0 / a.z + w1 / b.z + w2 / c.z);
                     if z >= depth[y * w + x] {
                         continue;
                     }
                     depth[y * w + x] = z;
-                    let [na, nb, nc] = tri.map(|i| mesh.normals[i as usize]);
-                    let (u0, u1, u2) = (w0 * z / a[2], w1 * z / b[2], w2 * z / c[2]);
-                    let n = normalise([
-                        u0 * na[0] + u1 * nb[0] + u2 * nc[0],
-                        u0 * na[1] + u1 * nb[1] + u2 * nc[1],
-                        u0 * na[2] + u1 * nb[2] + u2 * nc[2],
-                    ]);
-                    let pos = [
-                        u0 * mesh.positions[tri[0] as usize][0]
-                            + u1 * mesh.positions[tri[1] as usize][0]
-                            + u2 * mesh.positions[tri[2] as usize][0],
-                        u0 * mesh.positions[tri[0] as usize][1]
-                            + u1 * mesh.positions[tri[1] as usize][1]
-                            + u2 * mesh.positions[tri[2] as usize][1],
-                        u0 * mesh.positions[tri[0] as usize][2]
-                            + u1 * mesh.positions[tri[1] as usize][2]
-                            + u2 * mesh.positions[tri[2] as usize][2],
-                    ];
-                    let v = normalise(sub(eye, pos));
-                    let diffuse = 0.2 + 0.8 * dot(n, light).max(0.0);
+                    let (u0, u1, u2) = (w0 * z / a.z, w1 * z / b.z, w2 * z / c.z);
+                    let n = (u0 * na + u1 * nb + u2 * nc).normalize();
+                    let pos = u0 * pa + u1 * pb + u2 * pc;
+                    let v = (eye - pos).normalize();
+                    let diffuse = 0.2 + 0.8 * n.dot(light).max(0.0);
                     let base = material.base_color;
                     let mut c = [base.red, base.green, base.blue].map(|b| b * diffuse);
                     if material.metallic < 0.5 && material.roughness < 0.3 {
                         // Mirror reflection of a sky with a bright band near the horizon.
-                        let r = sub(
-                            [
-                                2.0 * dot(n, v) * n[0],
-                                2.0 * dot(n, v) * n[1],
-                                2.0 * dot(n, v) * n[2],
-                            ],
-                            v,
-                        );
-                        let fresnel = 0.04 + 0.96 * (1.0 - dot(n, v).max(0.0)).powi(5);
-                        let sky = if r[1] < 0.0 {
+                        let r = 2.0 * n.dot(v) * n - v;
+                        let fresnel = 0.04 + 0.96 * (1.0 - n.dot(v).max(0.0)).powi(5);
+                        let sky = if r.y < 0.0 {
                             0.05
                         } else {
-                            0.3 + 2.0 * (-(r[1] - 0.15).powi(2) / 0.004).exp()
+                            0.3 + 2.0 * (-(r.y - 0.15).powi(2) / 0.004).exp()
                         };
-                        let spec = (dot(r, light).max(0.0)).powf(200.0) * 8.0;
+                        let spec = (r.dot(light).max(0.0)).powf(200.0) * 8.0;
                         c = c.map(|v| v + fresnel * sky + spec * 0.05);
                     } else if material.metallic > 0.5 {
-                        c = c.map(|b| b * (0.5 + 0.5 * n[1].abs()));
+                        c = c.map(|b| b * (0.5 + 0.5 * n.y.abs()));
                     }
                     colour[y * w + x] = c;
                 }

@@ -50,14 +50,14 @@
 
 use std::fmt::Write as _;
 use std::fs;
-use std::io::{self, Write as _};
+use std::io;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use serde::Deserialize;
 use thiserror::Error;
 
 use crate::colour::spectrum::{SampledSpectrum, TabulatedSpectrum, VISIBLE, WavelengthGrid};
+use crate::io::atomic::write_bytes_atomically;
 use crate::paint::gloss::{
     GLOSS_WAVELENGTH_NM, GlossError, GlossExponent, GlossGeometry, exponent_from_reading,
     reading_from_exponent,
@@ -345,10 +345,10 @@ impl PaintDesign {
     pub fn save(&self, path: impl AsRef<Path>) -> Result<(), DesignError> {
         self.validate()?;
         let path = path.as_ref();
-        write_atomically(path, self.to_toml_string().as_bytes()).map_err(|error| {
+        write_bytes_atomically(path, self.to_toml_string().as_bytes()).map_err(|e| {
             DesignError::Write {
-                path: path.to_owned(),
-                error,
+                path: e.path,
+                error: e.error,
             }
         })
     }
@@ -922,56 +922,6 @@ fn toml_string(text: &str) -> String {
     }
     out.push('"');
     out
-}
-
-/// Distinguishes temporary files of concurrent saves from one process.
-static SAVE_COUNTER: AtomicU64 = AtomicU64::new(0);
-
-/// Temp file beside the target (a rename is only atomic within one file system),
-/// flushed, then renamed over it; the temp file is removed if anything fails.
-fn write_atomically(path: &Path, bytes: &[u8]) -> io::Result<()> {
-    let file_name = path.file_name().ok_or_else(|| {
-        io::Error::new(io::ErrorKind::InvalidInput, "the path does not name a file")
-    })?;
-    let dir = match path.parent() {
-        Some(dir) if !dir.as_os_str().is_empty() => dir,
-        _ => Path::new("."),
-    };
-    let mut temp_name = std::ffi::OsString::from(".");
-    temp_name.push(file_name);
-    temp_name.push(format!(
-        ".{}-{}.tmp",
-        std::process::id(),
-        SAVE_COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
-    let temp_path = dir.join(temp_name);
-
-    let result = (|| {
-        // create_new: never clobber a file that happens to have the temp name.
-        let mut file = fs::OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&temp_path)?;
-        file.write_all(bytes)?;
-        // Keep the permissions a user gave the existing file.
-        if let Ok(metadata) = fs::metadata(path) {
-            file.set_permissions(metadata.permissions())?;
-        }
-        file.sync_all()?;
-        drop(file);
-        fs::rename(&temp_path, path)
-    })();
-    if result.is_err() {
-        let _ = fs::remove_file(&temp_path);
-        return result;
-    }
-    // Make the rename itself durable. Directories cannot be opened (or synced) on
-    // every platform; the file's contents are already safe, so this is best effort.
-    #[cfg(unix)]
-    if let Ok(dir) = fs::File::open(dir) {
-        let _ = dir.sync_all();
-    }
-    Ok(())
 }
 
 // ---------------------------------------------------------------------------------

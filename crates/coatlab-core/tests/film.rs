@@ -3,7 +3,7 @@
 
 use coatlab_core::colour::Xyz;
 use coatlab_core::colour::cie::{Colorimeter, Illuminant, Observer};
-use coatlab_core::colour::spectrum::WavelengthGrid;
+use coatlab_core::colour::spectrum::{Channels, WavelengthGrid};
 use coatlab_core::render::film::{DisplaySettings, Film, ToneMapping};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
@@ -394,19 +394,15 @@ fn png_round_trip() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// Our hand-written EXR, read back by the `exr` crate: size, and every channel
-/// bit-for-bit equal to `mean_linear_srgb` (negative, out-of-gamut values included).
-#[test]
-fn exr_is_readable_by_the_exr_crate() {
-    use exr::prelude::read_first_rgba_layer_from_file;
-
+/// A film of 9×5 pixels of random spectra with a narrow-band spike now and
+/// then: some pixels out of the sRGB gamut (negative components).
+fn out_of_gamut_film() -> Film {
     let grid = WavelengthGrid::visible(16).unwrap();
     let (width, height) = (9u32, 5u32);
     let mut film = Film::new(width, height, grid);
     let mut rng = Pcg64::seed_from_u64(5);
     for y in 0..height {
         for x in 0..width {
-            // A narrow-band spike now and then: out of the sRGB gamut.
             let mut radiance: Vec<f32> = (0..grid.len()).map(|_| rng.random::<f32>()).collect();
             if (x + y) % 3 == 0 {
                 radiance.iter_mut().for_each(|v| *v *= 0.01);
@@ -415,8 +411,26 @@ fn exr_is_readable_by_the_exr_crate() {
             film.add_sample(x, y, &radiance);
         }
     }
-    let dir = std::env::temp_dir().join(format!("coatlab-film-exr-{}", std::process::id()));
+    film
+}
+
+fn scratch_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("coatlab-film-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The EXR of [`Film::write_exr`], read back by the `exr` crate: size, and every
+/// channel bit-for-bit equal to `mean_linear_srgb` (negative, out-of-gamut values
+/// included).
+#[test]
+fn exr_is_readable_by_the_exr_crate() {
+    use exr::prelude::read_first_rgba_layer_from_file;
+
+    let film = out_of_gamut_film();
+    let (width, height) = (film.width(), film.height());
+    let dir = scratch_dir("exr");
     let path = dir.join("film.exr");
     film.write_exr(&path).unwrap();
 
@@ -439,6 +453,7 @@ fn exr_is_readable_by_the_exr_crate() {
         for x in 0..width {
             let [r, g, b, a] = pixels[(y * width + x) as usize];
             let expected = film.mean_linear_srgb(x, y);
+            let expected = [expected.red, expected.green, expected.blue];
             assert_eq!(
                 [r, g, b].map(f32::to_bits),
                 expected.map(f32::to_bits),
@@ -449,6 +464,233 @@ fn exr_is_readable_by_the_exr_crate() {
         }
     }
     assert!(negative, "the test should include out-of-gamut colours");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// An EXR read back with every channel as stored: the R, G, B samples, the
+/// compression and the header's text attributes (UTF-8).
+struct StoredExr {
+    channels: Vec<(String, exr::prelude::FlatSamples)>,
+    compression: exr::prelude::Compression,
+    attributes: std::collections::BTreeMap<String, String>,
+    has_srgb_chromaticities: bool,
+}
+
+fn read_stored_exr(path: &std::path::Path) -> StoredExr {
+    use exr::prelude::{AttributeValue, read_first_flat_layer_from_file};
+    let image = read_first_flat_layer_from_file(path).unwrap();
+    let layer = image.layer_data;
+    let channels = layer
+        .channel_data
+        .list
+        .into_iter()
+        .map(|c| (c.name.to_string(), c.sample_data))
+        .collect();
+    let attributes = layer
+        .attributes
+        .other
+        .iter()
+        .chain(&image.attributes.other)
+        .filter_map(|(name, value)| match value {
+            AttributeValue::Text(text) => Some((
+                name.to_string(),
+                String::from_utf8(text.bytes().to_vec()).expect("UTF-8"),
+            )),
+            _ => None,
+        })
+        .collect();
+    let has_srgb_chromaticities = image
+        .attributes
+        .chromaticities
+        .is_some_and(|c| c.red.0 == 0.64 && c.white.1 == 0.3290);
+    StoredExr {
+        channels,
+        compression: layer.encoding.compression,
+        attributes,
+        has_srgb_chromaticities,
+    }
+}
+
+/// The film's linear sRGB as three planes R, G, B.
+fn planes(film: &Film) -> [Vec<f32>; 3] {
+    let image = film.linear_srgb_image();
+    [
+        image.iter().map(|p| p.red).collect(),
+        image.iter().map(|p| p.green).collect(),
+        image.iter().map(|p| p.blue).collect(),
+    ]
+}
+
+/// Every compression writes 32-bit floats bit-equal to the film's values, says
+/// its compression and channel type in the file, and carries every header
+/// attribute (a design name with non-ASCII letters and a quote included); the same
+/// image written twice is the same bytes.
+#[test]
+fn exr_options_and_header_attributes_read_back() {
+    use coatlab_core::io::exr_write::{ExrCompression, ExrPrecision};
+    use coatlab_core::render::film::{EXR_ADAPTATION, ExrOutput, RenderRecord, exr_attribute};
+    use exr::prelude::{Compression, FlatSamples};
+
+    let film = out_of_gamut_film();
+    let expected = planes(&film);
+    let dir = scratch_dir("exr-options");
+    let record = RenderRecord {
+        design: Some("Rouge \"Évora\" 赤".to_owned()),
+        samples_per_pixel: Some("16 mean, adaptive".to_owned()),
+        seed: Some(42),
+        lighting: Some("booth-a".to_owned()),
+    };
+    for (compression, stored) in [
+        (ExrCompression::None, Compression::Uncompressed),
+        (ExrCompression::Rle, Compression::RLE),
+        (ExrCompression::Zips, Compression::ZIP1),
+        (ExrCompression::Zip, Compression::ZIP16),
+        (ExrCompression::Piz, Compression::PIZ),
+    ] {
+        let path = dir.join(format!("{}.exr", compression.name()));
+        let output = ExrOutput {
+            precision: ExrPrecision::Float,
+            compression,
+            record: record.clone(),
+        };
+        film.write_exr_with(&path, &output).unwrap();
+        let exr = read_stored_exr(&path);
+        assert_eq!(exr.compression, stored);
+        assert!(exr.has_srgb_chromaticities);
+        let names: Vec<&str> = exr.channels.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["B", "G", "R"]);
+        for (name, samples) in &exr.channels {
+            let FlatSamples::F32(values) = samples else {
+                panic!("{name}: not 32-bit floats");
+            };
+            let want = &expected[["R", "G", "B"].iter().position(|n| n == name).unwrap()];
+            assert_eq!(
+                values.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                want.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                "{name}, {compression:?}"
+            );
+        }
+        let expected_attributes: std::collections::BTreeMap<String, String> = [
+            (exr_attribute::DESIGN, "Rouge \"Évora\" 赤"),
+            (exr_attribute::SAMPLES_PER_PIXEL, "16 mean, adaptive"),
+            (exr_attribute::SEED, "42"),
+            (exr_attribute::WAVELENGTHS, "16 from 392.5 to 767.5 nm"),
+            (exr_attribute::LIGHTING, "booth-a"),
+            (exr_attribute::ADAPTATION, EXR_ADAPTATION),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_owned(), v.to_owned()))
+        .collect();
+        assert_eq!(exr.attributes, expected_attributes, "{compression:?}");
+        // Reproducible: the header's attributes come in one order.
+        let again = dir.join("again.exr");
+        film.write_exr_with(&again, &output).unwrap();
+        assert_eq!(
+            std::fs::read(&path).unwrap(),
+            std::fs::read(&again).unwrap(),
+            "{compression:?}"
+        );
+    }
+    // Without a record: the film's own count, wavelengths and adaptation only; an
+    // RGB film says so.
+    let mut rgb = Film::new(2, 1, Channels::LinearSrgb);
+    rgb.add_sample(0, 0, &[1.0, 0.5, 0.25]);
+    rgb.add_sample(1, 0, &[1.0, 0.5, 0.25]);
+    rgb.add_sample(1, 0, &[1.0, 0.5, 0.25]);
+    let path = dir.join("rgb.exr");
+    rgb.write_exr(&path).unwrap();
+    let exr = read_stored_exr(&path);
+    assert_eq!(exr.compression, Compression::ZIP16, "the default");
+    let attributes: Vec<(&str, &str)> = exr
+        .attributes
+        .iter()
+        .map(|(k, v)| (k.as_str(), v.as_str()))
+        .collect();
+    assert_eq!(
+        attributes,
+        [
+            (exr_attribute::ADAPTATION, EXR_ADAPTATION),
+            (exr_attribute::SAMPLES_PER_PIXEL, "1"),
+            (exr_attribute::WAVELENGTHS, "linear sRGB"),
+        ]
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Half floats: each stored value is the film's rounded to the nearest half, so
+/// within half a unit in the last place: a relative 2⁻¹¹ for normal halves, an
+/// absolute 2⁻²⁵ below them.
+#[test]
+fn half_exr_is_within_half_precision() {
+    use coatlab_core::io::exr_write::{ExrCompression, ExrPrecision};
+    use coatlab_core::render::film::ExrOutput;
+    use exr::prelude::{FlatSamples, f16};
+
+    let film = out_of_gamut_film();
+    let expected = planes(&film);
+    let dir = scratch_dir("exr-half");
+    for compression in [ExrCompression::None, ExrCompression::Piz] {
+        let path = dir.join("half.exr");
+        let output = ExrOutput {
+            precision: ExrPrecision::Half,
+            compression,
+            ..ExrOutput::default()
+        };
+        film.write_exr_with(&path, &output).unwrap();
+        let exr = read_stored_exr(&path);
+        let mut checked = 0;
+        for (name, samples) in &exr.channels {
+            let FlatSamples::F16(values) = samples else {
+                panic!("{name}: not half floats");
+            };
+            let want = &expected[["R", "G", "B"].iter().position(|n| n == name).unwrap()];
+            assert_eq!(values.len(), want.len());
+            for (&half, &value) in values.iter().zip(want) {
+                assert_eq!(half, f16::from_f32(value), "{name}: rounded to nearest");
+                let error = (half.to_f32() - value).abs();
+                let bound = (value.abs() * 2f32.powi(-11)).max(2f32.powi(-25));
+                assert!(error <= bound, "{name}: {value} stored as {half}");
+                checked += 1;
+            }
+        }
+        assert_eq!(checked, 3 * 9 * 5);
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A re-shaded image (mean XYZ, no film) exported as shown: the PNG holds
+/// `display_xyz` of the values.
+#[test]
+fn xyz_png_holds_the_displayed_colours() {
+    use coatlab_core::render::film::{display_xyz, write_xyz_png};
+    let (width, height) = (7u32, 3u32);
+    let xyz: Vec<[f32; 3]> = (0..width * height)
+        .map(|i| {
+            let v = i as f32 / 10.0;
+            [0.9 * v, v, 1.1 * v]
+        })
+        .collect();
+    let settings = DisplaySettings::default();
+    let dir = scratch_dir("xyz-png");
+    let path = dir.join("second.png");
+    write_xyz_png(&path, width, height, &xyz, &settings).unwrap();
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buffer = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buffer).unwrap();
+    assert_eq!((info.width, info.height), (width, height));
+    let expected: Vec<u8> = display_xyz(&xyz, &settings)
+        .into_iter()
+        .flat_map(|[r, g, b, _]| [r, g, b])
+        .collect();
+    assert_eq!(&buffer[..info.buffer_size()], &expected[..]);
+    assert_eq!(
+        std::fs::read_dir(&dir).unwrap().count(),
+        1,
+        "no temporary left"
+    );
+    let short = write_xyz_png(&path, width, height + 1, &xyz, &settings).unwrap_err();
+    assert!(short.to_string().contains("second.png"), "{short}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

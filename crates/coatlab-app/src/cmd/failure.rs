@@ -203,9 +203,10 @@ fn class_of(cause: &(dyn StdError + 'static)) -> Option<Failure> {
         });
     }
     if let Some(e) = cause.downcast_ref::<FilmError>() {
-        return Some(match e {
-            FilmError::Io { .. } => Failure::CantCreate,
-            _ => Failure::Internal,
+        return Some(if e.is_write_failure() {
+            Failure::CantCreate
+        } else {
+            Failure::Internal
         });
     }
     // Gloss numbers come from the command line (a design's gloss is a DesignError).

@@ -11,10 +11,11 @@ use coatlab_core::colour::spectrum::{
     Channels, MAX_VISIBLE_SAMPLES, REFERENCE_LEN, REFERENCE_STEP_NM, WavelengthGrid,
 };
 use coatlab_core::design::{PaintDesign, presets};
+use coatlab_core::io::exr_write::{ExrCompression, ExrPrecision};
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::adaptive::{AdaptiveError, AdaptiveSampling};
 use coatlab_core::render::environment::Environment;
-use coatlab_core::render::film::DisplaySettings;
+use coatlab_core::render::film::{DisplaySettings, ExrOutput, RenderRecord};
 use coatlab_core::render::lighting::Lighting;
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{
@@ -87,10 +88,33 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = AdaptiveSampling::default().exponent)]
     pub adaptive_exponent: f32,
     /// Output: .png (8-bit sRGB, exposure and tone mapping applied) or .exr (linear
-    /// sRGB, D65 white at 1: 32-bit float R, G, B channels, no exposure or tone
-    /// mapping, uncompressed).
+    /// sRGB, D65 white at 1: R, G, B channels, no exposure or tone mapping; the
+    /// header says the design, samples, seed, wavelengths and lighting).
     #[arg(long)]
     pub out: PathBuf,
+    /// EXR output only: the channels' sample type, float (32-bit, exact) or half
+    /// (16-bit) [default: float].
+    #[arg(long, value_parser = parse_exr_precision)]
+    pub exr_precision: Option<ExrPrecision>,
+    /// EXR output only: the lossless compression, none, rle, zips, zip or piz
+    /// [default: zip].
+    #[arg(long, value_parser = parse_exr_compression)]
+    pub exr_compression: Option<ExrCompression>,
+}
+
+fn parse_exr_precision(text: &str) -> Result<ExrPrecision, String> {
+    match text {
+        "float" => Ok(ExrPrecision::Float),
+        "half" => Ok(ExrPrecision::Half),
+        other => Err(format!("'{other}': use float or half")),
+    }
+}
+
+fn parse_exr_compression(text: &str) -> Result<ExrCompression, String> {
+    ExrCompression::from_name(text).ok_or_else(|| {
+        let names: Vec<&str> = ExrCompression::ALL.iter().map(|c| c.name()).collect();
+        format!("'{text}': use {}", names.join(", "))
+    })
 }
 
 /// `--wavelengths`' help: the range [`WavelengthGrid::visible`] accepts.
@@ -168,6 +192,14 @@ pub fn environment(
     Ok(lighting.build(channels)?)
 }
 
+/// The lighting's name for the record of a render: a setup's own name (whatever
+/// the case it was typed in), a map's path as given.
+fn lighting_name(argument: &str) -> String {
+    Lighting::parse(argument)
+        .map(|lighting| lighting.name())
+        .unwrap_or_else(|_| argument.to_owned())
+}
+
 /// The scene: a glTF file, or the built-in car.
 pub fn scene(path: Option<&Path>, paint_material: Option<&str>) -> anyhow::Result<Scene> {
     match path {
@@ -212,6 +244,18 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
             "--out {}: the output must end in .png or .exr",
             args.out.display()
         )));
+    }
+    if extension.as_deref() != Some("exr") {
+        let given = [
+            ("--exr-precision", args.exr_precision.is_some()),
+            ("--exr-compression", args.exr_compression.is_some()),
+        ];
+        if let Some((flag, _)) = given.iter().find(|(_, given)| *given) {
+            return Err(Failure::Usage.error(format!(
+                "{flag}: only for .exr output, and --out {} is not one",
+                args.out.display()
+            )));
+        }
     }
     // What a Duration holds (about 5.8e11 years) is the upper limit.
     let time_limit = match args.seconds {
@@ -318,7 +362,23 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
         ..DisplaySettings::default()
     };
     match extension.as_deref() {
-        Some("exr") => render.film().write_exr(&args.out)?,
+        Some("exr") => {
+            let output = ExrOutput {
+                precision: args.exr_precision.unwrap_or_default(),
+                compression: args.exr_compression.unwrap_or_default(),
+                record: RenderRecord {
+                    design: Some(design.name.clone()),
+                    samples_per_pixel: Some(if args.adaptive {
+                        format!("{} mean, adaptive", render.samples_per_pixel())
+                    } else {
+                        render.samples_per_pixel().to_string()
+                    }),
+                    seed: Some(args.seed),
+                    lighting: Some(lighting_name(&args.environment)),
+                },
+            };
+            render.film().write_exr_with(&args.out, &output)?
+        }
         _ => render.film().write_png(&args.out, &display)?,
     }
     let rejected = render.film().rejected_samples();

@@ -127,6 +127,12 @@ impl CoatlabApp {
             .map(|p| p.design.clone())
             .unwrap_or_else(unreachable_default);
         let mut notices = Vec::new();
+        if let Some(why) = options.storage.unavailable() {
+            notices.push(Notice {
+                is_error: true,
+                text: why.to_owned(),
+            });
+        }
         let recovery = match options.storage.recovery() {
             Ok(r) => r,
             Err(e) => {

@@ -1,18 +1,34 @@
-//! Export of the instruments' readings: CSV for spreadsheets, JSON for scripts. The
-//! JSON has the shape of `coatlab measure --json`, so one script reads both.
+//! Export of the instruments' readings (CSV for spreadsheets, JSON for scripts;
+//! the JSON has the shape of `coatlab measure --json`, so one script reads both),
+//! and what an exported preview image records about itself.
 
-use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::Context;
+use coatlab_core::design::PaintDesign;
 use coatlab_core::instruments::ILLUMINATION_DEG;
+use coatlab_core::io::atomic::write_bytes_atomically;
+use coatlab_core::render::environment::{Environment, EnvironmentKind};
+use coatlab_core::render::film::RenderRecord;
+use coatlab_core::render::lighting::Lighting;
 
 use super::analysis::Analysis;
 
 /// The readings as CSV: one row per aspecular angle (`kind = colour`), then one per
 /// gloss geometry (`kind = gloss`); a column that does not apply to a row is empty.
-pub fn measurement_csv(analysis: &Analysis) -> String {
-    let mut out = String::from("kind,angle_deg,detector_deg,L,a,b,dE00,specular_gu,total_gu\n");
+pub fn measurement_csv(analysis: &Analysis) -> anyhow::Result<String> {
+    let mut csv = csv::Writer::from_writer(Vec::new());
+    csv.write_record([
+        "kind",
+        "angle_deg",
+        "detector_deg",
+        "L",
+        "a",
+        "b",
+        "dE00",
+        "specular_gu",
+        "total_gu",
+    ])?;
     for (i, a) in analysis.measurement.angles.iter().enumerate() {
         let de = analysis
             .delta_e
@@ -20,22 +36,33 @@ pub fn measurement_csv(analysis: &Analysis) -> String {
             .and_then(|d| d.get(i))
             .map(|d| d.to_string())
             .unwrap_or_default();
-        let _ = writeln!(
-            out,
-            "colour,{},{},{},{},{},{de},,",
-            a.aspecular_deg, a.detector_deg, a.lab.l, a.lab.a, a.lab.b
-        );
+        csv.write_record([
+            "colour".to_owned(),
+            a.aspecular_deg.to_string(),
+            a.detector_deg.to_string(),
+            a.lab.l.to_string(),
+            a.lab.a.to_string(),
+            a.lab.b.to_string(),
+            de,
+            String::new(),
+            String::new(),
+        ])?;
     }
     for g in &analysis.measurement.gloss {
-        let _ = writeln!(
-            out,
-            "gloss,{},,,,,,{},{}",
-            g.geometry.angle_deg(),
-            g.specular_gu,
-            g.total_gu
-        );
+        csv.write_record([
+            "gloss".to_owned(),
+            g.geometry.angle_deg().to_string(),
+            String::new(),
+            String::new(),
+            String::new(),
+            String::new(),
+            String::new(),
+            g.specular_gu.to_string(),
+            g.total_gu.to_string(),
+        ])?;
     }
-    out
+    let bytes = csv.into_inner().context("finishing the CSV")?;
+    Ok(String::from_utf8(bytes)?)
 }
 
 /// The readings as JSON (the shape of `coatlab measure --json`).
@@ -69,9 +96,26 @@ pub fn write_measurement(
     let text = if is_json {
         measurement_json(analysis, design_name, design_file)?
     } else {
-        measurement_csv(analysis)
+        measurement_csv(analysis)?
     };
-    std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
+    Ok(write_bytes_atomically(path, text.as_bytes())?)
+}
+
+/// What an exported preview's EXR records in its header beyond what the film
+/// knows: the design's name, the lighting and the seed
+/// ([`coatlab_core::render::film::Film::write_exr_with`]). A map's file is not
+/// kept by its environment: it is recorded as "environment map".
+pub fn preview_record(design: &PaintDesign, environment: &Environment, seed: u64) -> RenderRecord {
+    let lighting = match environment.kind() {
+        EnvironmentKind::Image => "environment map".to_owned(),
+        kind => Lighting::of_kind(kind).map_or_else(|| format!("{kind:?}"), |l| l.name()),
+    };
+    RenderRecord {
+        design: Some(design.name.clone()),
+        samples_per_pixel: None,
+        seed: Some(seed),
+        lighting: Some(lighting),
+    }
 }
 
 #[cfg(test)]
@@ -85,7 +129,7 @@ mod tests {
         let all = presets::all();
         let a = Analysis::compute(&all[0].design, Some(&all[1].design), PhongVariant::Naive)
             .expect("valid");
-        let csv = measurement_csv(&a);
+        let csv = measurement_csv(&a).expect("CSV");
         let lines: Vec<&str> = csv.lines().collect();
         assert_eq!(lines.len(), 1 + 5 + 3);
         assert!(lines[1].starts_with("colour,15,30,"));
@@ -99,5 +143,51 @@ mod tests {
             Some(5)
         );
         assert_eq!(json["delta_e00"].as_array().map(Vec::len), Some(5));
+    }
+
+    /// The bytes the CSV had when it was written line by line: numbers in Rust's
+    /// shortest round-trip form, nothing quoted, empty fields for what a row does
+    /// not have, `\n` line ends.
+    #[test]
+    fn csv_is_the_numbers_display_form_without_quotes() {
+        let all = presets::all();
+        let a = Analysis::compute(&all[0].design, Some(&all[1].design), PhongVariant::Naive)
+            .expect("valid");
+        let mut expected =
+            String::from("kind,angle_deg,detector_deg,L,a,b,dE00,specular_gu,total_gu\n");
+        let delta_e = a.delta_e.as_ref().expect("a target");
+        for (angle, de) in a.measurement.angles.iter().zip(delta_e) {
+            expected += &format!(
+                "colour,{},{},{},{},{},{de},,\n",
+                angle.aspecular_deg, angle.detector_deg, angle.lab.l, angle.lab.a, angle.lab.b
+            );
+        }
+        for g in &a.measurement.gloss {
+            expected += &format!(
+                "gloss,{},,,,,,{},{}\n",
+                g.geometry.angle_deg(),
+                g.specular_gu,
+                g.total_gu
+            );
+        }
+        assert_eq!(measurement_csv(&a).expect("CSV"), expected);
+        // Without a target the dE00 column is empty.
+        let alone = Analysis::compute(&all[0].design, None, PhongVariant::Naive).expect("valid");
+        let csv = measurement_csv(&alone).expect("CSV");
+        let first_row: Vec<&str> = csv.lines().nth(1).expect("a row").split(',').collect();
+        assert_eq!(first_row[6], "");
+    }
+
+    #[test]
+    fn a_preview_record_names_the_design_lighting_and_seed() {
+        use coatlab_core::colour::cie::Illuminant;
+        use coatlab_core::colour::spectrum::WavelengthGrid;
+        let design = presets::all()[0].design.clone();
+        let grid = WavelengthGrid::visible(4).expect("grid");
+        let record = preview_record(&design, &Environment::booth(Illuminant::F11, &grid), 9);
+        assert_eq!(record.design.as_deref(), Some(design.name.as_str()));
+        assert_eq!(record.lighting.as_deref(), Some("booth-f11"));
+        assert_eq!(record.seed, Some(9));
+        assert_eq!(record.samples_per_pixel, None, "the film's own count");
     }
 }

@@ -1,9 +1,13 @@
 //! What the app keeps between sessions: the recent-files list and the autosave of an
 //! unsaved design, in one state directory.
 //!
-//! The directory is `$COATLAB_STATE_DIR` if set (tests and portable installs), else
-//! `$XDG_STATE_HOME/coatlab`, else `~/.local/state/coatlab`. Without any of these the
-//! app runs with no recent files and no autosave rather than failing.
+//! The directory is `$COATLAB_STATE_DIR` if set (tests and portable installs),
+//! else the platform's, through the `directories` crate: on Linux
+//! `$XDG_STATE_HOME/coatlab` or `~/.local/state/coatlab` (the home folder from the
+//! user database when `HOME` is unset); on macOS `~/Library/Application
+//! Support/Coatlab`; on Windows `%LOCALAPPDATA%\Coatlab\data`. When none can be
+//! found the app runs without recent files and autosave, and says so
+//! ([`Storage::unavailable`]).
 //!
 //! Crash recovery: while the design has unsaved changes it is written to
 //! `autosave.toml` every few seconds (atomically, through [`PaintDesign::save`]),
@@ -17,17 +21,25 @@ use std::time::SystemTime;
 
 use anyhow::Context;
 use coatlab_core::design::PaintDesign;
+use coatlab_core::io::atomic::write_bytes_atomically;
+use directories::ProjectDirs;
 
 /// How many recent files are remembered.
 pub const MAX_RECENT: usize = 10;
 const RECENT_FILE: &str = "recent.txt";
 const AUTOSAVE_FILE: &str = "autosave.toml";
 const AUTOSAVE_PATH_FILE: &str = "autosave-path.txt";
+/// The variable that chooses the state directory over the platform's.
+pub const STATE_DIR_VAR: &str = "COATLAB_STATE_DIR";
+/// The application's name in the platform's folders.
+const APPLICATION: &str = "Coatlab";
 
 /// The state directory, or none (persistence off).
 #[derive(Debug, Clone, Default)]
 pub struct Storage {
     dir: Option<PathBuf>,
+    /// Why there is no directory, when one was looked for and not found.
+    unavailable: Option<String>,
 }
 
 /// An autosaved design found at start-up.
@@ -46,22 +58,49 @@ impl Storage {
     pub fn in_dir(dir: impl Into<PathBuf>) -> Self {
         Self {
             dir: Some(dir.into()),
+            unavailable: None,
         }
     }
 
     /// No persistence at all (headless tests).
     pub fn none() -> Self {
-        Self { dir: None }
+        Self::default()
     }
 
-    /// The platform's state directory (see the module documentation).
+    /// The state directory of this user on this platform (see the module
+    /// documentation).
     pub fn from_environment() -> Self {
-        let var = |name: &str| std::env::var_os(name).filter(|v| !v.is_empty());
-        let dir = var("COATLAB_STATE_DIR")
-            .map(PathBuf::from)
-            .or_else(|| var("XDG_STATE_HOME").map(|d| PathBuf::from(d).join("coatlab")))
-            .or_else(|| var("HOME").map(|d| PathBuf::from(d).join(".local/state/coatlab")));
-        Self { dir }
+        let chosen = std::env::var_os(STATE_DIR_VAR)
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from);
+        let platform = ProjectDirs::from("", "", APPLICATION);
+        Self::choose(chosen, platform.as_ref())
+    }
+
+    /// The directory `chosen` by [`STATE_DIR_VAR`], else the platform's state
+    /// folder (Linux), else its local data folder (macOS, Windows); none, with the
+    /// reason, when neither is there.
+    fn choose(chosen: Option<PathBuf>, platform: Option<&ProjectDirs>) -> Self {
+        let dir = chosen
+            .or_else(|| platform.map(|p| p.state_dir().unwrap_or(p.data_local_dir()).to_owned()));
+        match dir {
+            Some(dir) => Self::in_dir(dir),
+            None => Self {
+                dir: None,
+                unavailable: Some(format!(
+                    "No folder for the app's state was found (no home folder is known; \
+                     set {STATE_DIR_VAR} to choose one): recent files and the autosave \
+                     of unsaved changes are off."
+                )),
+            },
+        }
+    }
+
+    /// Why persistence is off although it was asked for ([`Self::from_environment`]
+    /// found no folder), for the user to read; `None` when it is on, or off by
+    /// choice ([`Self::none`]).
+    pub fn unavailable(&self) -> Option<&str> {
+        self.unavailable.as_deref()
     }
 
     /// The directory, if persistence is on.
@@ -99,7 +138,7 @@ impl Storage {
         if let Some(file) = self.file(RECENT_FILE) {
             let text: String = list.iter().map(|p| format!("{}\n", p.display())).collect();
             self.ensure_dir()?;
-            fs::write(&file, text).with_context(|| format!("cannot write {}", file.display()))?;
+            write_bytes_atomically(&file, text.as_bytes())?;
         }
         Ok(list)
     }
@@ -123,8 +162,7 @@ impl Storage {
         self.ensure_dir()?;
         design.save(&file)?;
         let text = path.map(|p| p.display().to_string()).unwrap_or_default();
-        fs::write(&path_file, text)
-            .with_context(|| format!("cannot write {}", path_file.display()))?;
+        write_bytes_atomically(&path_file, text.as_bytes())?;
         Ok(())
     }
 
@@ -208,6 +246,113 @@ mod tests {
         s.clear_autosave();
         assert!(s.recovery().expect("nothing there").is_none());
         let _ = fs::remove_dir_all(dir);
+    }
+
+    /// The variable wins; then the platform's state folder (Linux), else its local
+    /// data folder (macOS, Windows); with neither, persistence is off and says why.
+    #[test]
+    fn the_state_directory_is_chosen_in_order_and_its_absence_is_said() {
+        let platform = ProjectDirs::from_path(PathBuf::from("coatlab"));
+        let chosen = Storage::choose(Some(PathBuf::from("/portable/state")), platform.as_ref());
+        assert_eq!(chosen.dir(), Some(Path::new("/portable/state")));
+        assert_eq!(chosen.unavailable(), None);
+        if let Some(platform) = &platform {
+            let expected = platform.state_dir().unwrap_or(platform.data_local_dir());
+            let found = Storage::choose(None, Some(platform));
+            assert_eq!(found.dir(), Some(expected));
+            assert!(expected.ends_with("coatlab"), "{}", expected.display());
+            #[cfg(target_os = "linux")]
+            assert!(
+                expected.ends_with(".local/state/coatlab")
+                    || std::env::var_os("XDG_STATE_HOME").is_some(),
+                "{}",
+                expected.display()
+            );
+        }
+        let nowhere = Storage::choose(None, None);
+        assert_eq!(nowhere.dir(), None);
+        let why = nowhere.unavailable().expect("a reason");
+        assert!(
+            why.contains(STATE_DIR_VAR) && why.contains("autosave"),
+            "{why}"
+        );
+        assert!(nowhere.add_recent(Path::new("/x.toml")).is_ok());
+        assert!(Storage::none().unavailable().is_none(), "off by choice");
+    }
+
+    /// The designer's window says that autosave is off, rather than dropping it
+    /// silently.
+    #[test]
+    fn the_app_says_when_there_is_no_state_directory() {
+        use crate::gui::app::{AppOptions, CoatlabApp};
+        let options = |storage| AppOptions {
+            storage,
+            open: None,
+            preview: false,
+        };
+        let app = CoatlabApp::new(options(Storage::choose(None, None)));
+        assert!(
+            app.notices()
+                .iter()
+                .any(|n| n.is_error && n.text.contains("autosave")),
+            "{:?}",
+            app.notices()
+        );
+        let app = CoatlabApp::new(options(Storage::none()));
+        assert!(app.notices().is_empty(), "{:?}", app.notices());
+    }
+
+    /// On Linux, [`Storage::from_environment`] in a process of its own (this test
+    /// run again, with the variables staged): `$COATLAB_STATE_DIR`, else
+    /// `$XDG_STATE_HOME/coatlab` (what tests/gui_crash.rs gives the app), else
+    /// `~/.local/state/coatlab` with the home folder from the user database when
+    /// `HOME` is unset, where the old lookup turned persistence off.
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn on_linux_the_folder_follows_xdg_and_is_found_without_home() {
+        const PROBE: &str = "COATLAB_STORAGE_PROBE";
+        const NAME: &str = "on_linux_the_folder_follows_xdg_and_is_found_without_home";
+        if std::env::var_os(PROBE).is_some() {
+            let storage = Storage::from_environment();
+            let dir = storage.dir().map(|d| d.display().to_string());
+            println!("state dir: {}", dir.unwrap_or_default());
+            return;
+        }
+        let test = module_path!()
+            .split_once("::")
+            .map_or(String::new(), |(_, path)| format!("{path}::{NAME}"));
+        let probe = |vars: &[(&str, &str)]| -> String {
+            let mut command = std::process::Command::new(std::env::current_exe().expect("exe"));
+            command
+                .args(["--exact", &test, "--nocapture", "--test-threads=1"])
+                .env(PROBE, "1")
+                .env_remove("HOME")
+                .env_remove("XDG_STATE_HOME")
+                .env_remove(STATE_DIR_VAR);
+            for (name, value) in vars {
+                command.env(name, value);
+            }
+            let output = command.output().expect("the test binary runs");
+            let text = String::from_utf8_lossy(&output.stdout).into_owned();
+            text.lines()
+                .find_map(|l| l.split_once("state dir: ").map(|(_, dir)| dir))
+                .unwrap_or_else(|| panic!("no probe output: {text}"))
+                .to_owned()
+        };
+        assert_eq!(probe(&[(STATE_DIR_VAR, "/chosen")]), "/chosen");
+        assert_eq!(
+            probe(&[("XDG_STATE_HOME", "/xdg/state"), ("HOME", "/home/x")]),
+            "/xdg/state/coatlab"
+        );
+        assert_eq!(
+            probe(&[("HOME", "/home/x")]),
+            "/home/x/.local/state/coatlab"
+        );
+        let without_home = probe(&[]);
+        assert!(
+            without_home.ends_with(".local/state/coatlab") && without_home.len() > 21,
+            "{without_home:?}"
+        );
     }
 
     #[test]

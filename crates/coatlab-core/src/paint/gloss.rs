@@ -24,6 +24,8 @@
 
 use std::sync::OnceLock;
 
+use glam::DVec3;
+
 use super::fresnel::reflectance;
 use super::lobe::{one_minus_cos_to_mirror, phong_normalisation};
 use super::parameters::{Bounds, GLOSS, REFRACTIVE_INDEX};
@@ -174,9 +176,9 @@ pub struct Glossmeter {
     geometry: GlossGeometry,
     sources: Vec<SourceRay>,
     /// Receptor axis (the nominal mirror direction) and its focal-plane axes.
-    axis: [f64; 3],
-    across_in_plane: [f64; 3],
-    across_perpendicular: [f64; 3],
+    axis: DVec3,
+    across_in_plane: DVec3,
+    across_perpendicular: DVec3,
     /// Half-widths of the receptor field stop in tangent units.
     half_x: f64,
     half_y: f64,
@@ -188,9 +190,9 @@ impl Glossmeter {
         let theta = geometry.angle_deg().to_radians();
         let (sin_t, cos_t) = theta.sin_cos();
         // Source toward −x, receptor toward +x, plane of incidence = xz.
-        let source_axis = [-sin_t, 0.0, cos_t];
-        let source_in_plane = [cos_t, 0.0, sin_t];
-        let perpendicular = [0.0, 1.0, 0.0];
+        let source_axis = DVec3::new(-sin_t, 0.0, cos_t);
+        let source_in_plane = DVec3::new(cos_t, 0.0, sin_t);
+        let perpendicular = DVec3::Y;
         let half_sx = (0.5 * SOURCE_APERTURE_DEG.0).to_radians().tan();
         let half_sy = (0.5 * SOURCE_APERTURE_DEG.1).to_radians().tan();
         let rule = GaussLegendre::new(4);
@@ -198,12 +200,9 @@ impl Glossmeter {
         let mut total_weight = 0.0;
         rule.for_each_node(-half_sx, half_sx, |x, wx| {
             rule.for_each_node(-half_sy, half_sy, |y, wy| {
-                let wi = normalize(add3(
-                    source_axis,
-                    add3(scale3(source_in_plane, x), scale3(perpendicular, y)),
-                ));
+                let wi = (source_axis + (source_in_plane * x + perpendicular * y)).normalize();
                 sources.push(SourceRay {
-                    wi,
+                    wi: wi.to_array(),
                     weight: wx * wy,
                 });
                 total_weight += wx * wy;
@@ -216,8 +215,8 @@ impl Glossmeter {
         Self {
             geometry,
             sources,
-            axis: [sin_t, 0.0, cos_t],
-            across_in_plane: [cos_t, 0.0, -sin_t],
+            axis: DVec3::new(sin_t, 0.0, cos_t),
+            across_in_plane: DVec3::new(cos_t, 0.0, -sin_t),
             across_perpendicular: perpendicular,
             half_x: (0.5 * rx).to_radians().tan(),
             half_y: (0.5 * ry).to_radians().tan(),
@@ -258,11 +257,12 @@ impl Glossmeter {
         width: f64,
         mut g: impl FnMut([f64; 3]) -> f64,
     ) -> f64 {
-        let along = dot3(peak, self.axis);
+        let peak = DVec3::from(peak);
+        let along = peak.dot(self.axis);
         let (px, py) = if along > 0.0 {
             (
-                dot3(peak, self.across_in_plane) / along,
-                dot3(peak, self.across_perpendicular) / along,
+                peak.dot(self.across_in_plane) / along,
+                peak.dot(self.across_perpendicular) / along,
             )
         } else {
             (0.0, 0.0)
@@ -275,18 +275,13 @@ impl Glossmeter {
             for yw in ys.windows(2) {
                 rule.for_each_node(xw[0], xw[1], |x, wx| {
                     rule.for_each_node(yw[0], yw[1], |y, wy| {
-                        let v = add3(
-                            self.axis,
-                            add3(
-                                scale3(self.across_in_plane, x),
-                                scale3(self.across_perpendicular, y),
-                            ),
-                        );
-                        let len2 = dot3(v, v);
-                        let wo = scale3(v, 1.0 / len2.sqrt());
+                        let v =
+                            self.axis + (self.across_in_plane * x + self.across_perpendicular * y);
+                        let len2 = v.length_squared();
+                        let wo = v * (1.0 / len2.sqrt());
                         // Solid angle of a focal-plane element: dx dy / (1 + x² + y²)^{3/2}.
                         let jacobian = 1.0 / (len2 * len2.sqrt());
-                        total += wx * wy * jacobian * wo[2].max(0.0) * g(wo);
+                        total += wx * wy * jacobian * wo.z.max(0.0) * g(wo.to_array());
                     });
                 });
             }
@@ -516,27 +511,10 @@ pub fn exponent_from_reading(
     Ok(GlossExponent::Finite((0.5 * (lo + hi)).exp_m1()))
 }
 
-#[inline]
-fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-#[inline]
-fn add3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-#[inline]
-fn scale3(a: [f64; 3], s: f64) -> [f64; 3] {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-#[inline]
-fn normalize(a: [f64; 3]) -> [f64; 3] {
-    scale3(a, 1.0 / dot3(a, a).sqrt())
-}
-
 /// The solid angle of the receptor, to check the receptor quadrature in tests.
 #[cfg(test)]
 fn receptor_solid_angle(meter: &Glossmeter) -> f64 {
-    meter.receptor_integral(meter.axis, 10.0, |wo| 1.0 / wo[2].max(1e-300))
+    meter.receptor_integral(meter.axis.to_array(), 10.0, |wo| 1.0 / wo[2].max(1e-300))
 }
 
 #[cfg(test)]

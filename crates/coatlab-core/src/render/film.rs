@@ -49,8 +49,6 @@
 //! See [`ToneMapping`]: extended Reinhard on luminance, which keeps the chromaticity
 //! of every pixel, or a plain clip for colorimetric checks.
 
-use std::fs::File;
-use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
@@ -62,7 +60,11 @@ use crate::colour::{
     Lab, SRGB_LUMINANCE, Xyz, ciede2000, lab_from_xyz, linear_srgb_from_xyz, srgb_white,
     xyz_from_linear_srgb, xyz_rows_of_linear_srgb,
 };
-use palette::LinSrgb;
+use crate::io::exr_write::{
+    ExrCompression, ExrOptions, ExrPrecision, ExrWriteError, write_linear_srgb_exr,
+};
+use crate::io::png_write::{PngWriteError, write_srgb8_png};
+use palette::{LinSrgb, Srgb, Srgba};
 
 /// [`Film::auto_exposure`]'s key: the log-average luminance is mapped to this
 /// (Reinhard et al. 2002, "Photographic tone reproduction", middle grey).
@@ -75,22 +77,80 @@ const ENCODE_LUT_LEN: usize = 1 << 16;
 /// What went wrong writing an image; each names the file.
 #[derive(Debug, Error)]
 pub enum FilmError {
-    #[error("writing {}: {error}", path.display())]
-    Io {
-        path: PathBuf,
-        error: std::io::Error,
-    },
-    #[error("encoding PNG {}: {error}", path.display())]
-    Png {
-        path: PathBuf,
-        error: png::EncodingError,
-    },
+    /// Writing the PNG failed.
+    #[error(transparent)]
+    Png(#[from] PngWriteError),
+    /// Writing the EXR failed.
+    #[error(transparent)]
+    Exr(#[from] ExrWriteError),
+    /// A film without pixels has no image to write.
     #[error("{}: cannot write a {width}×{height} image (needs at least 1×1)", path.display())]
     EmptyImage {
         path: PathBuf,
         width: u32,
         height: u32,
     },
+}
+
+impl FilmError {
+    /// Whether the file could not be created or written (rather than encoded).
+    pub fn is_write_failure(&self) -> bool {
+        matches!(
+            self,
+            FilmError::Png(PngWriteError::Write(_)) | FilmError::Exr(ExrWriteError::Write(_))
+        )
+    }
+}
+
+/// The names of the text attributes in the header of a film's EXR
+/// ([`Film::write_exr_with`]).
+pub mod exr_attribute {
+    /// The paint design's name.
+    pub const DESIGN: &str = "coatlab/design";
+    /// Samples per pixel (a number, or e.g. "16 mean, adaptive").
+    pub const SAMPLES_PER_PIXEL: &str = "coatlab/samplesPerPixel";
+    /// The seed of the random numbers.
+    pub const SEED: &str = "coatlab/seed";
+    /// The wavelengths each path carried ("32 from 386.25 to 773.75 nm"), or
+    /// "linear sRGB" for RGB rendering.
+    pub const WAVELENGTHS: &str = "coatlab/wavelengths";
+    /// The lighting: a setup's name or an environment map's path.
+    pub const LIGHTING: &str = "coatlab/lighting";
+    /// How the stored colours are adapted (they are not: see [`super::EXR_ADAPTATION`]).
+    pub const ADAPTATION: &str = "coatlab/adaptation";
+}
+
+/// The [`exr_attribute::ADAPTATION`] of every film's EXR: the values are the
+/// film's mean colours as they are, relative to the sRGB white.
+pub const EXR_ADAPTATION: &str =
+    "none: linear sRGB relative to the D65 white, not adapted to the lighting";
+
+/// What made a film's image, beyond what the film knows, for the header of its
+/// EXR. Each `None` leaves its attribute out (the samples per pixel: the film's
+/// own count).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct RenderRecord {
+    /// The paint design's name.
+    pub design: Option<String>,
+    /// Samples per pixel, where the film's least count does not say it (adaptive
+    /// sampling: "16 mean, adaptive").
+    pub samples_per_pixel: Option<String>,
+    /// The seed of the random numbers.
+    pub seed: Option<u64>,
+    /// The lighting: a setup's name or an environment map's path.
+    pub lighting: Option<String>,
+}
+
+/// How [`Film::write_exr_with`] writes: the sample type and compression, and what
+/// goes in the header.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ExrOutput {
+    /// 32-bit (the default: the values exactly) or 16-bit floats.
+    pub precision: ExrPrecision,
+    /// The lossless compression (ZIP unless chosen).
+    pub compression: ExrCompression,
+    /// What made the image, for the header.
+    pub record: RenderRecord,
 }
 
 /// How linear sRGB is compressed into the displayable [0, 1].
@@ -605,10 +665,25 @@ impl Film {
     /// Mean linear sRGB (D65 white, Y = 1 → (1, 1, 1)) of pixel (`x`, `y`), shown
     /// as it is: no adaptation, exposure or tone mapping, not clamped. What
     /// [`Self::write_exr`] stores.
-    pub fn mean_linear_srgb(&self, x: u32, y: u32) -> [f32; 3] {
+    pub fn mean_linear_srgb(&self, x: u32, y: u32) -> LinSrgb<f32> {
         let m = display_matrix(None, 0.0);
         let xyz = self.mean_xyz(x, y);
-        mul(&m, [xyz.x as f32, xyz.y as f32, xyz.z as f32])
+        let [r, g, b] = mul(&m, [xyz.x as f32, xyz.y as f32, xyz.z as f32]);
+        LinSrgb::new(r, g, b)
+    }
+
+    /// [`Self::mean_linear_srgb`] of every pixel of this film's region, row-major
+    /// from the top-left (black where there are no samples).
+    pub fn linear_srgb_image(&self) -> Vec<LinSrgb<f32>> {
+        let m = display_matrix(None, 0.0);
+        self.pixels
+            .iter()
+            .map(|p| {
+                let n = p.count.max(1) as f64;
+                let [r, g, b] = mul(&m, p.sum.map(|s| (s / n) as f32));
+                LinSrgb::new(r, g, b)
+            })
+            .collect()
     }
 
     /// The exposure (stops) that brings the log-average luminance of the sampled
@@ -628,24 +703,30 @@ impl Film {
         (AUTO_EXPOSURE_KEY / log_average).log2() as f32
     }
 
-    /// The displayable image of this film's region: RGBA8 (alpha 255), row-major
-    /// from the top-left, sRGB-encoded. Pixels without samples are black.
-    pub fn to_display(&self, settings: &DisplaySettings) -> Vec<[u8; 4]> {
+    /// The displayable image of this film's region: 8-bit sRGB, alpha 255,
+    /// row-major from the top-left. Pixels without samples are black.
+    pub fn to_display_srgba(&self, settings: &DisplaySettings) -> Vec<Srgba<u8>> {
         let m = display_matrix(settings.adapt_white, settings.exposure_stops);
         let lut = encode_lut();
         self.pixels
             .iter()
             .map(|p| {
                 if p.count == 0 {
-                    return [0, 0, 0, 255];
+                    return Srgba::new(0, 0, 0, 255);
                 }
                 let inv_n = 1.0 / p.count as f64;
                 let xyz = p.sum.map(|s| (s * inv_n) as f32);
                 let rgb = tone_map(mul(&m, xyz), settings.tone_mapping);
                 let [r, g, b] = rgb.map(|v| encode(lut, v));
-                [r, g, b, 255]
+                Srgba::new(r, g, b, 255)
             })
             .collect()
+    }
+
+    /// [`Self::to_display_srgba`] as plain RGBA bytes, the form GPU textures
+    /// (egui's `ColorImage`) take; the same memory, not a copy.
+    pub fn to_display(&self, settings: &DisplaySettings) -> Vec<[u8; 4]> {
+        palette::cast::into_array_vec(self.to_display_srgba(settings))
     }
 
     /// CIELAB (D65 white, display white L* = 100) of the colour pixel (`x`, `y`) is
@@ -749,135 +830,81 @@ impl Film {
             .collect()
     }
 
-    /// Writes [`Self::to_display`] as an 8-bit sRGB PNG (with an sRGB chunk),
-    /// atomically (a temporary file in the same folder, then a rename).
+    /// Writes [`Self::to_display_srgba`] as an 8-bit sRGB PNG (with an sRGB chunk),
+    /// atomically ([`crate::io::png_write`]).
     pub fn write_png(&self, path: &Path, settings: &DisplaySettings) -> Result<(), FilmError> {
         self.check_not_empty(path)?;
-        let rgb: Vec<u8> = self
-            .to_display(settings)
+        let rgb: Vec<Srgb<u8>> = self
+            .to_display_srgba(settings)
             .into_iter()
-            .flat_map(|[r, g, b, _]| [r, g, b])
+            .map(|p| p.color)
             .collect();
-        let png_error = |error| FilmError::Png {
-            path: path.to_owned(),
-            error,
-        };
-        // Encoded in memory, so a failure cannot leave half a file behind.
-        let mut encoded = Vec::new();
-        let mut encoder = png::Encoder::new(&mut encoded, self.width, self.height);
-        encoder.set_color(png::ColorType::Rgb);
-        encoder.set_depth(png::BitDepth::Eight);
-        encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-        let mut writer = encoder.write_header().map_err(png_error)?;
-        writer.write_image_data(&rgb).map_err(png_error)?;
-        writer.finish().map_err(png_error)?;
-        write_atomically(path, |mut file| {
-            file.write_all(&encoded).map_err(|error| FilmError::Io {
-                path: path.to_owned(),
-                error,
-            })
-        })
+        write_srgb8_png(path, self.width, self.height, &rgb)?;
+        Ok(())
     }
 
-    /// Writes the mean linear sRGB ([`Self::mean_linear_srgb`]: D65 white, Y = 1 →
+    /// [`Self::write_exr_with`] with the default output (32-bit floats, ZIP) and
+    /// only what the film itself knows in the header.
+    pub fn write_exr(&self, path: &Path) -> Result<(), FilmError> {
+        self.write_exr_with(path, &ExrOutput::default())
+    }
+
+    /// Writes the mean linear sRGB ([`Self::linear_srgb_image`]: D65 white, Y = 1 →
     /// (1, 1, 1), unadapted, no exposure or tone mapping, unclamped, so
     /// out-of-gamut colours keep their negative components) as a single-part
-    /// scanline OpenEXR file with FLOAT R, G, B channels, no compression, and
-    /// the sRGB `chromaticities`; atomically.
+    /// scanline OpenEXR file with R, G, B channels and the sRGB `chromaticities`,
+    /// atomically ([`crate::io::exr_write`]); the header's text attributes say
+    /// what made it ([`Self::exr_attributes`]).
     ///
     /// Linear sRGB rather than XYZ: it is the convention EXR viewers assume, and XYZ
     /// is one matrix away for analysis (or [`Self::mean_xyz`] in code).
-    ///
-    /// The writer is our own (about 80 lines, no dependency): uncompressed
-    /// scanline EXR is a fixed header and raw little-endian floats, and the `exr`
-    /// crate would add six crates (half, lebe, miniz_oxide, zune-inflate, …) to the
-    /// core library for it. The tests read our files back with `exr`
-    /// (a dev-dependency).
-    pub fn write_exr(&self, path: &Path) -> Result<(), FilmError> {
+    pub fn write_exr_with(&self, path: &Path, output: &ExrOutput) -> Result<(), FilmError> {
         self.check_not_empty(path)?;
-        let (width, height) = (self.width as usize, self.height as usize);
-        let m = display_matrix(None, 0.0);
-        let mut header = Vec::new();
-        header.extend_from_slice(&20000630i32.to_le_bytes());
-        header.extend_from_slice(&2i32.to_le_bytes()); // version 2, single-part scanline
-        let mut channels = Vec::new();
-        // Channels sorted by name, as the format requires.
-        for name in ["B", "G", "R"] {
-            channels.extend_from_slice(name.as_bytes());
-            channels.push(0);
-            channels.extend_from_slice(&2i32.to_le_bytes()); // FLOAT
-            channels.extend_from_slice(&[0, 0, 0, 0]); // pLinear, reserved
-            channels.extend_from_slice(&1i32.to_le_bytes()); // x sampling
-            channels.extend_from_slice(&1i32.to_le_bytes()); // y sampling
-        }
-        channels.push(0);
-        let window: Vec<u8> = [0, 0, width as i32 - 1, height as i32 - 1]
-            .iter()
-            .flat_map(|v| v.to_le_bytes())
-            .collect();
-        let floats =
-            |values: &[f32]| -> Vec<u8> { values.iter().flat_map(|v| v.to_le_bytes()).collect() };
-        let attributes: [(&str, &str, Vec<u8>); 9] = [
-            ("channels", "chlist", channels),
-            (
-                "chromaticities",
-                "chromaticities",
-                floats(&[0.64, 0.33, 0.30, 0.60, 0.15, 0.06, 0.3127, 0.3290]),
+        let options = ExrOptions {
+            precision: output.precision,
+            compression: output.compression,
+            attributes: self.exr_attributes(&output.record),
+        };
+        write_linear_srgb_exr(
+            path,
+            self.width as usize,
+            self.height as usize,
+            &self.linear_srgb_image(),
+            &options,
+        )?;
+        Ok(())
+    }
+
+    /// The header attributes of this film's EXR, (name, text): those of
+    /// [`exr_attribute`] that `record` or the film knows, in that module's order.
+    /// The samples per pixel are the film's least count unless `record` says
+    /// otherwise; the wavelengths and the adaptation are the film's.
+    pub fn exr_attributes(&self, record: &RenderRecord) -> Vec<(String, String)> {
+        let wavelengths = match self.channels() {
+            Channels::LinearSrgb => "linear sRGB".to_owned(),
+            Channels::Spectral(grid) => format!(
+                "{} from {} to {} nm",
+                grid.len(),
+                short_nm(grid.start_nm()),
+                short_nm(grid.end_nm())
             ),
-            ("compression", "compression", vec![0]), // NO_COMPRESSION
-            ("dataWindow", "box2i", window.clone()),
-            ("displayWindow", "box2i", window),
-            ("lineOrder", "lineOrder", vec![0]), // INCREASING_Y
-            ("pixelAspectRatio", "float", floats(&[1.0])),
-            ("screenWindowCenter", "v2f", floats(&[0.0, 0.0])),
-            ("screenWindowWidth", "float", floats(&[1.0])),
+        };
+        let samples = record
+            .samples_per_pixel
+            .clone()
+            .unwrap_or_else(|| self.samples_per_pixel().to_string());
+        let attributes = [
+            (exr_attribute::DESIGN, record.design.clone()),
+            (exr_attribute::SAMPLES_PER_PIXEL, Some(samples)),
+            (exr_attribute::SEED, record.seed.map(|s| s.to_string())),
+            (exr_attribute::WAVELENGTHS, Some(wavelengths)),
+            (exr_attribute::LIGHTING, record.lighting.clone()),
+            (exr_attribute::ADAPTATION, Some(EXR_ADAPTATION.to_owned())),
         ];
-        for (name, kind, value) in &attributes {
-            header.extend_from_slice(name.as_bytes());
-            header.push(0);
-            header.extend_from_slice(kind.as_bytes());
-            header.push(0);
-            header.extend_from_slice(&(value.len() as i32).to_le_bytes());
-            header.extend_from_slice(value);
-        }
-        header.push(0);
-        // One scanline per block: y, byte count, then each channel's row.
-        let line_bytes = 3 * 4 * width;
-        let block_bytes = 8 + line_bytes;
-        let first_block = header.len() + 8 * height;
-        write_atomically(path, |file| {
-            let io_error = |error| FilmError::Io {
-                path: path.to_owned(),
-                error,
-            };
-            let mut out = BufWriter::new(file);
-            out.write_all(&header).map_err(io_error)?;
-            for y in 0..height {
-                let offset = (first_block + y * block_bytes) as u64;
-                out.write_all(&offset.to_le_bytes()).map_err(io_error)?;
-            }
-            let mut line = Vec::with_capacity(block_bytes);
-            for y in 0..height {
-                line.clear();
-                line.extend_from_slice(&(y as i32).to_le_bytes());
-                line.extend_from_slice(&(line_bytes as i32).to_le_bytes());
-                let row = &self.pixels[y * width..][..width];
-                let rgb: Vec<[f32; 3]> = row
-                    .iter()
-                    .map(|p| {
-                        let n = p.count.max(1) as f64;
-                        mul(&m, p.sum.map(|s| (s / n) as f32))
-                    })
-                    .collect();
-                for channel in [2, 1, 0] {
-                    for v in &rgb {
-                        line.extend_from_slice(&v[channel].to_le_bytes());
-                    }
-                }
-                out.write_all(&line).map_err(io_error)?;
-            }
-            out.flush().map_err(io_error)
-        })
+        attributes
+            .into_iter()
+            .filter_map(|(name, value)| Some((name.to_owned(), value?)))
+            .collect()
     }
 
     fn check_not_empty(&self, path: &Path) -> Result<(), FilmError> {
@@ -966,11 +993,16 @@ fn tone_map(rgb: [f32; 3], tone_mapping: ToneMapping) -> [f32; 3] {
     }
 }
 
-/// CIELAB of the displayed colour of `xyz` (display white L* = 100).
-/// The displayable pixels (RGBA8, sRGB-encoded) of mean XYZ values (white at
-/// Y = 1), as [`Film::to_display`] shows a film's means: for images that are
-/// estimates but not films (a re-shaded image, `render::reshade`).
+/// The displayable pixels (RGBA8, sRGB-encoded, as GPU textures take them) of
+/// mean XYZ values (white at Y = 1), as [`Film::to_display`] shows a film's
+/// means: for images that are estimates but not films (a re-shaded image,
+/// `render::reshade`).
 pub fn display_xyz(xyz: &[[f32; 3]], settings: &DisplaySettings) -> Vec<[u8; 4]> {
+    palette::cast::into_array_vec(display_xyz_srgba(xyz, settings))
+}
+
+/// [`display_xyz`] as `Srgba<u8>`.
+pub fn display_xyz_srgba(xyz: &[[f32; 3]], settings: &DisplaySettings) -> Vec<Srgba<u8>> {
     use rayon::prelude::*;
     let m = display_matrix(settings.adapt_white, settings.exposure_stops);
     let lut = encode_lut();
@@ -978,9 +1010,35 @@ pub fn display_xyz(xyz: &[[f32; 3]], settings: &DisplaySettings) -> Vec<[u8; 4]>
         .map(|&v| {
             let rgb = tone_map(mul(&m, v), settings.tone_mapping);
             let [r, g, b] = rgb.map(|c| encode(lut, c));
-            [r, g, b, 255]
+            Srgba::new(r, g, b, 255)
         })
         .collect()
+}
+
+/// Writes mean XYZ values (`width` × `height`, row-major from the top-left) as
+/// [`display_xyz`] shows them, as an 8-bit sRGB PNG, atomically: the export of
+/// an image that is not a film (a re-shaded view), as [`Film::write_png`] writes
+/// a film's.
+pub fn write_xyz_png(
+    path: &Path,
+    width: u32,
+    height: u32,
+    xyz: &[[f32; 3]],
+    settings: &DisplaySettings,
+) -> Result<(), FilmError> {
+    if width == 0 || height == 0 {
+        return Err(FilmError::EmptyImage {
+            path: path.to_owned(),
+            width,
+            height,
+        });
+    }
+    let rgb: Vec<Srgb<u8>> = display_xyz_srgba(xyz, settings)
+        .into_iter()
+        .map(|p| p.color)
+        .collect();
+    write_srgb8_png(path, width, height, &rgb)?;
+    Ok(())
 }
 
 /// CIELAB of the colour a mean XYZ is displayed in with `settings`, as
@@ -1038,37 +1096,11 @@ fn encode(lut: &[u8], linear: f32) -> u8 {
     lut[position as usize]
 }
 
-/// Runs `write` on a temporary file beside `path`, then renames it over `path`; the
-/// temporary file is removed if anything fails.
-fn write_atomically(
-    path: &Path,
-    write: impl FnOnce(File) -> Result<(), FilmError>,
-) -> Result<(), FilmError> {
-    let io_error = |error| FilmError::Io {
-        path: path.to_owned(),
-        error,
-    };
-    let name = path.file_name().ok_or_else(|| {
-        io_error(std::io::Error::new(
-            std::io::ErrorKind::InvalidInput,
-            "not a file name",
-        ))
-    })?;
-    let mut temp_name = std::ffi::OsString::from(".");
-    temp_name.push(name);
-    temp_name.push(format!(".{}.tmp", std::process::id()));
-    let temp = path.with_file_name(temp_name);
-    let result = File::create(&temp)
-        .map_err(io_error)
-        .and_then(|file| {
-            write(file.try_clone().map_err(io_error)?)?;
-            file.sync_all().map_err(io_error)
-        })
-        .and_then(|()| std::fs::rename(&temp, path).map_err(io_error));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&temp);
-    }
-    result
+/// A wavelength with at most two decimals and no trailing zeros ("380",
+/// "386.25", "446.67").
+fn short_nm(nm: f64) -> String {
+    let text = format!("{nm:.2}");
+    text.trim_end_matches('0').trim_end_matches('.').to_owned()
 }
 
 #[cfg(test)]

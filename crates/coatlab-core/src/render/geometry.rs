@@ -1,6 +1,8 @@
 //! The scene as the tracer sees it: the triangle mesh in its BVH, the analytic
 //! floor plane y = 0 of the lighting setup, and the local shading frame at a hit.
 
+use glam::Vec3;
+
 use crate::accel::{Accel, AccelError, Hit, RayQuery, offset_ray_origin};
 use crate::scene::TriangleMesh;
 
@@ -184,37 +186,27 @@ impl RenderGeometry {
     /// The shading data of a mesh hit on the ray `origin + t·dir`.
     fn mesh_hit(&self, origin: [f32; 3], dir: [f32; 3], hit: Hit) -> SurfaceHit {
         let tri = self.mesh.triangles[hit.triangle as usize];
-        let [a, b, c] = tri.map(|i| self.mesh.positions[i as usize]);
-        let e1 = sub(b, a);
-        let e2 = sub(c, a);
-        let mut ng = normalize(cross(e1, e2));
+        let [a, b, c] = tri.map(|i| Vec3::from(self.mesh.positions[i as usize]));
+        let mut ng = unit((b - a).cross(c - a));
         let [u, v] = hit.barycentric;
         let w = 1.0 - u - v;
-        let [na, nb, nc] = tri.map(|i| self.mesh.normals[i as usize]);
-        let mut ns = normalize([
-            w * na[0] + u * nb[0] + v * nc[0],
-            w * na[1] + u * nb[1] + v * nc[1],
-            w * na[2] + u * nb[2] + v * nc[2],
-        ]);
+        let [na, nb, nc] = tri.map(|i| Vec3::from(self.mesh.normals[i as usize]));
+        let mut ns = unit(w * na + u * nb + v * nc);
         // Face the ray: the film and the tracer treat surfaces as two-sided.
-        if dot(ng, dir) > 0.0 {
-            ng = neg(ng);
+        if ng.dot(dir.into()) > 0.0 {
+            ng = -ng;
         }
-        if dot(ns, ng) < 0.0 {
-            ns = neg(ns);
+        if ns.dot(ng) < 0.0 {
+            ns = -ns;
         }
-        if !ns.iter().all(|x| x.is_finite()) {
+        if !ns.is_finite() {
             ns = ng;
         }
         SurfaceHit {
             t: hit.t,
-            position: [
-                origin[0] + hit.t * dir[0],
-                origin[1] + hit.t * dir[1],
-                origin[2] + hit.t * dir[2],
-            ],
-            geometric_normal: ng,
-            shading_normal: ns,
+            position: (Vec3::from(origin) + hit.t * Vec3::from(dir)).into(),
+            geometric_normal: ng.into(),
+            shading_normal: ns.into(),
             surface: Surface::Mesh {
                 material: self.mesh.triangle_material[hit.triangle as usize],
             },
@@ -242,12 +234,9 @@ impl RenderGeometry {
 
     /// A ray origin just off the surface of `hit`, on the side `dir` leaves toward.
     pub fn spawn_origin(hit: &SurfaceHit, dir: [f32; 3]) -> [f32; 3] {
-        let n = if dot(dir, hit.geometric_normal) >= 0.0 {
-            hit.geometric_normal
-        } else {
-            neg(hit.geometric_normal)
-        };
-        offset_ray_origin(hit.position, n)
+        let n = Vec3::from(hit.geometric_normal);
+        let n = if Vec3::from(dir).dot(n) >= 0.0 { n } else { -n };
+        offset_ray_origin(hit.position, n.into())
     }
 }
 
@@ -276,46 +265,36 @@ impl Frame {
     /// World direction → local.
     #[inline]
     pub fn to_local(&self, w: [f32; 3]) -> [f32; 3] {
+        let w = Vec3::from(w);
         [
-            dot(w, self.tangent),
-            dot(w, self.bitangent),
-            dot(w, self.normal),
+            w.dot(self.tangent.into()),
+            w.dot(self.bitangent.into()),
+            w.dot(self.normal.into()),
         ]
     }
 
     /// Local direction → world.
     #[inline]
     pub fn to_world(&self, l: [f32; 3]) -> [f32; 3] {
-        std::array::from_fn(|k| {
-            l[0] * self.tangent[k] + l[1] * self.bitangent[k] + l[2] * self.normal[k]
-        })
+        (l[0] * Vec3::from(self.tangent)
+            + l[1] * Vec3::from(self.bitangent)
+            + l[2] * Vec3::from(self.normal))
+        .into()
     }
 }
 
-#[inline]
-fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-#[inline]
-fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
+/// The dot product of two directions held as arrays (the tracer's form).
 #[inline]
 pub(crate) fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    Vec3::from(a).dot(Vec3::from(b))
 }
+
+/// `v` divided by its length. Not glam's `normalize`, which multiplies by the
+/// reciprocal length: that rounds differently and would change every render's
+/// bits.
 #[inline]
-fn neg(a: [f32; 3]) -> [f32; 3] {
-    [-a[0], -a[1], -a[2]]
-}
-#[inline]
-fn normalize(a: [f32; 3]) -> [f32; 3] {
-    let l = dot(a, a).sqrt();
-    [a[0] / l, a[1] / l, a[2] / l]
+fn unit(v: Vec3) -> Vec3 {
+    v / v.length()
 }
 
 #[cfg(test)]
@@ -328,10 +307,10 @@ mod tests {
         for n in [
             [0.0, 1.0, 0.0],
             [0.0, 0.0, -1.0],
-            normalize([0.3, -0.5, 0.8]),
+            Vec3::new(0.3, -0.5, 0.8).normalize().to_array(),
         ] {
             let f = Frame::from_normal(n);
-            let w = normalize([0.2, 0.7, -0.4]);
+            let w = Vec3::new(0.2, 0.7, -0.4).normalize().to_array();
             let back = f.to_world(f.to_local(w));
             for k in 0..3 {
                 assert!((back[k] - w[k]).abs() < 1e-6);

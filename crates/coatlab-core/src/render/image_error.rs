@@ -17,12 +17,13 @@
 //! horizontal), painted top (bonnet, roof: normal within 45° of up — where the
 //! overhead lights' highlight sits), floor, or none of these.
 
-use std::io::{Read, Write};
+use std::io::Read;
 use std::path::Path;
 
 use thiserror::Error;
 
 use crate::colour::{Xyz, ciede2000};
+use crate::io::atomic::write_bytes_atomically;
 use crate::render::camera::Camera;
 use crate::render::film::{DisplaySettings, Film, display_lab_of_xyz};
 use crate::render::geometry::Surface;
@@ -177,12 +178,8 @@ impl XyzImage {
         for v in self.pixels.iter().flatten() {
             bytes.extend_from_slice(&v.to_le_bytes());
         }
-        // Write beside, then rename: an interrupted run leaves no half file.
-        let temporary = path.with_extension("partial");
-        let mut file = std::fs::File::create(&temporary).map_err(io)?;
-        file.write_all(&bytes).map_err(io)?;
-        drop(file);
-        std::fs::rename(&temporary, path).map_err(io)
+        // Atomically: an interrupted run leaves no half file.
+        write_bytes_atomically(path, &bytes).map_err(|e| io(e.error))
     }
 
     /// Reads an image written by [`Self::write`].

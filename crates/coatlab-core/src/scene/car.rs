@@ -81,6 +81,7 @@
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
+use glam::DVec3;
 use palette::LinSrgb;
 
 use super::{Scene, SceneMaterial, TriangleMesh};
@@ -528,8 +529,8 @@ fn add_ring_surface(
     let volume: f64 = triangles
         .iter()
         .map(|t| {
-            let [a, b, c] = t.map(|k| positions[k as usize]);
-            dot(a, cross(b, c))
+            let [a, b, c] = t.map(|k| DVec3::from(positions[k as usize]));
+            a.dot(b.cross(c))
         })
         .sum();
     if volume < 0.0 {
@@ -538,46 +539,25 @@ fn add_ring_surface(
         }
     }
 
-    let mut normals = vec![[0.0f64; 3]; positions.len()];
+    let mut normals = vec![DVec3::ZERO; positions.len()];
     for t in &triangles {
-        let [a, b, c] = t.map(|k| positions[k as usize]);
-        let n = cross(sub(b, a), sub(c, a));
+        let [a, b, c] = t.map(|k| DVec3::from(positions[k as usize]));
+        let n = (b - a).cross(c - a);
         for k in t {
-            let acc = &mut normals[*k as usize];
-            for (acc_k, n_k) in acc.iter_mut().zip(n) {
-                *acc_k += n_k;
-            }
+            normals[*k as usize] += n;
         }
     }
     for (p, n) in positions.iter().zip(&normals) {
-        let length = dot(*n, *n).sqrt();
-        let unit = if length > 0.0 {
-            n.map(|v| v / length)
-        } else {
-            [0.0, 1.0, 0.0]
-        };
+        let length = n.length();
+        // Divided by the length, not `normalize()` (times its reciprocal): the
+        // mesh, and so every render, stays the same to the bit.
+        let unit = if length > 0.0 { *n / length } else { DVec3::Y };
         mesh.positions.push(p.map(|v| v as f32));
-        mesh.normals.push(unit.map(|v| v as f32));
+        mesh.normals.push(unit.as_vec3().to_array());
     }
     mesh.triangles
         .extend(triangles.iter().map(|t| t.map(|k| k + base)));
     mesh.triangle_material.extend(materials);
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 // ---------------------------------------------------------------------------------
