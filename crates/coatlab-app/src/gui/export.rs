@@ -8,7 +8,6 @@ use anyhow::Context;
 use coatlab_core::design::PaintDesign;
 use coatlab_core::instruments::ILLUMINATION_DEG;
 use coatlab_core::io::atomic::write_bytes_atomically;
-use coatlab_core::render::environment::{Environment, EnvironmentKind};
 use coatlab_core::render::film::RenderRecord;
 use coatlab_core::render::lighting::Lighting;
 
@@ -102,19 +101,14 @@ pub fn write_measurement(
 }
 
 /// What an exported preview's EXR records in its header beyond what the film
-/// knows: the design's name, the lighting and the seed
-/// ([`coatlab_core::render::film::Film::write_exr_with`]). A map's file is not
-/// kept by its environment: it is recorded as "environment map".
-pub fn preview_record(design: &PaintDesign, environment: &Environment, seed: u64) -> RenderRecord {
-    let lighting = match environment.kind() {
-        EnvironmentKind::Image => "environment map".to_owned(),
-        kind => Lighting::of_kind(kind).map_or_else(|| format!("{kind:?}"), |l| l.name()),
-    };
+/// knows: the design's name, the lighting (a setup's name or a map's path) and
+/// the seed ([`coatlab_core::render::film::Film::write_exr_with`]).
+pub fn preview_record(design: &PaintDesign, lighting: &Lighting, seed: u64) -> RenderRecord {
     RenderRecord {
         design: Some(design.name.clone()),
         samples_per_pixel: None,
         seed: Some(seed),
-        lighting: Some(lighting),
+        lighting: Some(lighting.name()),
     }
 }
 
@@ -181,10 +175,8 @@ mod tests {
     #[test]
     fn a_preview_record_names_the_design_lighting_and_seed() {
         use coatlab_core::colour::cie::Illuminant;
-        use coatlab_core::colour::spectrum::WavelengthGrid;
         let design = presets::all()[0].design.clone();
-        let grid = WavelengthGrid::visible(4).expect("grid");
-        let record = preview_record(&design, &Environment::booth(Illuminant::F11, &grid), 9);
+        let record = preview_record(&design, &Lighting::Booth(Illuminant::F11), 9);
         assert_eq!(record.design.as_deref(), Some(design.name.as_str()));
         assert_eq!(record.lighting.as_deref(), Some("booth-f11"));
         assert_eq!(record.seed, Some(9));

@@ -262,6 +262,16 @@ impl<B: RenderBackend> LiveEngine<B> {
         self.views.cache_samples
     }
 
+    /// The first view's design.
+    pub fn design(&self) -> &PaintDesign {
+        &self.inputs.design
+    }
+
+    /// The lighting in use.
+    pub fn lighting(&self) -> &Lighting {
+        &self.inputs.lighting
+    }
+
     /// The first view's samples per pixel.
     pub fn samples_per_pixel(&self) -> u32 {
         self.views.first.samples_per_pixel()

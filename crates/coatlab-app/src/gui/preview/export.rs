@@ -6,7 +6,9 @@
 use std::path::{Path, PathBuf};
 
 use coatlab_core::engine::{EngineEvent, Job, LiveEngine, SecondImage};
-use coatlab_core::render::film::{DisplaySettings, Film, display_xyz};
+
+use crate::gui::export::preview_record;
+use coatlab_core::render::film::{DisplaySettings, ExrOutput, Film, RenderRecord, write_xyz_png};
 
 /// The export of the views to `path` (PNG or EXR by its extension), as a job
 /// for the render thread; it reports what it wrote or why it could not.
@@ -30,8 +32,9 @@ fn export(engine: &LiveEngine, path: &Path) -> EngineEvent {
     if let SecondImage::Film(film) = &second {
         targets.push((film, second_path(path)));
     }
+    let record = record(engine);
     for (film, target) in targets {
-        match write_film(film, &target, ext.as_deref(), &display) {
+        match write_film(film, &target, ext.as_deref(), &display, &record) {
             Ok(()) => written.push(target.display().to_string()),
             Err(e) => return error(format!("Could not export the preview: {e}")),
         }
@@ -42,8 +45,7 @@ fn export(engine: &LiveEngine, path: &Path) -> EngineEvent {
         let target = second_path(path);
         match (ext.as_deref(), image) {
             (Some("png"), Ok(image)) => {
-                let pixels = display_xyz(&image.xyz, &display);
-                match write_png_rgb(&target, image.width, image.height, &pixels) {
+                match write_xyz_png(&target, image.width, image.height, &image.xyz, &display) {
                     Ok(()) => written.push(target.display().to_string()),
                     Err(e) => return error(format!("Could not export the second view: {e}")),
                 }
@@ -73,48 +75,38 @@ fn error(text: String) -> EngineEvent {
     }
 }
 
-/// Writes `film` to `path`: PNG as shown with `display`, EXR linear.
+/// What an exported EXR's header records beyond what the film knows.
+fn record(engine: &LiveEngine) -> RenderRecord {
+    preview_record(
+        engine.design(),
+        engine.lighting(),
+        engine.first().settings().seed,
+    )
+}
+
+/// Writes `film` to `path`: PNG as shown with `display`, EXR linear with `record`
+/// in its header.
 fn write_film(
     film: &Film,
     path: &Path,
     ext: Option<&str>,
     display: &DisplaySettings,
+    record: &RenderRecord,
 ) -> Result<(), String> {
+    let output = ExrOutput {
+        record: record.clone(),
+        ..ExrOutput::default()
+    };
     match ext {
         Some("png") => film.write_png(path, display).map_err(|e| e.to_string()),
-        Some("exr") => film.write_exr(path).map_err(|e| e.to_string()),
+        Some("exr") => film
+            .write_exr_with(path, &output)
+            .map_err(|e| e.to_string()),
         _ => Err(format!(
             "{}: export as .png (as shown) or .exr (linear sRGB)",
             path.display()
         )),
     }
-}
-
-/// Writes 8-bit sRGB `pixels` (RGBA, alpha ignored) as a PNG at `path`, through a
-/// temporary file beside it so a failure leaves no half-written file.
-fn write_png_rgb(path: &Path, width: u32, height: u32, pixels: &[[u8; 4]]) -> Result<(), String> {
-    let rgb: Vec<u8> = pixels.iter().flat_map(|&[r, g, b, _]| [r, g, b]).collect();
-    let mut encoded = Vec::new();
-    let mut encoder = png::Encoder::new(&mut encoded, width, height);
-    encoder.set_color(png::ColorType::Rgb);
-    encoder.set_depth(png::BitDepth::Eight);
-    encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-    let mut writer = encoder
-        .write_header()
-        .map_err(|e| format!("{}: {e}", path.display()))?;
-    writer
-        .write_image_data(&rgb)
-        .map_err(|e| format!("{}: {e}", path.display()))?;
-    writer
-        .finish()
-        .map_err(|e| format!("{}: {e}", path.display()))?;
-    let temporary = path.with_extension("png.partial");
-    std::fs::write(&temporary, &encoded)
-        .and_then(|()| std::fs::rename(&temporary, path))
-        .map_err(|e| {
-            let _ = std::fs::remove_file(&temporary);
-            format!("{}: {e}", path.display())
-        })
 }
 
 /// Where the second view of a comparison is exported: NAME-b.EXT beside NAME.EXT.
