@@ -7,8 +7,9 @@
 //!   (their position in the tree's leaf order); [`Bvh::primitive_order`] maps a slot to
 //!   the caller's index, and callers store their primitives in slot order so the
 //!   closure reads memory sequentially.
-//! - [`Accel`] is the triangle layer the tracer uses: a [`Bvh`] over a
-//!   [`TriangleMesh`] plus the triangles copied in slot order (for `Simd8`, lane by
+//! - [`Accel`] is the triangle layer the tracer uses: a [`Bvh`] over
+//!   [`Triangles`] (an indexed triangle list, which the scene hands over; the accel
+//!   knows no scene type) plus the triangles copied in slot order (for `Simd8`, lane by
 //!   lane in the packs its leaves point to), with
 //!   [`Accel::closest_hit`] (shading rays, picking) and [`Accel::occluded`] (any hit,
 //!   for shadow rays), and [`Accel::closest_hits`], the same closest-hit queries for a
@@ -82,7 +83,6 @@ use obvhs::{
     ray::RayHit,
 };
 
-use crate::scene::TriangleMesh;
 use triangle::{ShearedRay, TrianglePack};
 use wide::{BoxRay, PACK, TopNode, Traversal, WideBvh, pack_count, prefetch};
 
@@ -574,12 +574,12 @@ fn wide_depth(tree: &CwBvh) -> u32 {
     deepest
 }
 
-/// A ray's hit on a triangle of the mesh.
+/// A ray's hit on one of the [`Triangles`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Hit {
     /// Distance along the ray, in units of `|dir|`.
     pub t: f32,
-    /// Index into `mesh.triangles`.
+    /// Index into [`Triangles::indices`].
     pub triangle: u32,
     /// Weights (u, v) of the triangle's second and third vertex; the first has
     /// 1 − u − v.
@@ -601,16 +601,17 @@ pub struct RayQuery {
 /// Rays a [`Accel::closest_hits`] batch keeps in flight on one thread.
 pub const BATCH_LANES: usize = 8;
 
-/// The triangle mesh's acceleration structure; see the module documentation.
+/// The acceleration structure of a set of [`Triangles`]; see the module
+/// documentation.
 #[derive(Debug, Clone)]
 pub struct Accel {
     bvh: Bvh,
     /// Triangle vertices in slot order (the obvhs layouts; empty for `Simd8`).
     triangles: Vec<[Vec3A; 3]>,
     /// The triangles in the packs of the `Simd8` leaves, lane ids being indices into
-    /// `mesh.triangles` (empty for the obvhs layouts).
+    /// [`Triangles::indices`] (empty for the obvhs layouts).
     packs: Vec<TrianglePack<PACK>>,
-    /// Index into `mesh.triangles` of each slot.
+    /// Index into [`Triangles::indices`] of each slot.
     mesh_triangle: Vec<u32>,
     /// Triangles in the tree (each once, however many references it has).
     triangle_count: usize,
@@ -626,21 +627,44 @@ fn triangle_bounds(t: &[Vec3A; 3]) -> Bounds {
     }
 }
 
+/// The triangles an [`Accel`] is built over: vertex positions (metres) and, for
+/// each triangle, the indices of its three vertices. Borrowed, so that a scene's
+/// mesh hands its own arrays over without a copy.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Triangles<'a> {
+    pub positions: &'a [[f32; 3]],
+    pub indices: &'a [[u32; 3]],
+}
+
+impl<'a> Triangles<'a> {
+    /// The triangles `indices` over the vertices `positions`.
+    pub fn new(positions: &'a [[f32; 3]], indices: &'a [[u32; 3]]) -> Triangles<'a> {
+        Triangles { positions, indices }
+    }
+}
+
 impl Accel {
     /// Builds with the default options ([`BuildOptions::default`]).
-    pub fn build(mesh: &TriangleMesh) -> Result<Accel, AccelError> {
-        Accel::build_with(mesh, &BuildOptions::default())
+    pub fn build<'a>(triangles: impl Into<Triangles<'a>>) -> Result<Accel, AccelError> {
+        Accel::build_with(triangles, &BuildOptions::default())
     }
 
     /// Builds with the given layout and quality.
-    pub fn build_with(mesh: &TriangleMesh, options: &BuildOptions) -> Result<Accel, AccelError> {
-        let vertex_count = mesh.positions.len();
-        let mut triangles = Vec::with_capacity(mesh.triangles.len());
-        let mut kept = Vec::with_capacity(mesh.triangles.len());
-        for (triangle, indices) in mesh.triangles.iter().enumerate() {
+    pub fn build_with<'a>(
+        triangles: impl Into<Triangles<'a>>,
+        options: &BuildOptions,
+    ) -> Result<Accel, AccelError> {
+        Accel::build_from(triangles.into(), options)
+    }
+
+    fn build_from(input: Triangles<'_>, options: &BuildOptions) -> Result<Accel, AccelError> {
+        let vertex_count = input.positions.len();
+        let mut triangles = Vec::with_capacity(input.indices.len());
+        let mut kept = Vec::with_capacity(input.indices.len());
+        for (triangle, indices) in input.indices.iter().enumerate() {
             let mut vertices = [Vec3A::ZERO; 3];
             for (v, &vertex) in vertices.iter_mut().zip(indices) {
-                let Some(&position) = mesh.positions.get(vertex as usize) else {
+                let Some(&position) = input.positions.get(vertex as usize) else {
                     return Err(AccelError::VertexOutOfRange {
                         triangle,
                         vertex,
@@ -716,7 +740,7 @@ impl Accel {
             packs,
             mesh_triangle,
             triangle_count: kept.len(),
-            skipped_degenerate: mesh.triangles.len() - kept.len(),
+            skipped_degenerate: input.indices.len() - kept.len(),
             bvh,
         })
     }
@@ -731,19 +755,19 @@ impl Accel {
         self.triangle_count
     }
 
-    /// For each slot of [`Accel::bvh`], the index into `mesh.triangles` of its
+    /// For each slot of [`Accel::bvh`], the index into [`Triangles::indices`] of its
     /// triangle. (With `Simd8` a large triangle may fill several slots: the tree's
     /// primitives are then references, see `accel/split.rs`.)
     pub fn slot_triangles(&self) -> &[u32] {
         &self.mesh_triangle
     }
 
-    /// Number of the mesh's zero-area triangles left out of the tree.
+    /// Number of zero-area triangles left out of the tree.
     pub fn skipped_degenerate(&self) -> usize {
         self.skipped_degenerate
     }
 
-    /// Bounds of the mesh's triangles; `None` when empty.
+    /// Bounds of the triangles in the tree; `None` when empty.
     pub fn bounds(&self) -> Option<Bounds> {
         self.bvh.bounds()
     }
@@ -935,7 +959,7 @@ impl Accel {
     /// triangles (the split is deterministic) and the tree is checked against their
     /// boxes; each slot must hold its reference's triangle.
     fn validate_references(&self, slot_triangles: &[Option<[Vec3A; 3]>]) -> Result<(), String> {
-        // Each triangle once, in mesh order (the order the tree was built from).
+        // Each triangle once, in input order (the order the tree was built from).
         let mut by_mesh: Vec<(u32, [Vec3A; 3])> = Vec::with_capacity(self.triangle_count);
         for (slot, t) in slot_triangles.iter().enumerate() {
             let t = t.ok_or_else(|| format!("slot {slot} is in no pack"))?;
@@ -1046,7 +1070,7 @@ impl Accel {
         if let Tree::Simd8(_) = &self.bvh.tree {
             return self.validate_references(&slot_triangles);
         }
-        // Back from slot order to mesh order, as the tree was built.
+        // Back from slot order to input order, as the tree was built.
         let mut boxes = vec![
             Bounds {
                 min: [0.0; 3],
