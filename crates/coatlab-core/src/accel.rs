@@ -17,12 +17,15 @@
 //!   (bit for bit the single-ray results; about 1.5 times the rays per second on
 //!   incoherent rays, see docs/benchmarks.md).
 //!
-//! Layouts ([`BvhLayout`]): the default, `Simd8`, is our own CPU-first 8-wide BVH
-//! (binned-SAH build, f32 child boxes tested 8 at a time, leaves of up to 8
-//! triangles tested 8 at a time, ordered traversal and a separate any-hit
-//! traversal; see `accel/wide.rs`); obvhs's compressed 8-wide `CwBvh` (`Wide8`) and
-//! binary `Bvh2` (`Binary`) are kept for comparison. `docs/benchmarks.md`
-//! ("Acceleration structure") has the measurements behind the choice.
+//! Layouts ([`BvhLayout`]): `Simd8`, our own CPU-first 8-wide BVH (binned-SAH
+//! build, f32 child boxes tested 8 at a time, leaves of up to 8 triangles tested 8
+//! at a time, ordered traversal and a separate any-hit traversal; see
+//! `accel/wide.rs`), is the one the library ships. With the feature
+//! `bvh-experiments` (which the tests and benches turn on), obvhs's compressed
+//! 8-wide `CwBvh` (`Wide8`) and binary `Bvh2` (`Binary`) are there to compare
+//! against (`accel/obvhs_layouts.rs`), with the other experiment code (`experiments`).
+//! `docs/benchmarks.md` ("Acceleration structure") has the measurements behind the
+//! choice.
 //!
 //! # Rays and the epsilon policy
 //!
@@ -66,27 +69,50 @@
 //! so its depth stays logarithmic, and its stack spills to the heap if ever needed.
 
 mod boxes;
+#[cfg(feature = "bvh-experiments")]
+mod obvhs_layouts;
 mod split;
+#[cfg(test)]
+mod test_support;
 mod triangle;
 mod wide;
 
-use std::panic::{AssertUnwindSafe, catch_unwind};
-use std::time::Duration;
-
 use glam::Vec3A;
-use obvhs::{
-    BvhBuildParams,
-    aabb::Aabb,
-    bvh2::{Bvh2, builder::build_bvh2, reinsertion::ReinsertionOptimizer},
-    cwbvh::{CwBvh, bvh2_to_cwbvh::bvh2_to_cwbvh},
-    ploc::PlocBuilder,
-    ray::RayHit,
-};
 
+#[cfg(feature = "bvh-experiments")]
+use obvhs_layouts::ObvhsTree;
 use triangle::{ShearedRay, TrianglePack};
 use wide::{BoxRay, PACK, TopNode, Traversal, WideBvh, pack_count, prefetch};
 
-pub use obvhs::ray::Ray;
+/// Experiment and comparison code, out of the shipped library (feature
+/// `bvh-experiments`; the layouts `Wide8` and `Binary` and
+/// [`Accel::closest_hits_in_lanes`] come with it).
+#[cfg(feature = "bvh-experiments")]
+pub mod experiments {
+    pub use super::wide::largest_child::{CollapseCosts, compare_collapses};
+}
+
+/// A ray for the box-level queries ([`Bvh::closest`], [`Bvh::any`]):
+/// `origin + t · direction` for `t` in `(tmin, tmax)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ray {
+    pub origin: Vec3A,
+    pub direction: Vec3A,
+    pub tmin: f32,
+    pub tmax: f32,
+}
+
+impl Ray {
+    /// The ray from `origin` along `direction` over `(tmin, tmax)`.
+    pub fn new(origin: Vec3A, direction: Vec3A, tmin: f32, tmax: f32) -> Ray {
+        Ray {
+            origin,
+            direction,
+            tmin,
+            tmax,
+        }
+    }
+}
 
 /// An axis-aligned box, metres.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -120,12 +146,31 @@ impl Bounds {
         (0..3).all(|k| self.min[k] <= other.min[k] && other.max[k] <= self.max[k])
     }
 
-    fn to_aabb(self) -> Aabb {
-        Aabb::new(self.min.into(), self.max.into())
+    /// The empty box `[+∞, −∞]`, which [`Bounds::grow`] grows from.
+    fn empty() -> Bounds {
+        Bounds {
+            min: [f32::INFINITY; 3],
+            max: [f32::NEG_INFINITY; 3],
+        }
+    }
+
+    #[inline(always)]
+    fn grow(&mut self, other: &Bounds) {
+        for k in 0..3 {
+            self.min[k] = self.min[k].min(other.min[k]);
+            self.max[k] = self.max[k].max(other.max[k]);
+        }
+    }
+
+    /// Half the surface area (the SAH only compares areas); 0 for an empty box.
+    fn half_area(&self) -> f32 {
+        let d: [f32; 3] = std::array::from_fn(|k| (self.max[k] - self.min[k]).max(0.0));
+        d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
     }
 }
 
-/// Tree layout.
+/// Tree layout. The library ships `Simd8`; the others come with the feature
+/// `bvh-experiments`, for comparison.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BvhLayout {
     /// Our own 8-wide BVH (`accel/wide.rs`): binned-SAH binary build collapsed to 8
@@ -137,9 +182,11 @@ pub enum BvhLayout {
     Simd8,
     /// obvhs's compressed wide BVH: 8 children per 80-byte node, child boxes quantised
     /// to 8 bits, traversed 4 boxes at a time with SIMD; up to 3 triangles per leaf.
+    #[cfg(feature = "bvh-experiments")]
     Wide8,
     /// obvhs's binary BVH (one box per node, up to 8 triangles per leaf after the
     /// collapse pass). Simpler, and editable in place, but slower to traverse.
+    #[cfg(feature = "bvh-experiments")]
     Binary,
 }
 
@@ -164,15 +211,6 @@ pub enum BuildQuality {
 }
 
 impl BuildQuality {
-    fn params(self) -> BvhBuildParams {
-        match self {
-            BuildQuality::Fastest => BvhBuildParams::fastest_build(),
-            BuildQuality::Fast => BvhBuildParams::fast_build(),
-            BuildQuality::Medium => BvhBuildParams::medium_build(),
-            BuildQuality::Slow => BvhBuildParams::slow_build(),
-        }
-    }
-
     fn sah_bins(self) -> usize {
         match self {
             BuildQuality::Fastest => 8,
@@ -195,9 +233,8 @@ pub enum ReferenceSplits {
     /// references (SBVH-style, on `threads` threads, the same result for any
     /// count); its partition is kept as the top of the tree. The default: on the
     /// Lamborghini ×1.13–1.30 the rays per second, at about 1.7 times the
-    /// build's time (session 7: 122–150 against 63–88 ms on one thread, 97–101
-    /// against 58–60 on two, within the 150 ms target; docs/benchmarks.md); no
-    /// loss on the default car or the torus. Real car models are Lamborghini-like
+    /// build's time, within the 150 ms target (docs/benchmarks.md); no loss on the
+    /// default car or the torus. Real car models are Lamborghini-like
     /// (long, thin, overlapping triangles), and a preview traces one tree for
     /// seconds to minutes.
     Spatial,
@@ -267,9 +304,9 @@ pub enum AccelError {
 #[derive(Clone)]
 enum Tree {
     Empty,
-    Wide(CwBvh),
-    Binary(Bvh2),
     Simd8(WideBvh),
+    #[cfg(feature = "bvh-experiments")]
+    Obvhs(ObvhsTree),
 }
 
 /// A bounding volume hierarchy over boxes; see the module documentation.
@@ -328,8 +365,8 @@ impl Bvh {
                 bounds: None,
             });
         }
-        if options.layout == BvhLayout::Simd8 {
-            return Ok(Bvh {
+        match options.layout {
+            BvhLayout::Simd8 => Ok(Bvh {
                 tree: Tree::Simd8(WideBvh::build(
                     boxes,
                     top,
@@ -338,27 +375,17 @@ impl Bvh {
                 )),
                 options: *options,
                 bounds,
-            });
+            }),
+            #[cfg(feature = "bvh-experiments")]
+            BvhLayout::Wide8 | BvhLayout::Binary => {
+                let (tree, layout) = ObvhsTree::build(boxes, options);
+                Ok(Bvh {
+                    tree: Tree::Obvhs(tree),
+                    options: BuildOptions { layout, ..*options },
+                    bounds,
+                })
+            }
         }
-        let aabbs: Vec<Aabb> = boxes.iter().map(|b| b.to_aabb()).collect();
-        let params = options.quality.params();
-        let mut core_time = Duration::ZERO;
-        let wide = match options.layout {
-            BvhLayout::Wide8 => build_wide(&aabbs, &params),
-            BvhLayout::Binary | BvhLayout::Simd8 => None,
-        };
-        let (tree, layout) = match wide {
-            Some(wide) => (Tree::Wide(wide), BvhLayout::Wide8),
-            None => (
-                Tree::Binary(build_bvh2(&aabbs, params, &mut core_time)),
-                BvhLayout::Binary,
-            ),
-        };
-        Ok(Bvh {
-            tree,
-            options: BuildOptions { layout, ..*options },
-            bounds,
-        })
     }
 
     /// Number of primitives.
@@ -375,9 +402,9 @@ impl Bvh {
     pub fn node_count(&self) -> usize {
         match &self.tree {
             Tree::Empty => 0,
-            Tree::Wide(t) => t.nodes.len(),
-            Tree::Binary(t) => t.nodes.len(),
             Tree::Simd8(t) => t.node_count(),
+            #[cfg(feature = "bvh-experiments")]
+            Tree::Obvhs(t) => t.node_count(),
         }
     }
 
@@ -395,9 +422,9 @@ impl Bvh {
     pub fn primitive_order(&self) -> &[u32] {
         match &self.tree {
             Tree::Empty => &[],
-            Tree::Wide(t) => &t.primitive_indices,
-            Tree::Binary(t) => &t.primitive_indices,
             Tree::Simd8(t) => t.order(),
+            #[cfg(feature = "bvh-experiments")]
+            Tree::Obvhs(t) => t.primitive_order(),
         }
     }
 
@@ -410,14 +437,12 @@ impl Bvh {
         ray: Ray,
         intersect: F,
     ) -> Option<(usize, f32)> {
-        let mut hit = RayHit::none();
-        let found = match &self.tree {
-            Tree::Empty => false,
-            Tree::Wide(t) => t.ray_traverse(ray, &mut hit, intersect),
-            Tree::Binary(t) => t.ray_traverse(ray, &mut hit, intersect),
-            Tree::Simd8(t) => return simd8_closest(t, ray, intersect),
-        };
-        found.then_some((hit.primitive_id as usize, hit.t))
+        match &self.tree {
+            Tree::Empty => None,
+            Tree::Simd8(t) => simd8_closest(t, ray, intersect),
+            #[cfg(feature = "bvh-experiments")]
+            Tree::Obvhs(t) => t.closest(ray, intersect),
+        }
     }
 
     /// Any hit: whether some primitive reports a distance below `ray.tmax`; stops at the
@@ -426,16 +451,17 @@ impl Bvh {
     pub fn any<F: FnMut(&Ray, usize) -> f32>(&self, ray: Ray, intersect: F) -> bool {
         match &self.tree {
             Tree::Empty => false,
-            Tree::Wide(t) => !t.ray_traverse_miss(ray, intersect),
-            Tree::Binary(t) => !t.ray_traverse_miss(ray, intersect),
             Tree::Simd8(t) => simd8_any(t, ray, intersect),
+            #[cfg(feature = "bvh-experiments")]
+            Tree::Obvhs(t) => t.any(ray, intersect),
         }
     }
 
-    /// Checks the tree against the boxes it was built from: obvhs's own validation
-    /// (every node reached once, every child box inside its parent, every primitive's
-    /// box inside its leaf, depth within the traversal stack), plus that the slots are
-    /// a permutation of the primitives and that [`Bvh::bounds`] holds every box.
+    /// Checks the tree against the boxes it was built from: every node reached once,
+    /// every child box inside its parent, every primitive's box inside its leaf, the
+    /// depth within what the traversal handles (for the obvhs layouts, obvhs's own
+    /// validation), plus that the slots are a permutation of the primitives and that
+    /// [`Bvh::bounds`] holds every box.
     pub fn validate(&self, boxes: &[Bounds]) -> Result<(), String> {
         let order = self.primitive_order();
         if order.len() != boxes.len() {
@@ -467,29 +493,12 @@ impl Bvh {
                 }
             }
         }
-        if let Tree::Simd8(t) = &self.tree {
-            return t.validate(boxes, self.bounds);
+        match &self.tree {
+            Tree::Empty => Ok(()),
+            Tree::Simd8(t) => t.validate(boxes, self.bounds),
+            #[cfg(feature = "bvh-experiments")]
+            Tree::Obvhs(t) => t.validate(boxes),
         }
-        let aabbs: Vec<Aabb> = boxes.iter().map(|b| b.to_aabb()).collect();
-        // obvhs's validation asserts; turn a failed assertion into an error.
-        let checked = catch_unwind(AssertUnwindSafe(|| match &self.tree {
-            Tree::Empty => {}
-            Tree::Wide(t) => {
-                t.validate(&aabbs, false);
-            }
-            Tree::Binary(t) => {
-                t.validate(&aabbs, false, false);
-            }
-            Tree::Simd8(_) => {}
-        }));
-        checked.map_err(|payload| {
-            let message = payload
-                .downcast_ref::<String>()
-                .cloned()
-                .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
-                .unwrap_or_else(|| "unknown failure".into());
-            format!("obvhs validation failed: {message}")
-        })
     }
 }
 
@@ -538,42 +547,6 @@ fn simd8_any<F: FnMut(&Ray, usize) -> f32>(tree: &WideBvh, ray: Ray, mut interse
     )
 }
 
-/// Depth limit of obvhs's 8-wide traversal stack (`TRAVERSAL_STACK_SIZE`, private).
-const WIDE_STACK: u32 = 32;
-
-/// obvhs's `build_cwbvh` without its debug-build validation (which asserts), and
-/// `None` when the tree is too deep for the traversal stack.
-fn build_wide(aabbs: &[Aabb], params: &BvhBuildParams) -> Option<CwBvh> {
-    let mut bvh2 = PlocBuilder::with_capacity(aabbs.len()).build(
-        params.ploc_search_distance,
-        aabbs,
-        (0..aabbs.len() as u32).collect(),
-        params.sort_precision,
-        params.search_depth_threshold,
-    );
-    ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
-    let wide = bvh2_to_cwbvh(&bvh2, params.max_prims_per_leaf.clamp(1, 3), true, false);
-    (wide_depth(&wide) < WIDE_STACK).then_some(wide)
-}
-
-/// Deepest inner node of an 8-wide tree, the root at 0 (as obvhs's validation counts).
-fn wide_depth(tree: &CwBvh) -> u32 {
-    let mut deepest = 0;
-    let mut stack = vec![(0u32, 0u32)];
-    while let Some((index, depth)) = stack.pop() {
-        deepest = deepest.max(depth);
-        let Some(node) = tree.nodes.get(index as usize) else {
-            continue;
-        };
-        for child in 0..8 {
-            if !node.is_child_empty(child) && !node.is_leaf(child) {
-                stack.push((node.child_node_index(child), depth + 1));
-            }
-        }
-    }
-    deepest
-}
-
 /// A ray's hit on one of the [`Triangles`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Hit {
@@ -607,6 +580,7 @@ pub const BATCH_LANES: usize = 8;
 pub struct Accel {
     bvh: Bvh,
     /// Triangle vertices in slot order (the obvhs layouts; empty for `Simd8`).
+    #[cfg(feature = "bvh-experiments")]
     triangles: Vec<[Vec3A; 3]>,
     /// The triangles in the packs of the `Simd8` leaves, lane ids being indices into
     /// [`Triangles::indices`] (empty for the obvhs layouts).
@@ -712,31 +686,29 @@ impl Accel {
             .map(|&r| reference_triangle[r as usize])
             .collect();
         let mesh_triangle: Vec<u32> = order.iter().map(|&i| kept[i as usize]).collect();
-        let (slot_triangles, packs) = match &bvh.tree {
-            Tree::Simd8(tree) => {
-                let packs = tree
-                    .pack_slots()
-                    .iter()
-                    .map(|slots| {
-                        let mut pack = TrianglePack::empty();
-                        for (lane, &slot) in slots.iter().enumerate() {
-                            if slot != u32::MAX {
-                                let i = order[slot as usize] as usize;
-                                pack.set(lane, triangles[i].map(Into::into), kept[i]);
-                            }
+        let packs = match &bvh.tree {
+            Tree::Simd8(tree) => tree
+                .pack_slots()
+                .iter()
+                .map(|slots| {
+                    let mut pack = TrianglePack::empty();
+                    for (lane, &slot) in slots.iter().enumerate() {
+                        if slot != u32::MAX {
+                            let i = order[slot as usize] as usize;
+                            pack.set(lane, triangles[i].map(Into::into), kept[i]);
                         }
-                        pack
-                    })
-                    .collect();
-                (Vec::new(), packs)
-            }
-            _ => (
-                order.iter().map(|&i| triangles[i as usize]).collect(),
-                Vec::new(),
-            ),
+                    }
+                    pack
+                })
+                .collect(),
+            _ => Vec::new(),
         };
         Ok(Accel {
-            triangles: slot_triangles,
+            #[cfg(feature = "bvh-experiments")]
+            triangles: match &bvh.tree {
+                Tree::Obvhs(_) => order.iter().map(|&i| triangles[i as usize]).collect(),
+                _ => Vec::new(),
+            },
             packs,
             mesh_triangle,
             triangle_count: kept.len(),
@@ -780,40 +752,44 @@ impl Accel {
             return None;
         }
         let sheared = ShearedRay::new(origin, dir);
-        if let Tree::Simd8(tree) = &self.bvh.tree {
-            let box_ray = BoxRay::new(origin, dir);
-            let mut best = None;
-            tree.closest(
-                &box_ray,
-                t_max,
-                |pack, _, t_max| match sheared.intersect_pack(&self.packs[pack], t_max) {
-                    Some(hit) => {
-                        best = Some((pack, hit));
-                        hit.t
-                    }
-                    None => t_max,
-                },
-                |pack, _| self.fetch_pack(pack),
-            );
-            return best.map(|(p, hit)| Hit {
-                t: hit.t,
-                triangle: self.packs[p].id[hit.lane],
-                barycentric: hit.barycentric,
-            });
-        }
-        let ray = Ray::new(origin.into(), dir.into(), 0.0, t_max);
-        let (slot, _) = self.bvh.closest(ray, |ray, slot| {
-            sheared
-                .intersect_pack(&single(&self.triangles[slot]), ray.tmax)
-                .map_or(f32::INFINITY, |hit| hit.t)
-        })?;
-        // Barycentrics only for the winner.
-        let hit = sheared.intersect_pack(&single(&self.triangles[slot]), t_max)?;
-        Some(Hit {
+        let Tree::Simd8(tree) = &self.bvh.tree else {
+            return self.closest_hit_by_slot(&sheared, origin, dir, t_max);
+        };
+        let box_ray = BoxRay::new(origin, dir);
+        let mut best = None;
+        tree.closest(
+            &box_ray,
+            t_max,
+            |pack, _, t_max| match sheared.intersect_pack(&self.packs[pack], t_max) {
+                Some(hit) => {
+                    best = Some((pack, hit));
+                    hit.t
+                }
+                None => t_max,
+            },
+            |pack, _| self.fetch_pack(pack),
+        );
+        best.map(|(p, hit)| Hit {
             t: hit.t,
-            triangle: self.mesh_triangle[slot],
+            triangle: self.packs[p].id[hit.lane],
             barycentric: hit.barycentric,
         })
+    }
+
+    /// [`Accel::closest_hit`] where the tree is not `Simd8`: without the obvhs
+    /// layouts, only the empty tree, which nothing hits.
+    #[cfg(not(feature = "bvh-experiments"))]
+    #[inline(always)]
+    fn closest_hit_by_slot(&self, _: &ShearedRay, _: [f32; 3], _: [f32; 3], _: f32) -> Option<Hit> {
+        None
+    }
+
+    /// [`Accel::occluded`] where the tree is not `Simd8` (see
+    /// [`Accel::closest_hit_by_slot`]).
+    #[cfg(not(feature = "bvh-experiments"))]
+    #[inline(always)]
+    fn occluded_by_slot(&self, _: &ShearedRay, _: [f32; 3], _: [f32; 3], _: f32) -> bool {
+        false
     }
 
     /// [`Accel::closest_hit`] for each query of `rays`, written to the same index of
@@ -827,12 +803,22 @@ impl Accel {
     ///
     /// If `hits` is not as long as `rays`.
     pub fn closest_hits(&self, rays: &[RayQuery], hits: &mut [Option<Hit>]) {
-        self.closest_hits_in_lanes::<BATCH_LANES>(rays, hits);
+        self.closest_hits_with_lanes::<BATCH_LANES>(rays, hits);
     }
 
-    /// [`Accel::closest_hits`] with `LANES` rays in flight.
-    #[doc(hidden)]
+    /// [`Accel::closest_hits`] with `LANES` rays in flight instead of
+    /// [`BATCH_LANES`]: for measuring and testing other counts (feature
+    /// `bvh-experiments`).
+    #[cfg(feature = "bvh-experiments")]
     pub fn closest_hits_in_lanes<const LANES: usize>(
+        &self,
+        rays: &[RayQuery],
+        hits: &mut [Option<Hit>],
+    ) {
+        self.closest_hits_with_lanes::<LANES>(rays, hits);
+    }
+
+    fn closest_hits_with_lanes<const LANES: usize>(
         &self,
         rays: &[RayQuery],
         hits: &mut [Option<Hit>],
@@ -928,21 +914,16 @@ impl Accel {
             return false;
         }
         let sheared = ShearedRay::new(origin, dir);
-        if let Tree::Simd8(tree) = &self.bvh.tree {
-            let box_ray = BoxRay::new(origin, dir);
-            return tree.any(
-                &box_ray,
-                t_max,
-                |pack, _| sheared.any_in_pack(&self.packs[pack], t_max),
-                |pack, _| self.fetch_pack(pack),
-            );
-        }
-        let ray = Ray::new(origin.into(), dir.into(), 0.0, t_max);
-        self.bvh.any(ray, |ray, slot| {
-            sheared
-                .intersect_pack(&single(&self.triangles[slot]), ray.tmax)
-                .map_or(f32::INFINITY, |hit| hit.t)
-        })
+        let Tree::Simd8(tree) = &self.bvh.tree else {
+            return self.occluded_by_slot(&sheared, origin, dir, t_max);
+        };
+        let box_ray = BoxRay::new(origin, dir);
+        tree.any(
+            &box_ray,
+            t_max,
+            |pack, _| sheared.any_in_pack(&self.packs[pack], t_max),
+            |pack, _| self.fetch_pack(pack),
+        )
     }
 
     /// Starts fetching a leaf's pack (see `wide::prefetch`). A `Simd8` leaf is one
@@ -1054,18 +1035,9 @@ impl Accel {
                     }
                 }
             }
-            _ => {
-                if self.triangles.len() != order.len() {
-                    return Err(format!(
-                        "{} triangles but {} slots",
-                        self.triangles.len(),
-                        order.len()
-                    ));
-                }
-                for (entry, t) in slot_triangles.iter_mut().zip(&self.triangles) {
-                    *entry = Some(*t);
-                }
-            }
+            Tree::Empty => {}
+            #[cfg(feature = "bvh-experiments")]
+            Tree::Obvhs(_) => self.slot_triangles_by_slot(&mut slot_triangles)?,
         }
         if let Tree::Simd8(_) = &self.bvh.tree {
             return self.validate_references(&slot_triangles);
@@ -1094,15 +1066,6 @@ impl Accel {
 #[inline(always)]
 fn usable_ray(origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
     t_max > 0.0 && origin.iter().chain(&dir).all(|x| x.is_finite()) && dir.iter().any(|&x| x != 0.0)
-}
-
-/// A pack of one triangle.
-#[inline(always)]
-fn single(t: &[Vec3A; 3]) -> TrianglePack<1> {
-    TrianglePack {
-        v: std::array::from_fn(|j| std::array::from_fn(|k| [t[j][k]])),
-        id: [0],
-    }
 }
 
 /// The ray–triangle test the accel uses, for one triangle: `Some((t, [u, v]))` when

@@ -11,7 +11,7 @@
 //! comparison, area or bin index sees and which the stored child boxes lose when
 //! they are widened by one ulp (`next_down(±0)` is the same number). Checked on the
 //! Lamborghini, the default car and the torus: the same tree as the scalar builders
-//! (docs/benchmarks.md, "Faster build (session 7)").
+//! (docs/benchmarks.md, "Acceleration structure").
 
 use glam::Vec3A;
 
