@@ -27,6 +27,12 @@
 //! `docs/benchmarks.md` ("Acceleration structure") has the measurements behind the
 //! choice.
 //!
+//! Files, each importing only those below it: this one (the triangle layer);
+//! `bvh.rs` (the box layer); `split.rs` (reference splitting before the build);
+//! `wide.rs` and `wide/` (the `Simd8` tree: traversal, build, the collapse it
+//! replaced); `obvhs_layouts.rs`; `options.rs` (build options); `triangle.rs` (the
+//! watertight test on packs of triangles); `boxes.rs` (boxes, scalar and SIMD).
+//!
 //! # Rays and the epsilon policy
 //!
 //! A ray is `origin + t · dir` for `t` in the open interval `(0, t_max)`; `t` is in
@@ -69,8 +75,10 @@
 //! so its depth stays logarithmic, and its stack spills to the heap if ever needed.
 
 mod boxes;
+mod bvh;
 #[cfg(feature = "bvh-experiments")]
 mod obvhs_layouts;
+mod options;
 mod split;
 #[cfg(test)]
 mod test_support;
@@ -79,10 +87,13 @@ mod wide;
 
 use glam::Vec3A;
 
-#[cfg(feature = "bvh-experiments")]
-use obvhs_layouts::ObvhsTree;
+use bvh::Tree;
 use triangle::{ShearedRay, TrianglePack};
-use wide::{BoxRay, PACK, TopNode, Traversal, WideBvh, pack_count, prefetch};
+use wide::{BoxRay, PACK, Traversal, prefetch};
+
+pub use boxes::Bounds;
+pub use bvh::{AccelError, Bvh, Ray};
+pub use options::{BuildOptions, BuildQuality, BvhLayout, ReferenceSplits};
 
 /// Experiment and comparison code, out of the shipped library (feature
 /// `bvh-experiments`; the layouts `Wide8` and `Binary` and
@@ -90,461 +101,6 @@ use wide::{BoxRay, PACK, TopNode, Traversal, WideBvh, pack_count, prefetch};
 #[cfg(feature = "bvh-experiments")]
 pub mod experiments {
     pub use super::wide::largest_child::{CollapseCosts, compare_collapses};
-}
-
-/// A ray for the box-level queries ([`Bvh::closest`], [`Bvh::any`]):
-/// `origin + t · direction` for `t` in `(tmin, tmax)`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Ray {
-    pub origin: Vec3A,
-    pub direction: Vec3A,
-    pub tmin: f32,
-    pub tmax: f32,
-}
-
-impl Ray {
-    /// The ray from `origin` along `direction` over `(tmin, tmax)`.
-    pub fn new(origin: Vec3A, direction: Vec3A, tmin: f32, tmax: f32) -> Ray {
-        Ray {
-            origin,
-            direction,
-            tmin,
-            tmax,
-        }
-    }
-}
-
-/// An axis-aligned box, metres.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Bounds {
-    pub min: [f32; 3],
-    pub max: [f32; 3],
-}
-
-impl Bounds {
-    /// The smallest box holding all `points`; `None` for none.
-    pub fn from_points(points: &[[f32; 3]]) -> Option<Bounds> {
-        let first = *points.first()?;
-        let mut bounds = Bounds {
-            min: first,
-            max: first,
-        };
-        for p in &points[1..] {
-            bounds.min = std::array::from_fn(|k| bounds.min[k].min(p[k]));
-            bounds.max = std::array::from_fn(|k| bounds.max[k].max(p[k]));
-        }
-        Some(bounds)
-    }
-
-    /// Whether all six coordinates are finite.
-    pub fn is_finite(&self) -> bool {
-        self.min.iter().chain(&self.max).all(|x| x.is_finite())
-    }
-
-    /// Whether `other` lies inside this box (boundaries included).
-    pub fn contains(&self, other: &Bounds) -> bool {
-        (0..3).all(|k| self.min[k] <= other.min[k] && other.max[k] <= self.max[k])
-    }
-
-    /// The empty box `[+∞, −∞]`, which [`Bounds::grow`] grows from.
-    fn empty() -> Bounds {
-        Bounds {
-            min: [f32::INFINITY; 3],
-            max: [f32::NEG_INFINITY; 3],
-        }
-    }
-
-    #[inline(always)]
-    fn grow(&mut self, other: &Bounds) {
-        for k in 0..3 {
-            self.min[k] = self.min[k].min(other.min[k]);
-            self.max[k] = self.max[k].max(other.max[k]);
-        }
-    }
-
-    /// Half the surface area (the SAH only compares areas); 0 for an empty box.
-    fn half_area(&self) -> f32 {
-        let d: [f32; 3] = std::array::from_fn(|k| (self.max[k] - self.min[k]).max(0.0));
-        d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
-    }
-}
-
-/// Tree layout. The library ships `Simd8`; the others come with the feature
-/// `bvh-experiments`, for comparison.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum BvhLayout {
-    /// Our own 8-wide BVH (`accel/wide.rs`): binned-SAH binary build collapsed to 8
-    /// children per 224-byte node, f32 child boxes tested 8 at a time, leaves of up to
-    /// 8 triangles stored lane by lane (one pack) for the watertight test; ordered
-    /// closest-hit and separate any-hit traversal. Through [`Accel`], triangles far
-    /// larger than the average enter the tree as several references
-    /// (`accel/split.rs`). The `quality` sets the SAH bins per axis.
-    Simd8,
-    /// obvhs's compressed wide BVH: 8 children per 80-byte node, child boxes quantised
-    /// to 8 bits, traversed 4 boxes at a time with SIMD; up to 3 triangles per leaf.
-    #[cfg(feature = "bvh-experiments")]
-    Wide8,
-    /// obvhs's binary BVH (one box per node, up to 8 triangles per leaf after the
-    /// collapse pass). Simpler, and editable in place, but slower to traverse.
-    #[cfg(feature = "bvh-experiments")]
-    Binary,
-}
-
-/// Build quality. Slower builds give trees that traverse faster. For the obvhs
-/// layouts these are obvhs's presets; for `Simd8` the number of SAH bins per axis
-/// (8, 16, 32, 64).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum BuildQuality {
-    /// obvhs: PLOC with the smallest search radius, no reinsertion, one primitive per
-    /// leaf. `Simd8`: 8 bins.
-    Fastest,
-    /// obvhs: PLOC search radius "low", 2 % reinsertion. `Simd8`: 16 bins. The
-    /// interactive default.
-    Fast,
-    /// obvhs: PLOC search radius "medium", 5 % reinsertion ("about Embree's build
-    /// time"). `Simd8`: 32 bins.
-    Medium,
-    /// obvhs: PLOC search radius "high", 20 % reinsertion, 128-bit Morton codes
-    /// (spatial pre-splits of the preset are not used: the builder sees boxes, not
-    /// triangles). `Simd8`: 64 bins.
-    Slow,
-}
-
-impl BuildQuality {
-    fn sah_bins(self) -> usize {
-        match self {
-            BuildQuality::Fastest => 8,
-            BuildQuality::Fast => 16,
-            BuildQuality::Medium => 32,
-            BuildQuality::Slow => 64,
-        }
-    }
-}
-
-/// Which triangles [`Accel`] cuts into several references for `Simd8`
-/// (`accel/split.rs`; measured in docs/benchmarks.md, "Acceleration structure").
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ReferenceSplits {
-    /// Triangles far larger than the average, halved at the middle of the widest
-    /// axis until small enough (almost free to build).
-    LargeTriangles,
-    /// As `LargeTriangles`, then spatial splits where the SAH prefers them to the
-    /// best object split, down to nodes of 64 references, at most 30 % more
-    /// references (SBVH-style, on `threads` threads, the same result for any
-    /// count); its partition is kept as the top of the tree. The default: on the
-    /// Lamborghini ×1.13–1.30 the rays per second, at about 1.7 times the
-    /// build's time, within the 150 ms target (docs/benchmarks.md); no loss on the
-    /// default car or the torus. Real car models are Lamborghini-like
-    /// (long, thin, overlapping triangles), and a preview traces one tree for
-    /// seconds to minutes.
-    Spatial,
-}
-
-/// How to build a [`Bvh`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct BuildOptions {
-    pub layout: BvhLayout,
-    pub quality: BuildQuality,
-    /// Which triangles are cut into several references (`Simd8` through
-    /// [`Accel`] only).
-    pub reference_splits: ReferenceSplits,
-    /// Threads for the `Simd8` build (scoped threads of its own, each subtree of
-    /// 4096 or more primitives split between two); 0 for
-    /// `std::thread::available_parallelism`. The obvhs layouts build on rayon's
-    /// current thread pool regardless.
-    pub threads: usize,
-}
-
-impl BuildOptions {
-    /// `threads`, with 0 resolved.
-    fn build_threads(&self) -> usize {
-        match self.threads {
-            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
-            n => n,
-        }
-    }
-}
-
-impl Default for BuildOptions {
-    /// `Simd8` with `Fast` and spatial splits: see docs/benchmarks.md,
-    /// "Acceleration structure".
-    fn default() -> Self {
-        BuildOptions {
-            layout: BvhLayout::Simd8,
-            quality: BuildQuality::Fast,
-            reference_splits: ReferenceSplits::Spatial,
-            threads: 0,
-        }
-    }
-}
-
-/// Why a structure could not be built.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum AccelError {
-    #[error("primitive {index} has a non-finite bounding box {bounds:?}")]
-    NonFiniteBox { index: usize, bounds: Bounds },
-    #[error("triangle {triangle} has a non-finite vertex {vertex} at {position:?}")]
-    NonFiniteVertex {
-        triangle: usize,
-        vertex: u32,
-        position: [f32; 3],
-    },
-    #[error(
-        "triangle {triangle} refers to vertex {vertex}, but the mesh has {vertex_count} vertices"
-    )]
-    VertexOutOfRange {
-        triangle: usize,
-        vertex: u32,
-        vertex_count: usize,
-    },
-    #[error("{count} primitives: more than a BVH with u32 indices can hold")]
-    TooManyPrimitives { count: usize },
-}
-
-#[derive(Clone)]
-enum Tree {
-    Empty,
-    Simd8(WideBvh),
-    #[cfg(feature = "bvh-experiments")]
-    Obvhs(ObvhsTree),
-}
-
-/// A bounding volume hierarchy over boxes; see the module documentation.
-#[derive(Clone)]
-pub struct Bvh {
-    tree: Tree,
-    options: BuildOptions,
-    bounds: Option<Bounds>,
-}
-
-impl std::fmt::Debug for Bvh {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Bvh")
-            .field("options", &self.options)
-            .field("primitives", &self.len())
-            .field("nodes", &self.node_count())
-            .field("bounds", &self.bounds)
-            .finish()
-    }
-}
-
-impl Bvh {
-    /// Builds the tree over `boxes` (one per primitive; empty or flat boxes are fine,
-    /// non-finite ones are refused).
-    pub fn build(boxes: &[Bounds], options: &BuildOptions) -> Result<Bvh, AccelError> {
-        Bvh::build_below(boxes, &[], options)
-    }
-
-    /// [`Bvh::build`] below a given top of the tree (`Simd8` only, else ignored; see
-    /// [`WideBvh::build`]).
-    fn build_below(
-        boxes: &[Bounds],
-        top: &[TopNode],
-        options: &BuildOptions,
-    ) -> Result<Bvh, AccelError> {
-        if u32::try_from(boxes.len()).is_err() {
-            return Err(AccelError::TooManyPrimitives { count: boxes.len() });
-        }
-        if let Some(index) = boxes.iter().position(|b| !b.is_finite()) {
-            return Err(AccelError::NonFiniteBox {
-                index,
-                bounds: boxes[index],
-            });
-        }
-        let mut bounds: Option<Bounds> = None;
-        for b in boxes {
-            bounds = Some(match bounds {
-                None => *b,
-                Some(acc) => Bounds::from_points(&[acc.min, acc.max, b.min, b.max]).unwrap_or(acc),
-            });
-        }
-        if boxes.is_empty() {
-            return Ok(Bvh {
-                tree: Tree::Empty,
-                options: *options,
-                bounds: None,
-            });
-        }
-        match options.layout {
-            BvhLayout::Simd8 => Ok(Bvh {
-                tree: Tree::Simd8(WideBvh::build(
-                    boxes,
-                    top,
-                    options.quality.sah_bins(),
-                    options.build_threads(),
-                )),
-                options: *options,
-                bounds,
-            }),
-            #[cfg(feature = "bvh-experiments")]
-            BvhLayout::Wide8 | BvhLayout::Binary => {
-                let (tree, layout) = ObvhsTree::build(boxes, options);
-                Ok(Bvh {
-                    tree: Tree::Obvhs(tree),
-                    options: BuildOptions { layout, ..*options },
-                    bounds,
-                })
-            }
-        }
-    }
-
-    /// Number of primitives.
-    pub fn len(&self) -> usize {
-        self.primitive_order().len()
-    }
-
-    /// Whether the tree holds no primitive.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    /// Number of tree nodes (8-wide or binary, per the layout).
-    pub fn node_count(&self) -> usize {
-        match &self.tree {
-            Tree::Empty => 0,
-            Tree::Simd8(t) => t.node_count(),
-            #[cfg(feature = "bvh-experiments")]
-            Tree::Obvhs(t) => t.node_count(),
-        }
-    }
-
-    /// The options it was built with.
-    pub fn options(&self) -> BuildOptions {
-        self.options
-    }
-
-    /// Bounds of all primitives; `None` when empty.
-    pub fn bounds(&self) -> Option<Bounds> {
-        self.bounds
-    }
-
-    /// The caller's primitive index for each slot.
-    pub fn primitive_order(&self) -> &[u32] {
-        match &self.tree {
-            Tree::Empty => &[],
-            Tree::Simd8(t) => t.order(),
-            #[cfg(feature = "bvh-experiments")]
-            Tree::Obvhs(t) => t.primitive_order(),
-        }
-    }
-
-    /// Closest hit: `intersect(ray, slot)` returns the hit distance of that primitive
-    /// within `(ray.tmin, ray.tmax)` or `f32::INFINITY`; `ray.tmax` shrinks as hits are
-    /// found. Returns the slot and distance of the closest hit.
-    #[inline]
-    pub fn closest<F: FnMut(&Ray, usize) -> f32>(
-        &self,
-        ray: Ray,
-        intersect: F,
-    ) -> Option<(usize, f32)> {
-        match &self.tree {
-            Tree::Empty => None,
-            Tree::Simd8(t) => simd8_closest(t, ray, intersect),
-            #[cfg(feature = "bvh-experiments")]
-            Tree::Obvhs(t) => t.closest(ray, intersect),
-        }
-    }
-
-    /// Any hit: whether some primitive reports a distance below `ray.tmax`; stops at the
-    /// first one.
-    #[inline]
-    pub fn any<F: FnMut(&Ray, usize) -> f32>(&self, ray: Ray, intersect: F) -> bool {
-        match &self.tree {
-            Tree::Empty => false,
-            Tree::Simd8(t) => simd8_any(t, ray, intersect),
-            #[cfg(feature = "bvh-experiments")]
-            Tree::Obvhs(t) => t.any(ray, intersect),
-        }
-    }
-
-    /// Checks the tree against the boxes it was built from: every node reached once,
-    /// every child box inside its parent, every primitive's box inside its leaf, the
-    /// depth within what the traversal handles (for the obvhs layouts, obvhs's own
-    /// validation), plus that the slots are a permutation of the primitives and that
-    /// [`Bvh::bounds`] holds every box.
-    pub fn validate(&self, boxes: &[Bounds]) -> Result<(), String> {
-        let order = self.primitive_order();
-        if order.len() != boxes.len() {
-            return Err(format!(
-                "the tree holds {} primitives, but {} boxes were given",
-                order.len(),
-                boxes.len()
-            ));
-        }
-        let mut seen = vec![false; boxes.len()];
-        for (slot, &index) in order.iter().enumerate() {
-            match seen.get_mut(index as usize) {
-                None => {
-                    return Err(format!(
-                        "slot {slot} refers to primitive {index}, out of range"
-                    ));
-                }
-                Some(true) => return Err(format!("primitive {index} appears in two slots")),
-                Some(s) => *s = true,
-            }
-        }
-        match (self.bounds, boxes.is_empty()) {
-            (None, true) => {}
-            (None, false) => return Err("no bounds, but primitives".into()),
-            (Some(_), true) => return Err("bounds, but no primitives".into()),
-            (Some(bounds), false) => {
-                if let Some(i) = boxes.iter().position(|b| !bounds.contains(b)) {
-                    return Err(format!("primitive {i}'s box lies outside the bounds"));
-                }
-            }
-        }
-        match &self.tree {
-            Tree::Empty => Ok(()),
-            Tree::Simd8(t) => t.validate(boxes, self.bounds),
-            #[cfg(feature = "bvh-experiments")]
-            Tree::Obvhs(t) => t.validate(boxes),
-        }
-    }
-}
-
-/// [`Bvh::closest`] on the `Simd8` tree, one slot at a time.
-fn simd8_closest<F: FnMut(&Ray, usize) -> f32>(
-    tree: &WideBvh,
-    mut ray: Ray,
-    mut intersect: F,
-) -> Option<(usize, f32)> {
-    let box_ray = BoxRay::new(ray.origin.into(), ray.direction.into());
-    let mut best = None;
-    tree.closest(
-        &box_ray,
-        ray.tmax,
-        |first, count, t_max| {
-            ray.tmax = t_max;
-            for slots in &tree.pack_slots()[first..first + pack_count(count)] {
-                for &slot in slots.iter().filter(|&&s| s != u32::MAX) {
-                    let t = intersect(&ray, slot as usize);
-                    if t < ray.tmax {
-                        ray.tmax = t;
-                        best = Some((slot as usize, t));
-                    }
-                }
-            }
-            ray.tmax
-        },
-        |_, _| {},
-    );
-    best
-}
-
-/// [`Bvh::any`] on the `Simd8` tree, one slot at a time.
-fn simd8_any<F: FnMut(&Ray, usize) -> f32>(tree: &WideBvh, ray: Ray, mut intersect: F) -> bool {
-    let box_ray = BoxRay::new(ray.origin.into(), ray.direction.into());
-    tree.any(
-        &box_ray,
-        ray.tmax,
-        |first, count| {
-            tree.pack_slots()[first..first + pack_count(count)]
-                .iter()
-                .flatten()
-                .any(|&slot| slot != u32::MAX && intersect(&ray, slot as usize) < ray.tmax)
-        },
-        |_, _| {},
-    )
 }
 
 /// A ray's hit on one of the [`Triangles`].
@@ -752,32 +308,32 @@ impl Accel {
             return None;
         }
         let sheared = ShearedRay::new(origin, dir);
-        let Tree::Simd8(tree) = &self.bvh.tree else {
-            return self.closest_hit_by_slot(&sheared, origin, dir, t_max);
-        };
-        let box_ray = BoxRay::new(origin, dir);
-        let mut best = None;
-        tree.closest(
-            &box_ray,
-            t_max,
-            |pack, _, t_max| match sheared.intersect_pack(&self.packs[pack], t_max) {
-                Some(hit) => {
-                    best = Some((pack, hit));
-                    hit.t
-                }
-                None => t_max,
-            },
-            |pack, _| self.fetch_pack(pack),
-        );
-        best.map(|(p, hit)| Hit {
-            t: hit.t,
-            triangle: self.packs[p].id[hit.lane],
-            barycentric: hit.barycentric,
-        })
+        if let Tree::Simd8(tree) = &self.bvh.tree {
+            let box_ray = BoxRay::new(origin, dir);
+            let mut best = None;
+            tree.closest(
+                &box_ray,
+                t_max,
+                |pack, _, t_max| match sheared.intersect_pack(&self.packs[pack], t_max) {
+                    Some(hit) => {
+                        best = Some((pack, hit));
+                        hit.t
+                    }
+                    None => t_max,
+                },
+                |pack, _| self.fetch_pack(pack),
+            );
+            return best.map(|(p, hit)| Hit {
+                t: hit.t,
+                triangle: self.packs[p].id[hit.lane],
+                barycentric: hit.barycentric,
+            });
+        }
+        self.closest_hit_by_slot(&sheared, origin, dir, t_max)
     }
 
     /// [`Accel::closest_hit`] where the tree is not `Simd8`: without the obvhs
-    /// layouts, only the empty tree, which nothing hits.
+    /// layouts (feature `bvh-experiments`), only the empty tree, which nothing hits.
     #[cfg(not(feature = "bvh-experiments"))]
     #[inline(always)]
     fn closest_hit_by_slot(&self, _: &ShearedRay, _: [f32; 3], _: [f32; 3], _: f32) -> Option<Hit> {
@@ -914,16 +470,16 @@ impl Accel {
             return false;
         }
         let sheared = ShearedRay::new(origin, dir);
-        let Tree::Simd8(tree) = &self.bvh.tree else {
-            return self.occluded_by_slot(&sheared, origin, dir, t_max);
-        };
-        let box_ray = BoxRay::new(origin, dir);
-        tree.any(
-            &box_ray,
-            t_max,
-            |pack, _| sheared.any_in_pack(&self.packs[pack], t_max),
-            |pack, _| self.fetch_pack(pack),
-        )
+        if let Tree::Simd8(tree) = &self.bvh.tree {
+            let box_ray = BoxRay::new(origin, dir);
+            return tree.any(
+                &box_ray,
+                t_max,
+                |pack, _| sheared.any_in_pack(&self.packs[pack], t_max),
+                |pack, _| self.fetch_pack(pack),
+            );
+        }
+        self.occluded_by_slot(&sheared, origin, dir, t_max)
     }
 
     /// Starts fetching a leaf's pack (see `wide::prefetch`). A `Simd8` leaf is one
@@ -1058,6 +614,83 @@ impl Accel {
             *b = triangle_bounds(&t);
         }
         self.bvh.validate(&boxes)
+    }
+}
+
+/// The triangle layer on the obvhs layouts: a slot-order copy of the triangles,
+/// tested one at a time through the box layer.
+#[cfg(feature = "bvh-experiments")]
+impl Accel {
+    /// [`Accel::closest_hit`] through an obvhs tree (or the empty one): one triangle a
+    /// slot, from the slot-order copy.
+    fn closest_hit_by_slot(
+        &self,
+        sheared: &ShearedRay,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        t_max: f32,
+    ) -> Option<Hit> {
+        let ray = Ray::new(origin.into(), dir.into(), 0.0, t_max);
+        let (slot, _) = self
+            .bvh
+            .closest(ray, |ray, slot| self.slot_distance(sheared, ray, slot))?;
+        // Barycentrics only for the winner.
+        let hit = sheared.intersect_pack(&single(&self.triangles[slot]), t_max)?;
+        Some(Hit {
+            t: hit.t,
+            triangle: self.mesh_triangle[slot],
+            barycentric: hit.barycentric,
+        })
+    }
+
+    /// [`Accel::occluded`] through an obvhs tree (or the empty one).
+    fn occluded_by_slot(
+        &self,
+        sheared: &ShearedRay,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        t_max: f32,
+    ) -> bool {
+        let ray = Ray::new(origin.into(), dir.into(), 0.0, t_max);
+        self.bvh
+            .any(ray, |ray, slot| self.slot_distance(sheared, ray, slot))
+    }
+
+    /// The distance at which `sheared` hits the triangle of `slot` within `ray`'s
+    /// `tmax`; infinity for a miss.
+    #[inline(always)]
+    fn slot_distance(&self, sheared: &ShearedRay, ray: &Ray, slot: usize) -> f32 {
+        sheared
+            .intersect_pack(&single(&self.triangles[slot]), ray.tmax)
+            .map_or(f32::INFINITY, |hit| hit.t)
+    }
+
+    /// For [`Accel::validate`]: each slot's triangle, from the slot-order copy.
+    fn slot_triangles_by_slot(
+        &self,
+        slot_triangles: &mut [Option<[Vec3A; 3]>],
+    ) -> Result<(), String> {
+        if self.triangles.len() != slot_triangles.len() {
+            return Err(format!(
+                "{} triangles but {} slots",
+                self.triangles.len(),
+                slot_triangles.len()
+            ));
+        }
+        for (entry, t) in slot_triangles.iter_mut().zip(&self.triangles) {
+            *entry = Some(*t);
+        }
+        Ok(())
+    }
+}
+
+/// A pack of one triangle.
+#[cfg(feature = "bvh-experiments")]
+#[inline(always)]
+fn single(t: &[Vec3A; 3]) -> TrianglePack<1> {
+    TrianglePack {
+        v: std::array::from_fn(|j| std::array::from_fn(|k| [t[j][k]])),
+        id: [0],
     }
 }
 

@@ -1,23 +1,22 @@
 //! obvhs's layouts, kept to compare ours against (feature `bvh-experiments`): the
 //! compressed 8-wide `CwBvh` (`Wide8`) and the binary `Bvh2` (`Binary`), with
-//! obvhs's build presets, traversal and validation; and the triangle layer's path
-//! through them (a slot-order copy of the triangles, tested one at a time).
+//! obvhs's build presets, traversal and validation. (The triangle layer goes
+//! through them slot by slot, see `Accel::closest_hit_by_slot`.)
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::time::Duration;
 
-use glam::Vec3A;
 use obvhs::{
     BvhBuildParams,
     aabb::Aabb,
     bvh2::{Bvh2, builder::build_bvh2, reinsertion::ReinsertionOptimizer},
     cwbvh::{CwBvh, bvh2_to_cwbvh::bvh2_to_cwbvh},
     ploc::PlocBuilder,
-    ray::RayHit,
+    ray::{Ray, RayHit},
 };
 
-use super::triangle::{ShearedRay, TrianglePack};
-use super::{Accel, Bounds, BuildOptions, BuildQuality, BvhLayout, Hit, Ray};
+use super::boxes::Bounds;
+use super::options::{BuildOptions, BuildQuality, BvhLayout};
 
 /// A tree of one of obvhs's layouts.
 #[derive(Clone)]
@@ -63,29 +62,27 @@ impl ObvhsTree {
         }
     }
 
-    /// [`super::Bvh::closest`].
+    /// `Bvh::closest` (on obvhs's ray).
     #[inline]
     pub(super) fn closest<F: FnMut(&Ray, usize) -> f32>(
         &self,
         ray: Ray,
-        mut intersect: F,
+        intersect: F,
     ) -> Option<(usize, f32)> {
         let mut hit = RayHit::none();
-        let intersect = |ray: &obvhs::ray::Ray, slot| intersect(&ours(ray), slot);
         let found = match self {
-            ObvhsTree::Wide(t) => t.ray_traverse(theirs(&ray), &mut hit, intersect),
-            ObvhsTree::Binary(t) => t.ray_traverse(theirs(&ray), &mut hit, intersect),
+            ObvhsTree::Wide(t) => t.ray_traverse(ray, &mut hit, intersect),
+            ObvhsTree::Binary(t) => t.ray_traverse(ray, &mut hit, intersect),
         };
         found.then_some((hit.primitive_id as usize, hit.t))
     }
 
-    /// [`super::Bvh::any`].
+    /// `Bvh::any` (on obvhs's ray).
     #[inline]
-    pub(super) fn any<F: FnMut(&Ray, usize) -> f32>(&self, ray: Ray, mut intersect: F) -> bool {
-        let intersect = |ray: &obvhs::ray::Ray, slot| intersect(&ours(ray), slot);
+    pub(super) fn any<F: FnMut(&Ray, usize) -> f32>(&self, ray: Ray, intersect: F) -> bool {
         match self {
-            ObvhsTree::Wide(t) => !t.ray_traverse_miss(theirs(&ray), intersect),
-            ObvhsTree::Binary(t) => !t.ray_traverse_miss(theirs(&ray), intersect),
+            ObvhsTree::Wide(t) => !t.ray_traverse_miss(ray, intersect),
+            ObvhsTree::Binary(t) => !t.ray_traverse_miss(ray, intersect),
         }
     }
 
@@ -113,85 +110,8 @@ impl ObvhsTree {
     }
 }
 
-impl Accel {
-    /// [`Accel::closest_hit`] through an obvhs tree (or the empty one): one triangle a
-    /// slot, from the slot-order copy.
-    pub(super) fn closest_hit_by_slot(
-        &self,
-        sheared: &ShearedRay,
-        origin: [f32; 3],
-        dir: [f32; 3],
-        t_max: f32,
-    ) -> Option<Hit> {
-        let ray = Ray::new(origin.into(), dir.into(), 0.0, t_max);
-        let (slot, _) = self.bvh.closest(ray, |ray, slot| {
-            sheared
-                .intersect_pack(&single(&self.triangles[slot]), ray.tmax)
-                .map_or(f32::INFINITY, |hit| hit.t)
-        })?;
-        // Barycentrics only for the winner.
-        let hit = sheared.intersect_pack(&single(&self.triangles[slot]), t_max)?;
-        Some(Hit {
-            t: hit.t,
-            triangle: self.mesh_triangle[slot],
-            barycentric: hit.barycentric,
-        })
-    }
-
-    /// [`Accel::occluded`] through an obvhs tree (or the empty one).
-    pub(super) fn occluded_by_slot(
-        &self,
-        sheared: &ShearedRay,
-        origin: [f32; 3],
-        dir: [f32; 3],
-        t_max: f32,
-    ) -> bool {
-        let ray = Ray::new(origin.into(), dir.into(), 0.0, t_max);
-        self.bvh.any(ray, |ray, slot| {
-            sheared
-                .intersect_pack(&single(&self.triangles[slot]), ray.tmax)
-                .map_or(f32::INFINITY, |hit| hit.t)
-        })
-    }
-
-    /// For [`Accel::validate`]: each slot's triangle, from the slot-order copy.
-    pub(super) fn slot_triangles_by_slot(
-        &self,
-        slot_triangles: &mut [Option<[Vec3A; 3]>],
-    ) -> Result<(), String> {
-        if self.triangles.len() != slot_triangles.len() {
-            return Err(format!(
-                "{} triangles but {} slots",
-                self.triangles.len(),
-                slot_triangles.len()
-            ));
-        }
-        for (entry, t) in slot_triangles.iter_mut().zip(&self.triangles) {
-            *entry = Some(*t);
-        }
-        Ok(())
-    }
-}
-
-/// A pack of one triangle.
-#[inline(always)]
-fn single(t: &[Vec3A; 3]) -> TrianglePack<1> {
-    TrianglePack {
-        v: std::array::from_fn(|j| std::array::from_fn(|k| [t[j][k]])),
-        id: [0],
-    }
-}
-
 fn aabb(b: &Bounds) -> Aabb {
     Aabb::new(b.min.into(), b.max.into())
-}
-
-fn theirs(ray: &Ray) -> obvhs::ray::Ray {
-    obvhs::ray::Ray::new(ray.origin, ray.direction, ray.tmin, ray.tmax)
-}
-
-fn ours(ray: &obvhs::ray::Ray) -> Ray {
-    Ray::new(ray.origin, ray.direction, ray.tmin, ray.tmax)
 }
 
 /// obvhs's preset for each quality.

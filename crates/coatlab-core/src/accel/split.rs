@@ -22,8 +22,9 @@
 //! none on the default car and the torus, at about 1.7 times the build's time; the
 //! default (docs/benchmarks.md, "Acceleration structure").
 
+use super::boxes::Bounds;
+use super::options::ReferenceSplits;
 use super::wide::TopNode;
-use super::{Bounds, ReferenceSplits};
 
 /// A triangle is split while its piece's box has more than this many times the
 /// average triangle box area (half surface areas).
@@ -174,8 +175,8 @@ fn split(
 mod spatial {
     use glam::Vec3A;
 
-    use super::super::boxes::{BoundsA, NodeBoxes, bin_index, bin_indices};
-    use super::{Bounds, TopNode};
+    use super::super::boxes::{Bounds, BoundsA, NodeBoxes, bin_index, bin_indices};
+    use super::TopNode;
 
     /// Bins per axis for both kinds of split.
     const BINS: usize = 16;

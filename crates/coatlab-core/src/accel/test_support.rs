@@ -1,6 +1,6 @@
 //! Inputs for the accel's unit tests.
 
-use super::Bounds;
+use super::boxes::Bounds;
 
 /// Marsaglia's xorshift64: reproducible numbers without a dependency.
 pub(super) struct XorShift(pub u64);

@@ -47,7 +47,7 @@ pub(super) mod largest_child;
 #[cfg(test)]
 mod tests;
 
-use super::Bounds;
+use super::boxes::Bounds;
 
 pub(super) use super::triangle::PACK;
 pub(super) use build::TopNode;

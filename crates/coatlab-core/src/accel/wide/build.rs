@@ -4,8 +4,7 @@
 
 use glam::Vec3A;
 
-use super::super::Bounds;
-use super::super::boxes::{BoundsA, NodeBoxes, bin_index, bin_indices};
+use super::super::boxes::{Bounds, BoundsA, NodeBoxes, bin_index, bin_indices};
 use super::{
     COUNT_SHIFT, LEAF_BIT, MAX_LEAF, MEDIAN_DEPTH, Node, PACK, WIDTH, WideBvh, pack_count,
 };

@@ -2,7 +2,7 @@
 //! the binary child with the largest surface area until there are 8. Kept (feature
 //! `bvh-experiments`) to measure the plan against it: [`compare_collapses`].
 
-use super::super::Bounds;
+use super::super::boxes::Bounds;
 use super::build::{BinKind, BinNode, CollapsePlan, NODE_COST, PACK_COST, binary_tree};
 use super::{EMPTY, LEAF_BIT, MAX_LEAF, Node, WIDTH, WideBvh, leaf_parts, pack_count};
 
