@@ -594,6 +594,21 @@ fn bounce_rays(
     rays
 }
 
+/// `occluded` agrees with brute force on each ray `(origin, dir, t_max)`.
+fn check_occluded_against_brute_force(
+    mesh: &TriangleMesh,
+    accel: &Accel,
+    rays: impl Iterator<Item = ([f32; 3], [f32; 3], f32)>,
+) {
+    for (origin, dir, t_max) in rays {
+        assert_eq!(
+            accel.occluded(origin, dir, t_max),
+            brute_force_any(mesh, origin, dir, t_max),
+            "{origin:?} {dir:?} {t_max}"
+        );
+    }
+}
+
 #[test]
 fn default_car_agrees_with_brute_force_on_camera_and_bounce_rays() {
     let mesh = coatlab_core::scene::car::generate(&Default::default()).mesh;
@@ -603,13 +618,7 @@ fn default_car_agrees_with_brute_force_on_camera_and_bounce_rays() {
     rays.extend(bounce_rays(&mesh, 1200, 12, false));
     check_against_brute_force(&mesh, &accel, &rays);
     // Any hit against brute force directly (not only against closest_hit).
-    for &(origin, dir, t_max) in &rays {
-        assert_eq!(
-            accel.occluded(origin, dir, t_max),
-            brute_force_any(&mesh, origin, dir, t_max),
-            "{origin:?} {dir:?} {t_max}"
-        );
-    }
+    check_occluded_against_brute_force(&mesh, &accel, rays.iter().copied());
 }
 
 #[test]
@@ -619,15 +628,10 @@ fn torus_bounce_and_shadow_rays_agree_with_brute_force() {
     accel.validate().expect("valid tree");
     let rays = bounce_rays(&mesh, 3000, 13, true);
     check_against_brute_force(&mesh, &accel, &rays);
-    for &(origin, dir, _) in &rays {
-        for t_max in [0.05, 0.5, 3.0] {
-            assert_eq!(
-                accel.occluded(origin, dir, t_max),
-                brute_force_any(&mesh, origin, dir, t_max),
-                "{origin:?} {dir:?} {t_max}"
-            );
-        }
-    }
+    let shadow_rays = rays
+        .iter()
+        .flat_map(|&(origin, dir, _)| [0.05, 0.5, 3.0].map(|t_max| (origin, dir, t_max)));
+    check_occluded_against_brute_force(&mesh, &accel, shadow_rays);
 }
 
 #[test]
