@@ -2,13 +2,14 @@
 //! folder (reference, table between the markers, plot, presets), bad input, and
 //! malformed command lines that must be refused, never panic.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
+#[path = "../../tests/common/outcome.rs"]
+mod outcome;
 
-/// Exit statuses of the xtask (those of `coatlab`, README "Exit status").
-const USAGE: i32 = 2;
-const DATA: i32 = 65;
-const NO_INPUT: i32 = 66;
+use std::path::PathBuf;
+use std::process::Command;
+
+use outcome::exit::{DATA, NO_INPUT, USAGE};
+use outcome::{failure, stdout};
 
 fn xtask(args: &[&str]) -> Command {
     let mut command = Command::new(env!("CARGO_BIN_EXE_xtask"));
@@ -21,29 +22,6 @@ fn dir(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("temp dir");
     dir
-}
-
-fn stdout(output: &Output) -> String {
-    assert!(
-        output.status.success(),
-        "xtask failed: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    String::from_utf8(output.stdout.clone()).expect("UTF-8 output")
-}
-
-/// The stderr of a run that must have failed with exactly `code`, printed no
-/// panic, and said why.
-fn failure(output: &Output, code: i32) -> String {
-    let stderr = String::from_utf8(output.stderr.clone()).expect("UTF-8 stderr");
-    assert_eq!(
-        output.status.code(),
-        Some(code),
-        "expected exit status {code}; stderr: {stderr}"
-    );
-    assert!(!stderr.contains("panicked"), "{stderr}");
-    assert!(!stderr.trim().is_empty(), "a failure says why");
-    stderr
 }
 
 #[test]
