@@ -12,6 +12,7 @@ use coatlab_core::accel::{
 use coatlab_core::scene::TriangleMesh;
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
+use glam::Vec3;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 
@@ -87,6 +88,12 @@ fn lamborghini() -> Option<TriangleMesh> {
 mod support_torus;
 use support_torus::torus;
 
+/// The unnormalised geometric normal `(b − a) × (c − a)` of a triangle.
+fn normal(a: [f32; 3], b: [f32; 3], c: [f32; 3]) -> [f32; 3] {
+    let [a, b, c] = [a, b, c].map(Vec3::from);
+    (b - a).cross(c - a).to_array()
+}
+
 /// Closest hit over every triangle, with the accel's own triangle test.
 fn brute_force(mesh: &TriangleMesh, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> Option<Hit> {
     let mut best: Option<Hit> = None;
@@ -144,13 +151,7 @@ fn random_rays(mesh: &TriangleMesh, count: usize, seed: u64) -> Vec<([f32; 3], [
                 let (u, v) = (rng.random::<f32>() * 0.5, rng.random::<f32>() * 0.5);
                 let p: [f32; 3] =
                     std::array::from_fn(|k| a[k] + u * (b[k] - a[k]) + v * (c[k] - a[k]));
-                let e1: [f32; 3] = std::array::from_fn(|k| b[k] - a[k]);
-                let e2: [f32; 3] = std::array::from_fn(|k| c[k] - a[k]);
-                let n = [
-                    e1[1] * e2[2] - e1[2] * e2[1],
-                    e1[2] * e2[0] - e1[0] * e2[2],
-                    e1[0] * e2[1] - e1[1] * e2[0],
-                ];
+                let n = normal(a, b, c);
                 let d = unit(&mut rng);
                 let side = if d.iter().zip(&n).map(|(x, y)| x * y).sum::<f32>() >= 0.0 {
                     n
@@ -557,11 +558,7 @@ fn bounce_rays(
         let [a, b, c] = mesh.triangles[t].map(|v| mesh.positions[v as usize]);
         let e1: [f32; 3] = std::array::from_fn(|k| b[k] - a[k]);
         let e2: [f32; 3] = std::array::from_fn(|k| c[k] - a[k]);
-        let n = [
-            e1[1] * e2[2] - e1[2] * e2[1],
-            e1[2] * e2[0] - e1[0] * e2[2],
-            e1[0] * e2[1] - e1[1] * e2[0],
-        ];
+        let n = normal(a, b, c);
         let l = n.iter().map(|x| x * x).sum::<f32>().sqrt();
         if l == 0.0 || !l.is_finite() {
             continue;
