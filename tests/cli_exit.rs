@@ -706,41 +706,6 @@ fn render_cases(
     cases
 }
 
-fn bench_cases(dir: &Path) -> Vec<Case> {
-    let cache = dir.join("cache");
-    let cache = cache.to_str().expect("UTF-8");
-    let doc = dir.join("t.md");
-    let doc = doc.to_str().expect("UTF-8");
-    [
-        &["bench"][..],
-        &["bench", "reference", "--spp", "0", "--cache", cache],
-        &["bench", "reference", "--spp", "1", "--cache", cache],
-        &["bench", "reference", "--size", "0x0", "--cache", cache],
-        &["bench", "reference", "--size", "NaN", "--cache", cache],
-        &[
-            "bench",
-            "reference",
-            "--scene",
-            "/nonexistent.glb",
-            "--cache",
-            cache,
-        ],
-        &[
-            "bench",
-            "tradeoff",
-            "--gltf",
-            "/nonexistent.glb",
-            "--doc",
-            doc,
-        ],
-        &["bench", "tradeoff", "--quick", "--quick"],
-        &["bench", "frobnicate"],
-    ]
-    .iter()
-    .map(|args| Case::new(format!("{args:?}"), args))
-    .collect()
-}
-
 fn top_level_cases() -> Vec<Case> {
     [
         &["--frobnicate"][..],
@@ -780,7 +745,6 @@ fn no_input_makes_any_command_panic() {
     cases.extend(gloss_cases());
     cases.extend(measure_cases(&designs, &dir));
     cases.extend(render_cases(&dir, &designs, &maps, &scenes));
-    cases.extend(bench_cases(&dir));
     cases.extend(top_level_cases());
 
     // A few processes at a time: most of a case is starting the binary.

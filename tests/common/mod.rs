@@ -1,8 +1,13 @@
 //! Helpers shared by the end-to-end tests of the `coatlab` binary.
 #![allow(dead_code)] // each test crate uses its own subset
 
+mod outcome;
+
 use std::io::Write;
 use std::process::{Command, Output, Stdio};
+
+#[allow(unused_imports)] // each test crate uses its own subset
+pub use outcome::{exit, failure, stdout};
 
 pub fn coatlab(args: &[&str], stdin: &str) -> Output {
     let mut child = Command::new(env!("CARGO_BIN_EXE_coatlab"))
@@ -24,38 +29,6 @@ pub fn coatlab(args: &[&str], stdin: &str) -> Output {
     let output = child.wait_with_output().expect("coatlab finishes");
     feeder.join().expect("the stdin feeder does not panic");
     output
-}
-
-pub fn stdout(output: &Output) -> String {
-    assert!(
-        output.status.success(),
-        "coatlab failed: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    String::from_utf8(output.stdout.clone()).expect("UTF-8 output")
-}
-
-/// The exit statuses of `coatlab` (README, "Exit status").
-pub mod exit {
-    pub const USAGE: i32 = 2;
-    pub const DATA: i32 = 65;
-    pub const NO_INPUT: i32 = 66;
-    pub const CANT_CREATE: i32 = 73;
-    pub const BROKEN_PIPE: i32 = 141;
-}
-
-/// The stderr of a run that must have failed with exactly `code` (a panic's 101,
-/// a signal or another class fails the test), printed no panic, and said why.
-pub fn failure(output: &Output, code: i32) -> String {
-    let stderr = String::from_utf8(output.stderr.clone()).expect("UTF-8 stderr");
-    assert_eq!(
-        output.status.code(),
-        Some(code),
-        "expected exit status {code}; stderr: {stderr}"
-    );
-    assert!(!stderr.contains("panicked"), "{stderr}");
-    assert!(!stderr.trim().is_empty(), "a failure says why");
-    stderr
 }
 
 /// A CSV text split into its header and rows (no quoting: the commands write none).

@@ -56,9 +56,6 @@ enum Command {
     Gloss(cmd::gloss::GlossArgs),
     /// Render a design on a car (progressive spectral path tracer) to PNG or EXR.
     Render(cmd::render::RenderArgs),
-    /// Reference renders and the speed/accuracy sweep (docs/tradeoff.md).
-    #[command(subcommand)]
-    Bench(cmd::bench::BenchCommand),
 }
 
 fn main() -> ExitCode {
@@ -75,7 +72,6 @@ fn main() -> ExitCode {
         Command::Measure(args) => cmd::measure::run(args, &mut stdout),
         Command::Gloss(args) => cmd::gloss::run(args, &mut stdout),
         Command::Render(args) => cmd::render::run(args, &mut stdout),
-        Command::Bench(command) => cmd::bench::run(command, &mut stdout),
     }
     .and_then(|()| stdout.flush().or_fail(Failure::Io));
     let Err(err) = result else {

@@ -58,6 +58,7 @@ use coatlab_core::scene::TriangleMesh;
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
 use criterion::{BenchmarkId, Criterion, Throughput};
+use glam::Vec3;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
@@ -162,54 +163,33 @@ fn meshes() -> Vec<(String, TriangleMesh)> {
     out
 }
 
-fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn normalise(a: [f32; 3]) -> [f32; 3] {
-    let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
-    [a[0] / l, a[1] / l, a[2] / l]
-}
-
 /// Pinhole camera: eye and, per pixel, a unit direction.
 struct Camera {
     eye: [f32; 3],
-    forward: [f32; 3],
-    right: [f32; 3],
-    up: [f32; 3],
+    forward: Vec3,
+    right: Vec3,
+    up: Vec3,
     tan_half: f32,
 }
 
 impl Camera {
     /// Raised front three-quarter view of the mesh's bounds.
     fn three_quarter(mesh: &TriangleMesh) -> Camera {
-        let (lo, hi) = mesh.bounds().expect("non-empty mesh");
-        let centre = [
-            0.5 * (lo[0] + hi[0]),
-            0.5 * (lo[1] + hi[1]),
-            0.5 * (lo[2] + hi[2]),
-        ];
-        let d = sub(hi, lo);
-        let radius = 0.5 * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let (lo, hi) = mesh
+            .bounds()
+            .map(|(lo, hi)| (Vec3::from(lo), Vec3::from(hi)))
+            .expect("non-empty mesh");
+        let centre = 0.5 * (lo + hi);
+        let radius = 0.5 * (hi - lo).length();
         let tan_half = (22.5f32).to_radians().tan();
-        let view = normalise([1.0, 0.55, 1.3]);
+        let view = Vec3::new(1.0, 0.55, 1.3).normalize();
         let distance = 1.05 * radius / tan_half;
-        let eye = [
-            centre[0] + distance * view[0],
-            centre[1] + distance * view[1],
-            centre[2] + distance * view[2],
-        ];
-        let forward = normalise(sub(centre, eye));
-        let right = normalise(cross(forward, [0.0, 1.0, 0.0]));
-        let up = cross(right, forward);
+        let eye = centre + distance * view;
+        let forward = (centre - eye).normalize();
+        let right = forward.cross(Vec3::Y).normalize();
+        let up = right.cross(forward);
         Camera {
-            eye,
+            eye: eye.to_array(),
             forward,
             right,
             up,
@@ -226,9 +206,9 @@ impl Camera {
         let aspect = width as f32 / height as f32;
         let sx = (2.0 * (x as f32 + 0.5) / width as f32 - 1.0) * self.tan_half * aspect;
         let sy = (1.0 - 2.0 * (y as f32 + 0.5) / height as f32) * self.tan_half;
-        normalise(std::array::from_fn(|k| {
-            self.forward[k] + sx * self.right[k] + sy * self.up[k]
-        }))
+        (self.forward + sx * self.right + sy * self.up)
+            .normalize()
+            .to_array()
     }
 }
 
@@ -245,36 +225,32 @@ fn incoherent_rays(mesh: &TriangleMesh, count: usize, seed: u64) -> Vec<([f32; 3
     while rays.len() < count {
         let pick = rng.random::<f64>() * total;
         let t = cdf.partition_point(|&c| c < pick).min(cdf.len() - 1);
-        let [a, b, c] = mesh.triangles[t].map(|i| mesh.positions[i as usize]);
-        let n = cross(sub(b, a), sub(c, a));
-        if n == [0.0; 3] {
+        let [a, b, c] = mesh.triangles[t].map(|i| Vec3::from(mesh.positions[i as usize]));
+        let n = (b - a).cross(c - a);
+        if n == Vec3::ZERO {
             continue;
         }
-        let n = normalise(n);
+        let n = n.normalize();
         let (mut u, mut v) = (rng.random::<f32>(), rng.random::<f32>());
         if u + v > 1.0 {
             (u, v) = (1.0 - u, 1.0 - v);
         }
-        let p: [f32; 3] = std::array::from_fn(|k| a[k] + u * (b[k] - a[k]) + v * (c[k] - a[k]));
+        let p = a + u * (b - a) + v * (c - a);
         let dir = cosine_about(n, &mut rng);
-        rays.push((offset_ray_origin(p, n), dir));
+        rays.push((offset_ray_origin(p.to_array(), n.to_array()), dir));
     }
     rays
 }
 
 /// A cosine-distributed unit direction about the unit normal `n`.
-fn cosine_about(n: [f32; 3], rng: &mut Pcg64) -> [f32; 3] {
+fn cosine_about(n: Vec3, rng: &mut Pcg64) -> [f32; 3] {
     let (r1, r2) = (rng.random::<f32>(), rng.random::<f32>());
     let (r, phi) = (r1.sqrt(), 2.0 * PI * r2);
-    let helper = if n[0].abs() > 0.9 {
-        [0.0, 1.0, 0.0]
-    } else {
-        [1.0, 0.0, 0.0]
-    };
-    let tx = normalise(cross(helper, n));
-    let ty = cross(n, tx);
+    let helper = if n.x.abs() > 0.9 { Vec3::Y } else { Vec3::X };
+    let tx = helper.cross(n).normalize();
+    let ty = n.cross(tx);
     let (lx, ly, lz) = (r * phi.cos(), r * phi.sin(), (1.0 - r1).max(0.0).sqrt());
-    normalise(std::array::from_fn(|k| lx * tx[k] + ly * ty[k] + lz * n[k]))
+    (lx * tx + ly * ty + lz * n).normalize().to_array()
 }
 
 /// The tracer's first bounce as it issues it: camera rays of a 1920×1080 image in
@@ -300,16 +276,16 @@ fn image_order_bounces(
                     let Some(hit) = accel.closest_hit(camera.eye, dir, f32::INFINITY) else {
                         continue;
                     };
-                    let [a, b, c] =
-                        mesh.triangles[hit.triangle as usize].map(|i| mesh.positions[i as usize]);
-                    let mut n = normalise(cross(sub(b, a), sub(c, a)));
-                    if n.iter().zip(&dir).map(|(p, q)| p * q).sum::<f32>() > 0.0 {
-                        n = n.map(|x| -x);
+                    let [a, b, c] = mesh.triangles[hit.triangle as usize]
+                        .map(|i| Vec3::from(mesh.positions[i as usize]));
+                    let mut n = (b - a).cross(c - a).normalize();
+                    if n.dot(Vec3::from(dir)) > 0.0 {
+                        n = -n;
                     }
                     let [u, v] = hit.barycentric;
-                    let p: [f32; 3] =
-                        std::array::from_fn(|k| a[k] + u * (b[k] - a[k]) + v * (c[k] - a[k]));
-                    rays.push((offset_ray_origin(p, n), cosine_about(n, &mut rng)));
+                    let p = a + u * (b - a) + v * (c - a);
+                    let origin = offset_ray_origin(p.to_array(), n.to_array());
+                    rays.push((origin, cosine_about(n, &mut rng)));
                 }
             }
         }
@@ -560,25 +536,13 @@ fn batch_comparison() {
                 *h = accel.closest_hit(q.origin, q.dir, q.t_max);
             }
         }),
-        ("batch, 2 lanes", |a, r, h| {
-            a.closest_hits_in_lanes::<2>(r, h)
-        }),
-        ("batch, 4 lanes", |a, r, h| {
-            a.closest_hits_in_lanes::<4>(r, h)
-        }),
-        ("batch, 8 lanes", |a, r, h| {
-            a.closest_hits_in_lanes::<8>(r, h)
-        }),
-        ("batch, 12 lanes", |a, r, h| {
-            a.closest_hits_in_lanes::<12>(r, h)
-        }),
-        ("batch, 16 lanes", |a, r, h| {
-            a.closest_hits_in_lanes::<16>(r, h)
-        }),
-        ("batch, 32 lanes", |a, r, h| {
-            a.closest_hits_in_lanes::<32>(r, h)
-        }),
-        ("closest_hits", |a, r, h| a.closest_hits(r, h)),
+        ("batch, 2 lanes", Accel::closest_hits_in_lanes::<2>),
+        ("batch, 4 lanes", Accel::closest_hits_in_lanes::<4>),
+        ("batch, 8 lanes", Accel::closest_hits_in_lanes::<8>),
+        ("batch, 12 lanes", Accel::closest_hits_in_lanes::<12>),
+        ("batch, 16 lanes", Accel::closest_hits_in_lanes::<16>),
+        ("batch, 32 lanes", Accel::closest_hits_in_lanes::<32>),
+        ("closest_hits", Accel::closest_hits),
     ];
     let splits = [
         ("large triangles", ReferenceSplits::LargeTriangles),

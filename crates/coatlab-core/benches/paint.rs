@@ -17,7 +17,7 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use coatlab_core::colour::spectrum::WavelengthGrid;
-use coatlab_core::paint::coat::c_integral;
+use coatlab_core::paint::coat::{c_integral, escape_integral_scaled};
 use coatlab_core::paint::gloss::{GlossExponent, GlossGeometry, exponent_from_reading};
 use coatlab_core::paint::lobe::{
     LobeKind, NormalisationTable, phong_normalisation, sample_phong_lobe,
@@ -138,26 +138,14 @@ fn eval_benches(c: &mut Criterion) {
     let mirror = GlossSetting::Exponent(GlossExponent::Mirror);
     let reference = WavelengthGrid::reference();
     let sixteen = WavelengthGrid::visible(16).expect("16-sample grid");
-    bench_eval(
-        c,
-        "eval/81",
-        &model_with(reference, LobeKind::Normalised, reading),
-    );
-    bench_eval(
-        c,
-        "eval/16",
-        &model_with(sixteen, LobeKind::Normalised, reading),
-    );
-    bench_eval(
-        c,
-        "eval/81/paper",
-        &model_with(reference, LobeKind::Paper, reading),
-    );
-    bench_eval(
-        c,
-        "eval/81/mirror",
-        &model_with(reference, LobeKind::Normalised, mirror),
-    );
+    for (name, grid, lobe, gloss) in [
+        ("eval/81", reference, LobeKind::Normalised, reading),
+        ("eval/16", sixteen, LobeKind::Normalised, reading),
+        ("eval/81/paper", reference, LobeKind::Paper, reading),
+        ("eval/81/mirror", reference, LobeKind::Normalised, mirror),
+    ] {
+        bench_eval(c, name, &model_with(grid, lobe, gloss));
+    }
 }
 
 fn sample_benches(c: &mut Criterion) {
@@ -345,224 +333,32 @@ fn report_one_time_costs() {
     }
 }
 
-/// Diagnosis of the evaluation's cost, on copies of the renderer's tables built here
-/// from the public formulas: the current loop, a chunked rewrite, and the lobe alone.
-mod variants {
-    use coatlab_core::paint::coat::{attenuation, escape_integral_scaled};
-    use coatlab_core::paint::fresnel::{cos_refracted, reflectance, transmittance};
-    use coatlab_core::paint::lobe::phong_lobe;
-    use coatlab_core::paint::model::{MU_INTERVALS, SpectralLobe};
-
-    use super::*;
-
-    const LANES: usize = 8;
-    const MAX_PADDED: usize = 96;
-
-    fn mu_node(j: usize) -> f64 {
-        let s = j as f64 / MU_INTERVALS as f64;
-        s * s
-    }
-
-    /// The tables of `SpectralPaint` (normalised lobe), rebuilt outside the crate.
-    pub struct Tables {
-        len: usize,
-        stride: usize,
-        through: Vec<f32>,
-        fresnel: Vec<f32>,
-        body_factor: Vec<f32>,
-        m: f32,
-        normalisation: Vec<f32>,
-    }
-
-    impl Tables {
-        pub fn new(model: &PaintModel) -> Self {
-            let len = model.channels().len();
-            let stride = len.div_ceil(LANES) * LANES;
-            let (n, tau) = (model.refractive_index(), model.optical_depth());
-            let mut through = vec![0.0; stride * (MU_INTERVALS + 1)];
-            let mut fresnel = through.clone();
-            for j in 0..=MU_INTERVALS {
-                let mu = mu_node(j);
-                for i in 0..len {
-                    let t = transmittance(mu, n[i]) * attenuation(tau[i], cos_refracted(mu, n[i]));
-                    through[j * stride + i] = t as f32;
-                    fresnel[j * stride + i] = reflectance(mu, n[i]) as f32;
-                }
-            }
-            let mut body_factor = vec![0.0; stride];
-            for i in 0..len {
-                let (rho, c) = (model.albedo()[i], model.coat_integral()[i]);
-                body_factor[i] = (rho / (n[i] * n[i] * (std::f64::consts::PI - rho * c))) as f32;
-            }
-            let (m, normalisation) = match model.spectral().lobe() {
-                SpectralLobe::Normalised { m, normalisation } => (*m, normalisation.clone()),
-                _ => panic!("variants need the normalised lobe"),
-            };
-            Self {
-                len,
-                stride,
-                through,
-                fresnel,
-                body_factor,
-                m,
-                normalisation,
-            }
-        }
-
-        #[inline]
-        fn mu_position(mu: f32) -> (usize, f32) {
-            let x = mu.clamp(0.0, 1.0).sqrt() * MU_INTERVALS as f32;
-            let j = (x as usize).min(MU_INTERVALS - 1);
-            (j, x - j as f32)
-        }
-
-        #[inline]
-        fn rows<'a>(&self, table: &'a [f32], j: usize) -> (&'a [f32], &'a [f32]) {
-            let a = &table[j * self.stride..(j + 1) * self.stride];
-            let b = &table[(j + 1) * self.stride..(j + 2) * self.stride];
-            (a, b)
-        }
-
-        #[inline]
-        pub fn lobe_value(&self, wi: [f32; 3], wo: [f32; 3]) -> f32 {
-            let d = phong_lobe(wi, wo, self.m);
-            if d == 0.0 {
-                return 0.0;
-            }
-            let (j, t) = Self::mu_position(wi[2]);
-            let n = &self.normalisation;
-            d / (n[j] + t * (n[j + 1] - n[j]))
-        }
-
-        /// `SpectralPaint::eval` as it is now (normalised lobe).
-        #[inline]
-        pub fn eval_current(&self, wi: [f32; 3], wo: [f32; 3], out: &mut [f32]) {
-            let out = &mut out[..self.len];
-            if wi[2] <= 0.0 || wo[2] <= 0.0 {
-                out.fill(0.0);
-                return;
-            }
-            let lobe = self.lobe_value(wi, wo);
-            let (ji, ti) = Self::mu_position(wi[2]);
-            let (jo, to) = Self::mu_position(wo[2]);
-            let (ai0, ai1) = self.rows(&self.through, ji);
-            let (ao0, ao1) = self.rows(&self.through, jo);
-            let (ri0, ri1) = self.rows(&self.fresnel, ji);
-            let k = &self.body_factor[..];
-            let row = |i: usize| {
-                let a_i = ai0[i] + ti * (ai1[i] - ai0[i]);
-                let a_o = ao0[i] + to * (ao1[i] - ao0[i]);
-                let r_i = ri0[i] + ti * (ri1[i] - ri0[i]);
-                k[i] * a_i * a_o + r_i * lobe
-            };
-            if self.stride <= MAX_PADDED {
-                let mut padded = [0.0_f32; MAX_PADDED];
-                for (i, p) in padded[..self.stride].iter_mut().enumerate() {
-                    *p = row(i);
-                }
-                out.copy_from_slice(&padded[..self.len]);
-            } else {
-                for (i, o) in out.iter_mut().enumerate() {
-                    *o = row(i);
-                }
-            }
-        }
-    }
-
-    fn bench_variant(
-        c: &mut Criterion,
-        name: &str,
-        tables: &Tables,
-        eval: impl Fn(&Tables, [f32; 3], [f32; 3], &mut [f32]),
-    ) {
-        let pairs = direction_pairs();
-        let mut out = vec![0.0_f32; tables.len];
-        let mut k = 0_usize;
-        c.bench_function(name, |b| {
-            b.iter(|| {
-                let (wi, wo) = pairs[k % PAIRS];
-                k = k.wrapping_add(1);
-                eval(
-                    tables,
-                    black_box(wi),
-                    black_box(wo),
-                    black_box(&mut out[..]),
-                );
-            })
-        });
-    }
-
-    pub fn benches(c: &mut Criterion) {
-        let reading = GlossSetting::Reading {
-            gu: GLOSS_GU,
-            geometry: GlossGeometry::Deg20,
-        };
-        for grid in [
-            WavelengthGrid::reference(),
-            WavelengthGrid::visible(16).expect("16-sample grid"),
-        ] {
-            let model = model_with(grid, LobeKind::Normalised, reading);
-            let tables = Tables::new(&model);
-            let len = grid.len();
-            // The old closure-based loop must compute exactly what the library's
-            // chunked loop computes, so the two timings compare like with like
-            // (`eval/81` in the same run is the library's).
-            let (mut want, mut a) = (vec![0.0; len], vec![0.0; len]);
-            for (wi, wo) in direction_pairs() {
-                model.spectral().eval(wi, wo, &mut want);
-                tables.eval_current(wi, wo, &mut a);
-                assert_eq!(want, a, "replica of the old loop differs from eval");
-            }
-            bench_variant(
-                c,
-                &format!("variant/current/{len}"),
-                &tables,
-                Tables::eval_current,
-            );
-        }
-        let model = reference_model();
-        let tables = Tables::new(&model);
-        let pairs = direction_pairs();
-        let mut k = 0_usize;
-        c.bench_function("variant/lobe_only", |b| {
-            b.iter(|| {
-                let (wi, wo) = pairs[k % PAIRS];
-                k = k.wrapping_add(1);
-                tables.lobe_value(black_box(wi), black_box(wo))
-            })
-        });
-    }
-
-    /// What a thickness (or absorption) change spends its time on.
-    pub fn derive_breakdown(c: &mut Criterion) {
-        let model = reference_model();
-        let (n, tau) = (
-            model.refractive_index().to_vec(),
-            model.optical_depth().to_vec(),
-        );
-        c.bench_function("derive/coat_integrals_81", |b| {
-            b.iter(|| {
-                n.iter()
-                    .zip(&tau)
-                    .map(|(&n, &tau)| {
-                        c_integral(black_box(n), tau)
-                            + escape_integral_scaled(n, tau) * (-tau).exp()
-                    })
-                    .sum::<f64>()
-            })
-        });
-        c.bench_function("derive/c_integral_81", |b| {
-            b.iter(|| {
-                n.iter()
-                    .zip(&tau)
-                    .map(|(&n, &tau)| c_integral(black_box(n), tau))
-                    .sum::<f64>()
-            })
-        });
-        c.bench_function("derive/angular_tables_81", |b| {
-            b.iter(|| Tables::new(black_box(&model)))
-        });
-    }
+/// What a thickness (or absorption) change spends its time on: the coat's C and E
+/// integrals at 81 wavelengths, and C alone.
+fn derive_breakdown(c: &mut Criterion) {
+    let model = reference_model();
+    let (n, tau) = (
+        model.refractive_index().to_vec(),
+        model.optical_depth().to_vec(),
+    );
+    c.bench_function("derive/coat_integrals_81", |b| {
+        b.iter(|| {
+            n.iter()
+                .zip(&tau)
+                .map(|(&n, &tau)| {
+                    c_integral(black_box(n), tau) + escape_integral_scaled(n, tau) * (-tau).exp()
+                })
+                .sum::<f64>()
+        })
+    });
+    c.bench_function("derive/c_integral_81", |b| {
+        b.iter(|| {
+            n.iter()
+                .zip(&tau)
+                .map(|(&n, &tau)| c_integral(black_box(n), tau))
+                .sum::<f64>()
+        })
+    });
 }
 
 /// The best-fit Phong of the signal-red preset on the preview's 32 wavelengths:
@@ -612,8 +408,7 @@ criterion_group!(
     sample_benches,
     parameter_benches,
     table_benches,
-    variants::benches,
-    variants::derive_breakdown
+    derive_breakdown
 );
 
 fn main() {

@@ -7,8 +7,9 @@
 //!   (their position in the tree's leaf order); [`Bvh::primitive_order`] maps a slot to
 //!   the caller's index, and callers store their primitives in slot order so the
 //!   closure reads memory sequentially.
-//! - [`Accel`] is the triangle layer the tracer uses: a [`Bvh`] over a
-//!   [`TriangleMesh`] plus the triangles copied in slot order (for `Simd8`, lane by
+//! - [`Accel`] is the triangle layer the tracer uses: a [`Bvh`] over
+//!   [`Triangles`] (an indexed triangle list, which the scene hands over; the accel
+//!   knows no scene type) plus the triangles copied in slot order (for `Simd8`, lane by
 //!   lane in the packs its leaves point to), with
 //!   [`Accel::closest_hit`] (shading rays, picking) and [`Accel::occluded`] (any hit,
 //!   for shadow rays), and [`Accel::closest_hits`], the same closest-hit queries for a
@@ -16,12 +17,21 @@
 //!   (bit for bit the single-ray results; about 1.5 times the rays per second on
 //!   incoherent rays, see docs/benchmarks.md).
 //!
-//! Layouts ([`BvhLayout`]): the default, `Simd8`, is our own CPU-first 8-wide BVH
-//! (binned-SAH build, f32 child boxes tested 8 at a time, leaves of up to 8
-//! triangles tested 8 at a time, ordered traversal and a separate any-hit
-//! traversal; see `accel/wide.rs`); obvhs's compressed 8-wide `CwBvh` (`Wide8`) and
-//! binary `Bvh2` (`Binary`) are kept for comparison. `docs/benchmarks.md`
-//! ("Acceleration structure") has the measurements behind the choice.
+//! Layouts ([`BvhLayout`]): `Simd8`, our own CPU-first 8-wide BVH (binned-SAH
+//! build, f32 child boxes tested 8 at a time, leaves of up to 8 triangles tested 8
+//! at a time, ordered traversal and a separate any-hit traversal; see
+//! `accel/wide.rs`), is the one the library ships. With the feature
+//! `bvh-experiments` (which the tests and benches turn on), obvhs's compressed
+//! 8-wide `CwBvh` (`Wide8`) and binary `Bvh2` (`Binary`) are there to compare
+//! against (`accel/obvhs_layouts.rs`), with the other experiment code (`experiments`).
+//! `docs/benchmarks.md` ("Acceleration structure") has the measurements behind the
+//! choice.
+//!
+//! Files, each importing only those below it: this one (the triangle layer);
+//! `bvh.rs` (the box layer); `split.rs` (reference splitting before the build);
+//! `wide.rs` and `wide/` (the `Simd8` tree: traversal, build, the collapse it
+//! replaced); `obvhs_layouts.rs`; `options.rs` (build options); `triangle.rs` (the
+//! watertight test on packs of triangles); `boxes.rs` (boxes, scalar and SIMD).
 //!
 //! # Rays and the epsilon policy
 //!
@@ -65,521 +75,40 @@
 //! so its depth stays logarithmic, and its stack spills to the heap if ever needed.
 
 mod boxes;
+mod bvh;
+#[cfg(feature = "bvh-experiments")]
+mod obvhs_layouts;
+mod options;
 mod split;
+#[cfg(test)]
+mod test_support;
 mod triangle;
 mod wide;
 
-use std::panic::{AssertUnwindSafe, catch_unwind};
-use std::time::Duration;
-
 use glam::Vec3A;
-use obvhs::{
-    BvhBuildParams,
-    aabb::Aabb,
-    bvh2::{Bvh2, builder::build_bvh2, reinsertion::ReinsertionOptimizer},
-    cwbvh::{CwBvh, bvh2_to_cwbvh::bvh2_to_cwbvh},
-    ploc::PlocBuilder,
-    ray::RayHit,
-};
 
-use crate::scene::TriangleMesh;
+use bvh::Tree;
 use triangle::{ShearedRay, TrianglePack};
-use wide::{BoxRay, PACK, TopNode, Traversal, WideBvh, pack_count, prefetch};
+use wide::{BoxRay, PACK, Traversal, prefetch};
 
-pub use obvhs::ray::Ray;
+pub use boxes::Bounds;
+pub use bvh::{AccelError, Bvh, Ray};
+pub use options::{BuildOptions, BuildQuality, BvhLayout, ReferenceSplits};
 
-/// An axis-aligned box, metres.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Bounds {
-    pub min: [f32; 3],
-    pub max: [f32; 3],
+/// Experiment and comparison code, out of the shipped library (feature
+/// `bvh-experiments`; the layouts `Wide8` and `Binary` and
+/// [`Accel::closest_hits_in_lanes`] come with it).
+#[cfg(feature = "bvh-experiments")]
+pub mod experiments {
+    pub use super::wide::largest_child::{CollapseCosts, compare_collapses};
 }
 
-impl Bounds {
-    /// The smallest box holding all `points`; `None` for none.
-    pub fn from_points(points: &[[f32; 3]]) -> Option<Bounds> {
-        let first = *points.first()?;
-        let mut bounds = Bounds {
-            min: first,
-            max: first,
-        };
-        for p in &points[1..] {
-            bounds.min = std::array::from_fn(|k| bounds.min[k].min(p[k]));
-            bounds.max = std::array::from_fn(|k| bounds.max[k].max(p[k]));
-        }
-        Some(bounds)
-    }
-
-    /// Whether all six coordinates are finite.
-    pub fn is_finite(&self) -> bool {
-        self.min.iter().chain(&self.max).all(|x| x.is_finite())
-    }
-
-    /// Whether `other` lies inside this box (boundaries included).
-    pub fn contains(&self, other: &Bounds) -> bool {
-        (0..3).all(|k| self.min[k] <= other.min[k] && other.max[k] <= self.max[k])
-    }
-
-    fn to_aabb(self) -> Aabb {
-        Aabb::new(self.min.into(), self.max.into())
-    }
-}
-
-/// Tree layout.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum BvhLayout {
-    /// Our own 8-wide BVH (`accel/wide.rs`): binned-SAH binary build collapsed to 8
-    /// children per 224-byte node, f32 child boxes tested 8 at a time, leaves of up to
-    /// 8 triangles stored lane by lane (one pack) for the watertight test; ordered
-    /// closest-hit and separate any-hit traversal. Through [`Accel`], triangles far
-    /// larger than the average enter the tree as several references
-    /// (`accel/split.rs`). The `quality` sets the SAH bins per axis.
-    Simd8,
-    /// obvhs's compressed wide BVH: 8 children per 80-byte node, child boxes quantised
-    /// to 8 bits, traversed 4 boxes at a time with SIMD; up to 3 triangles per leaf.
-    Wide8,
-    /// obvhs's binary BVH (one box per node, up to 8 triangles per leaf after the
-    /// collapse pass). Simpler, and editable in place, but slower to traverse.
-    Binary,
-}
-
-/// Build quality. Slower builds give trees that traverse faster. For the obvhs
-/// layouts these are obvhs's presets; for `Simd8` the number of SAH bins per axis
-/// (8, 16, 32, 64).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum BuildQuality {
-    /// obvhs: PLOC with the smallest search radius, no reinsertion, one primitive per
-    /// leaf. `Simd8`: 8 bins.
-    Fastest,
-    /// obvhs: PLOC search radius "low", 2 % reinsertion. `Simd8`: 16 bins. The
-    /// interactive default.
-    Fast,
-    /// obvhs: PLOC search radius "medium", 5 % reinsertion ("about Embree's build
-    /// time"). `Simd8`: 32 bins.
-    Medium,
-    /// obvhs: PLOC search radius "high", 20 % reinsertion, 128-bit Morton codes
-    /// (spatial pre-splits of the preset are not used: the builder sees boxes, not
-    /// triangles). `Simd8`: 64 bins.
-    Slow,
-}
-
-impl BuildQuality {
-    fn params(self) -> BvhBuildParams {
-        match self {
-            BuildQuality::Fastest => BvhBuildParams::fastest_build(),
-            BuildQuality::Fast => BvhBuildParams::fast_build(),
-            BuildQuality::Medium => BvhBuildParams::medium_build(),
-            BuildQuality::Slow => BvhBuildParams::slow_build(),
-        }
-    }
-
-    fn sah_bins(self) -> usize {
-        match self {
-            BuildQuality::Fastest => 8,
-            BuildQuality::Fast => 16,
-            BuildQuality::Medium => 32,
-            BuildQuality::Slow => 64,
-        }
-    }
-}
-
-/// Which triangles [`Accel`] cuts into several references for `Simd8`
-/// (`accel/split.rs`; measured in docs/benchmarks.md, "Acceleration structure").
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ReferenceSplits {
-    /// Triangles far larger than the average, halved at the middle of the widest
-    /// axis until small enough (almost free to build).
-    LargeTriangles,
-    /// As `LargeTriangles`, then spatial splits where the SAH prefers them to the
-    /// best object split, down to nodes of 64 references, at most 30 % more
-    /// references (SBVH-style, on `threads` threads, the same result for any
-    /// count); its partition is kept as the top of the tree. The default: on the
-    /// Lamborghini ×1.13–1.30 the rays per second, at about 1.7 times the
-    /// build's time, still within the 150 ms build target on two threads
-    /// (docs/benchmarks.md, "Spatial splits"); no loss on the default car or the
-    /// torus. Real car models are Lamborghini-like
-    /// (long, thin, overlapping triangles), and a preview traces one tree for
-    /// seconds to minutes.
-    Spatial,
-}
-
-/// How to build a [`Bvh`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct BuildOptions {
-    pub layout: BvhLayout,
-    pub quality: BuildQuality,
-    /// Which triangles are cut into several references (`Simd8` through
-    /// [`Accel`] only).
-    pub reference_splits: ReferenceSplits,
-    /// Threads for the `Simd8` build (scoped threads of its own, each subtree of
-    /// 4096 or more primitives split between two); 0 for
-    /// `std::thread::available_parallelism`. The obvhs layouts build on rayon's
-    /// current thread pool regardless.
-    pub threads: usize,
-}
-
-impl BuildOptions {
-    /// `threads`, with 0 resolved.
-    fn build_threads(&self) -> usize {
-        match self.threads {
-            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
-            n => n,
-        }
-    }
-}
-
-impl Default for BuildOptions {
-    /// `Simd8` with `Fast` and spatial splits: see docs/benchmarks.md,
-    /// "Acceleration structure".
-    fn default() -> Self {
-        BuildOptions {
-            layout: BvhLayout::Simd8,
-            quality: BuildQuality::Fast,
-            reference_splits: ReferenceSplits::Spatial,
-            threads: 0,
-        }
-    }
-}
-
-/// Why a structure could not be built.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum AccelError {
-    #[error("primitive {index} has a non-finite bounding box {bounds:?}")]
-    NonFiniteBox { index: usize, bounds: Bounds },
-    #[error("triangle {triangle} has a non-finite vertex {vertex} at {position:?}")]
-    NonFiniteVertex {
-        triangle: usize,
-        vertex: u32,
-        position: [f32; 3],
-    },
-    #[error(
-        "triangle {triangle} refers to vertex {vertex}, but the mesh has {vertex_count} vertices"
-    )]
-    VertexOutOfRange {
-        triangle: usize,
-        vertex: u32,
-        vertex_count: usize,
-    },
-    #[error("{count} primitives: more than a BVH with u32 indices can hold")]
-    TooManyPrimitives { count: usize },
-}
-
-#[derive(Clone)]
-enum Tree {
-    Empty,
-    Wide(CwBvh),
-    Binary(Bvh2),
-    Simd8(WideBvh),
-}
-
-/// A bounding volume hierarchy over boxes; see the module documentation.
-#[derive(Clone)]
-pub struct Bvh {
-    tree: Tree,
-    options: BuildOptions,
-    bounds: Option<Bounds>,
-}
-
-impl std::fmt::Debug for Bvh {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Bvh")
-            .field("options", &self.options)
-            .field("primitives", &self.len())
-            .field("nodes", &self.node_count())
-            .field("bounds", &self.bounds)
-            .finish()
-    }
-}
-
-impl Bvh {
-    /// Builds the tree over `boxes` (one per primitive; empty or flat boxes are fine,
-    /// non-finite ones are refused).
-    pub fn build(boxes: &[Bounds], options: &BuildOptions) -> Result<Bvh, AccelError> {
-        Bvh::build_below(boxes, &[], options)
-    }
-
-    /// [`Bvh::build`] below a given top of the tree (`Simd8` only, else ignored; see
-    /// [`WideBvh::build`]).
-    fn build_below(
-        boxes: &[Bounds],
-        top: &[TopNode],
-        options: &BuildOptions,
-    ) -> Result<Bvh, AccelError> {
-        if u32::try_from(boxes.len()).is_err() {
-            return Err(AccelError::TooManyPrimitives { count: boxes.len() });
-        }
-        if let Some(index) = boxes.iter().position(|b| !b.is_finite()) {
-            return Err(AccelError::NonFiniteBox {
-                index,
-                bounds: boxes[index],
-            });
-        }
-        let mut bounds: Option<Bounds> = None;
-        for b in boxes {
-            bounds = Some(match bounds {
-                None => *b,
-                Some(acc) => Bounds::from_points(&[acc.min, acc.max, b.min, b.max]).unwrap_or(acc),
-            });
-        }
-        if boxes.is_empty() {
-            return Ok(Bvh {
-                tree: Tree::Empty,
-                options: *options,
-                bounds: None,
-            });
-        }
-        if options.layout == BvhLayout::Simd8 {
-            return Ok(Bvh {
-                tree: Tree::Simd8(WideBvh::build(
-                    boxes,
-                    top,
-                    options.quality.sah_bins(),
-                    options.build_threads(),
-                )),
-                options: *options,
-                bounds,
-            });
-        }
-        let aabbs: Vec<Aabb> = boxes.iter().map(|b| b.to_aabb()).collect();
-        let params = options.quality.params();
-        let mut core_time = Duration::ZERO;
-        let wide = match options.layout {
-            BvhLayout::Wide8 => build_wide(&aabbs, &params),
-            BvhLayout::Binary | BvhLayout::Simd8 => None,
-        };
-        let (tree, layout) = match wide {
-            Some(wide) => (Tree::Wide(wide), BvhLayout::Wide8),
-            None => (
-                Tree::Binary(build_bvh2(&aabbs, params, &mut core_time)),
-                BvhLayout::Binary,
-            ),
-        };
-        Ok(Bvh {
-            tree,
-            options: BuildOptions { layout, ..*options },
-            bounds,
-        })
-    }
-
-    /// Number of primitives.
-    pub fn len(&self) -> usize {
-        self.primitive_order().len()
-    }
-
-    /// Whether the tree holds no primitive.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    /// Number of tree nodes (8-wide or binary, per the layout).
-    pub fn node_count(&self) -> usize {
-        match &self.tree {
-            Tree::Empty => 0,
-            Tree::Wide(t) => t.nodes.len(),
-            Tree::Binary(t) => t.nodes.len(),
-            Tree::Simd8(t) => t.node_count(),
-        }
-    }
-
-    /// The options it was built with.
-    pub fn options(&self) -> BuildOptions {
-        self.options
-    }
-
-    /// Bounds of all primitives; `None` when empty.
-    pub fn bounds(&self) -> Option<Bounds> {
-        self.bounds
-    }
-
-    /// The caller's primitive index for each slot.
-    pub fn primitive_order(&self) -> &[u32] {
-        match &self.tree {
-            Tree::Empty => &[],
-            Tree::Wide(t) => &t.primitive_indices,
-            Tree::Binary(t) => &t.primitive_indices,
-            Tree::Simd8(t) => t.order(),
-        }
-    }
-
-    /// Closest hit: `intersect(ray, slot)` returns the hit distance of that primitive
-    /// within `(ray.tmin, ray.tmax)` or `f32::INFINITY`; `ray.tmax` shrinks as hits are
-    /// found. Returns the slot and distance of the closest hit.
-    #[inline]
-    pub fn closest<F: FnMut(&Ray, usize) -> f32>(
-        &self,
-        ray: Ray,
-        intersect: F,
-    ) -> Option<(usize, f32)> {
-        let mut hit = RayHit::none();
-        let found = match &self.tree {
-            Tree::Empty => false,
-            Tree::Wide(t) => t.ray_traverse(ray, &mut hit, intersect),
-            Tree::Binary(t) => t.ray_traverse(ray, &mut hit, intersect),
-            Tree::Simd8(t) => return simd8_closest(t, ray, intersect),
-        };
-        found.then_some((hit.primitive_id as usize, hit.t))
-    }
-
-    /// Any hit: whether some primitive reports a distance below `ray.tmax`; stops at the
-    /// first one.
-    #[inline]
-    pub fn any<F: FnMut(&Ray, usize) -> f32>(&self, ray: Ray, intersect: F) -> bool {
-        match &self.tree {
-            Tree::Empty => false,
-            Tree::Wide(t) => !t.ray_traverse_miss(ray, intersect),
-            Tree::Binary(t) => !t.ray_traverse_miss(ray, intersect),
-            Tree::Simd8(t) => simd8_any(t, ray, intersect),
-        }
-    }
-
-    /// Checks the tree against the boxes it was built from: obvhs's own validation
-    /// (every node reached once, every child box inside its parent, every primitive's
-    /// box inside its leaf, depth within the traversal stack), plus that the slots are
-    /// a permutation of the primitives and that [`Bvh::bounds`] holds every box.
-    pub fn validate(&self, boxes: &[Bounds]) -> Result<(), String> {
-        let order = self.primitive_order();
-        if order.len() != boxes.len() {
-            return Err(format!(
-                "the tree holds {} primitives, but {} boxes were given",
-                order.len(),
-                boxes.len()
-            ));
-        }
-        let mut seen = vec![false; boxes.len()];
-        for (slot, &index) in order.iter().enumerate() {
-            match seen.get_mut(index as usize) {
-                None => {
-                    return Err(format!(
-                        "slot {slot} refers to primitive {index}, out of range"
-                    ));
-                }
-                Some(true) => return Err(format!("primitive {index} appears in two slots")),
-                Some(s) => *s = true,
-            }
-        }
-        match (self.bounds, boxes.is_empty()) {
-            (None, true) => {}
-            (None, false) => return Err("no bounds, but primitives".into()),
-            (Some(_), true) => return Err("bounds, but no primitives".into()),
-            (Some(bounds), false) => {
-                if let Some(i) = boxes.iter().position(|b| !bounds.contains(b)) {
-                    return Err(format!("primitive {i}'s box lies outside the bounds"));
-                }
-            }
-        }
-        if let Tree::Simd8(t) = &self.tree {
-            return t.validate(boxes, self.bounds);
-        }
-        let aabbs: Vec<Aabb> = boxes.iter().map(|b| b.to_aabb()).collect();
-        // obvhs's validation asserts; turn a failed assertion into an error.
-        let checked = catch_unwind(AssertUnwindSafe(|| match &self.tree {
-            Tree::Empty => {}
-            Tree::Wide(t) => {
-                t.validate(&aabbs, false);
-            }
-            Tree::Binary(t) => {
-                t.validate(&aabbs, false, false);
-            }
-            Tree::Simd8(_) => {}
-        }));
-        checked.map_err(|payload| {
-            let message = payload
-                .downcast_ref::<String>()
-                .cloned()
-                .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
-                .unwrap_or_else(|| "unknown failure".into());
-            format!("obvhs validation failed: {message}")
-        })
-    }
-}
-
-/// [`Bvh::closest`] on the `Simd8` tree, one slot at a time.
-fn simd8_closest<F: FnMut(&Ray, usize) -> f32>(
-    tree: &WideBvh,
-    mut ray: Ray,
-    mut intersect: F,
-) -> Option<(usize, f32)> {
-    let box_ray = BoxRay::new(ray.origin.into(), ray.direction.into());
-    let mut best = None;
-    tree.closest(
-        &box_ray,
-        ray.tmax,
-        |first, count, t_max| {
-            ray.tmax = t_max;
-            for slots in &tree.pack_slots()[first..first + pack_count(count)] {
-                for &slot in slots.iter().filter(|&&s| s != u32::MAX) {
-                    let t = intersect(&ray, slot as usize);
-                    if t < ray.tmax {
-                        ray.tmax = t;
-                        best = Some((slot as usize, t));
-                    }
-                }
-            }
-            ray.tmax
-        },
-        |_, _| {},
-    );
-    best
-}
-
-/// [`Bvh::any`] on the `Simd8` tree, one slot at a time.
-fn simd8_any<F: FnMut(&Ray, usize) -> f32>(tree: &WideBvh, ray: Ray, mut intersect: F) -> bool {
-    let box_ray = BoxRay::new(ray.origin.into(), ray.direction.into());
-    tree.any(
-        &box_ray,
-        ray.tmax,
-        |first, count| {
-            tree.pack_slots()[first..first + pack_count(count)]
-                .iter()
-                .flatten()
-                .any(|&slot| slot != u32::MAX && intersect(&ray, slot as usize) < ray.tmax)
-        },
-        |_, _| {},
-    )
-}
-
-/// Depth limit of obvhs's 8-wide traversal stack (`TRAVERSAL_STACK_SIZE`, private).
-const WIDE_STACK: u32 = 32;
-
-/// obvhs's `build_cwbvh` without its debug-build validation (which asserts), and
-/// `None` when the tree is too deep for the traversal stack.
-fn build_wide(aabbs: &[Aabb], params: &BvhBuildParams) -> Option<CwBvh> {
-    let mut bvh2 = PlocBuilder::with_capacity(aabbs.len()).build(
-        params.ploc_search_distance,
-        aabbs,
-        (0..aabbs.len() as u32).collect(),
-        params.sort_precision,
-        params.search_depth_threshold,
-    );
-    ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
-    let wide = bvh2_to_cwbvh(&bvh2, params.max_prims_per_leaf.clamp(1, 3), true, false);
-    (wide_depth(&wide) < WIDE_STACK).then_some(wide)
-}
-
-/// Deepest inner node of an 8-wide tree, the root at 0 (as obvhs's validation counts).
-fn wide_depth(tree: &CwBvh) -> u32 {
-    let mut deepest = 0;
-    let mut stack = vec![(0u32, 0u32)];
-    while let Some((index, depth)) = stack.pop() {
-        deepest = deepest.max(depth);
-        let Some(node) = tree.nodes.get(index as usize) else {
-            continue;
-        };
-        for child in 0..8 {
-            if !node.is_child_empty(child) && !node.is_leaf(child) {
-                stack.push((node.child_node_index(child), depth + 1));
-            }
-        }
-    }
-    deepest
-}
-
-/// A ray's hit on a triangle of the mesh.
+/// A ray's hit on one of the [`Triangles`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Hit {
     /// Distance along the ray, in units of `|dir|`.
     pub t: f32,
-    /// Index into `mesh.triangles`.
+    /// Index into [`Triangles::indices`].
     pub triangle: u32,
     /// Weights (u, v) of the triangle's second and third vertex; the first has
     /// 1 − u − v.
@@ -601,16 +130,18 @@ pub struct RayQuery {
 /// Rays a [`Accel::closest_hits`] batch keeps in flight on one thread.
 pub const BATCH_LANES: usize = 8;
 
-/// The triangle mesh's acceleration structure; see the module documentation.
+/// The acceleration structure of a set of [`Triangles`]; see the module
+/// documentation.
 #[derive(Debug, Clone)]
 pub struct Accel {
     bvh: Bvh,
     /// Triangle vertices in slot order (the obvhs layouts; empty for `Simd8`).
+    #[cfg(feature = "bvh-experiments")]
     triangles: Vec<[Vec3A; 3]>,
     /// The triangles in the packs of the `Simd8` leaves, lane ids being indices into
-    /// `mesh.triangles` (empty for the obvhs layouts).
+    /// [`Triangles::indices`] (empty for the obvhs layouts).
     packs: Vec<TrianglePack<PACK>>,
-    /// Index into `mesh.triangles` of each slot.
+    /// Index into [`Triangles::indices`] of each slot.
     mesh_triangle: Vec<u32>,
     /// Triangles in the tree (each once, however many references it has).
     triangle_count: usize,
@@ -626,21 +157,44 @@ fn triangle_bounds(t: &[Vec3A; 3]) -> Bounds {
     }
 }
 
+/// The triangles an [`Accel`] is built over: vertex positions (metres) and, for
+/// each triangle, the indices of its three vertices. Borrowed, so that a scene's
+/// mesh hands its own arrays over without a copy.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Triangles<'a> {
+    pub positions: &'a [[f32; 3]],
+    pub indices: &'a [[u32; 3]],
+}
+
+impl<'a> Triangles<'a> {
+    /// The triangles `indices` over the vertices `positions`.
+    pub fn new(positions: &'a [[f32; 3]], indices: &'a [[u32; 3]]) -> Triangles<'a> {
+        Triangles { positions, indices }
+    }
+}
+
 impl Accel {
     /// Builds with the default options ([`BuildOptions::default`]).
-    pub fn build(mesh: &TriangleMesh) -> Result<Accel, AccelError> {
-        Accel::build_with(mesh, &BuildOptions::default())
+    pub fn build<'a>(triangles: impl Into<Triangles<'a>>) -> Result<Accel, AccelError> {
+        Accel::build_with(triangles, &BuildOptions::default())
     }
 
     /// Builds with the given layout and quality.
-    pub fn build_with(mesh: &TriangleMesh, options: &BuildOptions) -> Result<Accel, AccelError> {
-        let vertex_count = mesh.positions.len();
-        let mut triangles = Vec::with_capacity(mesh.triangles.len());
-        let mut kept = Vec::with_capacity(mesh.triangles.len());
-        for (triangle, indices) in mesh.triangles.iter().enumerate() {
+    pub fn build_with<'a>(
+        triangles: impl Into<Triangles<'a>>,
+        options: &BuildOptions,
+    ) -> Result<Accel, AccelError> {
+        Accel::build_from(triangles.into(), options)
+    }
+
+    fn build_from(input: Triangles<'_>, options: &BuildOptions) -> Result<Accel, AccelError> {
+        let vertex_count = input.positions.len();
+        let mut triangles = Vec::with_capacity(input.indices.len());
+        let mut kept = Vec::with_capacity(input.indices.len());
+        for (triangle, indices) in input.indices.iter().enumerate() {
             let mut vertices = [Vec3A::ZERO; 3];
             for (v, &vertex) in vertices.iter_mut().zip(indices) {
-                let Some(&position) = mesh.positions.get(vertex as usize) else {
+                let Some(&position) = input.positions.get(vertex as usize) else {
                     return Err(AccelError::VertexOutOfRange {
                         triangle,
                         vertex,
@@ -688,35 +242,33 @@ impl Accel {
             .map(|&r| reference_triangle[r as usize])
             .collect();
         let mesh_triangle: Vec<u32> = order.iter().map(|&i| kept[i as usize]).collect();
-        let (slot_triangles, packs) = match &bvh.tree {
-            Tree::Simd8(tree) => {
-                let packs = tree
-                    .pack_slots()
-                    .iter()
-                    .map(|slots| {
-                        let mut pack = TrianglePack::empty();
-                        for (lane, &slot) in slots.iter().enumerate() {
-                            if slot != u32::MAX {
-                                let i = order[slot as usize] as usize;
-                                pack.set(lane, triangles[i].map(Into::into), kept[i]);
-                            }
+        let packs = match &bvh.tree {
+            Tree::Simd8(tree) => tree
+                .pack_slots()
+                .iter()
+                .map(|slots| {
+                    let mut pack = TrianglePack::empty();
+                    for (lane, &slot) in slots.iter().enumerate() {
+                        if slot != u32::MAX {
+                            let i = order[slot as usize] as usize;
+                            pack.set(lane, triangles[i].map(Into::into), kept[i]);
                         }
-                        pack
-                    })
-                    .collect();
-                (Vec::new(), packs)
-            }
-            _ => (
-                order.iter().map(|&i| triangles[i as usize]).collect(),
-                Vec::new(),
-            ),
+                    }
+                    pack
+                })
+                .collect(),
+            _ => Vec::new(),
         };
         Ok(Accel {
-            triangles: slot_triangles,
+            #[cfg(feature = "bvh-experiments")]
+            triangles: match &bvh.tree {
+                Tree::Obvhs(_) => order.iter().map(|&i| triangles[i as usize]).collect(),
+                _ => Vec::new(),
+            },
             packs,
             mesh_triangle,
             triangle_count: kept.len(),
-            skipped_degenerate: mesh.triangles.len() - kept.len(),
+            skipped_degenerate: input.indices.len() - kept.len(),
             bvh,
         })
     }
@@ -731,19 +283,19 @@ impl Accel {
         self.triangle_count
     }
 
-    /// For each slot of [`Accel::bvh`], the index into `mesh.triangles` of its
+    /// For each slot of [`Accel::bvh`], the index into [`Triangles::indices`] of its
     /// triangle. (With `Simd8` a large triangle may fill several slots: the tree's
     /// primitives are then references, see `accel/split.rs`.)
     pub fn slot_triangles(&self) -> &[u32] {
         &self.mesh_triangle
     }
 
-    /// Number of the mesh's zero-area triangles left out of the tree.
+    /// Number of zero-area triangles left out of the tree.
     pub fn skipped_degenerate(&self) -> usize {
         self.skipped_degenerate
     }
 
-    /// Bounds of the mesh's triangles; `None` when empty.
+    /// Bounds of the triangles in the tree; `None` when empty.
     pub fn bounds(&self) -> Option<Bounds> {
         self.bvh.bounds()
     }
@@ -777,19 +329,23 @@ impl Accel {
                 barycentric: hit.barycentric,
             });
         }
-        let ray = Ray::new(origin.into(), dir.into(), 0.0, t_max);
-        let (slot, _) = self.bvh.closest(ray, |ray, slot| {
-            sheared
-                .intersect_pack(&single(&self.triangles[slot]), ray.tmax)
-                .map_or(f32::INFINITY, |hit| hit.t)
-        })?;
-        // Barycentrics only for the winner.
-        let hit = sheared.intersect_pack(&single(&self.triangles[slot]), t_max)?;
-        Some(Hit {
-            t: hit.t,
-            triangle: self.mesh_triangle[slot],
-            barycentric: hit.barycentric,
-        })
+        self.closest_hit_by_slot(&sheared, origin, dir, t_max)
+    }
+
+    /// [`Accel::closest_hit`] where the tree is not `Simd8`: without the obvhs
+    /// layouts (feature `bvh-experiments`), only the empty tree, which nothing hits.
+    #[cfg(not(feature = "bvh-experiments"))]
+    #[inline(always)]
+    fn closest_hit_by_slot(&self, _: &ShearedRay, _: [f32; 3], _: [f32; 3], _: f32) -> Option<Hit> {
+        None
+    }
+
+    /// [`Accel::occluded`] where the tree is not `Simd8` (see
+    /// [`Accel::closest_hit_by_slot`]).
+    #[cfg(not(feature = "bvh-experiments"))]
+    #[inline(always)]
+    fn occluded_by_slot(&self, _: &ShearedRay, _: [f32; 3], _: [f32; 3], _: f32) -> bool {
+        false
     }
 
     /// [`Accel::closest_hit`] for each query of `rays`, written to the same index of
@@ -803,12 +359,22 @@ impl Accel {
     ///
     /// If `hits` is not as long as `rays`.
     pub fn closest_hits(&self, rays: &[RayQuery], hits: &mut [Option<Hit>]) {
-        self.closest_hits_in_lanes::<BATCH_LANES>(rays, hits);
+        self.closest_hits_with_lanes::<BATCH_LANES>(rays, hits);
     }
 
-    /// [`Accel::closest_hits`] with `LANES` rays in flight.
-    #[doc(hidden)]
+    /// [`Accel::closest_hits`] with `LANES` rays in flight instead of
+    /// [`BATCH_LANES`]: for measuring and testing other counts (feature
+    /// `bvh-experiments`).
+    #[cfg(feature = "bvh-experiments")]
     pub fn closest_hits_in_lanes<const LANES: usize>(
+        &self,
+        rays: &[RayQuery],
+        hits: &mut [Option<Hit>],
+    ) {
+        self.closest_hits_with_lanes::<LANES>(rays, hits);
+    }
+
+    fn closest_hits_with_lanes<const LANES: usize>(
         &self,
         rays: &[RayQuery],
         hits: &mut [Option<Hit>],
@@ -913,12 +479,7 @@ impl Accel {
                 |pack, _| self.fetch_pack(pack),
             );
         }
-        let ray = Ray::new(origin.into(), dir.into(), 0.0, t_max);
-        self.bvh.any(ray, |ray, slot| {
-            sheared
-                .intersect_pack(&single(&self.triangles[slot]), ray.tmax)
-                .map_or(f32::INFINITY, |hit| hit.t)
-        })
+        self.occluded_by_slot(&sheared, origin, dir, t_max)
     }
 
     /// Starts fetching a leaf's pack (see `wide::prefetch`). A `Simd8` leaf is one
@@ -935,7 +496,7 @@ impl Accel {
     /// triangles (the split is deterministic) and the tree is checked against their
     /// boxes; each slot must hold its reference's triangle.
     fn validate_references(&self, slot_triangles: &[Option<[Vec3A; 3]>]) -> Result<(), String> {
-        // Each triangle once, in mesh order (the order the tree was built from).
+        // Each triangle once, in input order (the order the tree was built from).
         let mut by_mesh: Vec<(u32, [Vec3A; 3])> = Vec::with_capacity(self.triangle_count);
         for (slot, t) in slot_triangles.iter().enumerate() {
             let t = t.ok_or_else(|| format!("slot {slot} is in no pack"))?;
@@ -1030,23 +591,14 @@ impl Accel {
                     }
                 }
             }
-            _ => {
-                if self.triangles.len() != order.len() {
-                    return Err(format!(
-                        "{} triangles but {} slots",
-                        self.triangles.len(),
-                        order.len()
-                    ));
-                }
-                for (entry, t) in slot_triangles.iter_mut().zip(&self.triangles) {
-                    *entry = Some(*t);
-                }
-            }
+            Tree::Empty => {}
+            #[cfg(feature = "bvh-experiments")]
+            Tree::Obvhs(_) => self.slot_triangles_by_slot(&mut slot_triangles)?,
         }
         if let Tree::Simd8(_) = &self.bvh.tree {
             return self.validate_references(&slot_triangles);
         }
-        // Back from slot order to mesh order, as the tree was built.
+        // Back from slot order to input order, as the tree was built.
         let mut boxes = vec![
             Bounds {
                 min: [0.0; 3],
@@ -1065,20 +617,88 @@ impl Accel {
     }
 }
 
-/// Whether a query can hit anything: finite origin and direction, a non-zero
-/// direction and a positive `t_max` (`t_max > 0` is false for NaN).
-#[inline(always)]
-fn usable_ray(origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
-    t_max > 0.0 && origin.iter().chain(&dir).all(|x| x.is_finite()) && dir.iter().any(|&x| x != 0.0)
+/// The triangle layer on the obvhs layouts: a slot-order copy of the triangles,
+/// tested one at a time through the box layer.
+#[cfg(feature = "bvh-experiments")]
+impl Accel {
+    /// [`Accel::closest_hit`] through an obvhs tree (or the empty one): one triangle a
+    /// slot, from the slot-order copy.
+    fn closest_hit_by_slot(
+        &self,
+        sheared: &ShearedRay,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        t_max: f32,
+    ) -> Option<Hit> {
+        let ray = Ray::new(origin.into(), dir.into(), 0.0, t_max);
+        let (slot, _) = self
+            .bvh
+            .closest(ray, |ray, slot| self.slot_distance(sheared, ray, slot))?;
+        // Barycentrics only for the winner.
+        let hit = sheared.intersect_pack(&single(&self.triangles[slot]), t_max)?;
+        Some(Hit {
+            t: hit.t,
+            triangle: self.mesh_triangle[slot],
+            barycentric: hit.barycentric,
+        })
+    }
+
+    /// [`Accel::occluded`] through an obvhs tree (or the empty one).
+    fn occluded_by_slot(
+        &self,
+        sheared: &ShearedRay,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        t_max: f32,
+    ) -> bool {
+        let ray = Ray::new(origin.into(), dir.into(), 0.0, t_max);
+        self.bvh
+            .any(ray, |ray, slot| self.slot_distance(sheared, ray, slot))
+    }
+
+    /// The distance at which `sheared` hits the triangle of `slot` within `ray`'s
+    /// `tmax`; infinity for a miss.
+    #[inline(always)]
+    fn slot_distance(&self, sheared: &ShearedRay, ray: &Ray, slot: usize) -> f32 {
+        sheared
+            .intersect_pack(&single(&self.triangles[slot]), ray.tmax)
+            .map_or(f32::INFINITY, |hit| hit.t)
+    }
+
+    /// For [`Accel::validate`]: each slot's triangle, from the slot-order copy.
+    fn slot_triangles_by_slot(
+        &self,
+        slot_triangles: &mut [Option<[Vec3A; 3]>],
+    ) -> Result<(), String> {
+        if self.triangles.len() != slot_triangles.len() {
+            return Err(format!(
+                "{} triangles but {} slots",
+                self.triangles.len(),
+                slot_triangles.len()
+            ));
+        }
+        for (entry, t) in slot_triangles.iter_mut().zip(&self.triangles) {
+            *entry = Some(*t);
+        }
+        Ok(())
+    }
 }
 
 /// A pack of one triangle.
+#[cfg(feature = "bvh-experiments")]
 #[inline(always)]
 fn single(t: &[Vec3A; 3]) -> TrianglePack<1> {
     TrianglePack {
         v: std::array::from_fn(|j| std::array::from_fn(|k| [t[j][k]])),
         id: [0],
     }
+}
+
+/// Whether a query can hit anything: finite origin and direction, a non-zero
+/// direction and a positive `t_max` (`t_max > 0` is false for NaN).
+#[inline(always)]
+fn usable_ray(origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
+    t_max > 0.0 && origin.iter().chain(&dir).all(|x| x.is_finite()) && dir.iter().any(|&x| x != 0.0)
 }
 
 /// The ray–triangle test the accel uses, for one triangle: `Some((t, [u, v]))` when

@@ -1,7 +1,6 @@
 //! One module per subcommand. Each `run` reads and writes through the handles it is
 //! given, so the end-to-end tests and the binary share one code path.
 
-pub mod bench;
 pub mod brdf;
 pub mod color;
 pub mod delta_e;

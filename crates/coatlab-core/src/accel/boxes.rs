@@ -1,5 +1,8 @@
-//! A box in two SIMD registers for the builders' inner loops (`accel/wide.rs`,
-//! `accel/split.rs`): its minimum and maximum as glam's `Vec3A`, so that growing a
+//! Axis-aligned boxes: [`Bounds`], the box of the accel's interface and of the
+//! stored trees, and [`BoundsA`], the same box in two SIMD registers for the
+//! builders' inner loops (`accel/wide/build.rs`, `accel/split.rs`).
+//!
+//! `BoundsA` holds its minimum and maximum as glam's `Vec3A`, so that growing a
 //! box is one `minps` and one `maxps` instead of six scalar `f32::min`/`f32::max`
 //! (each of which LLVM builds from a `minss`, an unordered compare and a blend, to
 //! honour NaN; no NaN arises in the builders, whose boxes are finite or empty).
@@ -11,11 +14,64 @@
 //! comparison, area or bin index sees and which the stored child boxes lose when
 //! they are widened by one ulp (`next_down(±0)` is the same number). Checked on the
 //! Lamborghini, the default car and the torus: the same tree as the scalar builders
-//! (docs/benchmarks.md, "Build time").
+//! (docs/benchmarks.md, "Acceleration structure").
 
 use glam::Vec3A;
 
-use super::Bounds;
+/// An axis-aligned box, metres.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bounds {
+    pub min: [f32; 3],
+    pub max: [f32; 3],
+}
+
+impl Bounds {
+    /// The smallest box holding all `points`; `None` for none.
+    pub fn from_points(points: &[[f32; 3]]) -> Option<Bounds> {
+        let first = *points.first()?;
+        let mut bounds = Bounds {
+            min: first,
+            max: first,
+        };
+        for p in &points[1..] {
+            bounds.min = std::array::from_fn(|k| bounds.min[k].min(p[k]));
+            bounds.max = std::array::from_fn(|k| bounds.max[k].max(p[k]));
+        }
+        Some(bounds)
+    }
+
+    /// Whether all six coordinates are finite.
+    pub fn is_finite(&self) -> bool {
+        self.min.iter().chain(&self.max).all(|x| x.is_finite())
+    }
+
+    /// Whether `other` lies inside this box (boundaries included).
+    pub fn contains(&self, other: &Bounds) -> bool {
+        (0..3).all(|k| self.min[k] <= other.min[k] && other.max[k] <= self.max[k])
+    }
+
+    /// The empty box `[+∞, −∞]`, which [`Bounds::grow`] grows from.
+    pub(super) fn empty() -> Bounds {
+        Bounds {
+            min: [f32::INFINITY; 3],
+            max: [f32::NEG_INFINITY; 3],
+        }
+    }
+
+    #[inline(always)]
+    pub(super) fn grow(&mut self, other: &Bounds) {
+        for k in 0..3 {
+            self.min[k] = self.min[k].min(other.min[k]);
+            self.max[k] = self.max[k].max(other.max[k]);
+        }
+    }
+
+    /// Half the surface area (the SAH only compares areas); 0 for an empty box.
+    pub(super) fn half_area(&self) -> f32 {
+        let d: [f32; 3] = std::array::from_fn(|k| (self.max[k] - self.min[k]).max(0.0));
+        d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
+    }
+}
 
 #[derive(Debug, Clone, Copy)]
 pub(super) struct BoundsA {

@@ -17,26 +17,20 @@
 //! box of at least one of its pieces, as the watertight traversal needs: a point on
 //! a split plane belongs to both closed halves.
 //!
-//! With `ReferenceSplits::Spatial` (the default) the references then go through an
-//! SBVH-style pass (module `spatial` below): ×1.13–1.30 the rays per second on the
-//! Lamborghini, no change on the default car and the torus, at about 1.7 times the
-//! build's time (docs/benchmarks.md, "Spatial splits", "SAH collapse" and "Build
-//! time").
+//! With `ReferenceSplits::Spatial` the references then go through an SBVH-style
+//! pass (module `spatial` below): ×1.13–1.30 rays per second on the Lamborghini,
+//! none on the default car and the torus, at about 1.7 times the build's time; the
+//! default (docs/benchmarks.md, "Acceleration structure").
 
+use super::boxes::Bounds;
+use super::options::ReferenceSplits;
 use super::wide::TopNode;
-use super::{Bounds, ReferenceSplits};
 
 /// A triangle is split while its piece's box has more than this many times the
 /// average triangle box area (half surface areas).
 const SPLIT_AREA_FACTOR: f32 = 8.0;
 /// At most 2⁴ = 16 pieces a triangle.
 const MAX_SPLIT_DEPTH: u32 = 4;
-
-/// Half the surface area of a box (0 for an empty one).
-fn half_area(b: &Bounds) -> f32 {
-    let d: [f32; 3] = std::array::from_fn(|k| (b.max[k] - b.min[k]).max(0.0));
-    d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
-}
 
 /// The references for `triangles` (vertices; `boxes` their boxes): for each, its
 /// box and the index of its triangle, in triangle order (`Spatial`: in the order
@@ -49,12 +43,12 @@ pub(super) fn split_references(
     planes: ReferenceSplits,
     threads: usize,
 ) -> (Vec<Bounds>, Vec<u32>, Vec<TopNode>) {
-    let average = boxes.iter().map(half_area).sum::<f32>() / boxes.len().max(1) as f32;
+    let average = boxes.iter().map(Bounds::half_area).sum::<f32>() / boxes.len().max(1) as f32;
     let threshold = SPLIT_AREA_FACTOR * average;
     let mut out_boxes = Vec::with_capacity(boxes.len() + boxes.len() / 16);
     let mut out_triangle = Vec::with_capacity(boxes.len() + boxes.len() / 16);
     for (i, (triangle, b)) in triangles.iter().zip(boxes).enumerate() {
-        if half_area(b) <= threshold {
+        if b.half_area() <= threshold {
             out_boxes.push(*b);
             out_triangle.push(i as u32);
             continue;
@@ -135,7 +129,7 @@ fn split(
     emit: &mut impl FnMut(Bounds),
 ) {
     let b = outer_bounds(polygon, within);
-    if depth >= MAX_SPLIT_DEPTH || half_area(&b) <= threshold {
+    if depth >= MAX_SPLIT_DEPTH || b.half_area() <= threshold {
         emit(b);
         return;
     }
@@ -165,8 +159,9 @@ fn split(
 /// split cuts the references that straddle its plane into a piece on each side.
 /// The references come out in the partition's order, with the partition itself
 /// ([`TopNode`]s), which the ordinary builder keeps as the top of its binary tree
-/// and builds below (rebuilding the whole tree over the references instead gives
-/// the same rays per second within 2 % at about a fifth more build time).
+/// and builds below (rebuilding the whole tree over the references instead gave the
+/// same rays per second within 2 % at about 1.2 times the CPU time on the
+/// Lamborghini).
 ///
 /// **Cost.** The pass is built to stay within the build target (docs/benchmarks.md,
 /// "Spatial splits"): the chopped binning clips a straddling reference's *box* to
@@ -180,8 +175,8 @@ fn split(
 mod spatial {
     use glam::Vec3A;
 
-    use super::super::boxes::{BoundsA, NodeBoxes, bin_index, bin_indices};
-    use super::{Bounds, TopNode};
+    use super::super::boxes::{Bounds, BoundsA, NodeBoxes, bin_index, bin_indices};
+    use super::TopNode;
 
     /// Bins per axis for both kinds of split.
     const BINS: usize = 16;
@@ -739,35 +734,8 @@ mod spatial {
 
 #[cfg(test)]
 mod tests {
+    use super::super::test_support::slivers;
     use super::*;
-
-    /// Long thin triangles in every direction, crossing in a unit cube (the kind the
-    /// spatial pass splits).
-    fn slivers(count: usize) -> (Vec<[[f32; 3]; 3]>, Vec<Bounds>) {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut uniform = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
-        let triangles: Vec<[[f32; 3]; 3]> = (0..count)
-            .map(|_| {
-                let a: [f32; 3] = std::array::from_fn(|_| uniform());
-                let b: [f32; 3] = std::array::from_fn(|_| uniform());
-                let c: [f32; 3] = std::array::from_fn(|k| a[k] + 0.01 * uniform());
-                [a, b, c]
-            })
-            .collect();
-        let boxes = triangles
-            .iter()
-            .map(|t| Bounds {
-                min: std::array::from_fn(|k| t[0][k].min(t[1][k]).min(t[2][k])),
-                max: std::array::from_fn(|k| t[0][k].max(t[1][k]).max(t[2][k])),
-            })
-            .collect();
-        (triangles, boxes)
-    }
 
     /// The spatial pass's partition, handed to the builder as the top of the tree,
     /// is a tree over exactly its references: each inner node's count the sum of

@@ -9,6 +9,8 @@ use palette::LinSrgb;
 pub mod car;
 pub mod gltf_loader;
 
+use crate::accel::Triangles;
+
 /// Triangle geometry in world space, with smooth (per-vertex) normals.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct TriangleMesh {
@@ -53,6 +55,14 @@ impl TriangleMesh {
             e1[0] * e2[1] - e1[1] * e2[0],
         ];
         0.5 * (cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]).sqrt()
+    }
+}
+
+/// The mesh's triangles as the acceleration structure takes them (positions and
+/// vertex indices, borrowed): `Accel::build(&mesh)`.
+impl<'a> From<&'a TriangleMesh> for Triangles<'a> {
+    fn from(mesh: &'a TriangleMesh) -> Triangles<'a> {
+        Triangles::new(&mesh.positions, &mesh.triangles)
     }
 }
 

@@ -1,35 +1,46 @@
-//! `coatlab bench`: the reference protocol and the speed/accuracy sweep
+//! `cargo xtask bench`: the reference protocol and the speed/accuracy sweep
 //! (docs/tradeoff.md).
 //!
-//! - `coatlab bench reference`: renders (or finds in the cache) the converged
+//! - `cargo xtask bench reference`: renders (or finds in the cache) the converged
 //!   reference of one scene and lighting: 81 wavelengths, two halves of different
 //!   seeds, stored as mean XYZ per pixel under a key of scene, lighting, design,
 //!   size, samples and protocol version.
-//! - `coatlab bench tradeoff`: for each protocol case, renders every setting of the
-//!   sweep, measures its wall time and its error against the reference
+//! - `cargo xtask bench tradeoff`: for each protocol case, renders every setting of
+//!   the sweep, measures its wall time and its error against the reference
 //!   ([`coatlab_core::render::image_error`]), and writes the table into
 //!   docs/tradeoff.md (between markers), the plot beside it and the quality presets
-//!   (assets/quality-presets.toml) from the measured Pareto front.
+//!   (assets/quality-presets.toml) from the measured Pareto front ([`report`]).
 
-use std::fmt::Write as _;
+mod report;
+
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::Context;
+use coatlab_core::colour::cie::Illuminant;
 use coatlab_core::colour::spectrum::{Channels, WavelengthGrid};
 use coatlab_core::design::{PaintDesign, presets};
+use coatlab_core::io::rgb_image::ImageReadError;
 use coatlab_core::paint::coat::CoatIntegralMethod;
 use coatlab_core::paint::lobe::LobeKind;
+use coatlab_core::render::environment::EnvironmentError;
 use coatlab_core::render::film::DisplaySettings;
 use coatlab_core::render::image_error::{ImageError, Region, RegionMasks, XyzImage, image_error};
+use coatlab_core::render::lighting::Lighting;
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
 use coatlab_core::render::rgb;
+use coatlab_core::scene::Scene;
+use coatlab_core::scene::car::{CarParameters, generate};
+use coatlab_core::scene::gltf_loader::{LoadOptions, SceneError, load};
 
-use super::failure::{Classify, Failure};
-use super::render::{environment, scene};
+use crate::{Failed, OrFail, status};
+use report::{
+    choose_presets, mark_front, plot_svg, presets_toml, region_cells, table_markdown,
+    write_between_markers,
+};
 
 /// Bumped whenever the renderer or the protocol changes what a reference holds:
 /// part of every cache key, so stale references are never compared against.
@@ -42,12 +53,8 @@ pub const REFERENCE_SPP: u32 = 1024;
 /// Seeds of the two half references, and of the renders under test.
 const HALF_SEEDS: [u64; 2] = [0x5eed_0001, 0x5eed_0002];
 const TEST_SEED: u64 = 7;
-/// The Lamborghini, relative to the repository root (the shared test data sit
-/// beside the checkout).
-pub const DEFAULT_GLTF: &str =
-    "../shared/testdata/gltf/LamborghiniHuracanGT3/LamborghiniHuracanGT3.glb";
-const TABLE_BEGIN: &str = "<!-- tradeoff:begin -->";
-const TABLE_END: &str = "<!-- tradeoff:end -->";
+/// The protocol's glTF car, the Lamborghini, inside the shared test data.
+const SHARED_GLTF: &str = "testdata/gltf/LamborghiniHuracanGT3/LamborghiniHuracanGT3.glb";
 
 #[derive(clap::Subcommand, Debug)]
 pub enum BenchCommand {
@@ -67,7 +74,7 @@ pub struct ReferenceArgs {
     #[arg(long, default_value = "studio")]
     pub environment: String,
     /// Image size, WIDTHxHEIGHT.
-    #[arg(long, default_value = "320x180", value_parser = super::render::parse_size)]
+    #[arg(long, default_value = "320x180", value_parser = parse_size)]
     pub size: (u32, u32),
     /// Samples per pixel of the whole reference (two halves).
     #[arg(long, default_value_t = REFERENCE_SPP)]
@@ -85,9 +92,14 @@ pub struct TradeoffArgs {
     /// A small, fast sweep (one case, tiny image): a smoke test, not a measurement.
     #[arg(long)]
     pub quick: bool,
-    /// The glTF car of the protocol.
-    #[arg(long, default_value = DEFAULT_GLTF)]
-    pub gltf: PathBuf,
+    /// The glTF car of the protocol; by default the Lamborghini of the shared test
+    /// data (--shared).
+    #[arg(long)]
+    pub gltf: Option<PathBuf>,
+    /// The shared test data (the folder holding testdata/gltf/), where --gltf is not
+    /// given; the environment variable COATLAB_SHARED when left out.
+    #[arg(long)]
+    pub shared: Option<PathBuf>,
     /// Leave the glTF car out.
     #[arg(long)]
     pub no_gltf: bool,
@@ -105,23 +117,26 @@ pub struct TradeoffArgs {
     pub presets: PathBuf,
 }
 
-pub fn run(command: &BenchCommand, out: &mut impl Write) -> anyhow::Result<()> {
+pub fn run(command: &BenchCommand, out: &mut impl Write) -> Result<(), Failed> {
     match command {
         BenchCommand::Reference(args) => {
+            if args.spp < 2 {
+                return Err(Failed::new(
+                    status::USAGE,
+                    format!(
+                        "--spp {}: a reference needs at least 2 samples (two halves)",
+                        args.spp
+                    ),
+                ));
+            }
             let case = Case {
                 scene: args.scene.clone(),
-                lighting: args.environment.clone(),
+                lighting: lighting(&args.environment)?,
             };
             let protocol = Protocol {
                 size: args.size,
                 reference_spp: args.spp,
             };
-            if args.spp < 2 {
-                return Err(Failure::Usage.error(format!(
-                    "--spp {}: a reference needs at least 2 samples (two halves)",
-                    args.spp
-                )));
-            }
             let prepared = PreparedCase::new(&case)?;
             let reference = reference(&prepared, &protocol, &args.cache, args.force, out)?;
             let noise = reference.noise();
@@ -139,11 +154,63 @@ pub fn run(command: &BenchCommand, out: &mut impl Write) -> anyhow::Result<()> {
     }
 }
 
+/// `WIDTHxHEIGHT`, each side 1 to 16384 pixels, at most 8192² pixels in all.
+fn parse_size(text: &str) -> Result<(u32, u32), String> {
+    let side = |s: &str| {
+        s.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|v| (1..=16384).contains(v))
+    };
+    text.split_once(['x', 'X', '×'])
+        .and_then(|(w, h)| Some((side(w)?, side(h)?)))
+        .filter(|&(w, h)| u64::from(w) * u64::from(h) <= 8192 * 8192)
+        .ok_or_else(|| {
+            format!("'{text}': use WIDTHxHEIGHT, each 1 to 16384 pixels, 8192x8192 at most")
+        })
+}
+
+/// The lighting named on the command line: a setup, or a map file that exists.
+fn lighting(name: &str) -> Result<Lighting, Failed> {
+    let not_found = |status| {
+        Failed::new(
+            status,
+            format!(
+                "--environment '{name}': not a lighting setup ({}) and no such file",
+                Lighting::SETUP_NAMES.join(", ")
+            ),
+        )
+    };
+    let lighting = Lighting::parse(name).map_err(|_| not_found(status::USAGE))?;
+    match &lighting {
+        Lighting::Map(path) if !path.exists() => Err(not_found(status::NO_INPUT)),
+        _ => Ok(lighting),
+    }
+}
+
+/// A glTF file, or the built-in car; a file that cannot be read is a missing
+/// input, one that does not parse bad data.
+fn scene(path: Option<&Path>) -> Result<Scene, Failed> {
+    let Some(path) = path else {
+        return Ok(generate(&CarParameters::default()));
+    };
+    load(path, &LoadOptions::default()).map_err(|error| {
+        let class = match error {
+            SceneError::Io { .. } | SceneError::MissingBuffer { .. } => status::NO_INPUT,
+            _ => status::DATA,
+        };
+        Failed {
+            status: class,
+            error: error.into(),
+        }
+    })
+}
+
 /// One scene under one lighting.
 #[derive(Debug, Clone)]
 struct Case {
     scene: Option<PathBuf>,
-    lighting: String,
+    lighting: Lighting,
 }
 
 impl Case {
@@ -177,10 +244,10 @@ struct PreparedCase {
 }
 
 impl PreparedCase {
-    fn new(case: &Case) -> anyhow::Result<Self> {
-        let loaded = scene(case.scene.as_deref(), None)?;
+    fn new(case: &Case) -> Result<Self, Failed> {
+        let loaded = scene(case.scene.as_deref())?;
         for warning in &loaded.warnings {
-            eprintln!("coatlab: warning: {warning}");
+            eprintln!("xtask: warning: {warning}");
         }
         let scene = Arc::new(RenderScene::new(loaded).context("cannot prepare the scene")?);
         let design = presets::all()
@@ -368,6 +435,7 @@ fn reference_key(prepared: &PreparedCase, protocol: &Protocol) -> String {
     let lighting: String = prepared
         .case
         .lighting
+        .name()
         .chars()
         .map(|c| {
             if c.is_ascii_alphanumeric() || c == '-' {
@@ -392,7 +460,7 @@ fn reference(
     cache: &Path,
     force: bool,
     out: &mut impl Write,
-) -> anyhow::Result<Reference> {
+) -> Result<Reference, Failed> {
     let key = reference_key(prepared, protocol);
     let paths = [0, 1].map(|i| cache.join(format!("{key}.half{i}.xyz")));
     let camera = prepared
@@ -402,7 +470,7 @@ fn reference(
     for region in Region::ALL {
         if masks.count(region) == 0 {
             eprintln!(
-                "coatlab: warning: {}: no {} pixels in the protocol view",
+                "xtask: warning: {}: no {} pixels in the protocol view",
                 prepared.case.label(),
                 region.label()
             );
@@ -411,7 +479,9 @@ fn reference(
     let cached = !force && paths.iter().all(|p| p.exists());
     let (halves, seconds) = if cached {
         let read = |p: &PathBuf| {
-            XyzImage::read(p).with_context(|| format!("reading the cached reference {key}"))
+            XyzImage::read(p)
+                .with_context(|| format!("reading the cached reference {key}"))
+                .or_fail(status::DATA)
         };
         ([read(&paths[0])?, read(&paths[1])?], None)
     } else {
@@ -426,7 +496,7 @@ fn reference(
         for (seed, path) in HALF_SEEDS.iter().zip(&paths) {
             let setting = Setting::spectral(81, protocol.reference_spp / 2);
             let (image, _) = render(prepared, protocol, &setting, *seed)?;
-            image.write(path).or_fail(Failure::CantCreate)?;
+            image.write(path).or_fail(status::CANT_CREATE)?;
             halves.push(image);
         }
         let [a, b]: [XyzImage; 2] = halves
@@ -434,7 +504,9 @@ fn reference(
             .map_err(|_| anyhow::anyhow!("two halves expected"))?;
         ([a, b], Some(start.elapsed().as_secs_f64()))
     };
-    let image = halves[0].average(&halves[1])?;
+    let image = halves[0]
+        .average(&halves[1])
+        .context("averaging the halves")?;
     Ok(Reference {
         key,
         halves,
@@ -472,7 +544,7 @@ fn render(
     protocol: &Protocol,
     setting: &Setting,
     seed: u64,
-) -> anyhow::Result<(XyzImage, Cost)> {
+) -> Result<(XyzImage, Cost), Failed> {
     let start = Instant::now();
     let cpu_start = process_cpu_seconds();
     let (grid, model) = if setting.rgb {
@@ -492,7 +564,16 @@ fn render(
     if let Some(lobe) = setting.lobe {
         model.set_lobe(lobe);
     }
-    let environment = environment(&prepared.case.lighting, &grid)?;
+    let environment = prepared.case.lighting.build(&grid).map_err(|error| {
+        let class = match error {
+            EnvironmentError::Read(ImageReadError::Io { .. }) => status::NO_INPUT,
+            _ => status::DATA,
+        };
+        Failed {
+            status: class,
+            error: error.into(),
+        }
+    })?;
     let shading = Shading::new(
         &model,
         ShadingModel::Paint,
@@ -513,7 +594,8 @@ fn render(
             seed,
             ..RenderSettings::default()
         },
-    )?;
+    )
+    .context("cannot start the render")?;
     while render.samples_per_pixel() < setting.spp {
         let batch = (setting.spp - render.samples_per_pixel()).min(4);
         render.render_pass(batch);
@@ -553,7 +635,36 @@ fn load_average() -> String {
         .unwrap_or_else(|| "unknown".to_owned())
 }
 
-fn tradeoff(args: &TradeoffArgs, out: &mut impl Write) -> anyhow::Result<()> {
+/// The protocol's glTF car: `--gltf`, else the Lamborghini under `--shared`.
+fn protocol_gltf(args: &TradeoffArgs) -> Result<PathBuf, Failed> {
+    let shared = match &args.shared {
+        Some(dir) => Some((dir.clone(), "--shared")),
+        None => std::env::var_os("COATLAB_SHARED").map(|dir| (dir.into(), "COATLAB_SHARED")),
+    };
+    let (path, given) = match (&args.gltf, shared) {
+        (Some(path), _) => (path.clone(), "--gltf"),
+        (None, Some((shared, given))) => (shared.join(SHARED_GLTF), given),
+        (None, None) => {
+            return Err(Failed::new(
+                status::USAGE,
+                "the protocol's glTF car: pass --gltf FILE, or --shared DIR (or set \
+                 COATLAB_SHARED) for the shared test data's Lamborghini, or --no-gltf",
+            ));
+        }
+    };
+    if !path.exists() {
+        return Err(Failed::new(
+            status::NO_INPUT,
+            format!(
+                "{}: no such file (from {given}; or pass --no-gltf)",
+                path.display()
+            ),
+        ));
+    }
+    Ok(path)
+}
+
+fn tradeoff(args: &TradeoffArgs, out: &mut impl Write) -> Result<(), Failed> {
     let (protocol, cases, settings) = if args.quick {
         (
             Protocol {
@@ -562,7 +673,7 @@ fn tradeoff(args: &TradeoffArgs, out: &mut impl Write) -> anyhow::Result<()> {
             },
             vec![Case {
                 scene: None,
-                lighting: "studio".to_owned(),
+                lighting: Lighting::Studio,
             }],
             quick_settings(),
         )
@@ -570,20 +681,13 @@ fn tradeoff(args: &TradeoffArgs, out: &mut impl Write) -> anyhow::Result<()> {
         let mut cases = Vec::new();
         let mut scenes = vec![None];
         if !args.no_gltf {
-            if !args.gltf.exists() {
-                return Err(Failure::NoInput.error(format!(
-                    "--gltf {}: no such file (run from the repository root with the shared \
-                     test data beside it, or pass --no-gltf)",
-                    args.gltf.display()
-                )));
-            }
-            scenes.push(Some(args.gltf.clone()));
+            scenes.push(Some(protocol_gltf(args)?));
         }
         for scene in scenes {
-            for lighting in ["studio", "booth-f11"] {
+            for lighting in [Lighting::Studio, Lighting::Booth(Illuminant::F11)] {
                 cases.push(Case {
                     scene: scene.clone(),
-                    lighting: lighting.to_owned(),
+                    lighting,
                 });
             }
         }
@@ -629,7 +733,8 @@ fn tradeoff(args: &TradeoffArgs, out: &mut impl Write) -> anyhow::Result<()> {
                 &reference.image,
                 &reference.masks,
                 &DisplaySettings::default(),
-            )?;
+            )
+            .context("comparing with the reference")?;
             writeln!(
                 out,
                 "{}: {} λ, {} spp, {}: {:.2} s CPU, {:.2} s wall, ΔE00 mean {:.2} p95 {:.2} bias {:.2}",
@@ -671,14 +776,14 @@ fn tradeoff(args: &TradeoffArgs, out: &mut impl Write) -> anyhow::Result<()> {
     let primary = cases.first().map(Case::label).unwrap_or_default();
     std::fs::write(&args.plot, plot_svg(&rows, &primary))
         .with_context(|| format!("writing {}", args.plot.display()))
-        .or_fail(Failure::CantCreate)?;
+        .or_fail(status::CANT_CREATE)?;
     let presets = choose_presets(&rows, &primary);
     if let Some(parent) = args.presets.parent() {
         std::fs::create_dir_all(parent).ok();
     }
     std::fs::write(&args.presets, presets_toml(&presets, &protocol, &primary))
         .with_context(|| format!("writing {}", args.presets.display()))
-        .or_fail(Failure::CantCreate)?;
+        .or_fail(status::CANT_CREATE)?;
     writeln!(
         out,
         "wrote {}, {} and {} ({} rows in {:.0} s, load {} → {})",
@@ -691,432 +796,4 @@ fn tradeoff(args: &TradeoffArgs, out: &mut impl Write) -> anyhow::Result<()> {
         load_after
     )?;
     Ok(())
-}
-
-/// Marks the rows no other row of the same case beats in both CPU time and mean
-/// ΔE00.
-fn mark_front(rows: &mut [Row]) {
-    let points: Vec<(f64, f64)> = rows
-        .iter()
-        .map(|r| (r.cost.cpu, r.error.mean_delta_e))
-        .collect();
-    for (i, row) in rows.iter_mut().enumerate() {
-        let (t, e) = points[i];
-        row.front = !points
-            .iter()
-            .enumerate()
-            .any(|(j, &(tj, ej))| j != i && tj <= t && ej <= e && (tj < t || ej < e));
-    }
-}
-
-fn region_cells(error: &ImageError) -> String {
-    error
-        .region_delta_e
-        .iter()
-        .map(|r| {
-            r.map(|v| format!("{v:.3}"))
-                .unwrap_or_else(|| "–".to_owned())
-        })
-        .collect::<Vec<_>>()
-        .join(" / ")
-}
-
-#[allow(clippy::too_many_arguments)]
-fn table_markdown(
-    rows: &[Row],
-    notes: &[String],
-    protocol: &Protocol,
-    threads: usize,
-    load_before: &str,
-    load_after: &str,
-    total_seconds: f64,
-    quick: bool,
-) -> String {
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "Generated by `coatlab bench tradeoff{}` — do not edit by hand. Protocol {}×{}, \
-         references {} spp at 81 wavelengths, {} rayon threads; load average (1/5/15 min) \
-         {} at the start, {} at the end; {:.0} s in all.\n",
-        if quick { " --quick" } else { "" },
-        protocol.size.0,
-        protocol.size.1,
-        protocol.reference_spp,
-        threads,
-        load_before,
-        load_after,
-        total_seconds
-    );
-    s.push_str("References and their own noise (ΔE00, half the difference of the two halves):\n\n");
-    s.push_str("| case | cache key | render time | noise mean | noise p95 | noise body side / bonnet/top / floor |\n");
-    s.push_str("|---|---|---|---|---|---|\n");
-    for note in notes {
-        s.push_str(note);
-        s.push('\n');
-    }
-    s.push_str(
-        "\nRenders against them (ΔE00 of the displayed colour; bias = largest region-mean \
-         ΔE00; CPU s = CPU time of both cores, by which the front is found; front = on \
-         the Pareto front of CPU time and mean ΔE00 within the case):\n\n",
-    );
-    s.push_str("| case | knobs | λ | spp | CPU s | wall s | mean | p95 | body side | bonnet/top | floor | bias | front |\n");
-    s.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-    // The mean, by which the front is found, to three decimals: at two, rows a few
-    // thousandths apart read as ties and the committed table could not show why one
-    // is on the front and the other not.
-    for r in rows {
-        let cell = |v: Option<f64>| v.map(|v| format!("{v:.2}")).unwrap_or_else(|| "–".into());
-        let _ = writeln!(
-            s,
-            "| {} | {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {} | {} | {} | {:.2} | {} |",
-            r.case,
-            r.setting.knob_label(),
-            r.setting.wavelengths,
-            r.setting.spp,
-            r.cost.cpu,
-            r.cost.wall,
-            r.error.mean_delta_e,
-            r.error.p95_delta_e,
-            cell(r.error.region_delta_e[0]),
-            cell(r.error.region_delta_e[1]),
-            cell(r.error.region_delta_e[2]),
-            r.error.bias(),
-            if r.front { "★" } else { "" }
-        );
-    }
-    s
-}
-
-/// Replaces the text between the markers (or appends a section with them).
-fn write_between_markers(path: &Path, table: &str) -> anyhow::Result<()> {
-    let old = match std::fs::read_to_string(path) {
-        Ok(text) => text,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => "# Speed and accuracy\n\n".to_owned(),
-        Err(e) => {
-            return Err(e)
-                .with_context(|| format!("reading {}", path.display()))
-                .or_fail(Failure::NoInput);
-        }
-    };
-    let new = match (old.find(TABLE_BEGIN), old.find(TABLE_END)) {
-        (Some(b), Some(e)) if b < e => format!("{}{TABLE_BEGIN}\n{table}{}", &old[..b], &old[e..]),
-        (None, None) => format!("{old}\n## Measured\n\n{TABLE_BEGIN}\n{table}{TABLE_END}\n"),
-        _ => {
-            return Err(Failure::Data.error(format!(
-                "{}: the markers {TABLE_BEGIN} and {TABLE_END} must both be there, in that order",
-                path.display()
-            )));
-        }
-    };
-    if let Some(parent) = path.parent() {
-        std::fs::create_dir_all(parent).ok();
-    }
-    std::fs::write(path, new)
-        .with_context(|| format!("writing {}", path.display()))
-        .or_fail(Failure::CantCreate)
-}
-
-/// Error against time, log–log, every case; the front of each case joined.
-fn plot_svg(rows: &[Row], primary: &str) -> String {
-    let (w, h) = (720.0f64, 480.0f64);
-    let (left, right, top, bottom) = (70.0, 200.0, 30.0, 50.0);
-    let finite: Vec<&Row> = rows
-        .iter()
-        .filter(|r| {
-            r.cost.cpu > 0.0 && r.error.mean_delta_e > 0.0 && r.error.mean_delta_e.is_finite()
-        })
-        .collect();
-    let lg = |v: f64| v.log10();
-    let (mut t0, mut t1, mut e0, mut e1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for r in &finite {
-        t0 = t0.min(lg(r.cost.cpu));
-        t1 = t1.max(lg(r.cost.cpu));
-        e0 = e0.min(lg(r.error.mean_delta_e));
-        e1 = e1.max(lg(r.error.mean_delta_e));
-    }
-    if finite.is_empty() {
-        (t0, t1, e0, e1) = (-2.0, 1.0, -1.0, 1.0);
-    }
-    let (t0, t1, e0, e1) = (
-        t0.floor(),
-        t1.ceil().max(t0.floor() + 1.0),
-        e0.floor(),
-        e1.ceil().max(e0.floor() + 1.0),
-    );
-    let x = |t: f64| left + (lg(t) - t0) / (t1 - t0) * (w - left - right);
-    let y = |e: f64| top + (e1 - lg(e)) / (e1 - e0) * (h - top - bottom);
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif" font-size="12">"#
-    );
-    s.push_str(r#"<rect width="100%" height="100%" fill="white"/>"#);
-    s.push('\n');
-    // Decade grid and labels.
-    for d in (t0 as i32)..=(t1 as i32) {
-        let v = 10f64.powi(d);
-        let px = x(v);
-        let _ = writeln!(
-            s,
-            r##"<line x1="{px:.1}" y1="{top}" x2="{px:.1}" y2="{:.1}" stroke="#ddd"/><text x="{px:.1}" y="{:.1}" text-anchor="middle">{}</text>"##,
-            h - bottom,
-            h - bottom + 16.0,
-            format_decade(v)
-        );
-    }
-    for d in (e0 as i32)..=(e1 as i32) {
-        let v = 10f64.powi(d);
-        let py = y(v);
-        let _ = writeln!(
-            s,
-            r##"<line x1="{left}" y1="{py:.1}" x2="{:.1}" y2="{py:.1}" stroke="#ddd"/><text x="{:.1}" y="{:.1}" text-anchor="end">{}</text>"##,
-            w - right,
-            left - 6.0,
-            py + 4.0,
-            format_decade(v)
-        );
-    }
-    let _ = writeln!(
-        s,
-        r#"<text x="{:.1}" y="{:.1}" text-anchor="middle">CPU time per image (both cores), s (log)</text>"#,
-        left + (w - left - right) / 2.0,
-        h - 12.0
-    );
-    let _ = writeln!(
-        s,
-        r#"<text transform="translate(16 {:.1}) rotate(-90)" text-anchor="middle">mean ΔE00 against the reference (log)</text>"#,
-        top + (h - top - bottom) / 2.0
-    );
-    let colours = [
-        "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b",
-    ];
-    let mut cases: Vec<&str> = Vec::new();
-    for r in rows {
-        if !cases.contains(&r.case.as_str()) {
-            cases.push(&r.case);
-        }
-    }
-    for (ci, case) in cases.iter().enumerate() {
-        let colour = colours[ci % colours.len()];
-        let mut front: Vec<&&Row> = finite
-            .iter()
-            .filter(|r| r.case == *case && r.front)
-            .collect();
-        front.sort_by(|a, b| a.cost.cpu.total_cmp(&b.cost.cpu));
-        let path: Vec<String> = front
-            .iter()
-            .map(|r| format!("{:.1},{:.1}", x(r.cost.cpu), y(r.error.mean_delta_e)))
-            .collect();
-        if path.len() > 1 {
-            let _ = writeln!(
-                s,
-                r#"<polyline points="{}" fill="none" stroke="{colour}" stroke-width="{}"/>"#,
-                path.join(" "),
-                if *case == primary { 2.5 } else { 1.2 }
-            );
-        }
-        for r in finite.iter().filter(|r| r.case == *case) {
-            let radius = if r.front { 4.5 } else { 2.5 };
-            let fill = if r.front { colour } else { "white" };
-            let _ = writeln!(
-                s,
-                r#"<circle cx="{:.1}" cy="{:.1}" r="{radius}" fill="{fill}" stroke="{colour}"><title>{}: {} λ, {} spp, {} — {:.3} s CPU, ΔE00 {:.2}</title></circle>"#,
-                x(r.cost.cpu),
-                y(r.error.mean_delta_e),
-                escape(&r.case),
-                r.setting.wavelengths,
-                r.setting.spp,
-                escape(&r.setting.knob_label()),
-                r.cost.cpu,
-                r.error.mean_delta_e
-            );
-        }
-        let ly = top + 10.0 + 18.0 * ci as f64;
-        let _ = writeln!(
-            s,
-            r#"<circle cx="{:.1}" cy="{ly:.1}" r="4.5" fill="{colour}"/><text x="{:.1}" y="{:.1}">{}</text>"#,
-            w - right + 14.0,
-            w - right + 24.0,
-            ly + 4.0,
-            escape(case)
-        );
-    }
-    let ly = top + 10.0 + 18.0 * cases.len() as f64;
-    let _ = writeln!(
-        s,
-        r##"<text x="{:.1}" y="{:.1}" fill="#555">filled, joined: Pareto front</text>"##,
-        w - right + 8.0,
-        ly + 8.0
-    );
-    s.push_str("</svg>\n");
-    s
-}
-
-fn format_decade(v: f64) -> String {
-    if v >= 1.0 {
-        format!("{v:.0}")
-    } else {
-        let digits = (-v.log10()).round() as usize;
-        format!("{v:.digits$}")
-    }
-}
-
-fn escape(text: &str) -> String {
-    text.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-}
-
-/// The quality presets: points of the primary case's front the app can apply.
-/// Draft is the fastest, Reference the most accurate; Preview and Final the fastest
-/// whose mean and 95th-percentile ΔE00 are within [`PREVIEW_MAX_DELTA_E`],
-/// [`PREVIEW_MAX_P95_DELTA_E`] and [`FINAL_MAX_DELTA_E`], [`FINAL_MAX_P95_DELTA_E`].
-fn choose_presets<'a>(rows: &'a [Row], primary: &str) -> Vec<(&'static str, &'a Row)> {
-    let mut front: Vec<&Row> = rows
-        .iter()
-        .filter(|r| r.case == primary && r.front && r.setting.app_applicable())
-        .collect();
-    front.sort_by(|a, b| a.cost.cpu.total_cmp(&b.cost.cpu));
-    let Some(&fastest) = front.first() else {
-        return Vec::new();
-    };
-    let best = front
-        .iter()
-        .copied()
-        .min_by(|a, b| a.error.mean_delta_e.total_cmp(&b.error.mean_delta_e))
-        .unwrap_or(fastest);
-    let within = |mean_limit: f64, p95_limit: f64| {
-        front
-            .iter()
-            .copied()
-            .find(|r| r.error.mean_delta_e <= mean_limit && r.error.p95_delta_e <= p95_limit)
-            .unwrap_or(best)
-    };
-    vec![
-        ("Draft", fastest),
-        (
-            "Preview",
-            within(PREVIEW_MAX_DELTA_E, PREVIEW_MAX_P95_DELTA_E),
-        ),
-        ("Final", within(FINAL_MAX_DELTA_E, FINAL_MAX_P95_DELTA_E)),
-        ("Reference", best),
-    ]
-}
-
-// The limits bound the 95th percentile as well as the mean: with the low-discrepancy
-// sampler a quarter-resolution image upsampled reaches a low mean (smooth panels
-// average out) while its edges and highlights, the pixels a designer looks at, stay
-// wrong (p95 5.9–6.3 at 16–64 spp on the default car), and a mean-only rule chose it
-// for Final.
-/// Mean ΔE00 a Preview may leave: about one just-noticeable difference and a half.
-pub const PREVIEW_MAX_DELTA_E: f64 = 1.5;
-/// 95th-percentile ΔE00 a Preview may leave: noise visible, edges in place.
-pub const PREVIEW_MAX_P95_DELTA_E: f64 = 4.0;
-/// Mean ΔE00 a Final may leave: below one just-noticeable difference.
-pub const FINAL_MAX_DELTA_E: f64 = 0.75;
-/// 95th-percentile ΔE00 a Final may leave: about two just-noticeable differences.
-pub const FINAL_MAX_P95_DELTA_E: f64 = 2.0;
-
-fn presets_toml(presets: &[(&str, &Row)], protocol: &Protocol, primary: &str) -> String {
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "# Quality presets: points on the measured Pareto front of `coatlab bench tradeoff`\n\
-         # (docs/tradeoff.md). Written by the bench; do not edit by hand.\n\
-         # Errors are ΔE00 of the displayed colour against the 81-wavelength reference, cost\n\
-         # the CPU time (both cores) and wall time of one {}×{} image; measured on \"{}\".\n",
-        protocol.size.0, protocol.size.1, primary
-    );
-    let _ = writeln!(s, "case = \"{primary}\"");
-    let _ = writeln!(s, "protocol_width = {}", protocol.size.0);
-    let _ = writeln!(s, "protocol_height = {}\n", protocol.size.1);
-    for (name, row) in presets {
-        let _ = writeln!(s, "[[preset]]");
-        let _ = writeln!(s, "name = \"{name}\"");
-        let _ = writeln!(s, "wavelengths = {}", row.setting.wavelengths);
-        let _ = writeln!(s, "samples_per_pixel = {}", row.setting.spp);
-        let _ = writeln!(s, "resolution_divisor = {}", row.setting.scale);
-        let _ = writeln!(s, "cpu_seconds = {:.4}", row.cost.cpu);
-        let _ = writeln!(s, "wall_seconds = {:.4}", row.cost.wall);
-        let _ = writeln!(s, "mean_delta_e = {:.3}", row.error.mean_delta_e);
-        let _ = writeln!(s, "p95_delta_e = {:.3}", row.error.p95_delta_e);
-        let _ = writeln!(s, "bias_delta_e = {:.3}\n", row.error.bias());
-    }
-    s
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn row(seconds: f64, mean: f64, setting: Setting) -> Row {
-        Row {
-            case: "c".into(),
-            setting,
-            cost: Cost {
-                wall: seconds / 2.0,
-                cpu: seconds,
-            },
-            error: ImageError {
-                mean_delta_e: mean,
-                p95_delta_e: mean * 2.0,
-                region_delta_e: [Some(0.1), None, Some(0.2)],
-            },
-            front: false,
-        }
-    }
-
-    #[test]
-    fn the_front_keeps_only_undominated_rows_and_presets_sit_on_it() {
-        let s = Setting::spectral(32, 4);
-        // Within Preview's mean but not its p95: skipped for Preview.
-        let mut sharp_mean_noisy_edges = row(1.5, 1.45, s);
-        sharp_mean_noisy_edges.error.p95_delta_e = 6.0;
-        let mut rows = vec![
-            row(1.0, 5.0, s),
-            sharp_mean_noisy_edges,
-            row(2.0, 1.4, s),
-            row(2.5, 3.0, s), // dominated by (2, 1.4)
-            row(4.0, 0.7, s),
-            row(8.0, 0.5, s),
-            row(
-                9.0,
-                0.4,
-                Setting {
-                    coat: CoatIntegralMethod::FittedFdr,
-                    ..s
-                },
-            ),
-        ];
-        mark_front(&mut rows);
-        let front: Vec<bool> = rows.iter().map(|r| r.front).collect();
-        assert_eq!(front, vec![true, true, true, false, true, true, true]);
-        let presets = choose_presets(&rows, "c");
-        let picked: Vec<f64> = presets.iter().map(|(_, r)| r.cost.cpu).collect();
-        // Preview: the first within mean 1.5 and p95 4 (not the cheaper row whose p95
-        // is 6); Final: within 0.75 and 2; the F_dr row is on the front but not
-        // applicable by the app.
-        assert_eq!(picked, vec![1.0, 2.0, 4.0, 8.0]);
-    }
-
-    #[test]
-    fn tables_go_between_the_markers_and_the_rest_is_kept() {
-        let dir = std::env::temp_dir().join(format!("coatlab-bench-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("t.md");
-        std::fs::write(
-            &path,
-            format!("intro\n{TABLE_BEGIN}\nold\n{TABLE_END}\nhand-written\n"),
-        )
-        .unwrap();
-        write_between_markers(&path, "new\n").unwrap();
-        let text = std::fs::read_to_string(&path).unwrap();
-        assert_eq!(
-            text,
-            format!("intro\n{TABLE_BEGIN}\nnew\n{TABLE_END}\nhand-written\n")
-        );
-        std::fs::write(&path, format!("{TABLE_END}\n{TABLE_BEGIN}\n")).unwrap();
-        assert!(write_between_markers(&path, "x").is_err());
-        std::fs::remove_dir_all(&dir).ok();
-    }
 }
