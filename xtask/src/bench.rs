@@ -12,6 +12,7 @@
 //!   (assets/quality-presets.toml) from the measured Pareto front ([`report`]).
 
 mod report;
+mod rgb;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -31,7 +32,6 @@ use coatlab_core::render::image_error::{ImageError, Region, RegionMasks, XyzImag
 use coatlab_core::render::lighting::Lighting;
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
-use coatlab_core::render::rgb;
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, SceneError, load};
@@ -273,7 +273,7 @@ struct Setting {
     lobe: Option<LobeKind>,
     /// Render at 1/scale of the protocol size, then upsample.
     scale: u32,
-    /// The RGB shortcut (`render::rgb`) instead of `wavelengths` wavelengths.
+    /// The RGB shortcut (`rgb`) instead of `wavelengths` wavelengths.
     rgb: bool,
 }
 

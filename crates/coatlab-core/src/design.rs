@@ -111,7 +111,7 @@ pub enum DesignError {
     Invalid { field: String, message: String },
     /// A model on linear-sRGB channels was to be updated from the design's
     /// spectra, which need wavelengths (an RGB model is built by
-    /// [`crate::render::rgb::paint_model`]).
+    /// the RGB shortcut of `cargo xtask bench`, xtask/src/bench/rgb.rs).
     #[error("{name}: a design's spectra need a wavelength grid, not linear-sRGB channels")]
     NotSpectral { name: String },
     /// The gloss reading cannot be turned into a lobe exponent.

@@ -3,13 +3,18 @@
 //! The physics is specified in `docs/model.md` (the "spec"); section numbers in
 //! comments refer to it. This crate has no GUI dependency.
 //!
-//! Layers, each depending only on those above it:
+//! Layers, each depending only on those above it (docs/architecture.md):
 //! - [`units`], [`quadrature`], [`sampling`]: small numeric foundations;
-//! - [`colour`]: wavelength grids and spectra, CIE data, colorimetry;
-//! - [`paint`]: Fresnel, the coat integral C, the body and specular terms, the gloss
-//!   lobe and its normalisation, m(g), sampling, Phong;
+//! - [`colour`]: wavelength grids and channels, CIE data, colorimetry, RGB → spectrum;
+//! - [`paint`]: the parameter table, Fresnel, the coat integral C, the body and
+//!   specular terms, the gloss lobe and its normalisation, m(g), sampling, Phong;
 //! - [`instruments`]: the virtual multi-angle spectrophotometer and glossmeter;
-//! - [`design`]: paint design files.
+//! - [`design`]: paint design files;
+//! - [`io`]: image files in and out, atomic writes;
+//! - [`scene`]: glTF scenes and the built-in car;
+//! - [`accel`]: the BVH over triangles;
+//! - [`render`]: the spectral path tracer (lighting, camera, materials, film, passes);
+//! - [`engine`]: the live-rendering engine behind the designer's preview.
 
 pub mod accel;
 pub mod colour;

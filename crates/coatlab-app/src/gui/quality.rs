@@ -1,6 +1,6 @@
 //! Quality presets of the preview, taken from the measured speed/accuracy trade
 //! (docs/tradeoff.md): each preset is a point on the Pareto front that
-//! `coatlab bench tradeoff` measured, stored with its error and cost in
+//! `cargo xtask bench tradeoff` measured, stored with its error and cost in
 //! `assets/quality-presets.toml` (written by the bench, embedded here, validated at
 //! start-up). Choosing one sets the preview's wavelength count, sample target and
 //! resolution; the status line then shows the error left: the noise estimate of the
@@ -240,7 +240,7 @@ mod tests {
     }
 
     /// The cheapest preset's measured mean ΔE00, measured again here rather than read
-    /// back from the bench's output: the protocol of `coatlab bench tradeoff`
+    /// back from the bench's output: the protocol of `cargo xtask bench tradeoff`
     /// (cmd/bench.rs) on its primary case, the built-in car in the studio painted with
     /// the first built-in design, 320×180, rendered at the preset's wavelengths,
     /// samples and resolution with several seeds and compared with an 81-wavelength

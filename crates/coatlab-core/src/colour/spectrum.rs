@@ -277,7 +277,7 @@ impl WavelengthGrid {
 
 /// What the values of the tracer's per-path arrays (radiance, BSDF values, path
 /// weights, film samples) stand for: one wavelength each of a grid, or the three
-/// linear-sRGB primaries of the RGB shortcut ([`crate::render::rgb`]).
+/// linear-sRGB primaries of the RGB shortcut (`cargo xtask bench`'s RGB shortcut, xtask/src/bench/rgb.rs).
 ///
 /// The paint formulas run per channel alike; what differs is only how a channel
 /// meets colour: a spectral channel has a wavelength (the film weighs it by the

@@ -178,7 +178,7 @@ pub fn body_brdf<F: Float>(rho: F, n: F, tau: F, c: F, cos_i: F, cos_o: F) -> F 
 
 /// How the renderer's tables obtain C(n, τ): the exact integral, or one of the
 /// shortcuts other renderers take. A speed/accuracy knob measured by
-/// `coatlab bench tradeoff` (docs/tradeoff.md); the tables are rebuilt only when a
+/// `cargo xtask bench tradeoff` (docs/tradeoff.md); the tables are rebuilt only when a
 /// design changes, so the shortcuts save no render time, only table time.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum CoatIntegralMethod {

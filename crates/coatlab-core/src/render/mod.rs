@@ -17,7 +17,6 @@
 //! - [`progressive`]: passes over tiles on all cores, restarts, noise estimates;
 //! - [`adaptive`]: adaptive sampling, a pass's samples spent by each pixel's noise;
 //! - [`image_error`]: the error of a render against a reference (ΔE00 as displayed);
-//! - [`rgb`]: the RGB shortcut (three linear-sRGB channels instead of wavelengths);
 //! - [`reshade`]: a paint edit's picture from the recorded paths, without tracing.
 
 pub mod geometry;
@@ -33,4 +32,3 @@ pub mod lighting;
 pub mod material;
 pub mod progressive;
 pub mod reshade;
-pub mod rgb;

@@ -1,27 +1,28 @@
-//! The RGB shortcut: the same paint model rendered on three linear-sRGB channels
-//! instead of wavelengths — what a user of an RGB renderer does — so its error
-//! against the spectral reference can be measured (`coatlab bench tradeoff`).
+//! The RGB shortcut of the speed/accuracy sweep: the same paint model rendered on
+//! three linear-sRGB channels instead of wavelengths — what a user of an RGB
+//! renderer does — so its error against the spectral reference can be measured
+//! (`cargo xtask bench tradeoff`).
 //!
 //! The channels travel through the tracer as [`Channels::LinearSrgb`]: the paint
 //! formulas run per channel exactly as per wavelength; the film turns a channel
 //! triple into XYZ by the sRGB→XYZ matrix (white (1, 1, 1) → Y = 1); the lighting's
 //! spectra are reduced to their linear sRGB colour
-//! ([`crate::colour::linear_srgb_of_emission`]: same XYZ as the spectrum on the
+//! ([`coatlab_core::colour::linear_srgb_of_emission`]: same XYZ as the spectrum on the
 //! film), its luminance weights are the sRGB luminance row, and scene materials keep
 //! their glTF base colour as is.
 //!
 //! The design's spectra are reduced the way an RGB user would pick values:
 //! - ρ: its colour under D65, as linear sRGB
-//!   ([`crate::colour::linear_srgb_of_reflectance`]; a constant ρ stays ρ in all
+//!   ([`coatlab_core::colour::linear_srgb_of_reflectance`]; a constant ρ stays ρ in all
 //!   three);
 //! - n and k: the same D65-weighted per-channel average (the sRGB "colour-matching
 //!   functions" r̄, ḡ, b̄ times D65, normalised so a constant stays constant),
 //!   clamped to n ≥ 1 and k ≥ 0 (the r̄ lobe is negative around 440–540 nm).
 
-use crate::colour::linear_srgb_of_reflectance;
-use crate::colour::spectrum::{Channels, WavelengthGrid};
-use crate::design::{DesignError, PaintDesign};
-use crate::paint::model::{PaintModel, PaintParams};
+use coatlab_core::colour::linear_srgb_of_reflectance;
+use coatlab_core::colour::spectrum::{Channels, WavelengthGrid};
+use coatlab_core::design::{DesignError, PaintDesign};
+use coatlab_core::paint::model::{PaintModel, PaintParams};
 
 /// The design's paint model on [`Channels::LinearSrgb`] (see the module
 /// documentation for the reduction).
@@ -54,10 +55,10 @@ mod tests {
     use palette::LinSrgb;
 
     use super::*;
-    use crate::colour::upsampling::RgbUpsampler;
-    use crate::colour::{SRGB_LUMINANCE, linear_srgb_of_emission, srgb_white};
-    use crate::render::environment::{Environment, luminance_weights};
-    use crate::render::film::Film;
+    use coatlab_core::colour::upsampling::RgbUpsampler;
+    use coatlab_core::colour::{SRGB_LUMINANCE, linear_srgb_of_emission, srgb_white};
+    use coatlab_core::render::environment::{Environment, luminance_weights};
+    use coatlab_core::render::film::Film;
 
     #[test]
     fn constant_reflectances_stay_constant_and_the_white_is_white() {
@@ -115,7 +116,7 @@ mod tests {
 
     #[test]
     fn the_default_design_reduces_to_a_red_paint_on_three_channels() {
-        let design = crate::design::presets::all().remove(0).design;
+        let design = coatlab_core::design::presets::all().remove(0).design;
         let model = paint_model(&design).unwrap();
         assert_eq!(model.channels(), &Channels::LinearSrgb);
         let rho = model.albedo();
