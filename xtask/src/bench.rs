@@ -639,7 +639,9 @@ fn load_average() -> String {
 fn protocol_gltf(args: &TradeoffArgs) -> Result<PathBuf, Failed> {
     let shared = match &args.shared {
         Some(dir) => Some((dir.clone(), "--shared")),
-        None => std::env::var_os("COATLAB_SHARED").map(|dir| (dir.into(), "COATLAB_SHARED")),
+        None => std::env::var_os("COATLAB_SHARED")
+            .filter(|dir| !dir.is_empty())
+            .map(|dir| (dir.into(), "COATLAB_SHARED")),
     };
     let (path, given) = match (&args.gltf, shared) {
         (Some(path), _) => (path.clone(), "--gltf"),
