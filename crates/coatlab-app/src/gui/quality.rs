@@ -241,7 +241,7 @@ mod tests {
 
     /// The cheapest preset's measured mean ΔE00, measured again here rather than read
     /// back from the bench's output: the protocol of `cargo xtask bench tradeoff`
-    /// (cmd/bench.rs) on its primary case, the built-in car in the studio painted with
+    /// (xtask/src/bench.rs) on its primary case, the built-in car in the studio painted with
     /// the first built-in design, 320×180, rendered at the preset's wavelengths,
     /// samples and resolution with several seeds and compared with an 81-wavelength
     /// reference of fewer samples than the bench's.
