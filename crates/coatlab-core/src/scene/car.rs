@@ -81,6 +81,7 @@
 
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
+use glam::DVec3;
 use palette::LinSrgb;
 
 use super::{Scene, SceneMaterial, TriangleMesh};
@@ -528,8 +529,8 @@ fn add_ring_surface(
     let volume: f64 = triangles
         .iter()
         .map(|t| {
-            let [a, b, c] = t.map(|k| positions[k as usize]);
-            dot(a, cross(b, c))
+            let [a, b, c] = t.map(|k| DVec3::from(positions[k as usize]));
+            a.dot(b.cross(c))
         })
         .sum();
     if volume < 0.0 {
@@ -538,21 +539,18 @@ fn add_ring_surface(
         }
     }
 
-    let mut normals = vec![[0.0f64; 3]; positions.len()];
+    let mut normals = vec![DVec3::ZERO; positions.len()];
     for t in &triangles {
-        let [a, b, c] = t.map(|k| positions[k as usize]);
-        let n = cross(sub(b, a), sub(c, a));
+        let [a, b, c] = t.map(|k| DVec3::from(positions[k as usize]));
+        let n = (b - a).cross(c - a);
         for k in t {
-            let acc = &mut normals[*k as usize];
-            for (acc_k, n_k) in acc.iter_mut().zip(n) {
-                *acc_k += n_k;
-            }
+            normals[*k as usize] += n;
         }
     }
     for (p, n) in positions.iter().zip(&normals) {
-        let length = dot(*n, *n).sqrt();
+        let length = n.length();
         let unit = if length > 0.0 {
-            n.map(|v| v / length)
+            (*n / length).to_array()
         } else {
             [0.0, 1.0, 0.0]
         };
@@ -562,22 +560,6 @@ fn add_ring_surface(
     mesh.triangles
         .extend(triangles.iter().map(|t| t.map(|k| k + base)));
     mesh.triangle_material.extend(materials);
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 // ---------------------------------------------------------------------------------
@@ -1126,35 +1108,33 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, GlbWriteError> {
         sparse: None,
     };
 
-    let (lo, hi) = mesh.bounds().unwrap_or(([0.0; 3], [0.0; 3]));
-    let positions_view = push_view(
-        &mut root,
-        &mut bin,
-        vec3_bytes(&mesh.positions),
-        json::buffer::Target::ArrayBuffer,
-    );
-    let positions = root.push(accessor(
-        positions_view,
-        mesh.positions.len(),
-        json::accessor::ComponentType::F32,
-        json::accessor::Type::Vec3,
-        Some(json::Value::from(lo.to_vec())),
-        Some(json::Value::from(hi.to_vec())),
-    ));
-    let normals_view = push_view(
-        &mut root,
-        &mut bin,
-        vec3_bytes(&mesh.normals),
-        json::buffer::Target::ArrayBuffer,
-    );
-    let normals = root.push(accessor(
-        normals_view,
-        mesh.normals.len(),
-        json::accessor::ComponentType::F32,
-        json::accessor::Type::Vec3,
-        None,
-        None,
-    ));
+    // A float VEC3 attribute in a view of its own, with its bounds where given.
+    let vec3_attribute = |root: &mut json::Root,
+                          bin: &mut Vec<u8>,
+                          values: &[[f32; 3]],
+                          bounds: Option<([f32; 3], [f32; 3])>| {
+        let target = json::buffer::Target::ArrayBuffer;
+        let view = push_view(root, bin, vec3_bytes(values), target);
+        let (min, max) = bounds
+            .map(|(lo, hi)| {
+                (
+                    json::Value::from(lo.to_vec()),
+                    json::Value::from(hi.to_vec()),
+                )
+            })
+            .unzip();
+        root.push(accessor(
+            view,
+            values.len(),
+            json::accessor::ComponentType::F32,
+            json::accessor::Type::Vec3,
+            min,
+            max,
+        ))
+    };
+    let bounds = mesh.bounds().unwrap_or(([0.0; 3], [0.0; 3]));
+    let positions = vec3_attribute(&mut root, &mut bin, &mesh.positions, Some(bounds));
+    let normals = vec3_attribute(&mut root, &mut bin, &mesh.normals, None);
 
     let mut primitives = Vec::new();
     for (index, m) in scene.materials.iter().enumerate() {
