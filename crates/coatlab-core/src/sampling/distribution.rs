@@ -190,8 +190,9 @@ mod tests {
 
     /// `sample` (guided search, one-index shortcut, probabilities computed once)
     /// gives the index and fraction of the plain inversion by binary search (with
-    /// the same landing off empty bins), bit for bit, for random numbers, 0, the largest below 1 and numbers whose
-    /// targets fall at and next to every step of the cdf.
+    /// the same landing off empty bins), bit for bit, for random numbers, 0, the
+    /// largest below 1 and numbers whose targets fall at and next to every step of
+    /// the cdf.
     #[test]
     fn samples_are_the_plain_cdf_inversion() {
         let mut state = 3;
