@@ -481,26 +481,28 @@ fn sampler_matches_its_density() {
 #[test]
 fn chi_square_test_rejects_a_wrong_density() {
     // Negative control: the density of a 25 % different exponent must be rejected.
-    let model = grey_model(
-        0.6,
-        1.5,
-        0.05,
-        GlossExponent::Finite(60.0),
-        LobeKind::Normalised,
-    );
-    let wrong = grey_model(
-        0.6,
-        1.5,
-        0.05,
-        GlossExponent::Finite(75.0),
-        LobeKind::Normalised,
-    );
+    let with_exponent = |m| {
+        grey_model(
+            0.6,
+            1.5,
+            0.05,
+            GlossExponent::Finite(m),
+            LobeKind::Normalised,
+        )
+    };
+    let (model, wrong) = (with_exponent(60.0), with_exponent(75.0));
     let wo = to_f32(direction(40.0, 0.0));
     let test = chi_square(&model, &wrong, wo, Perturbation::None);
     assert!(
         test.p_value < 1e-6,
         "χ² accepted a 25% wrong exponent: {test:?}"
     );
+}
+
+/// A negative control's test, printed, must reject far beyond chance (p < 1e-9).
+fn assert_far_rejected(test: &ChiSquare, case: &str, error: &str) {
+    println!("{case}, {error}: {test:?}");
+    assert!(test.p_value < 1e-9, "{case}: χ² accepted {error}: {test:?}");
 }
 
 #[test]
@@ -513,11 +515,8 @@ fn chi_square_test_rejects_a_ten_percent_density_error_in_every_case() {
         let wo = to_f32(direction(theta, 20.0));
         let wrong = Perturbation::HalfDomain { factor: 1.1 };
         let test = chi_square(&model, &model, wo, wrong);
-        println!("ρ {rho} {m:?} {lobe:?} θ {theta}, density 10 % off on half: {test:?}");
-        assert!(
-            test.p_value < 1e-9,
-            "ρ {rho} {m:?} {lobe:?} θ {theta}: χ² accepted a 10 % density error: {test:?}"
-        );
+        let case = format!("ρ {rho} {m:?} {lobe:?} θ {theta}");
+        assert_far_rejected(&test, &case, "a 10 % density error on half the azimuths");
     }
 }
 
@@ -538,11 +537,8 @@ fn chi_square_test_rejects_a_ten_percent_error_in_the_lobe_exponent() {
         let wrong = grey_model(rho, 1.5, 0.05, GlossExponent::Finite(1.1 * exponent), lobe);
         let wo = to_f32(direction(theta, 20.0));
         let test = chi_square(&model, &wrong, wo, Perturbation::None);
-        println!("m {exponent} {lobe:?} θ {theta}, density of m × 1.1: {test:?}");
-        assert!(
-            test.p_value < 1e-9,
-            "m {exponent} {lobe:?} θ {theta}: χ² accepted a 10 % exponent error: {test:?}"
-        );
+        let case = format!("m {exponent} {lobe:?} θ {theta}");
+        assert_far_rejected(&test, &case, "the density of m × 1.1");
     }
 }
 
