@@ -142,16 +142,15 @@ fn brdf_at_index_one_is_the_attenuated_lambertian() {
     }
 }
 
+/// The rows `rows_at(n)` for every n of [`INDICES`].
+fn for_every_index<I: IntoIterator<Item = BrdfRow>>(rows_at: impl Fn(f64) -> I) -> Vec<BrdfRow> {
+    INDICES.into_iter().flat_map(rows_at).collect()
+}
+
 #[test]
 fn brdf_white_furnace_albedo_is_one() {
-    let rows: Vec<BrdfRow> = INDICES
-        .iter()
-        .flat_map(|&n| {
-            ANGLES_DEG
-                .iter()
-                .map(move |&theta_i| BrdfRow::new(n, 1.0, 0.0, theta_i, 0.0))
-        })
-        .collect();
+    let rows =
+        for_every_index(|n| ANGLES_DEG.map(|theta_i| BrdfRow::new(n, 1.0, 0.0, theta_i, 0.0)));
     for (row, (_, albedo)) in rows.iter().zip(brdf(&rows)) {
         assert!((albedo - 1.0).abs() <= 1e-9, "{row:?}: albedo {albedo}");
     }
@@ -208,13 +207,10 @@ fn brdf_is_reciprocal() {
 
 #[test]
 fn brdf_of_black_pigment_is_zero() {
-    let rows: Vec<BrdfRow> = INDICES
-        .iter()
-        .flat_map(|&n| {
-            [(0.0, 0.0), (30.0, 70.0), (90.0, 10.0)]
-                .map(|(theta_i, theta_o)| BrdfRow::new(n, 0.0, 0.01, theta_i, theta_o))
-        })
-        .collect();
+    let rows = for_every_index(|n| {
+        [(0.0, 0.0), (30.0, 70.0), (90.0, 10.0)]
+            .map(|(theta_i, theta_o)| BrdfRow::new(n, 0.0, 0.01, theta_i, theta_o))
+    });
     for (row, (f_body, albedo)) in rows.iter().zip(brdf(&rows)) {
         assert_eq!(f_body, 0.0, "{row:?}");
         // Only the mirror reflects.

@@ -136,22 +136,7 @@ impl Case {
     }
 
     fn run(&self) -> Output {
-        let mut child = bin()
-            .args(&self.args)
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("coatlab starts");
-        let mut stdin = child.stdin.take().expect("piped");
-        let input = self.stdin.clone();
-        // The binary may stop reading at a bad row: the broken pipe is expected.
-        let feeder = std::thread::spawn(move || {
-            let _ = stdin.write_all(&input);
-        });
-        let output = child.wait_with_output().expect("coatlab finishes");
-        feeder.join().expect("the feeder does not panic");
-        output
+        common::coatlab_fed(&self.args, self.stdin.clone())
     }
 }
 

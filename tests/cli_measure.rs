@@ -179,27 +179,26 @@ fn measure_json_matches_the_independent_reference() {
     );
 }
 
+/// `coatlab measure --json` of `design` against `target`.
+fn measured_against(design: &Path, target: &Path) -> serde_json::Value {
+    json_of(&[
+        "measure",
+        "--json",
+        design.to_str().expect("path"),
+        "--target",
+        target.to_str().expect("path"),
+    ])
+}
+
 #[test]
 fn measure_against_a_target_reports_delta_e_per_angle() {
     let red = preset("signal-red");
-    let json = json_of(&[
-        "measure",
-        "--json",
-        red.to_str().expect("path"),
-        "--target",
-        red.to_str().expect("path"),
-    ]);
+    let json = measured_against(&red, &red);
     let de = json["delta_e00"].as_array().expect("dE00 per angle");
     assert_eq!(de.len(), 5);
     assert!(de.iter().all(|d| d.as_f64() == Some(0.0)));
     let blue = preset("deep-blue");
-    let json = json_of(&[
-        "measure",
-        "--json",
-        red.to_str().expect("path"),
-        "--target",
-        blue.to_str().expect("path"),
-    ]);
+    let json = measured_against(&red, &blue);
     assert!(json["delta_e00"][0].as_f64().is_some_and(|d| d > 20.0));
 }
 

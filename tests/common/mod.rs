@@ -3,6 +3,7 @@
 
 mod outcome;
 
+use std::ffi::OsStr;
 use std::io::Write;
 use std::process::{Command, Output, Stdio};
 
@@ -10,6 +11,11 @@ use std::process::{Command, Output, Stdio};
 pub use outcome::{exit, failure, stdout};
 
 pub fn coatlab(args: &[&str], stdin: &str) -> Output {
+    coatlab_fed(args, stdin.as_bytes().to_vec())
+}
+
+/// `coatlab` with `args`, fed `stdin` (any bytes, not only text).
+pub fn coatlab_fed(args: &[impl AsRef<OsStr>], stdin: Vec<u8>) -> Output {
     let mut child = Command::new(env!("CARGO_BIN_EXE_coatlab"))
         .args(args)
         .stdin(Stdio::piped())
@@ -22,9 +28,8 @@ pub fn coatlab(args: &[&str], stdin: &str) -> Output {
     // row and close its stdin early; the broken pipe is then expected, and the exit
     // status tells the story.
     let mut child_stdin = child.stdin.take().expect("stdin is piped");
-    let input = stdin.to_owned();
     let feeder = std::thread::spawn(move || {
-        let _ = child_stdin.write_all(input.as_bytes());
+        let _ = child_stdin.write_all(&stdin);
     });
     let output = child.wait_with_output().expect("coatlab finishes");
     feeder.join().expect("the stdin feeder does not panic");

@@ -6,6 +6,8 @@
 
 #[path = "../tests/support/image_stats.rs"]
 mod image_stats;
+#[path = "../tests/support/progressive.rs"]
+mod progressive;
 #[path = "../tests/support/render_reference.rs"]
 mod render_reference;
 

@@ -66,52 +66,19 @@ fn assert_xyz_close(actual: Xyz, expected: [f64; 3], tolerance: f64, what: &str)
 /// 107.324 against 107.304; F11 2° Z: 64.351 against 64.370), most below 0.01.
 #[test]
 fn white_points_match_published_values() {
+    use Illuminant::{A, D50, D65, F2, F7, F11};
+    const TWO: Observer = Observer::Cie1931TwoDegree;
+    const TEN: Observer = Observer::Cie1964TenDegree;
     let published = [
-        (
-            Illuminant::D65,
-            Observer::Cie1931TwoDegree,
-            [95.047, 100.0, 108.883],
-        ),
-        (
-            Illuminant::D65,
-            Observer::Cie1964TenDegree,
-            [94.811, 100.0, 107.304],
-        ),
-        (
-            Illuminant::A,
-            Observer::Cie1931TwoDegree,
-            [109.850, 100.0, 35.585],
-        ),
-        (
-            Illuminant::A,
-            Observer::Cie1964TenDegree,
-            [111.144, 100.0, 35.200],
-        ),
-        (
-            Illuminant::D50,
-            Observer::Cie1931TwoDegree,
-            [96.422, 100.0, 82.521],
-        ),
-        (
-            Illuminant::D50,
-            Observer::Cie1964TenDegree,
-            [96.720, 100.0, 81.427],
-        ),
-        (
-            Illuminant::F2,
-            Observer::Cie1931TwoDegree,
-            [99.187, 100.0, 67.395],
-        ),
-        (
-            Illuminant::F7,
-            Observer::Cie1931TwoDegree,
-            [95.044, 100.0, 108.755],
-        ),
-        (
-            Illuminant::F11,
-            Observer::Cie1931TwoDegree,
-            [100.966, 100.0, 64.370],
-        ),
+        (D65, TWO, [95.047, 100.0, 108.883]),
+        (D65, TEN, [94.811, 100.0, 107.304]),
+        (A, TWO, [109.850, 100.0, 35.585]),
+        (A, TEN, [111.144, 100.0, 35.200]),
+        (D50, TWO, [96.422, 100.0, 82.521]),
+        (D50, TEN, [96.720, 100.0, 81.427]),
+        (F2, TWO, [99.187, 100.0, 67.395]),
+        (F7, TWO, [95.044, 100.0, 108.755]),
+        (F11, TWO, [100.966, 100.0, 64.370]),
     ];
     for (illuminant, observer, expected) in published {
         let white = reference_colorimeter(illuminant, observer).white();

@@ -7,6 +7,7 @@ use std::sync::OnceLock;
 
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{self, ARCH_LIP_WIDTH_M, CarParameters};
+use glam::Vec3;
 
 fn scene() -> &'static Scene {
     static SCENE: OnceLock<Scene> = OnceLock::new();
@@ -23,22 +24,6 @@ fn material_index(scene: &Scene, name: &str) -> u32 {
         .iter()
         .position(|m| m.name == name)
         .unwrap_or_else(|| panic!("no material {name}")) as u32
-}
-
-fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 /// Vertices of the body surface: those of paint and glass triangles.
@@ -82,7 +67,7 @@ fn mesh_is_large_consistent_and_finite() {
     );
     assert!(mesh.positions.iter().flatten().all(|v| v.is_finite()));
     for (k, normal) in mesh.normals.iter().enumerate() {
-        let length = dot(*normal, *normal).sqrt();
+        let length = Vec3::from(*normal).length();
         assert!(
             (length - 1.0).abs() < 1e-5,
             "normal {k} has length {length}"
@@ -148,10 +133,10 @@ fn normals_face_outward() {
     // Vertex normals agree with the winding of every triangle that uses them.
     let mut disagreeing = 0;
     for tri in &mesh.triangles {
-        let [a, b, c] = tri.map(|v| mesh.positions[v as usize]);
-        let face = cross(sub(b, a), sub(c, a));
+        let [a, b, c] = tri.map(|v| Vec3::from(mesh.positions[v as usize]));
+        let face = (b - a).cross(c - a);
         for &v in tri {
-            if dot(face, mesh.normals[v as usize]) < 0.0 {
+            if face.dot(mesh.normals[v as usize].into()) < 0.0 {
                 disagreeing += 1;
             }
         }
@@ -189,7 +174,7 @@ fn normals_face_outward() {
         ];
         let n = mesh.normals[v];
         assert!(
-            dot(n, sub(*q, axis)) > 0.0,
+            Vec3::from(n).dot(Vec3::from(*q) - Vec3::from(axis)) > 0.0,
             "body normal {n:?} at {q:?} points toward the section axis {axis:?}"
         );
         checked += 1;
@@ -213,13 +198,14 @@ fn normals_face_outward() {
             } as f32;
             let x = (p.wheel_centre_x() as f32).copysign(q[0]);
             let radial = [0.0, q[1] - p.wheel_radius_m, q[2] - axle_z];
-            let r = dot(radial, radial).sqrt();
+            let r = Vec3::from(radial).length();
             let on_circle = [
                 x,
                 p.wheel_radius_m + radial[1] * centre_radius / r,
                 axle_z + radial[2] * centre_radius / r,
             ];
-            assert!(dot(mesh.normals[v as usize], sub(q, on_circle)) > 0.0);
+            let n = Vec3::from(mesh.normals[v as usize]);
+            assert!(n.dot(Vec3::from(q) - Vec3::from(on_circle)) > 0.0);
         }
     }
 }
@@ -286,7 +272,9 @@ fn body_is_smooth_away_from_the_arch_lips() {
             if near_arch_lip(qa) || near_arch_lip(qb) {
                 continue;
             }
-            let cos = dot(mesh.normals[a], mesh.normals[b]).clamp(-1.0, 1.0);
+            let cos = Vec3::from(mesh.normals[a])
+                .dot(mesh.normals[b].into())
+                .clamp(-1.0, 1.0);
             let angle = cos.acos().to_degrees();
             if angle >= max_angle_deg {
                 rough.push(format!("{qa:?}–{qb:?}: {angle:.1}°"));

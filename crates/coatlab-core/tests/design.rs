@@ -86,6 +86,12 @@ fn assert_names(message: &str, parts: &[&str]) {
     }
 }
 
+/// `text` with `from` (found once) replaced by `to` must be refused with a message
+/// naming every one of `parts`.
+fn assert_edit_refused(text: &str, from: &str, to: &str, parts: &[&str]) {
+    assert_names(&refusal(&replace_once(text, from, to)), parts);
+}
+
 fn replace_once(text: &str, from: &str, to: &str) -> String {
     assert_eq!(text.matches(from).count(), 1, "{from:?} is not unique");
     text.replacen(from, to, 1)
@@ -310,18 +316,18 @@ fn grid_values_follow_the_resampling_rule() {
 #[test]
 fn refuses_other_formats_and_versions() {
     let text = base_text();
-    let message = refusal(&replace_once(
+    assert_edit_refused(
         &text,
         "format = \"coatlab-paint-design\"",
         "format = \"paint\"",
-    ));
-    assert_names(&message, &["format = \"paint\"", "coatlab-paint-design"]);
-    let message = refusal(&replace_once(
+        &["format = \"paint\"", "coatlab-paint-design"],
+    );
+    assert_edit_refused(
         &text,
         "format = \"coatlab-paint-design\"\n",
         "",
-    ));
-    assert_names(&message, &["format"]);
+        &["format"],
+    );
 
     let newer = replace_once(&text, "version = 1\n", "version = 2\nnew_key = true\n");
     let message = refusal(&newer);
@@ -334,11 +340,14 @@ fn refuses_other_formats_and_versions() {
     assert_eq!(error.field(), Some("version"));
 
     for bad in ["version = 0", "version = \"1\"", "version = 1.0"] {
-        let message = refusal(&replace_once(&text, "version = 1", bad));
-        assert_names(&message, &[bad, &format!("version {FORMAT_VERSION}")]);
+        assert_edit_refused(
+            &text,
+            "version = 1",
+            bad,
+            &[bad, &format!("version {FORMAT_VERSION}")],
+        );
     }
-    let message = refusal(&replace_once(&text, "version = 1\n", ""));
-    assert_names(&message, &["no `version` key"]);
+    assert_edit_refused(&text, "version = 1\n", "", &["no `version` key"]);
 }
 
 #[test]
@@ -350,8 +359,7 @@ fn refuses_missing_fields_with_toml_context() {
         ("lobe = \"normalised\"\n", "lobe"),
         ("geometry_deg = 20\n", "geometry_deg"),
     ] {
-        let message = refusal(&replace_once(&text, line, ""));
-        assert_names(&message, &["missing field", field, "line"]);
+        assert_edit_refused(&text, line, "", &["missing field", field, "line"]);
     }
 }
 
@@ -369,23 +377,22 @@ fn refuses_unknown_fields() {
         ),
     ];
     for (from, to, field) in cases {
-        let message = refusal(&replace_once(&text, from, to));
-        assert_names(&message, &["unknown", field, "line"]);
+        assert_edit_refused(&text, from, to, &["unknown", field, "line"]);
     }
     // Inside a table too (TabulatedSpectrum's own form would ignore it).
     let hand = fs::read_to_string(fixture("hand-written.toml")).unwrap();
-    let message = refusal(&replace_once(
+    assert_edit_refused(
         &hand,
         "value = [0.06,",
         "values = [0.0, 1.0], value = [0.06,",
-    ));
-    assert_names(&message, &["unknown", "values"]);
-    let message = refusal(&replace_once(
+        &["unknown", "values"],
+    );
+    assert_edit_refused(
         &hand,
         "{ constant = 0.0005 }",
         "{ constnat = 0.0005 }",
-    ));
-    assert_names(&message, &["constnat"]);
+        &["constnat"],
+    );
 }
 
 #[test]
@@ -489,13 +496,13 @@ fn refuses_non_finite_numbers() {
         ),
     ];
     for (from, to, expected) in cases {
-        let message = refusal(&replace_once(&text, from, to));
-        assert_names(&message, &[expected, "not a finite number"]);
+        assert_edit_refused(&text, from, to, &[expected, "not a finite number"]);
     }
     let hand = fs::read_to_string(fixture("hand-written.toml")).unwrap();
-    let message = refusal(&replace_once(&hand, "constant = 0.0005", "constant = nan"));
-    assert_names(
-        &message,
+    assert_edit_refused(
+        &hand,
+        "constant = 0.0005",
+        "constant = nan",
         &["clear_coat.absorption_per_um.constant = NaN is not a finite number"],
     );
 }
@@ -529,67 +536,66 @@ fn refuses_gloss_out_of_range() {
     design.validate().unwrap();
 
     let text = base_text();
-    let message = refusal(&replace_once(
+    assert_edit_refused(
         &text,
         "geometry_deg = 20",
         "geometry_deg = 45",
-    ));
-    assert_names(&message, &["45", "20°, 60°, 85°", "line"]);
-    let message = refusal(&replace_once(
+        &["45", "20°, 60°, 85°", "line"],
+    );
+    assert_edit_refused(
         &text,
         "lobe = \"normalised\"\n",
         "lobe = \"phong\"\n",
-    ));
-    assert_names(&message, &["phong", "line"]);
+        &["phong", "line"],
+    );
 }
 
 #[test]
 fn refuses_badly_shaped_spectra() {
     let hand = fs::read_to_string(fixture("hand-written.toml")).unwrap();
-    let message = refusal(&replace_once(
+    assert_edit_refused(
         &hand,
         "[380, 450, 520, 560,",
         "[380, 450, 450, 560,",
-    ));
-    assert_names(
-        &message,
         &[
             "pigment.albedo.wavelength_nm[2] = 450 nm is not greater than the one before it (450 nm)",
         ],
     );
-    let message = refusal(&replace_once(
+    assert_edit_refused(
         &hand,
         "[380, 450, 520, 560,",
         "[380, 520, 450, 560,",
-    ));
-    assert_names(&message, &["pigment.albedo.wavelength_nm[2] = 450 nm"]);
+        &["pigment.albedo.wavelength_nm[2] = 450 nm"],
+    );
     // Coverage: must reach down to 400 and up to 700 nm.
-    let message = refusal(&replace_once(
+    assert_edit_refused(
         &hand,
         "[380, 450, 520, 560,",
         "[420, 450, 520, 560,",
-    ));
-    assert_names(
-        &message,
         &[
             "pigment.albedo.wavelength_nm covers 420–780 nm",
             "400–700 nm",
         ],
     );
-    let message = refusal(&replace_once(&hand, "656.3, 780]", "656.3, 690]"));
-    assert_names(
-        &message,
+    assert_edit_refused(
+        &hand,
+        "656.3, 780]",
+        "656.3, 690]",
         &["clear_coat.refractive_index.table.wavelength_nm covers 380–690 nm"],
     );
     // Values and wavelengths must pair up.
-    let message = refusal(&replace_once(&hand, "0.7, 0.72]", "0.7]"));
-    assert_names(&message, &["pigment.albedo has 7 values for 8 wavelengths"]);
-    let message = refusal(&replace_once(
+    assert_edit_refused(
+        &hand,
+        "0.7, 0.72]",
+        "0.7]",
+        &["pigment.albedo has 7 values for 8 wavelengths"],
+    );
+    assert_edit_refused(
         &hand,
         "[380, 450, 520, 560, 580, 600, 650, 780], value = [0.06, 0.05, 0.06, 0.2, 0.45, 0.62, 0.7, 0.72]",
         "[380], value = [0.06]",
-    ));
-    assert_names(&message, &["pigment.albedo has 1 sample(s)"]);
+        &["pigment.albedo has 1 sample(s)"],
+    );
 }
 
 #[test]

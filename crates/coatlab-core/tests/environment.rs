@@ -437,25 +437,27 @@ fn booth_under_a_rises_toward_red_and_d65_does_not() {
     assert!((la / ld - 1.0).abs() < 1e-3, "luminance {la} vs {ld}");
 }
 
+/// A `w` × `h` image whose pixel in `row`, `col` is `pixel(row, col)`.
+fn image_of(w: usize, h: usize, pixel: impl Fn(usize, usize) -> [f32; 3]) -> RgbImage {
+    let pixels = (0..w * h).map(|i| pixel(i / w, i % w)).collect();
+    RgbImage::new(w, h, pixels).expect("valid image")
+}
+
 #[test]
 fn image_environment_samples_match_its_pdf() {
     // A gradient sky with a bright spot, a darker ground; odd height so one row
     // straddles the horizon.
-    let (w, h) = (64usize, 33usize);
-    let pixels = (0..w * h)
-        .map(|i| {
-            let (row, col) = (i / w, i % w);
-            let sky = row < h / 2;
-            let base = if sky { 0.5 + 0.02 * row as f32 } else { 0.1 };
-            let spot = if (8..12).contains(&row) && (40..44).contains(&col) {
-                200.0
-            } else {
-                0.0
-            };
-            [base + spot, base + 0.5 * spot, 0.8 * base]
-        })
-        .collect();
-    let image = RgbImage::new(w, h, pixels).expect("valid image");
+    let (w, h) = (64, 33);
+    let image = image_of(w, h, |row, col| {
+        let sky = row < h / 2;
+        let base = if sky { 0.5 + 0.02 * row as f32 } else { 0.1 };
+        let spot = if (8..12).contains(&row) && (40..44).contains(&col) {
+            200.0
+        } else {
+            0.0
+        };
+        [base + spot, base + 0.5 * spot, 0.8 * base]
+    });
     let env = Environment::from_rgb_image(&image, "test image", &grid()).expect("lit");
     assert_eq!(env.kind(), EnvironmentKind::Image);
     check_environment(&env, "image");
@@ -465,19 +467,14 @@ fn image_environment_samples_match_its_pdf() {
 #[test]
 fn wide_images_are_box_filtered_and_keep_their_light() {
     // 4100 px wide: filtered by 3 to 1367 px; a column of light stays lit.
-    let (w, h) = (4100usize, 6usize);
-    let pixels = (0..w * h)
-        .map(|i| {
-            let (row, col) = (i / w, i % w);
-            let v = if row < 3 && col % 1000 < 90 {
-                50.0
-            } else {
-                0.2
-            };
-            [v, v, v]
-        })
-        .collect();
-    let image = RgbImage::new(w, h, pixels).expect("valid image");
+    let image = image_of(4100, 6, |row, col| {
+        let v = if row < 3 && col % 1000 < 90 {
+            50.0
+        } else {
+            0.2
+        };
+        [v, v, v]
+    });
     let env = Environment::from_rgb_image(&image, "wide", &grid()).expect("lit");
     check_environment(&env, "wide image");
 }

@@ -14,7 +14,6 @@
 //! statistical comparisons (never exact pixel values).
 
 use std::f64::consts::PI;
-use std::sync::Arc;
 
 use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::paint::coat::{c_integral, escape_integral_scaled};
@@ -31,13 +30,16 @@ use coatlab_core::render::camera::Camera;
 use coatlab_core::render::environment::Environment;
 use coatlab_core::render::film::Film;
 use coatlab_core::render::geometry::Surface;
-use coatlab_core::render::material::{Shading, ShadingModel};
-use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
+use coatlab_core::render::material::ShadingModel;
+use coatlab_core::render::progressive::{RenderScene, RenderSettings};
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{BODY, CarParameters, generate};
 
 #[path = "support/sphere.rs"]
 mod sphere;
+
+#[path = "support/progressive.rs"]
+mod progressive;
 use sphere::{sphere, sphere_camera, sphere_hit};
 
 // ---------------------------------------------------------------------------
@@ -741,6 +743,7 @@ fn sampled_albedo_of_the_renderer_at_the_corners() {
 
 const RENDER_WAVELENGTHS: usize = 8;
 
+/// The paint render of `scene` with `seed` and `spp` samples per pixel.
 fn render_film(
     scene: Scene,
     environment: &Environment,
@@ -749,29 +752,19 @@ fn render_film(
     seed: u64,
     spp: u32,
 ) -> Film {
-    let shading = Shading::new(
-        model,
-        ShadingModel::Paint,
-        &scene.materials,
-        &scene.paint_materials,
-    );
-    let scene = RenderScene::new(scene).expect("scene");
     let settings = RenderSettings {
         seed,
         ..RenderSettings::default()
     };
-    let mut render = ProgressiveRender::new(
-        Arc::new(scene),
-        Arc::new(environment.clone()),
-        Arc::new(shading),
+    progressive::render_film(
+        scene,
+        environment.clone(),
+        model,
+        ShadingModel::Paint,
         camera,
         settings,
+        spp,
     )
-    .expect("render");
-    while render.samples_per_pixel() < spp {
-        render.render_pass(8.min(spp - render.samples_per_pixel()));
-    }
-    render.film().clone()
 }
 
 /// Every pixel finite and ≥ 0 in X, Y and Z, and no sample rejected as non-finite.

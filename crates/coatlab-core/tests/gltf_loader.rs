@@ -6,32 +6,31 @@ use std::path::{Path, PathBuf};
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::gltf_loader::{LoadOptions, SceneError, TARGET_LENGTH_M, load};
 
-const TESTDATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/testdata/gltf");
+#[path = "support/gltf_testdata.rs"]
+mod gltf_testdata;
+use gltf_testdata::testdata;
 
-/// The test-model folder, or `None` (with a notice) when it is absent outside CI.
-fn testdata() -> Option<PathBuf> {
-    let dir = PathBuf::from(TESTDATA);
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    assert!(
-        std::env::var_os("CI").is_none(),
-        "CI is set but the glTF test models are missing at {}",
-        dir.display()
-    );
-    eprintln!(
-        "NOTICE: glTF test models not found at {}; test skipped",
-        dir.display()
-    );
-    None
-}
-
+/// The test model at `rel`, checked against [`check_scene`]'s invariants; `None`
+/// where the test models are absent.
 fn load_model(rel: &str) -> Option<Scene> {
     let path = testdata()?.join(rel);
     match load(&path, &LoadOptions::default()) {
-        Ok(scene) => Some(scene),
+        Ok(scene) => {
+            check_scene(&scene, rel);
+            Some(scene)
+        }
         Err(e) => panic!("{rel}: {e}"),
     }
+}
+
+/// Whether one of the loader's warnings on `scene` starts with `prefix`.
+fn warns_with(scene: &Scene, prefix: &str) -> bool {
+    scene.warnings.iter().any(|w| w.starts_with(prefix))
+}
+
+/// Whether one of the loader's warnings on `scene` contains `text`.
+fn warns_about(scene: &Scene, text: &str) -> bool {
+    scene.warnings.iter().any(|w| w.contains(text))
 }
 
 fn paint_names(scene: &Scene) -> Vec<&str> {
@@ -75,10 +74,7 @@ fn check_scene(scene: &Scene, what: &str) {
         "{what}: no paint material"
     );
     assert!(
-        scene
-            .warnings
-            .iter()
-            .any(|w| w.starts_with("paint material:")),
+        warns_with(scene, "paint material:"),
         "{what}: no reason given for the paint choice"
     );
 }
@@ -91,7 +87,6 @@ fn cesium_milk_truck_instances_its_wheels() {
     let Some(scene) = load_model("CesiumMilkTruck/CesiumMilkTruck.glb") else {
         return;
     };
-    check_scene(&scene, "CesiumMilkTruck");
     assert_eq!(scene.mesh.triangle_count(), 3624);
     // Yup2Zup and the hierarchy leave the truck's length along z, upright.
     let (lo, hi) = scene.mesh.bounds().unwrap();
@@ -108,21 +103,13 @@ fn toy_car_with_external_bin_is_scaled_up() {
     let Some(scene) = load_model("ToyCar/ToyCar.gltf") else {
         return;
     };
-    check_scene(&scene, "ToyCar");
     assert_eq!(scene.mesh.triangle_count(), 108_936);
     assert_eq!(paint_names(&scene), ["ToyCar"]);
-    assert!(
-        scene
-            .warnings
-            .iter()
-            .any(|w| w.starts_with("KHR_materials_clearcoat"))
-    );
-    assert!(
-        scene
-            .warnings
-            .iter()
-            .any(|w| w.contains("'ToyCar': base-colour texture not used"))
-    );
+    assert!(warns_with(&scene, "KHR_materials_clearcoat"));
+    assert!(warns_about(
+        &scene,
+        "'ToyCar': base-colour texture not used"
+    ));
 }
 
 #[test]
@@ -130,15 +117,12 @@ fn clear_coat_car_paint_loads_despite_its_required_extensions() {
     let Some(scene) = load_model("ClearCoatCarPaint/ClearCoatCarPaint.glb") else {
         return;
     };
-    check_scene(&scene, "ClearCoatCarPaint");
     assert_eq!(scene.mesh.triangle_count(), 3072);
     assert_eq!(scene.paint_materials, [0]);
-    assert!(
-        scene
-            .warnings
-            .iter()
-            .any(|w| w.starts_with("KHR_materials_clearcoat: clear coat ignored"))
-    );
+    assert!(warns_with(
+        &scene,
+        "KHR_materials_clearcoat: clear coat ignored"
+    ));
     let m = &scene.materials[0];
     assert!((m.base_color.red - 0.7).abs() < 1e-6 && m.base_color.green == 0.0);
     assert!((m.roughness - 0.4).abs() < 1e-6 && (m.metallic - 0.3).abs() < 1e-6);
@@ -149,7 +133,6 @@ fn lamborghini_is_normalised_to_a_car_length() {
     let Some(scene) = load_model("LamborghiniHuracanGT3/LamborghiniHuracanGT3.glb") else {
         return;
     };
-    check_scene(&scene, "Lamborghini");
     assert_eq!(scene.mesh.triangle_count(), 145_917);
     assert_eq!(scene.materials.len(), 45);
     // No material is named like paint: the largest non-excluded area seen from
@@ -551,13 +534,8 @@ fn unknown_required_extension_is_refused_and_optional_warned() {
     let extra = r#","extensionsUsed":["EXT_fancy","KHR_materials_sheen"]"#;
     let json = gltf_json(&TRIANGLE, &[0, 1, 2], None, "[0]", 4, extra);
     let scene = load_glb(&tmp, &json, &bin).unwrap();
-    assert!(scene.warnings.iter().any(|w| w.starts_with("EXT_fancy:")));
-    assert!(
-        scene
-            .warnings
-            .iter()
-            .any(|w| w.starts_with("KHR_materials_sheen:"))
-    );
+    assert!(warns_with(&scene, "EXT_fancy:"));
+    assert!(warns_with(&scene, "KHR_materials_sheen:"));
 }
 
 #[test]
@@ -747,7 +725,6 @@ fn real_models_load_as_their_files_declare() {
         let Some(scene) = load_model(m.rel) else {
             return;
         };
-        check_scene(&scene, m.rel);
         let d = declared(&testdata().expect("test data").join(m.rel));
         assert_eq!(
             (d.triangles, d.vertices, d.materials),
@@ -784,7 +761,7 @@ fn real_models_load_as_their_files_declare() {
         assert_eq!(paint_names(&scene), [m.paint], "{}: paint", m.rel);
         let note = format!("paint material: '{}' (", m.paint);
         assert!(
-            scene.warnings.iter().any(|w| w.starts_with(&note)),
+            warns_with(&scene, &note),
             "{}: no note on the paint's choice in {:?}",
             m.rel,
             scene.warnings

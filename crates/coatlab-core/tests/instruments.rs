@@ -16,7 +16,7 @@ use coatlab_core::instruments::{ILLUMINATION_DEG, Measurement, measure};
 use coatlab_core::paint::gloss::GlossExponent;
 use coatlab_core::paint::model::PaintModel;
 use instrument_reference::{
-    ASPECULAR_DEG, DESIGNS, Readings, comparison, disagreements, reference, workspace_root,
+    ASPECULAR_DEG, DESIGNS, Readings, Row, comparison, disagreements, reference, workspace_root,
 };
 
 fn model(path: &str) -> PaintModel {
@@ -111,18 +111,33 @@ fn a_detector_on_the_wrong_side_of_the_specular_direction_is_rejected() {
     // every angle of every design must fail.
     let rows = reference();
     for (key, path) in DESIGNS {
-        let model = model(path);
-        let mut r = readings(&model, &measure(&model).expect("spectral"));
-        for (aspecular, lab) in &mut r.lab {
-            *lab = lab_at(&model, ILLUMINATION_DEG + *aspecular);
-        }
-        let found = disagreements(&rows, key, &r);
-        for angle in ASPECULAR_DEG {
-            assert!(
-                found.iter().any(|d| d.contains(&format!(" at {angle}°"))),
-                "{key}: a flipped detector at {angle}° passed: {found:#?}"
-            );
-        }
+        let flipped = |aspecular: f64| ILLUMINATION_DEG + aspecular;
+        assert_moved_detector_fails(&rows, key, path, flipped, &ASPECULAR_DEG, "flipped");
+    }
+}
+
+/// Design `key`'s readings with each detector moved from its aspecular angle to
+/// the polar angle `polar_deg(aspecular)` must disagree with the reference at
+/// every angle of `angles`.
+fn assert_moved_detector_fails(
+    rows: &[Row],
+    key: &str,
+    path: &str,
+    polar_deg: impl Fn(f64) -> f64,
+    angles: &[f64],
+    how: &str,
+) {
+    let model = model(path);
+    let mut r = readings(&model, &measure(&model).expect("spectral"));
+    for (aspecular, lab) in &mut r.lab {
+        *lab = lab_at(&model, polar_deg(*aspecular));
+    }
+    let found = disagreements(rows, key, &r);
+    for angle in angles {
+        assert!(
+            found.iter().any(|d| d.contains(&format!(" at {angle}°"))),
+            "{key}: a {how} detector at {angle}° passed: {found:#?}"
+        );
     }
 }
 
@@ -139,18 +154,8 @@ fn a_detector_mirrored_through_the_normal_is_rejected() {
         ("low-gloss", DESIGNS[5].1, &[15.0, 25.0][..]),
     ] {
         assert_eq!(DESIGNS.iter().find(|d| d.0 == key).map(|d| d.1), Some(path));
-        let model = model(path);
-        let mut r = readings(&model, &measure(&model).expect("spectral"));
-        for (aspecular, lab) in &mut r.lab {
-            *lab = lab_at(&model, -(ILLUMINATION_DEG - *aspecular));
-        }
-        let found = disagreements(&rows, key, &r);
-        for angle in angles {
-            assert!(
-                found.iter().any(|d| d.contains(&format!(" at {angle}°"))),
-                "{key}: a mirrored detector at {angle}° passed: {found:#?}"
-            );
-        }
+        let mirrored = |aspecular: f64| -(ILLUMINATION_DEG - aspecular);
+        assert_moved_detector_fails(&rows, key, path, mirrored, angles, "mirrored");
     }
 }
 

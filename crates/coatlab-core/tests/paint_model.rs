@@ -423,13 +423,25 @@ fn albedo_is_at_most_one_for_every_lobe_but_the_papers() {
 
 #[path = "support/bsdf_chi_square.rs"]
 mod bsdf_chi_square;
-use bsdf_chi_square::{Bins, Perturbation, chi_square_test};
+use bsdf_chi_square::{Bins, ChiSquare, Perturbation, chi_square_test};
 
 /// 64 × 128 bins of equal solid angle; 10⁶ samples put ≥ 5 expected in every bin a
 /// broad lobe or the diffuse part reaches, so the test sees 10 % density errors
 /// over half the hemisphere (see the control below).
 const BINS: Bins = Bins { mu: 64, phi: 128 };
 const SAMPLES: usize = 1_000_000;
+
+/// χ² test of `model`'s sampler, seen from `wo`, against the density of `density`
+/// (the model itself, or another one for a negative control) with `perturbation`.
+fn chi_square(
+    model: &PaintModel,
+    density: &PaintModel,
+    wo: [f32; 3],
+    perturbation: Perturbation,
+) -> ChiSquare {
+    let pdf = |wi| f64::from(density.spectral().pdf(wo, wi));
+    chi_square_test(model.spectral(), wo, &pdf, BINS, SAMPLES, 3, perturbation)
+}
 
 /// The sampler settings the χ² test covers (ρ, m, lobe, θo): broad to sharp
 /// normalised lobes, the paper's lobe (sampled with a Phong proposal) and the
@@ -455,10 +467,8 @@ fn sampler_cases() -> Vec<(f64, GlossExponent, LobeKind, f64)> {
 fn sampler_matches_its_density() {
     for (rho, m, lobe, theta) in sampler_cases() {
         let model = grey_model(rho, 1.5, 0.05, m, lobe);
-        let bsdf = model.spectral();
         let wo = to_f32(direction(theta, 20.0));
-        let pdf = |wi| f64::from(bsdf.pdf(wo, wi));
-        let test = chi_square_test(bsdf, wo, &pdf, BINS, SAMPLES, 3, Perturbation::None);
+        let test = chi_square(&model, &model, wo, Perturbation::None);
         println!("ρ {rho} {m:?} {lobe:?} θ {theta}: {test:?}");
         assert!(
             test.p_value > 1e-3,
@@ -471,35 +481,28 @@ fn sampler_matches_its_density() {
 #[test]
 fn chi_square_test_rejects_a_wrong_density() {
     // Negative control: the density of a 25 % different exponent must be rejected.
-    let model = grey_model(
-        0.6,
-        1.5,
-        0.05,
-        GlossExponent::Finite(60.0),
-        LobeKind::Normalised,
-    );
-    let wrong = grey_model(
-        0.6,
-        1.5,
-        0.05,
-        GlossExponent::Finite(75.0),
-        LobeKind::Normalised,
-    );
+    let with_exponent = |m| {
+        grey_model(
+            0.6,
+            1.5,
+            0.05,
+            GlossExponent::Finite(m),
+            LobeKind::Normalised,
+        )
+    };
+    let (model, wrong) = (with_exponent(60.0), with_exponent(75.0));
     let wo = to_f32(direction(40.0, 0.0));
-    let pdf = |wi| f64::from(wrong.spectral().pdf(wo, wi));
-    let test = chi_square_test(
-        model.spectral(),
-        wo,
-        &pdf,
-        BINS,
-        SAMPLES,
-        3,
-        Perturbation::None,
-    );
+    let test = chi_square(&model, &wrong, wo, Perturbation::None);
     assert!(
         test.p_value < 1e-6,
         "χ² accepted a 25% wrong exponent: {test:?}"
     );
+}
+
+/// A negative control's test, printed, must reject far beyond chance (p < 1e-9).
+fn assert_far_rejected(test: &ChiSquare, case: &str, error: &str) {
+    println!("{case}, {error}: {test:?}");
+    assert!(test.p_value < 1e-9, "{case}: χ² accepted {error}: {test:?}");
 }
 
 #[test]
@@ -509,16 +512,11 @@ fn chi_square_test_rejects_a_ten_percent_density_error_in_every_case() {
     // half of the azimuths (renormalised) must fail the same test, by far.
     for (rho, m, lobe, theta) in sampler_cases() {
         let model = grey_model(rho, 1.5, 0.05, m, lobe);
-        let bsdf = model.spectral();
         let wo = to_f32(direction(theta, 20.0));
-        let pdf = |wi| f64::from(bsdf.pdf(wo, wi));
         let wrong = Perturbation::HalfDomain { factor: 1.1 };
-        let test = chi_square_test(bsdf, wo, &pdf, BINS, SAMPLES, 3, wrong);
-        println!("ρ {rho} {m:?} {lobe:?} θ {theta}, density 10 % off on half: {test:?}");
-        assert!(
-            test.p_value < 1e-9,
-            "ρ {rho} {m:?} {lobe:?} θ {theta}: χ² accepted a 10 % density error: {test:?}"
-        );
+        let test = chi_square(&model, &model, wo, wrong);
+        let case = format!("ρ {rho} {m:?} {lobe:?} θ {theta}");
+        assert_far_rejected(&test, &case, "a 10 % density error on half the azimuths");
     }
 }
 
@@ -538,21 +536,9 @@ fn chi_square_test_rejects_a_ten_percent_error_in_the_lobe_exponent() {
         let model = grey_model(rho, 1.5, 0.05, m, lobe);
         let wrong = grey_model(rho, 1.5, 0.05, GlossExponent::Finite(1.1 * exponent), lobe);
         let wo = to_f32(direction(theta, 20.0));
-        let pdf = |wi| f64::from(wrong.spectral().pdf(wo, wi));
-        let test = chi_square_test(
-            model.spectral(),
-            wo,
-            &pdf,
-            BINS,
-            SAMPLES,
-            3,
-            Perturbation::None,
-        );
-        println!("m {exponent} {lobe:?} θ {theta}, density of m × 1.1: {test:?}");
-        assert!(
-            test.p_value < 1e-9,
-            "m {exponent} {lobe:?} θ {theta}: χ² accepted a 10 % exponent error: {test:?}"
-        );
+        let test = chi_square(&model, &wrong, wo, Perturbation::None);
+        let case = format!("m {exponent} {lobe:?} θ {theta}");
+        assert_far_rejected(&test, &case, "the density of m × 1.1");
     }
 }
 

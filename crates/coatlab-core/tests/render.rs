@@ -4,7 +4,6 @@
 //! equality (the same seed on any number of threads).
 
 use std::path::PathBuf;
-use std::sync::Arc;
 
 use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::design::presets;
@@ -16,9 +15,8 @@ use coatlab_core::render::camera::Camera;
 use coatlab_core::render::environment::Environment;
 use coatlab_core::render::film::Film;
 use coatlab_core::render::integrator::IntegratorSettings;
-use coatlab_core::render::material::{Shading, ShadingModel};
-use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
-use coatlab_core::scene::Scene;
+use coatlab_core::render::material::ShadingModel;
+use coatlab_core::render::progressive::RenderSettings;
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
 
@@ -34,7 +32,13 @@ use image_stats::{Image, Replicas, Weights, assert_agree_with_controls, film_ima
 mod render_reference;
 use render_reference::{REFERENCE_FILE, Reference, reference_replicas};
 
-const TESTDATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/testdata/gltf");
+#[path = "support/gltf_testdata.rs"]
+mod gltf_testdata;
+use gltf_testdata::testdata;
+
+#[path = "support/progressive.rs"]
+mod progressive;
+use progressive::render_film as render;
 
 /// The cosine between the sphere's normal and the direction to the camera where the
 /// ray through continuous pixel (`px`, `py`) hits the unit sphere; `None` on a miss.
@@ -74,31 +78,6 @@ fn predicted_image(
         }
     }
     out
-}
-
-fn render(
-    scene: Scene,
-    environment: Environment,
-    model: &PaintModel,
-    which: ShadingModel,
-    camera: Camera,
-    settings: RenderSettings,
-    spp: u32,
-) -> Film {
-    let shading = Shading::new(model, which, &scene.materials, &scene.paint_materials);
-    let scene = RenderScene::new(scene).expect("scene");
-    let mut render = ProgressiveRender::new(
-        Arc::new(scene),
-        Arc::new(environment),
-        Arc::new(shading),
-        camera,
-        settings,
-    )
-    .expect("render");
-    while render.samples_per_pixel() < spp {
-        render.render_pass(8.min(spp - render.samples_per_pixel()));
-    }
-    render.film().clone()
 }
 
 fn grey_model(grid: WavelengthGrid, gloss: GlossExponent) -> PaintModel {
@@ -569,19 +548,7 @@ fn paint_and_phong_differ_toward_grazing_and_agree_head_on() {
 /// or is refused by the loader with a message naming the file.
 #[test]
 fn every_test_model_renders_or_is_refused() {
-    let dir = PathBuf::from(TESTDATA);
-    if !dir.is_dir() {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "CI is set but the glTF test models are missing at {}",
-            dir.display()
-        );
-        eprintln!(
-            "NOTICE: glTF test models not found at {}; test skipped",
-            dir.display()
-        );
-        return;
-    }
+    let Some(dir) = testdata() else { return };
     let mut files = Vec::new();
     let mut stack = vec![dir];
     while let Some(d) = stack.pop() {

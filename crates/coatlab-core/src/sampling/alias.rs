@@ -85,8 +85,7 @@ pub fn alias_sample(table: &[AliasEntry], u: f64) -> (usize, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sampling::test_support::chi_square;
-    use crate::sampling::test_support::uniform;
+    use crate::sampling::test_support::{assert_draws_follow, uniform};
 
     #[test]
     fn alias_tables_draw_each_index_with_its_weights_share() {
@@ -140,26 +139,7 @@ mod tests {
             })
             .collect();
         let table = alias_table(&weights);
-        let n = 400_000;
-        let mut counts = vec![0u64; 4 * weights.len()];
-        for _ in 0..n {
-            let (i, frac) = alias_sample(&table, uniform(&mut state));
-            assert!(weights[i] > 0.0, "drew the empty index {i}");
-            assert!((0.0..1.0).contains(&frac), "fraction {frac}");
-            counts[4 * i + (frac * 4.0) as usize] += 1;
-        }
-        let expected_for = |factor: &dyn Fn(usize) -> f64| -> Vec<f64> {
-            let total: f64 = (0..weights.len()).map(|i| weights[i] * factor(i)).sum();
-            (0..counts.len())
-                .map(|cell| weights[cell / 4] * factor(cell / 4) / total / 4.0 * n as f64)
-                .collect()
-        };
-        let (chi2, bound) = chi_square(&counts, &expected_for(&|_| 1.0));
-        assert!(chi2 < bound, "χ² {chi2:.1}, bound {bound:.1}");
-        let (wrong, _) = chi_square(
-            &counts,
-            &expected_for(&|i| if i % 2 == 0 { 1.1 } else { 1.0 }),
-        );
-        assert!(wrong >= bound, "weights ×1.1 on half passed: χ² {wrong:.1}");
+        let draw = || alias_sample(&table, uniform(&mut state));
+        assert_draws_follow(&weights, 400_000, draw, |i| i % 2 == 0);
     }
 }

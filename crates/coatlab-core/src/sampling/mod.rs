@@ -46,4 +46,36 @@ pub(crate) mod test_support {
         let dof = (cells - 1.0).max(1.0);
         (chi2, dof + 5.0 * (2.0 * dof).sqrt())
     }
+
+    /// `n` draws of `draw` (an index and the fraction within its bin) follow
+    /// `weights`, with the fraction uniform in each bin: Pearson's χ² over (index,
+    /// quarter of the bin) cells against wᵢ/4Σw passes. The negative control: the
+    /// same draws against the weights ×1.1 where `raised(i)` (renormalised) fail.
+    pub(crate) fn assert_draws_follow(
+        weights: &[f64],
+        n: usize,
+        mut draw: impl FnMut() -> (usize, f64),
+        raised: impl Fn(usize) -> bool,
+    ) {
+        let mut counts = vec![0u64; 4 * weights.len()];
+        for _ in 0..n {
+            let (i, frac) = draw();
+            assert!(weights[i] > 0.0, "drew the empty index {i}");
+            assert!((0.0..1.0).contains(&frac), "fraction {frac}");
+            counts[4 * i + (frac * 4.0) as usize] += 1;
+        }
+        let expected_for = |factor: &dyn Fn(usize) -> f64| -> Vec<f64> {
+            let total: f64 = (0..weights.len()).map(|i| weights[i] * factor(i)).sum();
+            (0..counts.len())
+                .map(|cell| weights[cell / 4] * factor(cell / 4) / total / 4.0 * n as f64)
+                .collect()
+        };
+        let (chi2, bound) = chi_square(&counts, &expected_for(&|_| 1.0));
+        assert!(chi2 < bound, "χ² {chi2:.1}, bound {bound:.1}");
+        let (wrong, _) = chi_square(
+            &counts,
+            &expected_for(&|i| if raised(i) { 1.1 } else { 1.0 }),
+        );
+        assert!(wrong >= bound, "weights ×1.1 on half passed: χ² {wrong:.1}");
+    }
 }

@@ -1106,35 +1106,33 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, GlbWriteError> {
         sparse: None,
     };
 
-    let (lo, hi) = mesh.bounds().unwrap_or(([0.0; 3], [0.0; 3]));
-    let positions_view = push_view(
-        &mut root,
-        &mut bin,
-        vec3_bytes(&mesh.positions),
-        json::buffer::Target::ArrayBuffer,
-    );
-    let positions = root.push(accessor(
-        positions_view,
-        mesh.positions.len(),
-        json::accessor::ComponentType::F32,
-        json::accessor::Type::Vec3,
-        Some(json::Value::from(lo.to_vec())),
-        Some(json::Value::from(hi.to_vec())),
-    ));
-    let normals_view = push_view(
-        &mut root,
-        &mut bin,
-        vec3_bytes(&mesh.normals),
-        json::buffer::Target::ArrayBuffer,
-    );
-    let normals = root.push(accessor(
-        normals_view,
-        mesh.normals.len(),
-        json::accessor::ComponentType::F32,
-        json::accessor::Type::Vec3,
-        None,
-        None,
-    ));
+    // A float VEC3 attribute in a view of its own, with its bounds where given.
+    let vec3_attribute = |root: &mut json::Root,
+                          bin: &mut Vec<u8>,
+                          values: &[[f32; 3]],
+                          bounds: Option<([f32; 3], [f32; 3])>| {
+        let target = json::buffer::Target::ArrayBuffer;
+        let view = push_view(root, bin, vec3_bytes(values), target);
+        let (min, max) = bounds
+            .map(|(lo, hi)| {
+                (
+                    json::Value::from(lo.to_vec()),
+                    json::Value::from(hi.to_vec()),
+                )
+            })
+            .unzip();
+        root.push(accessor(
+            view,
+            values.len(),
+            json::accessor::ComponentType::F32,
+            json::accessor::Type::Vec3,
+            min,
+            max,
+        ))
+    };
+    let bounds = mesh.bounds().unwrap_or(([0.0; 3], [0.0; 3]));
+    let positions = vec3_attribute(&mut root, &mut bin, &mesh.positions, Some(bounds));
+    let normals = vec3_attribute(&mut root, &mut bin, &mesh.normals, None);
 
     let mut primitives = Vec::new();
     for (index, m) in scene.materials.iter().enumerate() {

@@ -20,6 +20,7 @@ use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use glam::DVec3;
 use gltf::json;
 use gltf::mesh::Mode;
 use palette::LinSrgb;
@@ -1188,26 +1189,17 @@ fn normalised(v: [f64; 3]) -> Option<[f32; 3]> {
 /// Area-weighted smooth normals for vertices from `vertex_base` on, from the
 /// triangles from `triangle_base` on (one primitive instance).
 fn smooth_normals(mesh: &mut TriangleMesh, vertex_base: usize, triangle_base: usize) {
-    let mut acc = vec![[0.0f64; 3]; mesh.positions.len() - vertex_base];
+    let mut acc = vec![DVec3::ZERO; mesh.positions.len() - vertex_base];
     for t in &mesh.triangles[triangle_base..] {
-        let [a, b, c] = t.map(|i| mesh.positions[i as usize].map(f64::from));
-        let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+        let [a, b, c] = t.map(|i| DVec3::from(mesh.positions[i as usize].map(f64::from)));
         // Twice the area times the unit normal: area weighting for free.
-        let n = [
-            e1[1] * e2[2] - e1[2] * e2[1],
-            e1[2] * e2[0] - e1[0] * e2[2],
-            e1[0] * e2[1] - e1[1] * e2[0],
-        ];
+        let n = (b - a).cross(c - a);
         for &i in t {
-            let s = &mut acc[i as usize - vertex_base];
-            for k in 0..3 {
-                s[k] += n[k];
-            }
+            acc[i as usize - vertex_base] += n;
         }
     }
     for (i, s) in acc.into_iter().enumerate() {
-        mesh.normals[vertex_base + i] = normalised(s).unwrap_or([0.0, 1.0, 0.0]);
+        mesh.normals[vertex_base + i] = normalised(s.to_array()).unwrap_or([0.0, 1.0, 0.0]);
     }
 }
 

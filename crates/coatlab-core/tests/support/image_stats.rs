@@ -176,26 +176,26 @@ impl Replicas {
     }
 }
 
-/// Two-sided tail probability of Student's t with `df` degrees of freedom
-/// (normal for infinite `df`).
-pub fn two_sided_p(t: f64, df: f64) -> f64 {
+/// Student's t with `df` degrees of freedom (at least 1; normal for infinite `df`).
+fn students_t(df: f64) -> StudentsT {
     let df = if df.is_finite() {
         df.max(1.0)
     } else {
         f64::INFINITY
     };
-    let dist = StudentsT::new(0.0, 1.0, df).expect("t distribution");
+    StudentsT::new(0.0, 1.0, df).expect("t distribution")
+}
+
+/// Two-sided tail probability of Student's t with `df` degrees of freedom
+/// (normal for infinite `df`).
+pub fn two_sided_p(t: f64, df: f64) -> f64 {
+    let dist = students_t(df);
     (2.0 * dist.sf(t.abs())).min(1.0)
 }
 
 /// The |t| a two-sided test at level `p` rejects beyond.
 pub fn critical_t(p: f64, df: f64) -> f64 {
-    let df = if df.is_finite() {
-        df.max(1.0)
-    } else {
-        f64::INFINITY
-    };
-    let dist = StudentsT::new(0.0, 1.0, df).expect("t distribution");
+    let dist = students_t(df);
     -dist.inverse_cdf(p / 2.0)
 }
 

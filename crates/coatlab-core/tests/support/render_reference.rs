@@ -3,22 +3,23 @@
 //! a test render's. Stores per pixel the mean X, Y, Z over the replicas and the
 //! variance of those means (the replicas' spread over their count: the sampler's
 //! stratified samples make a single render's s²/n an over-statement).
-//! Written by `examples/make_render_reference.rs`, read by `tests/render.rs`.
+//! Written by `examples/make_render_reference.rs`, read by `tests/render.rs`; both
+//! also include `support/progressive.rs`.
 #![allow(dead_code)] // the example and the test each use their own half
 
 use std::path::Path;
-use std::sync::Arc;
 
 use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::design::presets;
 use coatlab_core::render::camera::Camera;
 use coatlab_core::render::environment::Environment;
 use coatlab_core::render::film::Film;
-use coatlab_core::render::material::{Shading, ShadingModel};
-use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
+use coatlab_core::render::material::ShadingModel;
+use coatlab_core::render::progressive::RenderSettings;
 use coatlab_core::scene::car::{CarParameters, generate};
 
 use crate::image_stats::{Replicas, film_image};
+use crate::progressive::{film_in_passes, shading_for};
 
 pub const REFERENCE_FILE: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -38,28 +39,14 @@ pub fn reference_render(seed: u64, spp: u32) -> Film {
     let design = presets::all().into_iter().next().expect("preset").design;
     let model = design.model(grid).expect("model");
     let scene = generate(&CarParameters::default());
-    let shading = Shading::new(
-        &model,
-        ShadingModel::Paint,
-        &scene.materials,
-        &scene.paint_materials,
-    );
+    let shading = shading_for(&scene, &model, ShadingModel::Paint);
     let camera = Camera::framing(scene.mesh.bounds().expect("bounds"), WIDTH, HEIGHT);
-    let mut render = ProgressiveRender::new(
-        Arc::new(RenderScene::new(scene).expect("scene")),
-        Arc::new(Environment::studio(&grid)),
-        Arc::new(shading),
-        camera,
-        RenderSettings {
-            seed,
-            ..RenderSettings::default()
-        },
-    )
-    .expect("render");
-    while render.samples_per_pixel() < spp {
-        render.render_pass(16.min(spp - render.samples_per_pixel()));
-    }
-    render.film().clone()
+    let settings = RenderSettings {
+        seed,
+        ..RenderSettings::default()
+    };
+    let environment = Environment::studio(&grid);
+    film_in_passes(scene, environment, shading, camera, settings, spp, 16)
 }
 
 /// `k` renders of the reference scene, seeds `first_seed` + i, `spp` samples each.
