@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use crate::colour::spectrum::WavelengthGrid;
 use crate::design::PaintDesign;
+use crate::render::environment::Environment;
 use crate::render::film::DisplaySettings;
 use crate::render::lighting::Lighting;
 use crate::render::material::Shading;
@@ -161,26 +162,32 @@ impl<B: RenderBackend> LiveEngine<B> {
         if lighting == self.inputs.lighting {
             return Change::Nothing;
         }
-        match self.world.lighting(&lighting, &mut self.counters) {
-            Ok(environment) => {
-                self.world.environment = environment;
-                self.inputs.lighting = lighting;
-                Change::Lighting
-            }
-            Err(e) => {
-                out(Output::Event(EngineEvent::Failed(e)));
-                Change::Nothing
-            }
-        }
+        let built = self.world.lighting(&lighting, &mut self.counters);
+        self.install_lighting(built, lighting, out)
     }
 
     fn take_map(&mut self, path: PathBuf, out: &mut dyn FnMut(Output)) -> Change {
         // Read again even if read before: the file may have changed.
-        match self.world.read_map(&path, &mut self.counters) {
+        let read = self.world.read_map(&path, &mut self.counters);
+        let change = self.install_lighting(read, Lighting::Map(path.clone()), out);
+        if change == Change::Lighting {
+            out(Output::Event(EngineEvent::MapLoaded(path)));
+        }
+        change
+    }
+
+    /// Makes `built` the environment for `lighting`, or reports why it could
+    /// not be built and changes nothing: what a new lighting and a map read share.
+    fn install_lighting(
+        &mut self,
+        built: Result<Arc<Environment>, EngineError>,
+        lighting: Lighting,
+        out: &mut dyn FnMut(Output),
+    ) -> Change {
+        match built {
             Ok(environment) => {
                 self.world.environment = environment;
-                self.inputs.lighting = Lighting::Map(path.clone());
-                out(Output::Event(EngineEvent::MapLoaded(path)));
+                self.inputs.lighting = lighting;
                 Change::Lighting
             }
             Err(e) => {
