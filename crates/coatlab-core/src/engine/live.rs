@@ -141,21 +141,17 @@ impl<B: RenderBackend> LiveEngine<B> {
     }
 
     fn take_scene(&mut self, source: &SceneSource, out: &mut dyn FnMut(Output)) -> Change {
-        match load_scene(source, &mut self.counters) {
-            Ok((scene, info)) => {
-                let (width, height) = self.inputs.size;
-                self.inputs.camera = scene.default_camera(width, height);
-                self.inputs.paint_override = None;
-                self.world.scene = scene;
-                self.world.info = info.clone();
-                out(Output::Event(EngineEvent::SceneLoaded(info)));
-                Change::Scene
-            }
-            Err(e) => {
-                out(Output::Event(EngineEvent::Failed(e)));
-                Change::Nothing
-            }
-        }
+        let (scene, info) = match load_scene(source, &mut self.counters) {
+            Ok(loaded) => loaded,
+            Err(e) => return failed(e, out),
+        };
+        let (width, height) = self.inputs.size;
+        self.inputs.camera = scene.default_camera(width, height);
+        self.inputs.paint_override = None;
+        self.world.scene = scene;
+        self.world.info = info.clone();
+        out(Output::Event(EngineEvent::SceneLoaded(info)));
+        Change::Scene
     }
 
     fn take_lighting(&mut self, lighting: Lighting, out: &mut dyn FnMut(Output)) -> Change {
@@ -184,17 +180,13 @@ impl<B: RenderBackend> LiveEngine<B> {
         lighting: Lighting,
         out: &mut dyn FnMut(Output),
     ) -> Change {
-        match built {
-            Ok(environment) => {
-                self.world.environment = environment;
-                self.inputs.lighting = lighting;
-                Change::Lighting
-            }
-            Err(e) => {
-                out(Output::Event(EngineEvent::Failed(e)));
-                Change::Nothing
-            }
-        }
+        let environment = match built {
+            Ok(environment) => environment,
+            Err(e) => return failed(e, out),
+        };
+        self.world.environment = environment;
+        self.inputs.lighting = lighting;
+        Change::Lighting
     }
 
     fn take_quality(&mut self, knobs: QualityKnobs, out: &mut dyn FnMut(Output)) -> Change {
@@ -283,4 +275,10 @@ impl<B: RenderBackend> LiveEngine<B> {
     pub fn samples_per_pixel(&self) -> u32 {
         self.views.first.samples_per_pixel()
     }
+}
+
+/// A command that could not be carried out: reported, and nothing changed.
+fn failed(error: EngineError, out: &mut dyn FnMut(Output)) -> Change {
+    out(Output::Event(EngineEvent::Failed(error)));
+    Change::Nothing
 }
