@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use crate::colour::spectrum::WavelengthGrid;
 use crate::design::PaintDesign;
+use crate::render::environment::Environment;
 use crate::render::film::DisplaySettings;
 use crate::render::lighting::Lighting;
 use crate::render::material::Shading;
@@ -140,54 +141,52 @@ impl<B: RenderBackend> LiveEngine<B> {
     }
 
     fn take_scene(&mut self, source: &SceneSource, out: &mut dyn FnMut(Output)) -> Change {
-        match load_scene(source, &mut self.counters) {
-            Ok((scene, info)) => {
-                let (width, height) = self.inputs.size;
-                self.inputs.camera = scene.default_camera(width, height);
-                self.inputs.paint_override = None;
-                self.world.scene = scene;
-                self.world.info = info.clone();
-                out(Output::Event(EngineEvent::SceneLoaded(info)));
-                Change::Scene
-            }
-            Err(e) => {
-                out(Output::Event(EngineEvent::Failed(e)));
-                Change::Nothing
-            }
-        }
+        let (scene, info) = match load_scene(source, &mut self.counters) {
+            Ok(loaded) => loaded,
+            Err(e) => return failed(e, out),
+        };
+        let (width, height) = self.inputs.size;
+        self.inputs.camera = scene.default_camera(width, height);
+        self.inputs.paint_override = None;
+        self.world.scene = scene;
+        self.world.info = info.clone();
+        out(Output::Event(EngineEvent::SceneLoaded(info)));
+        Change::Scene
     }
 
     fn take_lighting(&mut self, lighting: Lighting, out: &mut dyn FnMut(Output)) -> Change {
         if lighting == self.inputs.lighting {
             return Change::Nothing;
         }
-        match self.world.lighting(&lighting, &mut self.counters) {
-            Ok(environment) => {
-                self.world.environment = environment;
-                self.inputs.lighting = lighting;
-                Change::Lighting
-            }
-            Err(e) => {
-                out(Output::Event(EngineEvent::Failed(e)));
-                Change::Nothing
-            }
-        }
+        let built = self.world.lighting(&lighting, &mut self.counters);
+        self.install_lighting(built, lighting, out)
     }
 
     fn take_map(&mut self, path: PathBuf, out: &mut dyn FnMut(Output)) -> Change {
         // Read again even if read before: the file may have changed.
-        match self.world.read_map(&path, &mut self.counters) {
-            Ok(environment) => {
-                self.world.environment = environment;
-                self.inputs.lighting = Lighting::Map(path.clone());
-                out(Output::Event(EngineEvent::MapLoaded(path)));
-                Change::Lighting
-            }
-            Err(e) => {
-                out(Output::Event(EngineEvent::Failed(e)));
-                Change::Nothing
-            }
+        let read = self.world.read_map(&path, &mut self.counters);
+        let change = self.install_lighting(read, Lighting::Map(path.clone()), out);
+        if change == Change::Lighting {
+            out(Output::Event(EngineEvent::MapLoaded(path)));
         }
+        change
+    }
+
+    /// Makes `built` the environment for `lighting`, or reports why it could
+    /// not be built and changes nothing: what a new lighting and a map read share.
+    fn install_lighting(
+        &mut self,
+        built: Result<Arc<Environment>, EngineError>,
+        lighting: Lighting,
+        out: &mut dyn FnMut(Output),
+    ) -> Change {
+        let environment = match built {
+            Ok(environment) => environment,
+            Err(e) => return failed(e, out),
+        };
+        self.world.environment = environment;
+        self.inputs.lighting = lighting;
+        Change::Lighting
     }
 
     fn take_quality(&mut self, knobs: QualityKnobs, out: &mut dyn FnMut(Output)) -> Change {
@@ -276,4 +275,10 @@ impl<B: RenderBackend> LiveEngine<B> {
     pub fn samples_per_pixel(&self) -> u32 {
         self.views.first.samples_per_pixel()
     }
+}
+
+/// A command that could not be carried out: reported, and nothing changed.
+fn failed(error: EngineError, out: &mut dyn FnMut(Output)) -> Change {
+    out(Output::Event(EngineEvent::Failed(error)));
+    Change::Nothing
 }

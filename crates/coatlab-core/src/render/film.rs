@@ -423,16 +423,35 @@ impl Film {
     /// An empty film of `width` × `height` pixels for radiance on `channels` (a
     /// wavelength grid, or linear sRGB).
     pub fn new(width: u32, height: u32, channels: impl Into<Channels>) -> Self {
-        Self {
-            weights: Arc::new(Weights::new(channels.into())),
-            image_width: width,
-            image_height: height,
-            origin: [0, 0],
+        Self::empty(
+            Arc::new(Weights::new(channels.into())),
+            [width, height],
+            [0, 0],
             width,
             height,
-            pixels: vec![PixelSums::default(); width as usize * height as usize],
-            squares: vec![[0.0; 3]; width as usize * height as usize],
-            blocks: vec![BlockSums::default(); width as usize * height as usize],
+        )
+    }
+
+    /// An empty film of `width` × `height` pixels at `origin` of an image of
+    /// `image` = [width, height] pixels: what [`Film::new`] and [`Film::tile`] share.
+    fn empty(
+        weights: Arc<Weights>,
+        image: [u32; 2],
+        origin: [u32; 2],
+        width: u32,
+        height: u32,
+    ) -> Self {
+        let count = width as usize * height as usize;
+        Self {
+            weights,
+            image_width: image[0],
+            image_height: image[1],
+            origin,
+            width,
+            height,
+            pixels: vec![PixelSums::default(); count],
+            squares: vec![[0.0; 3]; count],
+            blocks: vec![BlockSums::default(); count],
             rejected: 0,
         }
     }
@@ -444,18 +463,13 @@ impl Film {
         let y0 = y0.min(self.image_height);
         let width = width.min(self.image_width - x0);
         let height = height.min(self.image_height - y0);
-        Film {
-            weights: Arc::clone(&self.weights),
-            image_width: self.image_width,
-            image_height: self.image_height,
-            origin: [x0, y0],
+        Film::empty(
+            Arc::clone(&self.weights),
+            [self.image_width, self.image_height],
+            [x0, y0],
             width,
             height,
-            pixels: vec![PixelSums::default(); width as usize * height as usize],
-            squares: vec![[0.0; 3]; width as usize * height as usize],
-            blocks: vec![BlockSums::default(); width as usize * height as usize],
-            rejected: 0,
-        }
+        )
     }
 
     /// Empty tiles of `size` × `size` pixels (smaller at the right and bottom edges)

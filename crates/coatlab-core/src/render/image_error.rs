@@ -221,15 +221,7 @@ impl XyzImage {
     }
 
     fn check_same_size(&self, other: &XyzImage) -> Result<(), ImageErrorError> {
-        if (self.width, self.height) != (other.width, other.height) {
-            return Err(ImageErrorError::SizeMismatch {
-                a_width: self.width,
-                a_height: self.height,
-                b_width: other.width,
-                b_height: other.height,
-            });
-        }
-        Ok(())
+        check_same_size([self.width, self.height], [other.width, other.height])
     }
 }
 
@@ -350,14 +342,7 @@ pub fn image_error(
     display: &DisplaySettings,
 ) -> Result<ImageError, ImageErrorError> {
     image.check_same_size(reference)?;
-    if (masks.width, masks.height) != (image.width, image.height) {
-        return Err(ImageErrorError::SizeMismatch {
-            a_width: image.width,
-            a_height: image.height,
-            b_width: masks.width,
-            b_height: masks.height,
-        });
-    }
+    check_same_size([image.width, image.height], [masks.width, masks.height])?;
     let lab = |p: &[f32; 3]| {
         display_lab_of_xyz(
             Xyz::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])),
@@ -405,6 +390,20 @@ pub fn image_error(
         p95_delta_e: p95,
         region_delta_e,
     })
+}
+
+/// [`ImageErrorError::SizeMismatch`] unless sizes `a` and `b` ([width, height])
+/// are equal: images against each other and against region masks alike.
+fn check_same_size(a: [u32; 2], b: [u32; 2]) -> Result<(), ImageErrorError> {
+    if a != b {
+        return Err(ImageErrorError::SizeMismatch {
+            a_width: a[0],
+            a_height: a[1],
+            b_width: b[0],
+            b_height: b[1],
+        });
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -178,59 +178,14 @@ impl TileCache {
     /// growth from the shared pool (capacity, not only length, is paid for, so the
     /// heap memory never passes the budget). False when they do not fit.
     fn reserve(&mut self, which: Store, extra: usize) -> bool {
-        let (len, capacity, size) = match which {
-            Store::Paths => (
-                self.paths.len(),
-                self.paths.capacity(),
-                size_of::<CachedPath>(),
-            ),
-            Store::Vertices => (
-                self.vertices.len(),
-                self.vertices.capacity(),
-                size_of::<VertexRecord>(),
-            ),
-            Store::Compact => (
-                self.compact.len(),
-                self.compact.capacity(),
-                size_of::<CompactPath>(),
-            ),
-            Store::Spectra => (
-                self.spectra.len(),
-                self.spectra.capacity(),
-                size_of::<f32>(),
-            ),
-        };
-        if len + extra <= capacity {
-            return true;
-        }
-        let doubled = (len + extra).max(capacity * 2).max(16);
-        let wanted = match &self.pool {
-            None => doubled,
-            Some(pool) => {
-                let take = |items: usize| {
-                    let bytes = (items - capacity) * size;
-                    pool.fetch_update(Ordering::Relaxed, Ordering::Relaxed, |left| {
-                        left.checked_sub(bytes)
-                    })
-                    .is_ok()
-                };
-                if take(doubled) {
-                    doubled
-                } else if take(len + extra) {
-                    len + extra
-                } else {
-                    self.overflowed = true;
-                    return false;
-                }
-            }
-        };
+        let pool = self.pool.as_deref();
+        let overflowed = &mut self.overflowed;
         match which {
-            Store::Paths => self.paths.reserve_exact(wanted - len),
-            Store::Vertices => self.vertices.reserve_exact(wanted - len),
-            Store::Compact => self.compact.reserve_exact(wanted - len),
-            Store::Spectra => self.spectra.reserve_exact(wanted - len),
+            Store::Paths => grow(&mut self.paths, extra, pool, overflowed),
+            Store::Vertices => grow(&mut self.vertices, extra, pool, overflowed),
+            Store::Compact => grow(&mut self.compact, extra, pool, overflowed),
+            Store::Spectra => grow(&mut self.spectra, extra, pool, overflowed),
         }
-        true
     }
 
     pub(crate) fn clear(&mut self) {
@@ -292,6 +247,44 @@ enum Store {
     Vertices,
     Compact,
     Spectra,
+}
+
+/// [`TileCache::reserve`] for one vector: doubles its capacity (at least 16), or
+/// grows it just enough when the pool cannot pay for doubling; sets `overflowed`
+/// and returns false when the pool cannot pay for even that.
+fn grow<T>(
+    items: &mut Vec<T>,
+    extra: usize,
+    pool: Option<&AtomicUsize>,
+    overflowed: &mut bool,
+) -> bool {
+    let (len, capacity, size) = (items.len(), items.capacity(), size_of::<T>());
+    if len + extra <= capacity {
+        return true;
+    }
+    let doubled = (len + extra).max(capacity * 2).max(16);
+    let wanted = match pool {
+        None => doubled,
+        Some(pool) => {
+            let take = |count: usize| {
+                let bytes = (count - capacity) * size;
+                pool.fetch_update(Ordering::Relaxed, Ordering::Relaxed, |left| {
+                    left.checked_sub(bytes)
+                })
+                .is_ok()
+            };
+            if take(doubled) {
+                doubled
+            } else if take(len + extra) {
+                len + extra
+            } else {
+                *overflowed = true;
+                return false;
+            }
+        }
+    };
+    items.reserve_exact(wanted - len);
+    true
 }
 
 /// Records one path into a tile cache (see [`PathRecorder`]).

@@ -123,13 +123,7 @@ impl Preview {
                 drawn = Some(shown);
             }
             None => {
-                ui.painter().text(
-                    rect.center(),
-                    egui::Align2::CENTER_CENTER,
-                    "Preparing the car…",
-                    egui::FontId::proportional(16.0),
-                    ui.visuals().weak_text_color(),
-                );
+                waiting_note(ui, rect, "Preparing the car…");
             }
         }
         if let Some(label) = label {
@@ -232,13 +226,7 @@ impl Preview {
         labels: &[String; 2],
     ) -> Option<egui::Rect> {
         let (Some(t), Some(map)) = (&self.map_texture, &self.delta_e) else {
-            ui.painter().text(
-                rect.center(),
-                egui::Align2::CENTER_CENTER,
-                "Computing the ΔE00 map…",
-                egui::FontId::proportional(16.0),
-                ui.visuals().weak_text_color(),
-            );
+            waiting_note(ui, rect, "Computing the ΔE00 map…");
             return None;
         };
         let shown = letterbox(rect, t.size_vec2());
@@ -399,6 +387,17 @@ pub(super) fn fit(w: f32, h: f32) -> (u32, u32) {
     let (mw, mh) = (MAX_PREVIEW_PIXELS.0 as f32, MAX_PREVIEW_PIXELS.1 as f32);
     let scale = (mw / w.max(1.0)).min(mh / h.max(1.0)).min(1.0);
     ((w * scale).round() as u32, (h * scale).round() as u32)
+}
+
+/// A faint note in the middle of `rect` while its image is not ready yet.
+fn waiting_note(ui: &egui::Ui, rect: egui::Rect, text: &str) {
+    ui.painter().text(
+        rect.center(),
+        egui::Align2::CENTER_CENTER,
+        text,
+        egui::FontId::proportional(16.0),
+        ui.visuals().weak_text_color(),
+    );
 }
 
 #[cfg(test)]

@@ -58,13 +58,13 @@ impl Preview {
                 }
             });
         self.set_lighting(lighting);
-        if ui
-            .button("Open map…")
-            .on_hover_text("An equirectangular environment map (.hdr or .exr)")
-            .clicked()
-        {
-            requests.push(PreviewRequest::OpenEnvironment);
-        }
+        request_button(
+            ui,
+            "Open map…",
+            "An equirectangular environment map (.hdr or .exr)",
+            PreviewRequest::OpenEnvironment,
+            requests,
+        );
     }
 
     /// The model of the view, or the Phong variant against the paint model.
@@ -177,13 +177,13 @@ impl Preview {
                 .map(|s| s.name.clone())
                 .unwrap_or_else(|| "Built-in car".into());
             ui.label(format!("Scene: {name}"));
-            if ui
-                .button("Open scene…")
-                .on_hover_text("A glTF 2.0 scene (.glb or .gltf); or drop one on the window")
-                .clicked()
-            {
-                requests.push(PreviewRequest::OpenScene);
-            }
+            request_button(
+                ui,
+                "Open scene…",
+                "A glTF 2.0 scene (.glb or .gltf); or drop one on the window",
+                PreviewRequest::OpenScene,
+                requests,
+            );
             if self.scene.as_ref().is_some_and(|s| s.path.is_some())
                 && ui.button("Built-in car").clicked()
             {
@@ -191,13 +191,13 @@ impl Preview {
             }
             self.paint_material_ui(ui);
             ui.separator();
-            if ui
-                .button("Export image…")
-                .on_hover_text("The preview as PNG (as shown) or EXR (linear)")
-                .clicked()
-            {
-                requests.push(PreviewRequest::Export);
-            }
+            request_button(
+                ui,
+                "Export image…",
+                "The preview as PNG (as shown) or EXR (linear)",
+                PreviewRequest::Export,
+                requests,
+            );
         });
     }
 
@@ -231,5 +231,18 @@ impl Preview {
             )
             .on_hover_text(scene.warnings.join("\n"));
         }
+    }
+}
+
+/// A button with `hover` text that asks the window for `request` when clicked.
+fn request_button(
+    ui: &mut Ui,
+    label: &str,
+    hover: &str,
+    request: PreviewRequest,
+    requests: &mut Vec<PreviewRequest>,
+) {
+    if ui.button(label).on_hover_text(hover).clicked() {
+        requests.push(request);
     }
 }
