@@ -17,7 +17,9 @@ use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSe
 use coatlab_core::scene::car::{CarParameters, generate};
 use common::{ExrImage, exit, failure, read_exr, stdout};
 
-const TESTDATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/testdata/gltf");
+#[path = "../crates/coatlab-core/tests/support/gltf_testdata.rs"]
+mod gltf_testdata;
+use gltf_testdata::testdata;
 
 fn out_path(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name)
@@ -616,19 +618,9 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
 
 #[test]
 fn shared_models_render_or_are_refused_by_name() {
-    let dir = PathBuf::from(TESTDATA);
-    if !dir.is_dir() {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "CI is set but the glTF test models are missing at {}",
-            dir.display()
-        );
-        eprintln!(
-            "NOTICE: glTF test models not found at {}; test skipped",
-            dir.display()
-        );
+    let Some(dir) = testdata() else {
         return;
-    }
+    };
     let lambo = dir.join("LamborghiniHuracanGT3/LamborghiniHuracanGT3.glb");
     let png = out_path("lambo.png");
     let output = render_to(
