@@ -21,6 +21,10 @@ use common::{ExrImage, exit, failure, read_exr, stdout};
 mod gltf_testdata;
 use gltf_testdata::testdata;
 
+#[path = "../crates/coatlab-core/tests/support/exr_text.rs"]
+mod exr_text;
+use exr_text::text_attributes;
+
 fn out_path(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name)
 }
@@ -308,22 +312,16 @@ fn the_exr_is_the_films_linear_srgb_in_32_bit_floats() {
 
 /// The text attributes of an EXR's header (UTF-8), by name, and its compression.
 fn exr_header(path: &std::path::Path) -> (BTreeMap<String, String>, exr::prelude::Compression) {
-    use exr::prelude::{AttributeValue, MetaData};
+    use exr::prelude::MetaData;
     let meta = MetaData::read_from_file(path, false).expect("an EXR header");
     let header = &meta.headers[0];
-    let texts = header
-        .own_attributes
-        .other
-        .iter()
-        .chain(&header.shared_attributes.other)
-        .filter_map(|(name, value)| match value {
-            AttributeValue::Text(text) => Some((
-                name.to_string(),
-                String::from_utf8(text.bytes().to_vec()).expect("UTF-8"),
-            )),
-            _ => None,
-        })
-        .collect();
+    let texts = text_attributes(
+        header
+            .own_attributes
+            .other
+            .iter()
+            .chain(&header.shared_attributes.other),
+    );
     (texts, header.compression)
 }
 
