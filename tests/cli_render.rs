@@ -17,7 +17,13 @@ use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSe
 use coatlab_core::scene::car::{CarParameters, generate};
 use common::{ExrImage, exit, failure, read_exr, stdout};
 
-const TESTDATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/testdata/gltf");
+#[path = "../crates/coatlab-core/tests/support/gltf_testdata.rs"]
+mod gltf_testdata;
+use gltf_testdata::testdata;
+
+#[path = "../crates/coatlab-core/tests/support/exr_text.rs"]
+mod exr_text;
+use exr_text::text_attributes;
 
 fn out_path(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name)
@@ -76,6 +82,28 @@ fn render_to(out: &PathBuf, extra: &[&str]) -> std::process::Output {
         .expect("coatlab runs")
 }
 
+/// `coatlab render --size WxH --spp N` to `out`, then `extra`.
+fn render_small(out: &PathBuf, size: &str, spp: u32, extra: &[&str]) -> std::process::Output {
+    let spp = spp.to_string();
+    let mut args = vec!["--size", size, "--spp", &spp];
+    args.extend_from_slice(extra);
+    render_to(out, &args)
+}
+
+/// `coatlab render` to `out` at the size, sample count, wavelength count and
+/// seed that [`film_of_the_default_render`] is given, then `extra`: the command
+/// and the film it is compared with cannot drift apart.
+fn render_seeded(
+    out: &PathBuf,
+    ((width, height), spp, wavelengths, seed): ((u32, u32), u32, usize, u64),
+    extra: &[&str],
+) -> std::process::Output {
+    let (wavelengths, seed) = (wavelengths.to_string(), seed.to_string());
+    let mut args = vec!["--wavelengths", &wavelengths, "--seed", &seed];
+    args.extend_from_slice(extra);
+    render_small(out, &format!("{width}x{height}"), spp, &args)
+}
+
 /// `--wavelengths` takes exactly the counts a visible grid can have, and its help
 /// and its refusal state that range from the grid's limits.
 #[test]
@@ -111,18 +139,11 @@ fn the_wavelength_count_is_checked_against_the_grid_s_limits() {
 #[test]
 fn every_model_environment_and_exr_output_works() {
     let exr = out_path("car.exr");
-    let output = render_to(
+    let output = render_small(
         &exr,
-        &[
-            "--size",
-            "32x18",
-            "--spp",
-            "1",
-            "--model",
-            "phong-fit",
-            "--environment",
-            "booth-a",
-        ],
+        "32x18",
+        1,
+        &["--model", "phong-fit", "--environment", "booth-a"],
     );
     let text = stdout(&output);
     assert!(text.contains("Phong (best fit)"), "{text}");
@@ -130,13 +151,11 @@ fn every_model_environment_and_exr_output_works() {
     assert_eq!((image.width, image.height), (32, 18));
     for environment in ["studio", "booth-d65", "booth-f11", "outdoor"] {
         let png = out_path(&format!("car-{environment}.png"));
-        let output = render_to(
+        let output = render_small(
             &png,
+            "24x16",
+            1,
             &[
-                "--size",
-                "24x16",
-                "--spp",
-                "1",
                 "--wavelengths",
                 "4",
                 "--environment",
@@ -149,18 +168,11 @@ fn every_model_environment_and_exr_output_works() {
         assert_eq!(png_size(&std::fs::read(&png).expect("png")), (24, 16));
     }
     // Adaptive sampling: --spp is the mean over the image.
-    let output = render_to(
+    let output = render_small(
         &out_path("adaptive.png"),
-        &[
-            "--size",
-            "24x16",
-            "--spp",
-            "8",
-            "--wavelengths",
-            "4",
-            "--adaptive",
-            "on",
-        ],
+        "24x16",
+        8,
+        &["--wavelengths", "4", "--adaptive", "on"],
     );
     let text = stdout(&output);
     assert!(text.contains("8 spp mean, adaptive"), "{text}");
@@ -257,19 +269,7 @@ fn the_exr_is_the_films_linear_srgb_in_32_bit_floats() {
     // Not square, so a transposed image cannot pass; red paint, so swapped
     // channels cannot; three samples, so a film of another sample count cannot.
     let (size, spp, wavelengths, seed) = ((24, 16), 3, 8, 7);
-    let output = render_to(
-        &exr,
-        &[
-            "--size",
-            "24x16",
-            "--spp",
-            "3",
-            "--wavelengths",
-            "8",
-            "--seed",
-            "7",
-        ],
-    );
+    let output = render_seeded(&exr, (size, spp, wavelengths, seed), &[]);
     stdout(&output);
     let image = read_exr(&exr);
     // What the help text and the docs say: 32-bit float R, G, B (sorted by name,
@@ -290,19 +290,7 @@ fn the_exr_is_the_films_linear_srgb_in_32_bit_floats() {
     assert_exr_holds_film(&image, render.film());
     // The same seed gives the same file; another seed another image.
     let same = out_path("film-seed-7.exr");
-    let output = render_to(
-        &same,
-        &[
-            "--size",
-            "24x16",
-            "--spp",
-            "3",
-            "--wavelengths",
-            "8",
-            "--seed",
-            "7",
-        ],
-    );
+    let output = render_seeded(&same, (size, spp, wavelengths, seed), &[]);
     stdout(&output);
     assert_eq!(
         std::fs::read(&same).expect("written"),
@@ -310,19 +298,7 @@ fn the_exr_is_the_films_linear_srgb_in_32_bit_floats() {
         "the same command, another file"
     );
     let again = out_path("film-seed-8.exr");
-    let output = render_to(
-        &again,
-        &[
-            "--size",
-            "24x16",
-            "--spp",
-            "3",
-            "--wavelengths",
-            "8",
-            "--seed",
-            "8",
-        ],
-    );
+    let output = render_seeded(&again, (size, spp, wavelengths, seed + 1), &[]);
     stdout(&output);
     let other = read_exr(&again);
     let differing = other
@@ -336,22 +312,16 @@ fn the_exr_is_the_films_linear_srgb_in_32_bit_floats() {
 
 /// The text attributes of an EXR's header (UTF-8), by name, and its compression.
 fn exr_header(path: &std::path::Path) -> (BTreeMap<String, String>, exr::prelude::Compression) {
-    use exr::prelude::{AttributeValue, MetaData};
+    use exr::prelude::MetaData;
     let meta = MetaData::read_from_file(path, false).expect("an EXR header");
     let header = &meta.headers[0];
-    let texts = header
-        .own_attributes
-        .other
-        .iter()
-        .chain(&header.shared_attributes.other)
-        .filter_map(|(name, value)| match value {
-            AttributeValue::Text(text) => Some((
-                name.to_string(),
-                String::from_utf8(text.bytes().to_vec()).expect("UTF-8"),
-            )),
-            _ => None,
-        })
-        .collect();
+    let texts = text_attributes(
+        header
+            .own_attributes
+            .other
+            .iter()
+            .chain(&header.shared_attributes.other),
+    );
     (texts, header.compression)
 }
 
@@ -367,17 +337,10 @@ fn exr_options_and_the_header_record() {
     let exr = out_path("half-piz.exr");
     let _ = std::fs::remove_file(&exr);
     let (size, spp, wavelengths, seed) = ((24, 16), 3, 8, 5);
-    let output = render_to(
+    let output = render_seeded(
         &exr,
+        (size, spp, wavelengths, seed),
         &[
-            "--size",
-            "24x16",
-            "--spp",
-            "3",
-            "--wavelengths",
-            "8",
-            "--seed",
-            "5",
             "--environment",
             "Booth-A",
             "--exr-precision",
@@ -427,18 +390,11 @@ fn exr_options_and_the_header_record() {
 
     // The defaults: 32-bit floats, ZIP; adaptive sampling says its mean.
     let default = out_path("default-options.exr");
-    let output = render_to(
+    let output = render_small(
         &default,
-        &[
-            "--size",
-            "16x9",
-            "--spp",
-            "4",
-            "--wavelengths",
-            "4",
-            "--adaptive",
-            "on",
-        ],
+        "16x9",
+        4,
+        &["--wavelengths", "4", "--adaptive", "on"],
     );
     stdout(&output);
     assert!(read_exr(&default).channels.iter().all(|(_, t)| *t == "f32"));
@@ -455,19 +411,18 @@ fn exr_options_and_the_header_record() {
         ("--exr-compression", "zip", "only for .exr output"),
         ("--exr-precision", "half", "only for .exr output"),
     ] {
-        let output = render_to(
-            &out_path("options.png"),
-            &["--size", "8x8", "--spp", "1", flag, value],
-        );
+        let output = render_small(&out_path("options.png"), "8x8", 1, &[flag, value]);
         let message = failure(&output, exit::USAGE);
         assert!(
             message.contains(flag) && message.contains(refusal),
             "{message}"
         );
     }
-    let output = render_to(
+    let output = render_small(
         &out_path("bad-options.exr"),
-        &["--size", "8x8", "--spp", "1", "--exr-compression", "dwaa"],
+        "8x8",
+        1,
+        &["--exr-compression", "dwaa"],
     );
     let message = failure(&output, exit::USAGE);
     assert!(message.contains("none, rle, zips, zip, piz"), "{message}");
@@ -629,12 +584,14 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
             "{args:?}: a cause is repeated in {err}"
         );
     }
-    let output = render_to(&out_path("image.jpg"), &["--size", "8x8", "--spp", "1"]);
+    let output = render_small(&out_path("image.jpg"), "8x8", 1, &[]);
     assert!(failure(&output, exit::USAGE).contains(".png or .exr"));
     // An output that cannot be written.
-    let output = render_to(
+    let output = render_small(
         &out_path("no-such-folder/image.png"),
-        &["--size", "8x8", "--spp", "1", "--wavelengths", "4"],
+        "8x8",
+        1,
+        &["--wavelengths", "4"],
     );
     assert!(failure(&output, exit::CANT_CREATE).contains("no-such-folder/image.png"));
 
@@ -659,19 +616,9 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
 
 #[test]
 fn shared_models_render_or_are_refused_by_name() {
-    let dir = PathBuf::from(TESTDATA);
-    if !dir.is_dir() {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "CI is set but the glTF test models are missing at {}",
-            dir.display()
-        );
-        eprintln!(
-            "NOTICE: glTF test models not found at {}; test skipped",
-            dir.display()
-        );
+    let Some(dir) = testdata() else {
         return;
-    }
+    };
     let lambo = dir.join("LamborghiniHuracanGT3/LamborghiniHuracanGT3.glb");
     let png = out_path("lambo.png");
     let output = render_to(

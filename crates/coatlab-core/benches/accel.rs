@@ -139,6 +139,10 @@ fn configs() -> Vec<(&'static str, BuildOptions)> {
         .collect()
 }
 
+#[path = "../tests/support/area_cdf.rs"]
+mod area_cdf;
+use area_cdf::area_cdf;
+
 #[path = "../tests/support/torus.rs"]
 mod support_torus;
 use support_torus::torus;
@@ -214,12 +218,8 @@ impl Camera {
 
 /// Bounce rays: area-weighted surface points, cosine-distributed directions.
 fn incoherent_rays(mesh: &TriangleMesh, count: usize, seed: u64) -> Vec<([f32; 3], [f32; 3])> {
-    let mut cdf = Vec::with_capacity(mesh.triangles.len());
-    let mut total = 0.0f64;
-    for t in 0..mesh.triangles.len() {
-        total += f64::from(mesh.triangle_area(t));
-        cdf.push(total);
-    }
+    let cdf = area_cdf(mesh);
+    let total = cdf.last().copied().unwrap_or(0.0);
     let mut rng = Pcg64::seed_from_u64(seed);
     let mut rays = Vec::with_capacity(count);
     while rays.len() < count {

@@ -84,6 +84,10 @@ fn lamborghini() -> Option<TriangleMesh> {
     )
 }
 
+#[path = "support/area_cdf.rs"]
+mod area_cdf;
+use area_cdf::area_cdf;
+
 #[path = "support/torus.rs"]
 mod support_torus;
 use support_torus::torus;
@@ -541,15 +545,8 @@ fn bounce_rays(
     both_sides: bool,
 ) -> Vec<([f32; 3], [f32; 3], f32)> {
     let mut rng = Pcg64::seed_from_u64(seed);
-    let total: f64 = (0..mesh.triangles.len())
-        .map(|t| f64::from(mesh.triangle_area(t)))
-        .sum();
-    let mut cdf = Vec::with_capacity(mesh.triangles.len());
-    let mut acc = 0.0;
-    for t in 0..mesh.triangles.len() {
-        acc += f64::from(mesh.triangle_area(t));
-        cdf.push(acc);
-    }
+    let cdf = area_cdf(mesh);
+    let total = cdf.last().copied().unwrap_or(0.0);
     let mut rays = Vec::with_capacity(count);
     while rays.len() < count {
         let t = cdf

@@ -8,6 +8,10 @@ use coatlab_core::render::film::{DisplaySettings, Film, ToneMapping};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 
+#[path = "support/exr_text.rs"]
+mod exr_text;
+use exr_text::text_attributes;
+
 fn grids() -> [WavelengthGrid; 3] {
     [
         WavelengthGrid::reference(),
@@ -477,7 +481,7 @@ struct StoredExr {
 }
 
 fn read_stored_exr(path: &std::path::Path) -> StoredExr {
-    use exr::prelude::{AttributeValue, read_first_flat_layer_from_file};
+    use exr::prelude::read_first_flat_layer_from_file;
     let image = read_first_flat_layer_from_file(path).unwrap();
     let layer = image.layer_data;
     let channels = layer
@@ -486,19 +490,7 @@ fn read_stored_exr(path: &std::path::Path) -> StoredExr {
         .into_iter()
         .map(|c| (c.name.to_string(), c.sample_data))
         .collect();
-    let attributes = layer
-        .attributes
-        .other
-        .iter()
-        .chain(&image.attributes.other)
-        .filter_map(|(name, value)| match value {
-            AttributeValue::Text(text) => Some((
-                name.to_string(),
-                String::from_utf8(text.bytes().to_vec()).expect("UTF-8"),
-            )),
-            _ => None,
-        })
-        .collect();
+    let attributes = text_attributes(layer.attributes.other.iter().chain(&image.attributes.other));
     let has_srgb_chromaticities = image
         .attributes
         .chromaticities

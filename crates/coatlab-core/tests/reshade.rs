@@ -15,6 +15,7 @@ use coatlab_core::render::progressive::{
     EditOutcome, FRESH_ONLY_WEIGHT, ProgressiveRender, RenderSettings,
 };
 use coatlab_core::render::reshade::{BaseImage, ReshadeError, Reshaded, reshade_prepared_samples};
+use coatlab_core::scene::Scene;
 
 #[path = "support/image_stats.rs"]
 mod image_stats;
@@ -81,6 +82,13 @@ fn reported_over_actual(reshades: &[Reshaded], replicas: &Replicas) -> f64 {
         / k;
     let actual: f64 = replicas.variance.iter().map(|v| v[1] * k).sum();
     reported / actual
+}
+
+/// The render's paint (paint model) edited to `model`.
+fn edit_paint(render: &mut ProgressiveRender, scene: &Scene, model: &PaintModel) -> EditOutcome {
+    render
+        .edit_shading(shading(scene, model, ShadingModel::Paint))
+        .expect("edit")
 }
 
 #[test]
@@ -311,9 +319,7 @@ fn an_edit_is_reshaded_then_refined_to_the_fresh_render() {
         );
         let (scene_before, environment_before) =
             (render.scene().clone(), render.environment().clone());
-        let outcome = render
-            .edit_shading(shading(&scene, &edited, ShadingModel::Paint))
-            .expect("edit");
+        let outcome = edit_paint(&mut render, &scene, &edited);
         assert_eq!(outcome, EditOutcome::Reshaded);
         assert!(Arc::ptr_eq(render.scene(), &scene_before), "scene rebuilt");
         assert!(Arc::ptr_eq(render.environment(), &environment_before));
@@ -384,17 +390,13 @@ fn edits_in_a_row_share_the_base_and_mirrors_trace_fresh() {
     let mut edited = base.clone();
     edited.set_thickness(60.0).expect("thickness");
     assert_eq!(
-        render
-            .edit_shading(shading(&scene, &edited, ShadingModel::Paint))
-            .expect("edit"),
+        edit_paint(&mut render, &scene, &edited),
         EditOutcome::Reshaded
     );
     render.render_pass(1);
     edited.set_thickness(70.0).expect("thickness");
     assert_eq!(
-        render
-            .edit_shading(shading(&scene, &edited, ShadingModel::Paint))
-            .expect("edit"),
+        edit_paint(&mut render, &scene, &edited),
         EditOutcome::Reshaded
     );
     assert_eq!(render.edit_base_samples_per_pixel(), 8);
@@ -403,9 +405,7 @@ fn edits_in_a_row_share_the_base_and_mirrors_trace_fresh() {
         .set_gloss(GlossSetting::Exponent(GlossExponent::Mirror))
         .expect("gloss");
     assert_eq!(
-        render
-            .edit_shading(shading(&scene, &mirror, ShadingModel::Paint))
-            .expect("edit"),
+        edit_paint(&mut render, &scene, &mirror),
         EditOutcome::Fresh(ReshadeError::DeltaChanged)
     );
     assert!(!render.is_reshaded());
@@ -455,9 +455,7 @@ fn path_caches_stay_within_their_memory_budget() {
     let mut edited = base.clone();
     edited.set_thickness(60.0).expect("thickness");
     assert_eq!(
-        render
-            .edit_shading(shading(&scene, &edited, ShadingModel::Paint))
-            .expect("edit"),
+        edit_paint(&mut render, &scene, &edited),
         EditOutcome::Reshaded
     );
     for _ in 0..4 {

@@ -121,10 +121,23 @@ fn events(outputs: &[Output]) -> Vec<&EngineEvent> {
         .collect()
 }
 
-const RETRACE_ONLY: EngineCounters = EngineCounters {
-    retraces: 1,
-    ..ZERO
-};
+const RETRACE_ONLY: EngineCounters = retraced(0, 0, 0);
+
+/// What an edit that starts the first view again builds: these paint tables,
+/// first-view shadings and second-view shadings, and one retrace.
+const fn retraced(
+    table_builds: u64,
+    shading_builds: u64,
+    second_shading_builds: u64,
+) -> EngineCounters {
+    EngineCounters {
+        table_builds,
+        shading_builds,
+        second_shading_builds,
+        retraces: 1,
+        ..ZERO
+    }
+}
 
 const ZERO: EngineCounters = EngineCounters {
     bvh_builds: 0,
@@ -259,16 +272,7 @@ fn an_edit_that_widens_the_lobe_is_traced_fresh() {
     ));
     let first = &updates(outputs)[0].first;
     assert!(first.coarse && first.reshaded.is_none());
-    assert_built(
-        &engine,
-        &before,
-        EngineCounters {
-            table_builds: 1,
-            shading_builds: 1,
-            retraces: 1,
-            ..ZERO
-        },
-    );
+    assert_built(&engine, &before, retraced(1, 1, 0));
 }
 
 #[test]
@@ -284,16 +288,7 @@ fn a_gloss_edit_is_traced_fresh_without_a_re_shade() {
         engine.last_edit_refusal().is_none(),
         "no re-shade was tried"
     );
-    assert_built(
-        &engine,
-        &before,
-        EngineCounters {
-            table_builds: 1,
-            shading_builds: 1,
-            retraces: 1,
-            ..ZERO
-        },
-    );
+    assert_built(&engine, &before, retraced(1, 1, 0));
 }
 
 #[test]
@@ -305,15 +300,7 @@ fn a_model_change_rebuilds_the_shading_but_not_the_tables() {
     );
     assert_eq!(engine.state().phase, Phase::Coarse);
     step(&mut engine);
-    assert_built(
-        &engine,
-        &before,
-        EngineCounters {
-            shading_builds: 1,
-            retraces: 1,
-            ..ZERO
-        },
-    );
+    assert_built(&engine, &before, retraced(0, 1, 0));
 }
 
 #[test]
@@ -453,15 +440,7 @@ fn a_paint_material_change_rebuilds_the_shading() {
     let (mut engine, before) = converged();
     apply(&mut engine, Command::PaintMaterial(Some(0)));
     step(&mut engine);
-    assert_built(
-        &engine,
-        &before,
-        EngineCounters {
-            shading_builds: 1,
-            retraces: 1,
-            ..ZERO
-        },
-    );
+    assert_built(&engine, &before, retraced(0, 1, 0));
 }
 
 #[test]
@@ -490,16 +469,7 @@ fn a_comparison_shares_the_first_views_paths_and_switching_it_off_drops_the_seco
         })
     ));
     assert!(matches!(&last.map, Some(Some(map)) if map.samples_per_pixel == TARGET));
-    assert_built(
-        &engine,
-        &before,
-        EngineCounters {
-            shading_builds: 1,
-            second_shading_builds: 1,
-            retraces: 1,
-            ..ZERO
-        },
-    );
+    assert_built(&engine, &before, retraced(0, 1, 1));
     let before = engine.counters();
     apply(
         &mut engine,
@@ -513,15 +483,7 @@ fn a_comparison_shares_the_first_views_paths_and_switching_it_off_drops_the_seco
             .iter()
             .all(|u| u.second == SecondUpdate::Clear && u.map == Some(None))
     );
-    assert_built(
-        &engine,
-        &before,
-        EngineCounters {
-            shading_builds: 1,
-            retraces: 1,
-            ..ZERO
-        },
-    );
+    assert_built(&engine, &before, retraced(0, 1, 0));
 }
 
 #[test]
@@ -546,16 +508,7 @@ fn in_a_comparison_edits_are_traced_fresh_and_the_second_view_follows() {
         Command::Views(Views::designs(ShadingModel::Paint, Some(&second))),
     );
     converge(&mut engine);
-    assert_built(
-        &engine,
-        &before,
-        EngineCounters {
-            shading_builds: 1,
-            second_shading_builds: 1,
-            retraces: 1,
-            ..ZERO
-        },
-    );
+    assert_built(&engine, &before, retraced(0, 1, 1));
     // A paint edit of the first design: no re-shade with two views.
     let before = engine.counters();
     let mut edited = design();
@@ -569,17 +522,7 @@ fn in_a_comparison_edits_are_traced_fresh_and_the_second_view_follows() {
         }
     );
     converge(&mut engine);
-    assert_built(
-        &engine,
-        &before,
-        EngineCounters {
-            table_builds: 1,
-            shading_builds: 1,
-            second_shading_builds: 1,
-            retraces: 1,
-            ..ZERO
-        },
-    );
+    assert_built(&engine, &before, retraced(1, 1, 1));
 }
 
 /// A mirror paint cannot be re-shaded into Phong: the second view is rendered
