@@ -23,6 +23,7 @@ pub mod engine;
 pub mod instruments;
 pub mod io;
 pub mod paint;
+pub mod parameter;
 pub mod quadrature;
 pub mod render;
 pub mod sampling;

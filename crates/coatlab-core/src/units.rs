@@ -28,6 +28,10 @@ pub enum Unit {
     GlossUnit,
     /// Degrees of angle.
     Degree,
+    /// Metres (the default car's dimensions).
+    Metre,
+    /// A number of things (mesh rings, segments).
+    Count,
 }
 
 impl Unit {
@@ -41,6 +45,8 @@ impl Unit {
             Unit::SquareMicrometre => "µm²",
             Unit::GlossUnit => "GU",
             Unit::Degree => "°",
+            Unit::Metre => "m",
+            Unit::Count => "",
         }
     }
 
@@ -48,7 +54,7 @@ impl Unit {
     /// pure numbers, a space otherwise ("45 µm").
     pub const fn separator(self) -> &'static str {
         match self {
-            Unit::Dimensionless | Unit::Degree => "",
+            Unit::Dimensionless | Unit::Degree | Unit::Count => "",
             _ => " ",
         }
     }

@@ -85,6 +85,8 @@ use glam::DVec3;
 use palette::LinSrgb;
 
 use super::{Scene, SceneMaterial, TriangleMesh};
+use crate::parameter::{Bounds, Parameter};
+use crate::units::Unit;
 
 /// Material index of the painted body.
 pub const BODY: u32 = 0;
@@ -105,21 +107,6 @@ const ARCH_CLEARANCE_M: f64 = 0.07;
 const TYRE_INSET_M: f64 = 0.025;
 /// Clearance between the tyre's inner face and the well floor, metres.
 const WELL_CLEARANCE_M: f64 = 0.03;
-
-/// One row of the parameter table: name, unit, range and default.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ParameterSpec {
-    /// Field name in [`CarParameters`].
-    pub name: &'static str,
-    /// Unit ("m", "1" for a ratio, "count").
-    pub unit: &'static str,
-    /// Smallest accepted value.
-    pub min: f64,
-    /// Largest accepted value.
-    pub max: f64,
-    /// Default value.
-    pub default: f64,
-}
 
 /// A field that can be clamped into its documented range.
 trait Clampable: Copy {
@@ -149,16 +136,14 @@ impl Clampable for u32 {
     }
 }
 
-fn clamp_field<T: Clampable>(value: &mut T, spec: &ParameterSpec, warnings: &mut Vec<String>) {
-    let clamped = value.clamp_into(spec.min, spec.max, spec.default);
+fn clamp_field<T: Clampable>(value: &mut T, spec: &Parameter, warnings: &mut Vec<String>) {
+    let clamped = value.clamp_into(spec.range.min, spec.range.max, spec.default);
     if clamped.as_f64() != value.as_f64() {
         warnings.push(format!(
-            "car parameter {} = {} is outside [{}, {}] {}; using {}",
+            "car parameter {} = {} is outside {}; using {}",
             spec.name,
             value.as_f64(),
-            spec.min,
-            spec.max,
-            spec.unit,
+            spec.range_text(),
             clamped.as_f64()
         ));
         *value = clamped;
@@ -180,12 +165,13 @@ macro_rules! car_parameters {
         }
 
         /// The parameter table: one row per field of [`CarParameters`], in order.
-        pub const PARAMETERS: &[ParameterSpec] = &[
-            $( ParameterSpec {
+        pub const PARAMETERS: &[Parameter] = &[
+            $( Parameter {
                 name: stringify!($field),
+                symbol: "",
                 unit: $unit,
-                min: $min as f64,
-                max: $max as f64,
+                range: Bounds::new($min as f64, $max as f64),
+                control: None,
                 default: $default as f64,
             }, )*
         ];
@@ -204,55 +190,55 @@ macro_rules! car_parameters {
 
 car_parameters! {
     /// Overall length, nose to tail, m.
-    length_m: f32 = 4.5, "m", [3.5, 5.5];
+    length_m: f32 = 4.5, Unit::Metre, [3.5, 5.5];
     /// Overall body width (no mirrors), m.
-    width_m: f32 = 1.8, "m", [1.5, 2.1];
+    width_m: f32 = 1.8, Unit::Metre, [1.5, 2.1];
     /// Roof top above the ground, m.
-    height_m: f32 = 1.4, "m", [1.1, 1.8];
+    height_m: f32 = 1.4, Unit::Metre, [1.1, 1.8];
     /// Front to rear axle, m.
-    wheelbase_m: f32 = 2.7, "m", [2.0, 3.4];
+    wheelbase_m: f32 = 2.7, Unit::Metre, [2.0, 3.4];
     /// Nose to front axle, m.
-    front_overhang_m: f32 = 0.9, "m", [0.5, 1.3];
+    front_overhang_m: f32 = 0.9, Unit::Metre, [0.5, 1.3];
     /// Tyre outer radius, m.
-    wheel_radius_m: f32 = 0.33, "m", [0.26, 0.42];
+    wheel_radius_m: f32 = 0.33, Unit::Metre, [0.26, 0.42];
     /// Tyre tread width, m.
-    tyre_width_m: f32 = 0.22, "m", [0.15, 0.32];
+    tyre_width_m: f32 = 0.22, Unit::Metre, [0.15, 0.32];
     /// Rim radius over tyre radius.
-    rim_fraction: f32 = 0.66, "1", [0.5, 0.8];
+    rim_fraction: f32 = 0.66, Unit::Dimensionless, [0.5, 0.8];
     /// Sill height between the wheels, m.
-    ground_clearance_m: f32 = 0.16, "m", [0.08, 0.3];
+    ground_clearance_m: f32 = 0.16, Unit::Metre, [0.08, 0.3];
     /// Bonnet leading edge above the ground, m.
-    nose_height_m: f32 = 0.70, "m", [0.5, 1.0];
+    nose_height_m: f32 = 0.70, Unit::Metre, [0.5, 1.0];
     /// Bonnet height at the windscreen base (cowl), m.
-    bonnet_height_m: f32 = 0.93, "m", [0.7, 1.2];
+    bonnet_height_m: f32 = 0.93, Unit::Metre, [0.7, 1.2];
     /// Nose to cowl along Z, m.
-    bonnet_length_m: f32 = 1.25, "m", [0.7, 1.8];
+    bonnet_length_m: f32 = 1.25, Unit::Metre, [0.7, 1.8];
     /// Cowl to roof front along Z, m (the windscreen rake).
-    windscreen_length_m: f32 = 0.8, "m", [0.4, 1.2];
+    windscreen_length_m: f32 = 0.8, Unit::Metre, [0.4, 1.2];
     /// Roof front to rear-window top along Z, m.
-    roof_length_m: f32 = 1.1, "m", [0.5, 2.0];
+    roof_length_m: f32 = 1.1, Unit::Metre, [0.5, 2.0];
     /// Rear-window top to boot deck along Z, m.
-    rear_window_length_m: f32 = 0.72, "m", [0.2, 1.2];
+    rear_window_length_m: f32 = 0.72, Unit::Metre, [0.2, 1.2];
     /// Boot deck height at the rear-window base, m.
-    boot_height_m: f32 = 1.0, "m", [0.7, 1.3];
+    boot_height_m: f32 = 1.0, Unit::Metre, [0.7, 1.3];
     /// Top of the tail before it rounds off, m.
-    tail_height_m: f32 = 0.93, "m", [0.6, 1.2];
+    tail_height_m: f32 = 0.93, Unit::Metre, [0.6, 1.2];
     /// Rise of the window line from cowl to deck, m.
-    belt_rise_m: f32 = 0.06, "m", [0.0, 0.2];
+    belt_rise_m: f32 = 0.06, Unit::Metre, [0.0, 0.2];
     /// Cabin width at the roof over body width (tumblehome).
-    greenhouse_width_fraction: f32 = 0.8, "1", [0.6, 0.95];
+    greenhouse_width_fraction: f32 = 0.8, Unit::Dimensionless, [0.6, 0.95];
     /// Superellipse exponent of the cross-sections (2 = ellipse, larger = squarer).
-    section_squareness: f32 = 4.0, "1", [2.5, 6.0];
+    section_squareness: f32 = 4.0, Unit::Dimensionless, [2.5, 6.0];
     /// Transverse crown of bonnet, roof and boot (fraction of the section height).
-    roof_crown: f32 = 0.08, "1", [0.0, 0.3];
+    roof_crown: f32 = 0.08, Unit::Dimensionless, [0.0, 0.3];
     /// Outward bow of the flanks (fraction of the half-width).
-    flank_bulge: f32 = 0.03, "1", [0.0, 0.1];
+    flank_bulge: f32 = 0.03, Unit::Dimensionless, [0.0, 0.1];
     /// Body cross-sections along the length.
-    rings: u32 = 320, "count", [64, 2000];
+    rings: u32 = 320, Unit::Count, [64, 2000];
     /// Vertices around each body cross-section (rounded to a multiple of 16).
-    section_vertices: u32 = 144, "count", [48, 1024];
+    section_vertices: u32 = 144, Unit::Count, [48, 1024];
     /// Segments around each wheel (rounded to even).
-    wheel_segments: u32 = 72, "count", [16, 512];
+    wheel_segments: u32 = 72, Unit::Count, [16, 512];
 }
 
 impl CarParameters {
