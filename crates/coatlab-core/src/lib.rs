@@ -17,6 +17,7 @@
 //! - [`engine`]: the live-rendering engine behind the designer's preview.
 
 pub mod accel;
+pub mod analysis;
 pub mod colour;
 pub mod design;
 pub mod engine;

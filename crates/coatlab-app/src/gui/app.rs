@@ -10,7 +10,6 @@ use coatlab_core::design::PaintDesign;
 use coatlab_core::design::presets::{self, Preset};
 use egui::{Color32, RichText, Ui};
 
-use super::analysis::Analysis;
 use super::dialogs::{DialogEvent, DialogRequest, FileDialogs, NativeFileDialog};
 use super::export;
 use super::file_browser::FilePurpose;
@@ -20,6 +19,7 @@ use super::paint_panel::{PanelRequest, paint_controls_ui};
 use super::plots::{PlotSettings, plots_ui};
 use super::preview::{Preview, PreviewEvent, PreviewRequest};
 use super::storage::{Recovery, Storage};
+use coatlab_core::analysis::Analysis;
 
 /// How often an unsaved design is autosaved.
 pub const AUTOSAVE_INTERVAL: Duration = Duration::from_secs(5);
@@ -632,24 +632,30 @@ impl CoatlabApp {
             .resizable(true)
             .default_size(400.0)
             .show(ui, |ui| {
-                egui::ScrollArea::vertical().show(ui, |ui| {
-                    let requests = paint_controls_ui(ui, &mut self.design, &self.presets);
-                    for r in requests {
-                        match r {
-                            PanelRequest::ImportAlbedoCsv => {
-                                self.choose_file(FilePurpose::ImportAlbedoCsv)
-                            }
-                            PanelRequest::LoadPreset(i) => {
-                                if let Some(p) = self.presets.get(i) {
-                                    let d = p.design.clone();
-                                    self.set_design(d);
-                                }
-                            }
-                        }
-                    }
-                });
+                egui::ScrollArea::vertical().show(ui, |ui| self.paint_panel_ui(ui));
             });
         self.update_analysis();
+        self.central_ui(ui);
+        self.after_frame(&ctx);
+    }
+
+    /// The paint controls, and the presets and imports they ask for.
+    fn paint_panel_ui(&mut self, ui: &mut Ui) {
+        for request in paint_controls_ui(ui, &mut self.design, &self.presets) {
+            match request {
+                PanelRequest::ImportAlbedoCsv => self.choose_file(FilePurpose::ImportAlbedoCsv),
+                PanelRequest::LoadPreset(i) => {
+                    if let Some(p) = self.presets.get(i) {
+                        let d = p.design.clone();
+                        self.set_design(d);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The central panel: the recovery offer, the tabs and the chosen tab's content.
+    fn central_ui(&mut self, ui: &mut Ui) {
         // The central panel's background is filled by us, around the preview's
         // images rather than under them (see `central_background`).
         let frame = egui::Frame::central_panel(ui.style());
@@ -677,29 +683,7 @@ impl CoatlabApp {
             match self.tab {
                 Tab::Preview => self.preview_ui(ui),
                 Tab::Plots => plots_ui(ui, &mut self.plot_settings, self.analysis.as_ref()),
-                Tab::Instruments => {
-                    let target_name = self.target.as_ref().map(|t| t.name.clone());
-                    let requests = instruments_ui(
-                        ui,
-                        self.analysis.as_ref(),
-                        target_name.as_deref(),
-                        &self.presets,
-                    );
-                    for r in requests {
-                        match r {
-                            InstrumentsRequest::TargetPreset(i) => {
-                                self.target = self.presets.get(i).map(|p| p.design.clone());
-                            }
-                            InstrumentsRequest::TargetFile => {
-                                self.choose_file(FilePurpose::TargetDesign)
-                            }
-                            InstrumentsRequest::ClearTarget => self.target = None,
-                            InstrumentsRequest::Export => {
-                                self.choose_file(FilePurpose::ExportMeasurement)
-                            }
-                        }
-                    }
-                }
+                Tab::Instruments => self.instruments_tab_ui(ui),
             }
             let covered = match (self.tab, &self.preview) {
                 (Tab::Preview, Some(p)) => p.opaque_rects(),
@@ -710,8 +694,33 @@ impl CoatlabApp {
                 central_background(panel_rect, covered, panel_fill),
             );
         });
+    }
 
-        for event in self.dialogs.show(&ctx) {
+    /// The Instruments tab, and the targets and exports it asks for.
+    fn instruments_tab_ui(&mut self, ui: &mut Ui) {
+        let target_name = self.target.as_ref().map(|t| t.name.clone());
+        let requests = instruments_ui(
+            ui,
+            self.analysis.as_ref(),
+            target_name.as_deref(),
+            &self.presets,
+        );
+        for request in requests {
+            match request {
+                InstrumentsRequest::TargetPreset(i) => {
+                    self.target = self.presets.get(i).map(|p| p.design.clone());
+                }
+                InstrumentsRequest::TargetFile => self.choose_file(FilePurpose::TargetDesign),
+                InstrumentsRequest::ClearTarget => self.target = None,
+                InstrumentsRequest::Export => self.choose_file(FilePurpose::ExportMeasurement),
+            }
+        }
+    }
+
+    /// What follows the panels each frame: files chosen in dialogs, the preview's
+    /// notices, the drop overlay, the undo step, autosave and the window title.
+    fn after_frame(&mut self, ctx: &egui::Context) {
+        for event in self.dialogs.show(ctx) {
             match event {
                 DialogEvent::Chosen(purpose, path) => self.file_chosen(purpose, path),
                 DialogEvent::Info(text) => self.info(text),
@@ -733,7 +742,7 @@ impl CoatlabApp {
                 PreviewEvent::Error(text) => self.error(text),
             }
         }
-        drop_overlay(&ctx);
+        drop_overlay(ctx);
 
         // One undo step per gesture: commit once no button is held and no text field
         // is being typed in.
@@ -741,7 +750,7 @@ impl CoatlabApp {
         if gesture_over {
             self.history.commit(&self.design);
         }
-        self.autosave(&ctx);
+        self.autosave(ctx);
         let title = format!(
             "Coatlab — {}{}",
             self.design.name,
@@ -840,23 +849,17 @@ impl CoatlabApp {
                 }
             });
             ui.menu_button("Edit", |ui| {
-                if ui
-                    .add_enabled(
-                        self.history.can_undo(&self.design),
-                        egui::Button::new("Undo  (Ctrl+Z)"),
-                    )
-                    .clicked()
-                {
-                    self.undo();
-                }
-                if ui
-                    .add_enabled(
-                        self.history.can_redo(&self.design),
-                        egui::Button::new("Redo  (Ctrl+Shift+Z)"),
-                    )
-                    .clicked()
-                {
-                    self.redo();
+                let (can_undo, can_redo) = (
+                    self.history.can_undo(&self.design),
+                    self.history.can_redo(&self.design),
+                );
+                for (enabled, label, action) in [
+                    (can_undo, "Undo  (Ctrl+Z)", Self::undo as fn(&mut Self)),
+                    (can_redo, "Redo  (Ctrl+Shift+Z)", Self::redo),
+                ] {
+                    if ui.add_enabled(enabled, egui::Button::new(label)).clicked() {
+                        action(self);
+                    }
                 }
             });
             if self.dialogs.is_waiting() {

@@ -11,7 +11,7 @@ use coatlab_core::io::atomic::write_bytes_atomically;
 use coatlab_core::render::film::RenderRecord;
 use coatlab_core::render::lighting::Lighting;
 
-use super::analysis::Analysis;
+use coatlab_core::analysis::Analysis;
 
 /// The readings as CSV: one row per aspecular angle (`kind = colour`), then one per
 /// gloss geometry (`kind = gloss`); a column that does not apply to a row is empty.

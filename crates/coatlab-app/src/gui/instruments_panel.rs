@@ -4,7 +4,7 @@
 use coatlab_core::instruments::ILLUMINATION_DEG;
 use egui::{Color32, RichText, Ui};
 
-use super::analysis::{Analysis, SWATCH_ASPECULAR_DEG};
+use coatlab_core::analysis::{Analysis, SWATCH_ASPECULAR_DEG};
 
 /// What the panel asks the app to do.
 #[derive(Debug, Clone, PartialEq)]

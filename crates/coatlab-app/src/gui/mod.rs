@@ -6,8 +6,7 @@
 //! | [`paint_panel`] | the paint controls |
 //! | [`curve_editor`] | ρ(λ) and k(λ) as curves with draggable control points |
 //! | [`plots`] | figures 3–6, spectra, instrument reflectance (egui_plot) |
-//! | [`instruments_panel`] | multi-angle table, gloss, ΔE00 to a target, swatches |
-//! | [`analysis`] | the physics the plots and instruments show, computed on change |
+//! | [`instruments_panel`] | multi-angle table, gloss, ΔE00 to a target, swatches (from [`coatlab_core::analysis`], computed on change) |
 //! | [`history`] | undo/redo by design snapshots |
 //! | [`storage`] | recent files, autosave and crash recovery |
 //! | [`dialogs`] | choosing files: the system file dialog (rfd, XDG portal or zenity) on its own thread, else the in-app browser |
@@ -19,7 +18,6 @@
 //! | [`quality`] | quality presets from the measured speed/accuracy front (docs/tradeoff.md) |
 //! | [`compare`] | comparison modes and layouts, the ΔE00 map and its legend |
 
-pub mod analysis;
 pub mod app;
 pub mod compare;
 pub mod curve_editor;

@@ -6,7 +6,7 @@ use coatlab_core::paint::phong::PhongVariant;
 use egui::{Color32, Ui};
 use egui_plot::{Legend, Line, LineStyle, Plot, PlotPoints, VLine};
 
-use super::analysis::Analysis;
+use coatlab_core::analysis::Analysis;
 
 /// Which plot the plots tab shows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

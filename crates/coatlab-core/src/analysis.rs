@@ -1,22 +1,24 @@
-//! Everything the plots and the instruments panel show about a design, derived in
-//! one place from the design (and the target design).
+//! Everything the designer's plots and instruments panel show about a design,
+//! derived in one place from the design (and the target design): the paper's
+//! reflectance figures, the multi-angle and gloss readings, ΔE00 per angle to the
+//! target, and swatches under three illuminants.
 //!
-//! The UI never derives physics itself: it asks for an [`Analysis`] of the current
+//! The GUI never derives physics itself: it asks for an [`Analysis`] of the current
 //! design whenever the design changes and draws what it holds. Building one takes
 //! a few tens of milliseconds (the best-fit Phong dominates), which is why the app
 //! computes it only on change, not every frame.
 
 use std::f64::consts::PI;
 
-use coatlab_core::colour::cie::{Colorimeter, Illuminant, Observer};
-use coatlab_core::colour::spectrum::WavelengthGrid;
-use coatlab_core::colour::{Lab, ciede2000, srgb_from_xyz};
-use coatlab_core::design::PaintDesign;
-use coatlab_core::instruments::{self, Measurement};
-use coatlab_core::paint::fresnel::reflectance;
-use coatlab_core::paint::gloss::GlossExponent;
-use coatlab_core::paint::model::PaintModel;
-use coatlab_core::paint::phong::{PhongParams, PhongVariant};
+use crate::colour::cie::{Colorimeter, Illuminant, Observer};
+use crate::colour::spectrum::WavelengthGrid;
+use crate::colour::{Lab, ciede2000, srgb_from_xyz};
+use crate::design::PaintDesign;
+use crate::instruments::{self, Measurement};
+use crate::paint::fresnel::reflectance;
+use crate::paint::gloss::GlossExponent;
+use crate::paint::model::PaintModel;
+use crate::paint::phong::{PhongParams, PhongVariant};
 
 /// Angles of incidence of the paper's figures 3–6, degrees.
 pub const FIGURE_INCIDENCE_DEG: [f64; 4] = [0.0, 30.0, 60.0, 75.0];
@@ -217,7 +219,7 @@ fn view_angles_deg(incidence_deg: f64, exponent: GlossExponent) -> Vec<f64> {
     views
 }
 
-fn srgb_bytes(xyz: coatlab_core::colour::Xyz, white: coatlab_core::colour::Xyz) -> [u8; 3] {
+fn srgb_bytes(xyz: crate::colour::Xyz, white: crate::colour::Xyz) -> [u8; 3] {
     let c = srgb_from_xyz(xyz, white);
     let byte = |v: f64| (v * 255.0).round().clamp(0.0, 255.0) as u8;
     [byte(c.red), byte(c.green), byte(c.blue)]
@@ -258,13 +260,11 @@ fn swatches(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use coatlab_core::design::presets;
+    use crate::design::presets;
 
     #[test]
     fn the_figures_show_what_the_paper_shows() {
-        let design = presets::all()
-            .into_iter()
-            .find(|p| p.slug == "satin-grey")
+        let design = presets::by_slug("satin-grey")
             .map(|p| p.design)
             .unwrap_or_else(|| presets::all()[0].design.clone());
         let a = Analysis::compute(&design, None, PhongVariant::Naive).expect("valid preset");
