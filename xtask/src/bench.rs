@@ -30,7 +30,7 @@ use coatlab_core::render::environment::EnvironmentError;
 use coatlab_core::render::film::DisplaySettings;
 use coatlab_core::render::image_error::{ImageError, Region, RegionMasks, XyzImage, image_error};
 use coatlab_core::render::lighting::Lighting;
-use coatlab_core::render::material::{Shading, ShadingModel};
+use coatlab_core::render::material::ShadingModel;
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{CarParameters, generate};
@@ -574,12 +574,7 @@ fn render(
             error: error.into(),
         }
     })?;
-    let shading = Shading::new(
-        &model,
-        ShadingModel::Paint,
-        prepared.scene.materials(),
-        prepared.scene.paint_materials(),
-    );
+    let shading = prepared.scene.shading(&model, ShadingModel::Paint);
     let (width, height) = (
         (protocol.size.0 / setting.scale).max(1),
         (protocol.size.1 / setting.scale).max(1),
@@ -590,16 +585,10 @@ fn render(
         Arc::new(environment),
         Arc::new(shading),
         camera,
-        RenderSettings {
-            seed,
-            ..RenderSettings::default()
-        },
+        RenderSettings::seeded(seed),
     )
     .context("cannot start the render")?;
-    while render.samples_per_pixel() < setting.spp {
-        let batch = (setting.spp - render.samples_per_pixel()).min(4);
-        render.render_pass(batch);
-    }
+    render.render_to(setting.spp, 4);
     let image = XyzImage::from_film(render.film());
     let wall = start.elapsed().as_secs_f64();
     // Without /proc, wall time stands in (both cores busy: twice the wall time).

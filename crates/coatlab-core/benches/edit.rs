@@ -33,9 +33,7 @@ use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{
     EditOutcome, ProgressiveRender, RenderScene, RenderSettings,
 };
-use coatlab_core::render::reshade::{
-    BaseImage, Reshaded, reshade_prepared, reshade_prepared_samples,
-};
+use coatlab_core::render::reshade::{BaseImage, Reshaded, reshade_prepared};
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{CarParameters, generate};
 
@@ -69,12 +67,7 @@ struct Setup {
 impl Setup {
     fn shading(&self, design: &PaintDesign) -> Arc<Shading> {
         let paint = design.model(self.grid).expect("model");
-        Arc::new(Shading::new(
-            &paint,
-            ShadingModel::Paint,
-            &self.scene.materials,
-            &self.scene.paint_materials,
-        ))
+        Arc::new(Shading::for_scene(&paint, ShadingModel::Paint, &self.scene))
     }
 
     fn render(&self, design: &PaintDesign, seed: u64) -> ProgressiveRender {
@@ -83,10 +76,7 @@ impl Setup {
             self.environment.clone(),
             self.shading(design),
             self.render_scene.default_camera(WIDTH, HEIGHT),
-            RenderSettings {
-                seed,
-                ..RenderSettings::default()
-            },
+            RenderSettings::seeded(seed),
         )
         .expect("render")
     }
@@ -229,19 +219,23 @@ fn main() {
             ms(t),
             cpu_ms() - c
         );
-        let shading = setup.shading(&edits[0].1);
-        for _ in 0..3 {
-            let t = Instant::now();
-            let c = cpu_ms();
-            let image = reshade_prepared(
+        let reshade = |shading: &Shading, samples: u32| {
+            reshade_prepared(
                 &base_image,
                 render.film(),
                 render.path_cache(),
                 &setup.environment,
-                &shading,
+                shading,
                 true,
+                samples,
             )
-            .expect("reshade");
+            .expect("reshade")
+        };
+        let shading = setup.shading(&edits[0].1);
+        for _ in 0..3 {
+            let t = Instant::now();
+            let c = cpu_ms();
+            let image = reshade(&shading, render.path_cache().samples_per_pixel());
             std::hint::black_box(image);
             println!(
                 "parts: re-shade alone (rho edit) {:.1} ms wall, {:.1} ms CPU",
@@ -261,16 +255,7 @@ fn main() {
                 for (slot, m) in [1u32, 2, 4].into_iter().enumerate() {
                     let t = Instant::now();
                     let c = cpu_ms();
-                    let image = reshade_prepared_samples(
-                        &base_image,
-                        render.film(),
-                        render.path_cache(),
-                        &setup.environment,
-                        shading,
-                        true,
-                        m,
-                    )
-                    .expect("reshade");
+                    let image = reshade(shading, m);
                     let reshade_cpu = cpu_ms() - c;
                     let shown = image.xyz.clone();
                     let pixels = display_xyz(&shown, &display);

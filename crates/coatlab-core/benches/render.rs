@@ -24,7 +24,7 @@ fn render_for(wavelengths: usize, model: ShadingModel) -> ProgressiveRender {
     let design = presets::all().into_iter().next().expect("preset").design;
     let paint = design.model(grid).expect("model");
     let scene = generate(&CarParameters::default());
-    let shading = Shading::new(&paint, model, &scene.materials, &scene.paint_materials);
+    let shading = Shading::for_scene(&paint, model, &scene);
     let scene = RenderScene::new(scene).expect("scene");
     let camera = scene.default_camera(WIDTH, HEIGHT);
     ProgressiveRender::new(
@@ -103,12 +103,7 @@ fn reshading(c: &mut Criterion) {
         edited
             .set_albedo(paint.albedo().iter().map(|r| r * 0.8).collect())
             .expect("albedo");
-        let shading = Shading::new(
-            &edited,
-            ShadingModel::Paint,
-            &scene.materials,
-            &scene.paint_materials,
-        );
+        let shading = Shading::for_scene(&edited, ShadingModel::Paint, &scene);
         group.bench_function(format!("{wavelengths}wl/{cached}spp"), |b| {
             b.iter(|| render.reshade(&shading).expect("reshade"))
         });

@@ -26,14 +26,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .ok_or("no preset designs")?
         .design;
     let model = design.model(grid)?;
-    let shading = |which| {
-        Arc::new(Shading::new(
-            &model,
-            which,
-            &scene.materials,
-            &scene.paint_materials,
-        ))
-    };
+    let shading = |which| Arc::new(Shading::for_scene(&model, which, &scene));
     let render_scene = Arc::new(RenderScene::new(scene.clone())?);
     let camera = render_scene.default_camera(640, 400);
     let mut render = ProgressiveRender::new(

@@ -40,12 +40,7 @@ fn mirror_car(grid: WavelengthGrid) -> (Arc<RenderScene>, Shading, Camera) {
     .expect("model");
     let scene = generate(&CarParameters::default());
     let camera = Camera::framing(scene.mesh.bounds().expect("bounds"), WIDTH, HEIGHT);
-    let shading = Shading::new(
-        &model,
-        ShadingModel::Paint,
-        &scene.materials,
-        &scene.paint_materials,
-    );
+    let shading = Shading::for_scene(&model, ShadingModel::Paint, &scene);
     let scene = RenderScene::new(scene).expect("scene");
     (Arc::new(scene), shading, camera)
 }
@@ -67,9 +62,7 @@ fn render(seed: u64, adaptive: Option<AdaptiveSampling>, spp: u32, tile_size: u3
         },
     )
     .expect("render");
-    while render.samples_per_pixel() < spp {
-        render.render_pass(8.min(spp - render.samples_per_pixel()));
-    }
+    render.render_to(spp, 8);
     assert_eq!(render.samples_per_pixel(), spp);
     let total: u64 = (0..HEIGHT)
         .flat_map(|y| (0..WIDTH).map(move |x| (x, y)))

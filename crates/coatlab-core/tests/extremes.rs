@@ -752,10 +752,7 @@ fn render_film(
     seed: u64,
     spp: u32,
 ) -> Film {
-    let settings = RenderSettings {
-        seed,
-        ..RenderSettings::default()
-    };
+    let settings = RenderSettings::seeded(seed);
     progressive::render_film(
         scene,
         environment.clone(),

@@ -116,10 +116,7 @@ fn furnace_sphere_renders_the_models_directional_albedo() {
                 &model,
                 ShadingModel::Paint,
                 camera.clone(),
-                RenderSettings {
-                    seed: seed(10 + i),
-                    ..RenderSettings::default()
-                },
+                RenderSettings::seeded(seed(10 + i)),
                 32,
             )
         })

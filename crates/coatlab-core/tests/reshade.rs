@@ -10,11 +10,11 @@ use coatlab_core::paint::gloss::GlossExponent;
 use coatlab_core::paint::model::{GlossSetting, PaintModel, PaintParams};
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::environment::Environment;
-use coatlab_core::render::material::ShadingModel;
+use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{
     EditOutcome, FRESH_ONLY_WEIGHT, ProgressiveRender, RenderSettings,
 };
-use coatlab_core::render::reshade::{BaseImage, ReshadeError, Reshaded, reshade_prepared_samples};
+use coatlab_core::render::reshade::{BaseImage, ReshadeError, Reshaded, reshade_prepared};
 use coatlab_core::scene::Scene;
 
 #[path = "support/image_stats.rs"]
@@ -428,10 +428,7 @@ fn path_caches_stay_within_their_memory_budget() {
         unbounded.environment().clone(),
         shading(&scene, &base, ShadingModel::Paint),
         unbounded.camera().clone(),
-        RenderSettings {
-            seed: 5,
-            ..RenderSettings::default()
-        },
+        RenderSettings::seeded(5),
     )
     .expect("render");
     render.set_path_cache_samples(4);
@@ -530,7 +527,7 @@ fn design_edits_recompute_only_what_they_touch() {
 }
 
 /// A re-shade from only the first m recorded samples per pixel
-/// (`reshade_prepared_samples`) is unbiased: after an edit it agrees with fresh
+/// (`reshade_prepared`) is unbiased: after an edit it agrees with fresh
 /// renders of the edited design in X, Y and Z within the noise of both
 /// ([`SESSIONS`] re-shades against [`REPLICAS`] fresh renders, the default
 /// estimator, every control rejected; from m = 1 as
@@ -558,16 +555,12 @@ fn partial_reshades_agree_with_fresh_renders() {
         bases
             .iter()
             .map(|(render, scene)| {
-                reshade_prepared_samples(
-                    &BaseImage::of(render.film()),
-                    render.film(),
-                    render.path_cache(),
+                reshade_first(
+                    render,
                     &environment,
                     &shading(scene, &edited, ShadingModel::Paint),
-                    true,
                     m,
                 )
-                .expect("reshade")
             })
             .collect()
     };
@@ -615,18 +608,34 @@ fn partial_reshades_agree_with_fresh_renders() {
     assert_agree_with_controls(&full_replicas, fresh, weights, "all 4 of 4");
     // m at or beyond K is the full re-shade, exactly.
     let (render, scene) = &bases[0];
-    let all = reshade_prepared_samples(
+    let all = reshade_first(
+        render,
+        &environment,
+        &shading(scene, &edited, ShadingModel::Paint),
+        9,
+    );
+    assert_eq!(all.xyz, full[0].xyz);
+    assert_eq!(all.variance_y, full[0].variance_y);
+}
+
+/// `render`'s recorded paths re-shaded with `shading` from the first `samples` of
+/// every pixel.
+fn reshade_first(
+    render: &ProgressiveRender,
+    environment: &Environment,
+    shading: &Shading,
+    samples: u32,
+) -> Reshaded {
+    reshade_prepared(
         &BaseImage::of(render.film()),
         render.film(),
         render.path_cache(),
-        &environment,
-        &shading(scene, &edited, ShadingModel::Paint),
+        environment,
+        shading,
         true,
-        9,
+        samples,
     )
-    .expect("reshade");
-    assert_eq!(all.xyz, full[0].xyz);
-    assert_eq!(all.variance_y, full[0].variance_y);
+    .expect("reshade")
 }
 
 /// Which recorded sample a path belongs to does not depend on how the samples were
@@ -644,21 +653,9 @@ fn partial_reshades_do_not_depend_on_the_pass_sizes() {
             render.render_pass(samples);
         }
         assert_eq!(render.path_cache().samples_per_pixel(), 4);
-        let image = BaseImage::of(render.film());
         let shading = shading(&scene, &edited, ShadingModel::Paint);
         (1..=4)
-            .map(|m| {
-                reshade_prepared_samples(
-                    &image,
-                    render.film(),
-                    render.path_cache(),
-                    &environment,
-                    &shading,
-                    true,
-                    m,
-                )
-                .expect("reshade")
-            })
+            .map(|m| reshade_first(&render, &environment, &shading, m))
             .collect::<Vec<_>>()
     };
     let ones = reshaded(&[1, 1, 1, 1, 1, 1]);

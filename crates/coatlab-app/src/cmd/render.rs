@@ -312,7 +312,7 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
     for warning in &scene.warnings {
         to_stderr(format_args!("coatlab: warning: {warning}\n"));
     }
-    let shading = Shading::new(&model, args.model, &scene.materials, &scene.paint_materials);
+    let shading = Shading::for_scene(&model, args.model, &scene);
     let render_scene = RenderScene::new(scene)
         .context("cannot prepare the scene")
         .or_fail(Failure::Data)?;

@@ -268,7 +268,7 @@ mod tests {
         use coatlab_core::render::environment::Environment;
         use coatlab_core::render::film::DisplaySettings;
         use coatlab_core::render::image_error::{RegionMasks, XyzImage, image_error};
-        use coatlab_core::render::material::{Shading, ShadingModel};
+        use coatlab_core::render::material::ShadingModel;
         use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
         use coatlab_core::scene::car::{CarParameters, generate};
 
@@ -295,27 +295,17 @@ mod tests {
         let render = |wavelengths: usize, spp: u32, divisor: u32, seed: u64| {
             let grid = WavelengthGrid::visible(wavelengths).expect("wavelengths");
             let model = design.model(grid).expect("the design is valid");
-            let shading = Shading::new(
-                &model,
-                ShadingModel::Paint,
-                scene.materials(),
-                scene.paint_materials(),
-            );
+            let shading = scene.shading(&model, ShadingModel::Paint);
             let (width, height) = ((size.0 / divisor).max(1), (size.1 / divisor).max(1));
             let mut render = ProgressiveRender::new(
                 Arc::clone(&scene),
                 Arc::new(Environment::studio(&grid)),
                 Arc::new(shading),
                 scene.default_camera(width, height),
-                RenderSettings {
-                    seed,
-                    ..RenderSettings::default()
-                },
+                RenderSettings::seeded(seed),
             )
             .expect("a render");
-            while render.samples_per_pixel() < spp {
-                render.render_pass((spp - render.samples_per_pixel()).min(4));
-            }
+            render.render_to(spp, 4);
             XyzImage::from_film(render.film()).resized(size.0, size.1)
         };
         let masks = RegionMasks::from_scene(&scene, &scene.default_camera(size.0, size.1));

@@ -869,12 +869,7 @@ mod tests {
         let design = presets::all().into_iter().next().unwrap().design;
         let model = design.model(grid).unwrap();
         let scene = generate(&CarParameters::default());
-        let shading = Shading::new(
-            &model,
-            ShadingModel::Paint,
-            &scene.materials,
-            &scene.paint_materials,
-        );
+        let shading = Shading::for_scene(&model, ShadingModel::Paint, &scene);
         let (width, height) = (24, 14);
         let camera = Camera::framing(scene.mesh.bounds().unwrap(), width, height);
         let geometry = RenderGeometry::new(scene.mesh, true).unwrap();

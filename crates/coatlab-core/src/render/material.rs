@@ -33,7 +33,7 @@ use crate::colour::spectrum::Channels;
 use crate::colour::upsampling::RgbUpsampler;
 use crate::paint::model::{BsdfSample, PaintModel, SpectralBsdf, SpectralPaint};
 use crate::paint::phong::{PhongNormalisation, PhongParams, PhongVariant, SpectralPhong};
-use crate::scene::SceneMaterial;
+use crate::scene::{Scene, SceneMaterial};
 
 /// Sharpest lobe a simple material gets (roughness 0 would otherwise give an
 /// infinite exponent); at 10⁵ the lobe is 0.3° wide, a mirror for a preview.
@@ -228,6 +228,11 @@ pub struct Shading {
 }
 
 impl Shading {
+    /// [`Self::new`] with the materials of `scene` and the ones it paints.
+    pub fn for_scene(paint: &PaintModel, model: ShadingModel, scene: &Scene) -> Self {
+        Self::new(paint, model, &scene.materials, &scene.paint_materials)
+    }
+
     /// The shading of a scene whose materials are `materials`, of which
     /// `paint_materials` (indices) carry the design `paint`, rendered with `model`.
     pub fn new(

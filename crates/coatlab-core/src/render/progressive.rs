@@ -60,6 +60,7 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use crate::accel::AccelError;
+use crate::paint::model::PaintModel;
 use crate::render::adaptive::{AdaptiveSampling, RECOMPUTE_GROWTH, allocate};
 use crate::render::camera::Camera;
 use crate::render::environment::Environment;
@@ -68,10 +69,10 @@ use crate::render::geometry::RenderGeometry;
 use crate::render::integrator::{
     IntegratorSettings, NoRecord, PathBuffers, PathTracer, WAVE_PATHS,
 };
-use crate::render::material::Shading;
+use crate::render::material::{Shading, ShadingModel};
 use crate::render::reshade::{
     BaseImage, PathCache, ReshadeError, Reshaded, TileCache, TileRecorder, paint_is_mirror,
-    reshade, reshade_prepared, reshade_prepared_samples,
+    reshade, reshade_prepared,
 };
 use crate::render::sampler::PixelSampler;
 use crate::scene::{Scene, SceneMaterial};
@@ -191,6 +192,12 @@ impl RenderScene {
         self.bounds
     }
 
+    /// The shading of this scene's materials, its painted ones carrying `paint`
+    /// under `model`.
+    pub fn shading(&self, paint: &PaintModel, model: ShadingModel) -> Shading {
+        Shading::new(paint, model, &self.materials, &self.paint_materials)
+    }
+
     /// The default view of the scene at `width` × `height`: see [`Camera::framing`].
     pub fn default_camera(&self, width: u32, height: u32) -> Camera {
         Camera::framing(self.bounds, width, height)
@@ -219,6 +226,16 @@ impl Default for RenderSettings {
             integrator: IntegratorSettings::default(),
             tile_size: DEFAULT_TILE_SIZE,
             adaptive: None,
+        }
+    }
+}
+
+impl RenderSettings {
+    /// The default settings with another seed.
+    pub fn seeded(seed: u64) -> Self {
+        Self {
+            seed,
+            ..Self::default()
         }
     }
 }
@@ -400,7 +417,7 @@ impl ProgressiveRender {
             });
         }
         let outcome = match &self.base {
-            Some(base) => match reshade_prepared_samples(
+            Some(base) => match reshade_prepared(
                 &base.image,
                 &base.film,
                 &base.cache,
@@ -452,6 +469,7 @@ impl ProgressiveRender {
             &self.environment,
             &self.shading,
             self.scene.geometry().has_floor(),
+            base.cache.samples_per_pixel,
         ) {
             Ok(image) => {
                 self.reshaded_samples = base.cache.samples_per_pixel;
@@ -593,6 +611,14 @@ impl ProgressiveRender {
         let never = AtomicBool::new(false);
         self.render_pass_cancellable(samples, &never)
             .unwrap_or_default()
+    }
+
+    /// Renders passes of at most `pass` samples per pixel until the film holds
+    /// `spp`; the same passes, so the same image, wherever it is called.
+    pub fn render_to(&mut self, spp: u32, pass: u32) {
+        while self.samples_per_pixel() < spp {
+            self.render_pass(pass.min(spp - self.samples_per_pixel()));
+        }
     }
 
     /// [`Self::render_pass`] that gives up as soon as `cancel` is set (checked

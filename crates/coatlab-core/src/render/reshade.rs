@@ -37,7 +37,7 @@
 //! # A first image from fewer samples
 //!
 //! The mean over any fixed subset of the K recorded samples is as unbiased as
-//! the mean over all K, so [`reshade_prepared_samples`] re-shades only the first
+//! the mean over all K, so [`reshade_prepared`] re-shades only the first
 //! m of them (each stored path knows its pixel sample's index) for a first image
 //! at about m/K of the replay's cost, with a correspondingly larger variance;
 //! the full re-shade or fresh passes refine it.
@@ -99,7 +99,7 @@ struct CachedPath {
     /// Pixel index within the tile.
     pixel: u32,
     /// Index of the pixel sample it was traced for (for a re-shade from the first
-    /// samples only, [`reshade_prepared_samples`]).
+    /// samples only, [`reshade_prepared`]).
     sample: u32,
     first_vertex: u32,
     vertex_count: u32,
@@ -577,32 +577,13 @@ pub fn reshade(
         environment,
         shading,
         floor,
-    )
-}
-
-/// [`reshade`] from a prepared [`BaseImage`] of `film` (the film supplies only
-/// its colour-matching weights).
-pub fn reshade_prepared(
-    base: &BaseImage,
-    film: &Film,
-    cache: &PathCache,
-    environment: &Environment,
-    shading: &Shading,
-    floor: bool,
-) -> Result<Reshaded, ReshadeError> {
-    reshade_prepared_samples(
-        base,
-        film,
-        cache,
-        environment,
-        shading,
-        floor,
         cache.samples_per_pixel,
     )
 }
 
-/// [`reshade_prepared`] from only the first `samples` recorded samples of every
-/// pixel (clamped to 1 ..= [`PathCache::samples_per_pixel`]): about
+/// [`reshade`] from a prepared [`BaseImage`] of `film` (the film supplies only
+/// its colour-matching weights) and only the first `samples` recorded samples of
+/// every pixel (clamped to 1 ..= [`PathCache::samples_per_pixel`]): about
 /// `samples`/K of the work, for a first image the moment an edit arrives.
 ///
 /// Each recorded sample alone gives an unbiased estimate of the difference the
@@ -612,7 +593,7 @@ pub fn reshade_prepared(
 /// samples their sample variance over `samples`; from a single sample, where no
 /// variance can be estimated, the squared difference itself (its expectation is
 /// the variance plus the squared mean: an overestimate, never an underestimate).
-pub fn reshade_prepared_samples(
+pub fn reshade_prepared(
     base: &BaseImage,
     film: &Film,
     cache: &PathCache,

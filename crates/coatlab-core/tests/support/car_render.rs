@@ -32,12 +32,7 @@ pub fn red() -> PaintModel {
 }
 
 pub fn shading(scene: &Scene, model: &PaintModel, which: ShadingModel) -> Arc<Shading> {
-    Arc::new(Shading::new(
-        model,
-        which,
-        &scene.materials,
-        &scene.paint_materials,
-    ))
+    Arc::new(Shading::for_scene(model, which, scene))
 }
 
 /// A render of the default car in the studio with `model`, `spp` samples, the
@@ -84,9 +79,7 @@ pub fn render_with(
     )
     .expect("render");
     render.set_path_cache_samples(cached);
-    while render.samples_per_pixel() < spp {
-        render.render_pass(4.min(spp - render.samples_per_pixel()));
-    }
+    render.render_to(spp, 4);
     (render, scene)
 }
 

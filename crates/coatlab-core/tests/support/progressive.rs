@@ -15,7 +15,7 @@ use coatlab_core::scene::Scene;
 
 /// `model` under shading model `which` on every paint material of `scene`.
 pub fn shading_for(scene: &Scene, model: &PaintModel, which: ShadingModel) -> Shading {
-    Shading::new(model, which, &scene.materials, &scene.paint_materials)
+    Shading::for_scene(model, which, scene)
 }
 
 /// The film of `scene` rendered with `shading` to `spp` samples per pixel, in
@@ -37,9 +37,7 @@ pub fn film_in_passes(
         settings,
     )
     .expect("render");
-    while render.samples_per_pixel() < spp {
-        render.render_pass(pass.min(spp - render.samples_per_pixel()));
-    }
+    render.render_to(spp, pass);
     render.film().clone()
 }
 

@@ -41,10 +41,7 @@ pub fn reference_render(seed: u64, spp: u32) -> Film {
     let scene = generate(&CarParameters::default());
     let shading = shading_for(&scene, &model, ShadingModel::Paint);
     let camera = Camera::framing(scene.mesh.bounds().expect("bounds"), WIDTH, HEIGHT);
-    let settings = RenderSettings {
-        seed,
-        ..RenderSettings::default()
-    };
+    let settings = RenderSettings::seeded(seed);
     let environment = Environment::studio(&grid);
     film_in_passes(scene, environment, shading, camera, settings, spp, 16)
 }
