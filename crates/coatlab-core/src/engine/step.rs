@@ -19,6 +19,19 @@ use super::plan::{self, Actions, Outcome, Phase, Restart, Second, Tables};
 use super::views::{SecondSpec, independent_reason, spawn_second_shading};
 use super::{COARSE_FACTOR, COMPARE_CACHE_SAMPLES, RESHADE_SAMPLES};
 
+/// Where a step publishes its images and events.
+type Out<'a> = &'a mut dyn FnMut(Output);
+
+/// What the first view's pass of a step did and was.
+#[derive(Debug, Clone, Copy)]
+struct FirstPass {
+    stats: PassStats,
+    /// A coarse (reduced-resolution) pass.
+    coarse: bool,
+    /// The view's resolution changed before it.
+    resized: bool,
+}
+
 impl<B: RenderBackend> LiveEngine<B> {
     /// Does what the commands taken since the last step asked for, then renders
     /// one pass of the views (or re-shades an edit) and publishes the images
@@ -53,7 +66,12 @@ impl<B: RenderBackend> LiveEngine<B> {
         } else {
             Outcome::PassDone { converged }
         });
-        self.after_first_pass(stats, (coarse, resized), cancel, out)
+        let first = FirstPass {
+            stats,
+            coarse,
+            resized,
+        };
+        self.after_first_pass(first, cancel, out)
     }
 
     /// Moves to the state after `outcome`; returns what it asks for.
@@ -253,13 +271,8 @@ impl<B: RenderBackend> LiveEngine<B> {
 
     /// After the first view's pass: the second view decided, rendered or
     /// re-shaded, and the images published.
-    fn after_first_pass(
-        &mut self,
-        stats: PassStats,
-        (coarse, resized): (bool, bool),
-        cancel: &AtomicBool,
-        out: &mut dyn FnMut(Output),
-    ) -> Progress {
+    fn after_first_pass(&mut self, first: FirstPass, cancel: &AtomicBool, out: Out) -> Progress {
+        let FirstPass { stats, coarse, .. } = first;
         if let Some(job) = self.views.job.take() {
             // Show the first view's new image while the second's shading is
             // still being fitted.
@@ -274,7 +287,7 @@ impl<B: RenderBackend> LiveEngine<B> {
             return Progress::Stepped;
         }
         if self.views.second.is_some() {
-            return self.step_second(stats, (coarse, resized), cancel, out);
+            return self.step_second(first, cancel, out);
         }
         if self.views.first.is_reshaded() {
             self.publish_edit(stats, out);
@@ -375,13 +388,12 @@ impl<B: RenderBackend> LiveEngine<B> {
 
     /// The second view rendered apart: kept on the first view's camera and
     /// samples, one pass, both published.
-    fn step_second(
-        &mut self,
-        stats_a: PassStats,
-        (coarse, resized): (bool, bool),
-        cancel: &AtomicBool,
-        out: &mut dyn FnMut(Output),
-    ) -> Progress {
+    fn step_second(&mut self, first: FirstPass, cancel: &AtomicBool, out: Out) -> Progress {
+        let FirstPass {
+            stats: stats_a,
+            coarse,
+            resized,
+        } = first;
         let spp = self.views.first.samples_per_pixel();
         let Some(second) = self.views.second.as_mut() else {
             return Progress::Stepped;

@@ -2,7 +2,7 @@
 //! rebuilds is read from [`EngineCounters`], where the state machine goes from
 //! [`LiveEngine::state`], and what is shown from the published updates.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
@@ -22,6 +22,10 @@ use crate::render::reshade::{ReshadeError, Reshaded};
 
 use super::plan::{Actions, Change, Outcome, Restart, Second, Tables, advance, settle, transition};
 use super::*;
+
+#[path = "../../tests/support/hdr_fixture.rs"]
+mod hdr_fixture;
+use hdr_fixture::write_hdr;
 
 /// A small image, so a pass takes milliseconds.
 const SIZE: (u32, u32) = (48, 30);
@@ -89,6 +93,18 @@ fn converged() -> (LiveEngine, EngineCounters) {
     assert_eq!(engine.samples_per_pixel(), TARGET);
     let counters = engine.counters();
     (engine, counters)
+}
+
+/// Converges, applies `command`, which must start a fresh coarse pass, steps once
+/// and checks that it showed a coarse image and that just `expected` was rebuilt.
+fn restarts_coarse(command: Command, expected: EngineCounters) -> LiveEngine {
+    let (mut engine, before) = converged();
+    apply(&mut engine, command);
+    assert_eq!(engine.state().phase, Phase::Coarse);
+    let (_, outputs) = step(&mut engine);
+    assert!(updates(outputs)[0].first.coarse);
+    assert_built(&engine, &before, expected);
+    engine
 }
 
 /// Only the named counters moved, by the amounts given.
@@ -277,30 +293,21 @@ fn an_edit_that_widens_the_lobe_is_traced_fresh() {
 
 #[test]
 fn a_gloss_edit_is_traced_fresh_without_a_re_shade() {
-    let (mut engine, before) = converged();
     let mut glossier = design();
     glossier.gloss.gu += 5.0;
-    apply(&mut engine, Command::Design(Box::new(glossier)));
-    assert_eq!(engine.state().phase, Phase::Coarse);
-    let (_, outputs) = step(&mut engine);
-    assert!(updates(outputs)[0].first.coarse);
+    let engine = restarts_coarse(Command::Design(Box::new(glossier)), retraced(1, 1, 0));
     assert!(
         engine.last_edit_refusal().is_none(),
         "no re-shade was tried"
     );
-    assert_built(&engine, &before, retraced(1, 1, 0));
 }
 
 #[test]
 fn a_model_change_rebuilds_the_shading_but_not_the_tables() {
-    let (mut engine, before) = converged();
-    apply(
-        &mut engine,
+    restarts_coarse(
         Command::Views(Views::single(ShadingModel::Phong(PhongVariant::Naive))),
+        retraced(0, 1, 0),
     );
-    assert_eq!(engine.state().phase, Phase::Coarse);
-    step(&mut engine);
-    assert_built(&engine, &before, retraced(0, 1, 0));
 }
 
 #[test]
@@ -340,16 +347,8 @@ fn a_scene_change_builds_its_bvh_and_a_failed_load_changes_nothing() {
 
 #[test]
 fn a_lighting_change_builds_the_lighting_only() {
-    let (mut engine, before) = converged();
-    apply(
-        &mut engine,
+    restarts_coarse(
         Command::Lighting(Lighting::Booth(Illuminant::D65)),
-    );
-    assert_eq!(engine.state().phase, Phase::Coarse);
-    step(&mut engine);
-    assert_built(
-        &engine,
-        &before,
         EngineCounters {
             lighting_builds: 1,
             retraces: 1,
@@ -398,12 +397,7 @@ fn a_camera_move_restarts_from_a_coarse_pass_and_rebuilds_nothing() {
         Command::Pan(3.0, 0.0),
         Command::Size(SIZE.0 + 8, SIZE.1),
     ] {
-        let (mut engine, before) = converged();
-        apply(&mut engine, command);
-        assert_eq!(engine.state().phase, Phase::Coarse);
-        let (_, outputs) = step(&mut engine);
-        assert!(updates(outputs)[0].first.coarse);
-        assert_built(&engine, &before, RETRACE_ONLY);
+        restarts_coarse(command, RETRACE_ONLY);
     }
 }
 
@@ -437,10 +431,7 @@ fn a_quality_preset_with_another_grid_rebuilds_lighting_tables_and_renders_on_it
 
 #[test]
 fn a_paint_material_change_rebuilds_the_shading() {
-    let (mut engine, before) = converged();
-    apply(&mut engine, Command::PaintMaterial(Some(0)));
-    step(&mut engine);
-    assert_built(&engine, &before, retraced(0, 1, 0));
+    restarts_coarse(Command::PaintMaterial(Some(0)), retraced(0, 1, 0));
 }
 
 #[test]
@@ -813,16 +804,4 @@ fn the_render_thread_stamps_images_with_the_commands_they_show() {
     wait(&thread, &|s| {
         s.is_some_and(|(e, spp, _)| e == epoch && spp == TARGET)
     });
-}
-
-fn write_hdr(path: &Path) {
-    let (w, h) = (16usize, 8usize);
-    let mut bytes = format!("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n").into_bytes();
-    for y in 0..h {
-        for x in 0..w {
-            let level = if y < h / 2 { 200u8 } else { 60 };
-            bytes.extend_from_slice(&[level, level, (level as usize * x / w) as u8 + 10, 129]);
-        }
-    }
-    std::fs::write(path, bytes).expect("write .hdr");
 }
