@@ -15,22 +15,34 @@ use egui_kittest::Harness;
 use egui_kittest::kittest::{NodeT, Queryable};
 
 mod common;
-use common::{ExrImage, read_exr};
+use common::{ExrImage, assert_rgb_f32, read_exr};
+
+#[path = "common/harness.rs"]
+mod harness;
+use harness::{app_harness, options};
+
+#[path = "../crates/coatlab-core/tests/support/hdr_fixture.rs"]
+mod hdr_fixture;
+use hdr_fixture::write_hdr;
 
 fn app() -> CoatlabApp {
-    CoatlabApp::new(AppOptions {
-        storage: Storage::none(),
-        open: None,
-        preview: false,
-    })
+    CoatlabApp::new(options(false))
 }
 
 fn harness(app: CoatlabApp) -> Harness<'static, CoatlabApp> {
-    let mut h = Harness::builder()
-        .with_size(egui::vec2(1400.0, 900.0))
-        .build_ui_state(|ui, app: &mut CoatlabApp| app.show(ui), app);
+    let mut h = app_harness(egui::vec2(1400.0, 900.0), false, app);
     h.run();
     h
+}
+
+/// Opens `target` as the Instruments tab's target; ΔE00 per angle to it.
+fn delta_e_to_target(h: &mut Harness<'static, CoatlabApp>, target: &Path) -> Vec<f64> {
+    h.state_mut().open_target(target);
+    h.run();
+    h.state()
+        .analysis()
+        .and_then(|a| a.delta_e.clone())
+        .expect("ΔE00 per angle")
 }
 
 fn temp_dir(name: &str) -> PathBuf {
@@ -222,13 +234,7 @@ fn the_instruments_panel_shows_delta_e_to_a_target_and_exports_it() {
         .albedo
         .clone();
     target.save(&target_file).expect("save");
-    h.state_mut().open_target(&target_file);
-    h.run();
-    let de = h
-        .state()
-        .analysis()
-        .and_then(|a| a.delta_e.clone())
-        .expect("ΔE00 per angle");
+    let de = delta_e_to_target(&mut h, &target_file);
     assert_eq!(de.len(), 5);
     // Another pigment: clearly visible at every angle, and each value on screen.
     for d in &de {
@@ -260,13 +266,7 @@ fn the_instruments_panel_shows_delta_e_to_a_target_and_exports_it() {
     // The design itself as the target: no difference at any angle.
     let same = dir.join("same.toml");
     h.state().design().save(&same).expect("save");
-    h.state_mut().open_target(&same);
-    h.run();
-    let de = h
-        .state()
-        .analysis()
-        .and_then(|a| a.delta_e.clone())
-        .expect("ΔE00 per angle");
+    let de = delta_e_to_target(&mut h, &same);
     assert_eq!(de, vec![0.0; 5]);
     assert!(h.get_all_by_label("0.00").count() >= 5);
     let _ = std::fs::remove_dir_all(dir);
@@ -288,15 +288,24 @@ fn an_invalid_cauchy_pair_is_explained_where_it_is_entered() {
 /// Rendered snapshots of the whole window on Mesa's software Vulkan (lavapipe).
 #[test]
 fn snapshot_of_the_designer() {
-    let mut h = Harness::builder()
-        .with_size(egui::vec2(1400.0, 900.0))
-        .wgpu()
-        .build_ui_state(|ui, app: &mut CoatlabApp| app.show(ui), app());
+    let mut h = app_harness(egui::vec2(1400.0, 900.0), true, app());
     h.run();
     h.snapshot("designer_plots");
     h.state_mut().set_tab(Tab::Instruments);
     h.run();
     h.snapshot("designer_instruments");
+}
+
+/// The committed quality preset that `rank` puts first.
+fn committed_preset<K: Ord>(
+    rank: impl Fn(&coatlab_app::gui::quality::QualityPreset) -> K,
+) -> &'static coatlab_app::gui::quality::QualityPreset {
+    coatlab_app::gui::quality::QualityPresets::embedded()
+        .expect("the committed presets parse")
+        .presets
+        .iter()
+        .min_by_key(|p| rank(p))
+        .expect("at least one preset")
 }
 
 /// The window with the preview image, on lavapipe. A render is deterministic for
@@ -306,13 +315,8 @@ fn snapshot_of_the_designer() {
 /// is painted over before the comparison and checked as text instead.
 #[test]
 fn snapshot_of_the_preview_at_a_fixed_sample_count() {
-    use coatlab_app::gui::quality::QualityPresets;
-    let presets = QualityPresets::embedded().expect("the committed presets parse");
-    let chosen = presets
-        .presets
-        .iter()
-        .min_by_key(|p| (p.samples_per_pixel, std::cmp::Reverse(p.resolution_divisor)))
-        .expect("at least one preset");
+    let chosen =
+        committed_preset(|p| (p.samples_per_pixel, std::cmp::Reverse(p.resolution_divisor)));
     let mut h = preview_harness(true);
     steps(&mut h, 2);
     choose_quality_preset(&mut h, &chosen.name);
@@ -352,16 +356,11 @@ fn snapshot_of_the_preview_at_a_fixed_sample_count() {
 /// The live preview renders off the UI thread and restarts on a design change.
 #[test]
 fn the_preview_accumulates_and_restarts_when_the_design_changes() {
-    let mut h = Harness::builder()
-        .with_size(egui::vec2(1000.0, 700.0))
-        .build_ui_state(
-            |ui, app: &mut CoatlabApp| app.show(ui),
-            CoatlabApp::new(AppOptions {
-                storage: Storage::none(),
-                open: None,
-                preview: true,
-            }),
-        );
+    let mut h = app_harness(
+        egui::vec2(1000.0, 700.0),
+        false,
+        CoatlabApp::new(options(true)),
+    );
     let spp = |h: &Harness<'static, CoatlabApp>| {
         h.state()
             .preview_status()
@@ -437,15 +436,10 @@ fn a_paint_edit_is_shown_re_shaded_at_full_resolution_then_refined() {
 
 /// The window at its default size with the live preview on.
 fn preview_harness(wgpu: bool) -> Harness<'static, CoatlabApp> {
-    let builder = Harness::builder().with_size(egui::vec2(1500.0, 940.0));
-    let builder = if wgpu { builder.wgpu() } else { builder };
-    builder.build_ui_state(
-        |ui, app: &mut CoatlabApp| app.show(ui),
-        CoatlabApp::new(AppOptions {
-            storage: Storage::none(),
-            open: None,
-            preview: true,
-        }),
+    app_harness(
+        egui::vec2(1500.0, 940.0),
+        wgpu,
+        CoatlabApp::new(options(true)),
     )
 }
 
@@ -504,8 +498,24 @@ fn has_notice(app: &CoatlabApp, is_error: bool, text: &str) -> bool {
         .any(|n| n.is_error == is_error && n.text.contains(text))
 }
 
+/// The scene the preview shows, once loaded.
+fn scene_shown(app: &CoatlabApp) -> Option<&coatlab_core::engine::SceneInfo> {
+    app.preview().and_then(|p| p.scene())
+}
+
 fn preview(app: &CoatlabApp) -> &coatlab_app::gui::preview::Preview {
     app.preview().expect("the preview runs")
+}
+
+/// Paint against Phong, laid out as `layout`.
+fn compare_models(
+    h: &mut Harness<'static, CoatlabApp>,
+    layout: coatlab_app::gui::compare::CompareLayout,
+) {
+    h.state_mut()
+        .preview_mut()
+        .expect("preview")
+        .set_compare(coatlab_app::gui::compare::CompareMode::Models, layout);
 }
 
 /// Both views refined past the coarse pass, on the same change, with a ΔE00 map of
@@ -676,34 +686,17 @@ fn two_designs_side_by_side_from_a_preset_and_from_a_file() {
     let _ = std::fs::remove_dir_all(dir);
 }
 
-/// A small Radiance .hdr: flat (not run-length) scanlines, a bright upper half.
-fn write_hdr(path: &Path) {
-    let (w, h) = (16usize, 8usize);
-    let mut bytes = format!("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {h} +X {w}\n").into_bytes();
-    for y in 0..h {
-        for x in 0..w {
-            let level = if y < h / 2 { 200u8 } else { 60 };
-            bytes.extend_from_slice(&[level, level, (level as usize * x / w) as u8 + 10, 129]);
-        }
-    }
-    std::fs::write(path, bytes).expect("write .hdr");
-}
-
 #[test]
 fn dropped_scenes_and_environment_maps_go_to_the_preview_and_bad_ones_change_nothing() {
     let dir = temp_dir("scene");
     let mut h = preview_harness(false);
     wait_until(&mut h, "the built-in car", |app| {
-        app.preview()
-            .and_then(|p| p.scene())
-            .is_some_and(|s| s.name == "Built-in car")
+        scene_shown(app).is_some_and(|s| s.name == "Built-in car")
     });
     let glb = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/default-car.glb");
     h.input_mut().dropped_files.push(Arc::new(Dropped(glb)));
     wait_until(&mut h, "the dropped glTF scene", |app| {
-        app.preview()
-            .and_then(|p| p.scene())
-            .is_some_and(|s| s.name == "default-car.glb")
+        scene_shown(app).is_some_and(|s| s.name == "default-car.glb")
     });
     assert!(has_notice(h.state(), false, "Opened the scene"));
     let scene = preview(h.state()).scene().cloned().expect("scene");
@@ -958,14 +951,7 @@ fn the_preview_exports_png_and_exr_and_the_exr_lights_the_car() {
     let spp = export_png_and_exr_of_one_film(&mut h, &shown_png, &exr);
     let (width, height, shown) = png_pixels(&shown_png);
     let image = read_exr(&exr);
-    assert_eq!(
-        image.channels,
-        [
-            ("B".to_owned(), "f32"),
-            ("G".to_owned(), "f32"),
-            ("R".to_owned(), "f32")
-        ]
-    );
+    assert_rgb_f32(&image);
     assert_eq!(
         (image.width, image.height),
         (width as usize, height as usize)
@@ -1054,10 +1040,7 @@ fn the_preview_exports_png_and_exr_and_the_exr_lights_the_car() {
     );
 
     // In a comparison both views are written.
-    h.state_mut().preview_mut().expect("preview").set_compare(
-        coatlab_app::gui::compare::CompareMode::Models,
-        coatlab_app::gui::compare::CompareLayout::Split,
-    );
+    compare_models(&mut h, coatlab_app::gui::compare::CompareLayout::Split);
     wait_until(&mut h, "both views", |app| compared(app, 1));
     h.state_mut().export_preview(&dir.join("pair.png"));
     wait_until(&mut h, "the pair's export", |app| {
@@ -1096,22 +1079,15 @@ fn a_scene_opens_through_the_in_app_browser() {
         .expect("the default car");
     open_in_browser(&mut h, &glb);
     wait_until(&mut h, "the scene from the browser", |app| {
-        app.preview()
-            .and_then(|p| p.scene())
-            .is_some_and(|s| s.path.as_deref() == Some(glb.as_path()))
+        scene_shown(app).is_some_and(|s| s.path.as_deref() == Some(glb.as_path()))
     });
 }
 
 #[test]
 fn choosing_a_quality_preset_sets_the_render_knobs_and_shows_its_measured_figures() {
-    use coatlab_app::gui::quality::QualityPresets;
-    let presets = QualityPresets::embedded().expect("the committed presets parse");
     // The preset with the coarsest resolution shows the knobs most plainly.
-    let chosen = presets
-        .presets
-        .iter()
-        .max_by_key(|p| (p.resolution_divisor, std::cmp::Reverse(p.samples_per_pixel)))
-        .expect("at least one preset");
+    let chosen =
+        committed_preset(|p| (std::cmp::Reverse(p.resolution_divisor), p.samples_per_pixel));
     let mut h = preview_harness(false);
     wait_until(&mut h, "the first refined image", |app| {
         app.preview_status().is_some_and(|s| !s.coarse)
@@ -1340,10 +1316,7 @@ fn the_comparison_re_shades_the_first_views_paths() {
     use coatlab_app::gui::preview::SecondSource;
     let mut h = preview_harness(false);
     steps(&mut h, 2);
-    h.state_mut()
-        .preview_mut()
-        .expect("preview")
-        .set_compare(CompareMode::Models, CompareLayout::DeltaE);
+    compare_models(&mut h, CompareLayout::DeltaE);
     wait_until(&mut h, "paint and Phong from shared samples", |app| {
         compared(app, 4)
     });
@@ -1390,7 +1363,7 @@ fn the_comparison_re_shades_the_first_views_paths() {
 /// lobe to re-weight): the comparison falls back to two renders and says why.
 #[test]
 fn a_mirror_paint_is_compared_through_independent_renders() {
-    use coatlab_app::gui::compare::{CompareLayout, CompareMode};
+    use coatlab_app::gui::compare::CompareLayout;
     use coatlab_app::gui::preview::SecondSource;
     use coatlab_core::paint::gloss::GlossExponent;
     let mut h = preview_harness(false);
@@ -1400,10 +1373,7 @@ fn a_mirror_paint_is_compared_through_independent_renders() {
     assert!(matches!(mirror.exponent(), Ok(GlossExponent::Mirror)));
     h.state_mut().set_design(mirror);
     steps(&mut h, 2);
-    h.state_mut()
-        .preview_mut()
-        .expect("preview")
-        .set_compare(CompareMode::Models, CompareLayout::SideBySide);
+    compare_models(&mut h, CompareLayout::SideBySide);
     wait_until(&mut h, "the mirror against Phong, rendered apart", |app| {
         compared(app, 2)
             && preview(app).second_status().is_some_and(|s| {

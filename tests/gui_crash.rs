@@ -26,9 +26,13 @@ use egui::accesskit::Role;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 
+#[path = "common/harness.rs"]
+mod harness;
+use harness::app_harness;
+
 #[path = "common/xvfb.rs"]
 mod xvfb;
-use xvfb::{Reaped, gui_tools_required, have, start_xvfb, xdotool};
+use xvfb::{Reaped, UnderX, coatlab_on, gui_tools_required, have, start_xvfb, xdotool};
 
 /// The window's inner size (gui/mod.rs) and so the headless layout's.
 const WINDOW: egui::Vec2 = egui::vec2(1500.0, 940.0);
@@ -79,37 +83,25 @@ impl Dirs {
     }
 }
 
-/// The binary running under `display`, and where its output goes.
-struct Running {
-    display: String,
-    app: Reaped,
-    log: PathBuf,
-    window: String,
-}
+/// The binary running under a display; the test's state is its window's id.
+type Running = UnderX<String>;
 
-impl Running {
+impl UnderX<String> {
     fn start(dirs: &Dirs, display: &str, name: &str, args: &[&Path]) -> Running {
         let log = dirs.root.join(format!("{name}.log"));
-        let log_file = std::fs::File::create(&log).expect("log file");
-        let app = Command::new(env!("CARGO_BIN_EXE_coatlab"))
+        let app = coatlab_on(display, &dirs.runtime, &log)
             .args(args)
             .current_dir(&dirs.root)
-            .env("DISPLAY", display)
             .env("HOME", &dirs.home)
-            .env("XDG_RUNTIME_DIR", &dirs.runtime)
             .env("XDG_STATE_HOME", &dirs.state_home)
             .env("XDG_CONFIG_HOME", dirs.home.join(".config"))
             .env("XDG_DATA_HOME", dirs.home.join(".local/share"))
             .env("XDG_CACHE_HOME", dirs.home.join(".cache"))
             .env_remove("COATLAB_STATE_DIR")
             .env_remove("COATLAB_FRAME_LOG")
-            .env_remove("DBUS_SESSION_BUS_ADDRESS")
-            .env_remove("WAYLAND_DISPLAY")
             // One X pixel per egui point, as in the headless layout.
             .env("WINIT_X11_SCALE_FACTOR", "1")
             .env(AUTOSAVE_INTERVAL_VAR, INTERVAL_S.to_string())
-            .stdout(log_file.try_clone().expect("log"))
-            .stderr(log_file)
             .spawn()
             .map(Reaped)
             .expect("start coatlab");
@@ -117,14 +109,11 @@ impl Running {
             display: display.to_owned(),
             app,
             log,
-            window: String::new(),
+            shots: Some(dirs.root.clone()),
+            state: String::new(),
         };
-        running.window = running.wait("the coatlab window", START_TIMEOUT, |r| {
-            let out = xdotool(&r.display, &["search", "--name", "^Coatlab"]);
-            String::from_utf8_lossy(&out.stdout)
-                .lines()
-                .next()
-                .map(str::to_owned)
+        running.state = running.wait("the coatlab window", START_TIMEOUT, |r| {
+            r.first_window("^Coatlab")
         });
         running
     }
@@ -135,12 +124,11 @@ impl Running {
     }
 
     fn title(&self) -> String {
-        let out = xdotool(&self.display, &["getwindowname", &self.window]);
-        String::from_utf8_lossy(&out.stdout).trim_end().to_owned()
+        self.window_name(&self.state)
     }
 
     fn focus(&self) {
-        self.xdotool(&["windowfocus", "--sync", &self.window]);
+        self.xdotool(&["windowfocus", "--sync", &self.state]);
     }
 
     fn key(&self, key: &str) {
@@ -151,7 +139,7 @@ impl Running {
     /// Moves the pointer to `at` (window coordinates, points = pixels here).
     fn pointer(&self, at: egui::Pos2) {
         let (x, y) = (at.x.round().to_string(), at.y.round().to_string());
-        self.xdotool(&["mousemove", "--window", &self.window, &x, &y]);
+        self.xdotool(&["mousemove", "--window", &self.state, &x, &y]);
     }
 
     /// A press and release at `at`, each held over a few frames (egui sees pointer
@@ -178,52 +166,15 @@ impl Running {
         self.xdotool(&["mouseup", "1"]);
         pause();
     }
-
-    fn log_text(&self) -> String {
-        std::fs::read_to_string(&self.log).unwrap_or_default()
-    }
-
-    /// Polls `check` every 100 ms until it gives a value; fails with `what` and the
-    /// app's log after `timeout`, or if the app exits.
-    fn wait<T>(
-        &mut self,
-        what: &str,
-        timeout: Duration,
-        mut check: impl FnMut(&Self) -> Option<T>,
-    ) -> T {
-        let start = Instant::now();
-        loop {
-            if let Some(v) = check(self) {
-                return v;
-            }
-            if let Some(status) = self.app.0.try_wait().expect("poll coatlab") {
-                panic!(
-                    "coatlab exited ({status}) waiting for {what}:\n{}",
-                    self.log_text()
-                );
-            }
-            assert!(
-                start.elapsed() < timeout,
-                "waited {:.0} s for {what} in vain; coatlab's log:\n{}",
-                timeout.as_secs_f64(),
-                self.log_text()
-            );
-            std::thread::sleep(Duration::from_millis(100));
-        }
-    }
 }
 
-/// Long enough for the window to draw a frame or two between input events.
 fn pause() {
     std::thread::sleep(Duration::from_millis(300));
 }
 
 /// The same app laid out headless at the window's size: where its widgets are.
 fn layout(options: AppOptions) -> Harness<'static, CoatlabApp> {
-    let mut h = Harness::builder().with_size(WINDOW).build_ui_state(
-        |ui, app: &mut CoatlabApp| app.show(ui),
-        CoatlabApp::new(options),
-    );
+    let mut h = app_harness(WINDOW, false, CoatlabApp::new(options));
     h.run();
     h
 }
@@ -289,9 +240,7 @@ fn edits_survive_sigkill_through_the_periodic_autosave_and_are_recovered() {
 
     // The design file being edited: a preset under a name of its own.
     let file = dirs.root.join("mine.toml");
-    let mut original = presets::all()
-        .into_iter()
-        .find(|p| p.slug == "signal-red")
+    let mut original = presets::by_slug("signal-red")
         .expect("the signal-red preset")
         .design;
     original.name = "Crash test".into();

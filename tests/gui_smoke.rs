@@ -14,7 +14,7 @@ use std::time::Duration;
 
 #[path = "common/xvfb.rs"]
 mod xvfb;
-use xvfb::{Reaped, app_dirs, have, start_xvfb};
+use xvfb::{Reaped, app_dirs, coatlab_on, have, start_xvfb};
 
 fn out_dir() -> PathBuf {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/gui-smoke");
@@ -82,15 +82,9 @@ fn the_binary_opens_its_window_under_xvfb() {
     let (runtime, state) = app_dirs(&dir).expect("runtime dir");
     let (xvfb, display) = start_xvfb().unwrap_or_else(|e| panic!("{e}"));
 
-    let log = std::fs::File::create(dir.join("coatlab.log")).expect("log file");
     let mut app = Reaped(
-        Command::new(env!("CARGO_BIN_EXE_coatlab"))
-            .env("DISPLAY", &display)
-            .env("XDG_RUNTIME_DIR", &runtime)
+        coatlab_on(&display, &runtime, &dir.join("coatlab.log"))
             .env("COATLAB_STATE_DIR", &state)
-            .env_remove("WAYLAND_DISPLAY")
-            .stdout(log.try_clone().expect("log"))
-            .stderr(log)
             .spawn()
             .expect("start coatlab"),
     );

@@ -63,6 +63,17 @@ pub struct ExrImage {
     pub chromaticities: Option<[f32; 8]>,
 }
 
+/// Checks that `image` holds what the help text and the docs say an EXR export
+/// holds: 32-bit float R, G, B, sorted by name as the format requires.
+pub fn assert_rgb_f32(image: &ExrImage) {
+    let names: Vec<(&str, &str)> = image
+        .channels
+        .iter()
+        .map(|(n, t)| (n.as_str(), *t))
+        .collect();
+    assert_eq!(names, [("B", "f32"), ("G", "f32"), ("R", "f32")]);
+}
+
 pub fn read_exr(path: &std::path::Path) -> ExrImage {
     use exr::prelude::{FlatSamples, read_first_flat_layer_from_file};
     let image = read_first_flat_layer_from_file(path)

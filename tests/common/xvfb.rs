@@ -181,3 +181,105 @@ pub fn gui_tools_required() -> bool {
         .iter()
         .any(|v| std::env::var_os(v).is_some_and(|x| !x.is_empty()))
 }
+
+/// `coatlab` set to run on `display` with `runtime` as its XDG_RUNTIME_DIR, its
+/// standard output and error to `log`, and no Wayland display or session bus of the
+/// person running the tests in reach; the caller adds arguments and spawns it.
+pub fn coatlab_on(display: &str, runtime: &Path, log: &Path) -> Command {
+    let log = std::fs::File::create(log).expect("log file");
+    let mut command = Command::new(env!("CARGO_BIN_EXE_coatlab"));
+    command
+        .env("DISPLAY", display)
+        .env("XDG_RUNTIME_DIR", runtime)
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("DBUS_SESSION_BUS_ADDRESS")
+        .stdout(log.try_clone().expect("log"))
+        .stderr(log);
+    command
+}
+
+/// A `coatlab` process under test on a virtual display, with `S`, the test's own
+/// state beside it: the polling, window look-ups, log reading and screenshots that
+/// the tests which drive the real binary share.
+pub struct UnderX<S> {
+    pub display: String,
+    pub app: Reaped,
+    /// The file the app's standard output and error go to.
+    pub log: PathBuf,
+    /// Where a timeout leaves a screenshot; none where `None`.
+    pub shots: Option<PathBuf>,
+    pub state: S,
+}
+
+impl<S> UnderX<S> {
+    pub fn log_text(&self) -> String {
+        std::fs::read_to_string(&self.log).unwrap_or_default()
+    }
+
+    /// The first top-level window whose name matches `regex`.
+    pub fn first_window(&self, regex: &str) -> Option<String> {
+        let out = xdotool(&self.display, &["search", "--name", regex]);
+        String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .next()
+            .map(str::to_owned)
+    }
+
+    pub fn window_name(&self, id: &str) -> String {
+        let out = xdotool(&self.display, &["getwindowname", id]);
+        String::from_utf8_lossy(&out.stdout).trim_end().to_owned()
+    }
+
+    /// The whole screen to `<shots>/<name>.png`, where ImageMagick is installed:
+    /// the file's path, or why there is none.
+    pub fn screenshot(&self, name: &str) -> String {
+        let Some(shots) = &self.shots else {
+            return "no folder for screenshots".into();
+        };
+        if !have("import") {
+            return "no ImageMagick for a screenshot".into();
+        }
+        let path = shots.join(format!("{name}.png"));
+        let taken = Command::new("import")
+            .args(["-display", &self.display, "-window", "root"])
+            .arg(&path)
+            .status()
+            .is_ok_and(|s| s.success());
+        if taken {
+            path.display().to_string()
+        } else {
+            "import failed".into()
+        }
+    }
+
+    /// Polls `check` every 100 ms until it gives a value; fails with `what`, the
+    /// app's log and a screenshot after `timeout`, or as soon as the app exits.
+    pub fn wait<T>(
+        &mut self,
+        what: &str,
+        timeout: Duration,
+        mut check: impl FnMut(&Self) -> Option<T>,
+    ) -> T {
+        let start = std::time::Instant::now();
+        loop {
+            if let Some(v) = check(self) {
+                return v;
+            }
+            if let Some(status) = self.app.0.try_wait().expect("poll coatlab") {
+                panic!(
+                    "coatlab exited ({status}) waiting for {what}:\n{}",
+                    self.log_text()
+                );
+            }
+            if start.elapsed() > timeout {
+                panic!(
+                    "no {what} after {:.0} s (screen: {}); coatlab's log:\n{}",
+                    timeout.as_secs_f64(),
+                    self.screenshot("timeout"),
+                    self.log_text()
+                );
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+}

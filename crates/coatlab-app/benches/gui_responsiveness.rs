@@ -45,21 +45,20 @@ use egui::accesskit::Role;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 
+#[path = "../../../tests/common/harness.rs"]
+mod harness;
+use harness::{app_harness, options};
+
 #[path = "../../../tests/common/xvfb.rs"]
 mod xvfb;
 use xvfb::{Reaped, app_dirs, have, start_xvfb};
 
 fn harness() -> Harness<'static, CoatlabApp> {
-    Harness::builder()
-        .with_size(egui::vec2(1500.0, 940.0))
-        .build_ui_state(
-            |ui, app: &mut CoatlabApp| app.show(ui),
-            CoatlabApp::new(AppOptions {
-                storage: Storage::none(),
-                open: None,
-                preview: true,
-            }),
-        )
+    app_harness(
+        egui::vec2(1500.0, 940.0),
+        false,
+        CoatlabApp::new(options(true)),
+    )
 }
 
 fn load_average() -> String {
@@ -359,11 +358,7 @@ fn real_window(seconds: f64) {
 /// the repaint delay the app asked for.
 fn tessellation(frames: usize) {
     let ctx = egui::Context::default();
-    let mut app = CoatlabApp::new(AppOptions {
-        storage: Storage::none(),
-        open: None,
-        preview: true,
-    });
+    let mut app = CoatlabApp::new(options(true));
     let screen = egui::Rect::from_min_size(egui::Pos2::ZERO, egui::vec2(1500.0, 940.0));
     let start = Instant::now();
     let input = |t: f64| egui::RawInput {

@@ -17,7 +17,7 @@
 
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
-use std::process::{Command, ExitStatus, Output};
+use std::process::{ExitStatus, Output};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
@@ -30,7 +30,7 @@ use coatlab_core::design::{PaintDesign, presets};
 
 #[path = "../../../tests/common/xvfb.rs"]
 mod xvfb;
-use xvfb::{Reaped, app_dirs, have, start_xvfb, xdotool};
+use xvfb::{Reaped, UnderX, app_dirs, coatlab_on, have, start_xvfb, xdotool};
 
 // ---------------------------------------------------------------------------------
 // zenity's command line and answers (no tools needed)
@@ -233,33 +233,14 @@ const START_TIMEOUT: Duration = Duration::from_secs(180);
 /// How long one step (a key to a frame to a dialog, a dialog to a loaded file) may take.
 const STEP_TIMEOUT: Duration = Duration::from_secs(60);
 
-/// The X server, the app under it, and where its output goes.
-struct Session {
-    display: String,
-    app: Reaped,
-    log: PathBuf,
-    shots: PathBuf,
-}
+/// The app under the X server; no state of the test's own.
+type Session = UnderX<()>;
 
-impl Session {
+impl UnderX<()> {
     /// Runs `xdotool args` on our display; killed after 20 s (a `--sync` that never
     /// sees its event would otherwise hang the test).
     fn xdotool(&self, args: &[&str]) -> Output {
         xdotool(&self.display, args)
-    }
-
-    /// The first top-level window whose name matches `regex`.
-    fn window(&self, regex: &str) -> Option<String> {
-        let out = self.xdotool(&["search", "--name", regex]);
-        String::from_utf8_lossy(&out.stdout)
-            .lines()
-            .next()
-            .map(str::to_owned)
-    }
-
-    fn window_name(&self, id: &str) -> String {
-        let out = self.xdotool(&["getwindowname", id]);
-        String::from_utf8_lossy(&out.stdout).trim_end().to_owned()
     }
 
     /// Gives `window` the keyboard (there is no window manager) and presses `keys`.
@@ -278,59 +259,6 @@ impl Session {
     fn type_text(&self, text: &str) {
         let out = self.xdotool(&["type", "--delay", "10", text]);
         assert!(out.status.success(), "xdotool type: {out:?}");
-    }
-
-    /// Polls `check` every 200 ms until it gives a value; fails with `what`, the app's
-    /// log and a screenshot after `timeout`, or if the app exits.
-    fn wait<T>(
-        &mut self,
-        what: &str,
-        timeout: Duration,
-        mut check: impl FnMut(&Self) -> Option<T>,
-    ) -> T {
-        let start = Instant::now();
-        loop {
-            if let Some(v) = check(self) {
-                return v;
-            }
-            if let Some(status) = self.app.0.try_wait().expect("poll coatlab") {
-                panic!(
-                    "coatlab exited ({status}) waiting for {what}:\n{}",
-                    self.log_text()
-                );
-            }
-            if start.elapsed() > timeout {
-                let shot = self.screenshot("timeout");
-                panic!(
-                    "no {what} after {:.0} s (screen: {shot}); coatlab's log:\n{}",
-                    timeout.as_secs_f64(),
-                    self.log_text()
-                );
-            }
-            std::thread::sleep(Duration::from_millis(200));
-        }
-    }
-
-    fn log_text(&self) -> String {
-        std::fs::read_to_string(&self.log).unwrap_or_default()
-    }
-
-    /// The whole screen to `<shots>/<name>.png`, where ImageMagick is installed.
-    fn screenshot(&self, name: &str) -> String {
-        if !have("import") {
-            return "no ImageMagick for a screenshot".into();
-        }
-        let path = self.shots.join(format!("{name}.png"));
-        let taken = Command::new("import")
-            .args(["-display", &self.display, "-window", "root"])
-            .arg(&path)
-            .status()
-            .is_ok_and(|s| s.success());
-        if taken {
-            path.display().to_string()
-        } else {
-            "import failed".into()
-        }
     }
 }
 
@@ -360,9 +288,7 @@ fn save_and_open_through_the_real_zenity_dialog() {
     // The design to open: a preset under a name no other design has, so the window
     // title shows that this file, and no other, was loaded.
     let blue_path = designs.join("blue.toml");
-    let mut blue = presets::all()
-        .into_iter()
-        .find(|p| p.slug == "deep-blue")
+    let mut blue = presets::by_slug("deep-blue")
         .expect("the deep-blue preset")
         .design;
     blue.name = "Native dialog blue".into();
@@ -371,22 +297,15 @@ fn save_and_open_through_the_real_zenity_dialog() {
 
     let (xvfb, display) = start_xvfb().unwrap_or_else(|e| panic!("{e}"));
     let log = dir.join("coatlab.log");
-    let log_file = std::fs::File::create(&log).expect("log file");
-    let app = Command::new(env!("CARGO_BIN_EXE_coatlab"))
+    // A runtime directory without a bus socket and no bus address: no portal can
+    // answer (nor pop up on the developer's own desktop), so zenity serves.
+    let app = coatlab_on(&display, &runtime, &log)
         .current_dir(&work)
-        .env("DISPLAY", &display)
-        // A runtime directory without a bus socket and no bus address: no portal can
-        // answer (nor pop up on the developer's own desktop), so zenity serves.
-        .env("XDG_RUNTIME_DIR", &runtime)
-        .env_remove("DBUS_SESSION_BUS_ADDRESS")
-        .env_remove("WAYLAND_DISPLAY")
         .env("COATLAB_STATE_DIR", &state)
         // zenity's GTK: keep settings in memory (no dconf daemon here) and do not look
         // for the accessibility bus, which only slows its start.
         .env("GSETTINGS_BACKEND", "memory")
         .env("NO_AT_BRIDGE", "1")
-        .stdout(log_file.try_clone().expect("log"))
-        .stderr(log_file)
         .spawn()
         .map(Reaped)
         .expect("start coatlab");
@@ -394,11 +313,14 @@ fn save_and_open_through_the_real_zenity_dialog() {
         display,
         app,
         log,
-        shots: dir.clone(),
+        shots: Some(dir.clone()),
+        state: (),
     };
 
     // The window, once it has drawn a frame (the title then names the design).
-    let window = s.wait("coatlab window", START_TIMEOUT, |s| s.window("^Coatlab"));
+    let window = s.wait("coatlab window", START_TIMEOUT, |s| {
+        s.first_window("^Coatlab")
+    });
     let start_title = format!("Coatlab — {}", start_design.name);
     s.wait("first frame (window title)", START_TIMEOUT, |s| {
         (s.window_name(&window) == start_title).then_some(())
@@ -408,7 +330,7 @@ fn save_and_open_through_the_real_zenity_dialog() {
     // the suggested name, selected; a typed path replaces it.
     s.keys(&window, &["ctrl+s"]);
     let dialog = s.wait("save dialog titled \"Save design as\"", STEP_TIMEOUT, |s| {
-        s.window("^Save design as$")
+        s.first_window("^Save design as$")
     });
     s.screenshot("save-dialog");
     let saved_path = saved_dir.join("from-the-dialog.toml");
@@ -441,17 +363,17 @@ fn save_and_open_through_the_real_zenity_dialog() {
     // in use (a cancel is not "no dialog here", which would open the in-app browser).
     s.keys(&window, &["ctrl+o"]);
     let dialog = s.wait("open dialog titled \"Open design\"", STEP_TIMEOUT, |s| {
-        s.window("^Open design$")
+        s.first_window("^Open design$")
     });
     s.keys(&dialog, &["Escape"]);
     s.wait("the cancelled dialog to close", STEP_TIMEOUT, |s| {
-        s.window("^Open design$").is_none().then_some(())
+        s.first_window("^Open design$").is_none().then_some(())
     });
 
     // Open: the dialog again, the path typed into its location field.
     s.keys(&window, &["ctrl+o"]);
     let dialog = s.wait("open dialog after a cancel", STEP_TIMEOUT, |s| {
-        s.window("^Open design$")
+        s.first_window("^Open design$")
     });
     s.keys(&dialog, &["ctrl+l"]);
     s.type_text(&blue_path.display().to_string());
