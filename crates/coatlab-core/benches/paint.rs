@@ -271,32 +271,46 @@ fn parameter_benches(c: &mut Criterion) {
     }
 }
 
-fn table_benches(c: &mut Criterion) {
-    let mut group = c.benchmark_group("c_integral");
-    for (n, tau) in [
-        (1.5, 0.02),
-        (1.5, 100.0),
-        (1.5, 1e4),
-        (1.001, 0.02),
-        (3.0, 0.02),
-    ] {
+/// One benchmark group, `f` at each pair of `cases`, named by `names` and the pair.
+fn bench_pairs(
+    c: &mut Criterion,
+    group: &str,
+    names: (&str, &str),
+    cases: &[(f64, f64)],
+    f: impl Fn(f64, f64) -> f64,
+) {
+    let mut group = c.benchmark_group(group);
+    for &(x, y) in cases {
         group.bench_with_input(
-            BenchmarkId::from_parameter(format!("n{n}_tau{tau}")),
-            &(n, tau),
-            |b, &(n, tau)| b.iter(|| c_integral(black_box(n), black_box(tau))),
+            BenchmarkId::from_parameter(format!("{}{x}_{}{y}", names.0, names.1)),
+            &(x, y),
+            |b, &(x, y)| b.iter(|| f(black_box(x), black_box(y))),
         );
     }
     group.finish();
+}
 
-    let mut group = c.benchmark_group("phong_normalisation");
-    for (m, mu) in [(100.0, 0.05), (100.0, 0.5), (1e4, 0.005), (1e4, 0.5)] {
-        group.bench_with_input(
-            BenchmarkId::from_parameter(format!("m{m}_mu{mu}")),
-            &(m, mu),
-            |b, &(m, mu)| b.iter(|| phong_normalisation(black_box(mu), black_box(m))),
-        );
-    }
-    group.finish();
+fn table_benches(c: &mut Criterion) {
+    bench_pairs(
+        c,
+        "c_integral",
+        ("n", "tau"),
+        &[
+            (1.5, 0.02),
+            (1.5, 100.0),
+            (1.5, 1e4),
+            (1.001, 0.02),
+            (3.0, 0.02),
+        ],
+        c_integral,
+    );
+    bench_pairs(
+        c,
+        "phong_normalisation",
+        ("m", "mu"),
+        &[(100.0, 0.05), (100.0, 0.5), (1e4, 0.005), (1e4, 0.5)],
+        |m, mu| phong_normalisation(mu, m),
+    );
 
     let mut group = c.benchmark_group("NormalisationTable::new");
     for m in [100.0, 1e4] {
@@ -367,10 +381,8 @@ fn derive_breakdown(c: &mut Criterion) {
 /// ρ). One iteration is one `PhongParams::best_fit`.
 fn phong_benches(c: &mut Criterion) {
     let grid = WavelengthGrid::visible(32).expect("32-sample grid");
-    let preset = coatlab_core::design::presets::all()
-        .into_iter()
-        .find(|p| p.slug == "signal-red")
-        .expect("the signal-red preset");
+    let preset =
+        coatlab_core::design::presets::by_slug("signal-red").expect("the signal-red preset");
     let base = preset.design.model(grid).expect("valid preset");
     let with = |albedo: &[f64], m: f64| {
         let mut model = base.clone();

@@ -115,9 +115,7 @@ fn run() -> Result<(), String> {
     }
 
     // The design: the special case of the paint model that `plastic` is.
-    let mut design = presets::all()
-        .into_iter()
-        .find(|p| p.slug == "signal-red")
+    let mut design = presets::by_slug("signal-red")
         .ok_or("no signal-red preset")?
         .design;
     design.name = "Signal red, k = 0, n = 1.5, mirror (Mitsuba plastic case)".to_owned();

@@ -950,6 +950,11 @@ pub mod presets {
         pub design: PaintDesign,
     }
 
+    /// The preset whose file stem is `slug` (`"signal-red"`).
+    pub fn by_slug(slug: &str) -> Option<Preset> {
+        all().into_iter().find(|p| p.slug == slug)
+    }
+
     /// Every preset, in a stable order.
     pub fn all() -> Vec<Preset> {
         let white = white_albedo;

@@ -49,11 +49,7 @@ fn files_in(dir: &Path) -> BTreeSet<String> {
 
 /// A valid design to mutate: the red preset.
 fn base() -> PaintDesign {
-    presets::all()
-        .into_iter()
-        .find(|p| p.slug == "signal-red")
-        .unwrap()
-        .design
+    presets::by_slug("signal-red").unwrap().design
 }
 
 fn base_text() -> String {

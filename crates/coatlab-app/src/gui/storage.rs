@@ -208,17 +208,10 @@ mod tests {
     use super::*;
     use coatlab_core::design::presets;
 
-    fn temp_dir(name: &str) -> PathBuf {
-        let dir =
-            std::env::temp_dir().join(format!("coatlab-storage-{name}-{}", std::process::id()));
-        let _ = fs::remove_dir_all(&dir);
-        dir
-    }
-
     #[test]
     fn recent_files_are_newest_first_without_duplicates() {
-        let dir = temp_dir("recent");
-        let s = Storage::in_dir(&dir);
+        let dir = tempfile::tempdir().expect("a temporary folder");
+        let s = Storage::in_dir(dir.path().join("state"));
         assert!(s.recent_files().is_empty());
         s.add_recent(Path::new("/a.toml")).expect("writable");
         s.add_recent(Path::new("/b.toml")).expect("writable");
@@ -228,13 +221,12 @@ mod tests {
             vec![PathBuf::from("/a.toml"), PathBuf::from("/b.toml")]
         );
         assert_eq!(s.recent_files(), list);
-        let _ = fs::remove_dir_all(dir);
     }
 
     #[test]
     fn an_autosave_is_offered_until_cleared() {
-        let dir = temp_dir("autosave");
-        let s = Storage::in_dir(&dir);
+        let dir = tempfile::tempdir().expect("a temporary folder");
+        let s = Storage::in_dir(dir.path().join("state"));
         assert!(s.recovery().expect("nothing there").is_none());
         let mut design = presets::all()[0].design.clone();
         design.thickness_um = 51.5;
@@ -245,7 +237,6 @@ mod tests {
         assert_eq!(r.path, Some(PathBuf::from("/designs/red.toml")));
         s.clear_autosave();
         assert!(s.recovery().expect("nothing there").is_none());
-        let _ = fs::remove_dir_all(dir);
     }
 
     /// The variable wins; then the platform's state folder (Linux), else its local

@@ -97,14 +97,6 @@ pub fn write_bytes_atomically(path: &Path, bytes: &[u8]) -> Result<(), WriteErro
 mod tests {
     use super::*;
 
-    fn scratch(name: &str) -> PathBuf {
-        let dir =
-            std::env::temp_dir().join(format!("coatlab-atomic-{name}-{}", std::process::id()));
-        let _ = fs::remove_dir_all(&dir);
-        fs::create_dir_all(&dir).unwrap();
-        dir
-    }
-
     fn names(dir: &Path) -> Vec<String> {
         let mut names: Vec<String> = fs::read_dir(dir)
             .unwrap()
@@ -114,24 +106,29 @@ mod tests {
         names
     }
 
+    /// A temporary folder holding `out.txt`, which reads "old".
+    fn old_file() -> (tempfile::TempDir, PathBuf) {
+        let scratch = tempfile::tempdir().unwrap();
+        let path = scratch.path().join("out.txt");
+        fs::write(&path, "old").unwrap();
+        (scratch, path)
+    }
+
     #[test]
     fn replaces_the_file_and_leaves_nothing_beside_it() {
-        let dir = scratch("replace");
-        let path = dir.join("out.txt");
-        fs::write(&path, "old").unwrap();
+        let (scratch, path) = old_file();
+        let dir = scratch.path();
         write_bytes_atomically(&path, b"new").unwrap();
         assert_eq!(fs::read_to_string(&path).unwrap(), "new");
-        assert_eq!(names(&dir), ["out.txt"]);
-        fs::remove_dir_all(dir).unwrap();
+        assert_eq!(names(dir), ["out.txt"]);
     }
 
     /// A failing writer, a failing rename and a missing folder: each error names
     /// the path, the old file is kept and no temporary file is left.
     #[test]
     fn failures_name_the_path_and_keep_the_old_file() {
-        let dir = scratch("failures");
-        let path = dir.join("out.txt");
-        fs::write(&path, "old").unwrap();
+        let (scratch, path) = old_file();
+        let dir = scratch.path();
         let error = write_atomically(&path, |file| {
             file.write_all(b"half")?;
             Err(io::Error::other("the encoder gave up"))
@@ -155,8 +152,7 @@ mod tests {
         let missing = dir.join("no-such-folder").join("out.txt");
         let error = write_bytes_atomically(&missing, b"x").unwrap_err();
         assert!(error.to_string().contains("no-such-folder"), "{error}");
-        assert_eq!(names(&dir), ["blocker", "out.txt"]);
-        fs::remove_dir_all(dir).unwrap();
+        assert_eq!(names(dir), ["blocker", "out.txt"]);
     }
 
     #[test]
