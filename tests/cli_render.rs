@@ -15,7 +15,7 @@ use coatlab_core::render::image_error::{Region, RegionMasks};
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
 use coatlab_core::scene::car::{CarParameters, generate};
-use common::{ExrImage, exit, failure, read_exr, stdout};
+use common::{ExrImage, assert_rgb_f32, exit, failure, read_exr, stdout};
 
 #[path = "../crates/coatlab-core/tests/support/gltf_testdata.rs"]
 mod gltf_testdata;
@@ -23,7 +23,7 @@ use gltf_testdata::testdata;
 
 #[path = "../crates/coatlab-core/tests/support/exr_text.rs"]
 mod exr_text;
-use exr_text::text_attributes;
+use exr_text::{expected_attributes, text_attributes};
 
 fn out_path(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name)
@@ -202,12 +202,7 @@ fn film_of_the_default_render(
     let design = presets::all().into_iter().next().expect("a preset").design;
     let model = design.model(grid).expect("the preset's model");
     let scene = generate(&CarParameters::default());
-    let shading = Shading::new(
-        &model,
-        ShadingModel::Paint,
-        &scene.materials,
-        &scene.paint_materials,
-    );
+    let shading = Shading::for_scene(&model, ShadingModel::Paint, &scene);
     let scene = RenderScene::new(scene).expect("scene");
     let camera = scene.default_camera(width, height);
     let masks = RegionMasks::from_scene(&scene, &camera);
@@ -216,15 +211,10 @@ fn film_of_the_default_render(
         Arc::new(environment),
         Arc::new(shading),
         camera,
-        RenderSettings {
-            seed,
-            ..RenderSettings::default()
-        },
+        RenderSettings::seeded(seed),
     )
     .expect("render");
-    while render.samples_per_pixel() < spp {
-        render.render_pass((spp - render.samples_per_pixel()).min(4));
-    }
+    render.render_to(spp, 4);
     (render, masks)
 }
 
@@ -272,16 +262,9 @@ fn the_exr_is_the_films_linear_srgb_in_32_bit_floats() {
     let output = render_seeded(&exr, (size, spp, wavelengths, seed), &[]);
     stdout(&output);
     let image = read_exr(&exr);
-    // What the help text and the docs say: 32-bit float R, G, B (sorted by name,
-    // as the format requires), sRGB primaries and D65 white.
-    assert_eq!(
-        image.channels,
-        [
-            ("B".into(), "f32"),
-            ("G".into(), "f32"),
-            ("R".into(), "f32")
-        ]
-    );
+    // What the help text and the docs say: 32-bit float R, G, B, sRGB primaries
+    // and D65 white.
+    assert_rgb_f32(&image);
     let srgb = [0.64, 0.33, 0.30, 0.60, 0.15, 0.06, 0.3127, 0.3290];
     assert_eq!(image.chromaticities, Some(srgb));
     let grid = WavelengthGrid::visible(wavelengths).expect("grid");
@@ -375,17 +358,14 @@ fn exr_options_and_the_header_record() {
     let (attributes, compression) = exr_header(&exr);
     assert_eq!(compression, Compression::PIZ);
     let design = presets::all().into_iter().next().expect("a preset").design;
-    let expected: BTreeMap<String, String> = [
+    let expected = expected_attributes(&[
         (exr_attribute::DESIGN, design.name.as_str()),
         (exr_attribute::SAMPLES_PER_PIXEL, "3"),
         (exr_attribute::SEED, "5"),
         (exr_attribute::WAVELENGTHS, "8 from 405 to 755 nm"),
         (exr_attribute::LIGHTING, "booth-a"),
         (exr_attribute::ADAPTATION, EXR_ADAPTATION),
-    ]
-    .into_iter()
-    .map(|(k, v)| (k.to_owned(), v.to_owned()))
-    .collect();
+    ]);
     assert_eq!(attributes, expected);
 
     // The defaults: 32-bit floats, ZIP; adaptive sampling says its mean.
@@ -496,70 +476,41 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
     let garbage_map = out_path("garbage.exr");
     std::fs::write(&garbage_map, b"v/1\x01 not really an EXR").expect("write");
     let garbage_map = garbage_map.to_str().expect("utf-8").to_owned();
-    let usage = exit::USAGE;
-    let cases: Vec<(Vec<String>, i32, &str)> = vec![
-        (vec!["--size".into(), "48".into()], usage, "WIDTHxHEIGHT"),
-        (vec!["--size".into(), "0x10".into()], usage, "1 to 16384"),
+    let (usage, no_input) = (exit::USAGE, exit::NO_INPUT);
+    let cases: Vec<(Vec<&str>, i32, &str)> = vec![
+        (vec!["--size", "48"], usage, "WIDTHxHEIGHT"),
+        (vec!["--size", "0x10"], usage, "1 to 16384"),
+        (vec!["--size", "16384x16384"], usage, "112 bytes a pixel"),
+        (vec!["--model", "lambert"], usage, "phong-naive"),
+        (vec!["--wavelengths", "0"], usage, "--wavelengths 0"),
+        (vec!["--spp", "0"], usage, "--spp 0"),
+        (vec!["--adaptive", "maybe"], usage, "use on or off"),
         (
-            vec!["--size".into(), "16384x16384".into()],
-            usage,
-            "112 bytes a pixel",
-        ),
-        (
-            vec!["--model".into(), "lambert".into()],
-            usage,
-            "phong-naive",
-        ),
-        (
-            vec!["--wavelengths".into(), "0".into()],
-            usage,
-            "--wavelengths 0",
-        ),
-        (vec!["--spp".into(), "0".into()], usage, "--spp 0"),
-        (
-            vec!["--adaptive".into(), "maybe".into()],
-            usage,
-            "use on or off",
-        ),
-        (
-            vec![
-                "--adaptive".into(),
-                "on".into(),
-                "--adaptive-floor".into(),
-                "0".into(),
-            ],
+            vec!["--adaptive", "on", "--adaptive-floor", "0"],
             usage,
             "--adaptive-floor: floor 0: must be in (0, 1]",
         ),
-        (vec!["--seconds".into(), "-1".into()], usage, "--seconds -1"),
+        (vec!["--seconds", "-1"], usage, "--seconds -1"),
+        (vec!["--environment", "moonlight"], usage, "no such file"),
         (
-            vec!["--environment".into(), "moonlight".into()],
-            usage,
+            vec!["--environment", "/nonexistent/sky.exr"],
+            no_input,
             "no such file",
         ),
         (
-            vec!["--environment".into(), "/nonexistent/sky.exr".into()],
-            exit::NO_INPUT,
-            "no such file",
-        ),
-        (
-            vec!["--environment".into(), garbage_map],
+            vec!["--environment", &garbage_map],
             exit::DATA,
             "not a readable OpenEXR file",
         ),
+        (vec!["--paint-material", "Chrome"], usage, "body, glass"),
         (
-            vec!["--paint-material".into(), "Chrome".into()],
-            usage,
-            "body, glass",
-        ),
-        (
-            vec!["--scene".into(), "/nonexistent/car.glb".into()],
-            exit::NO_INPUT,
+            vec!["--scene", "/nonexistent/car.glb"],
+            no_input,
             "/nonexistent/car.glb",
         ),
         (
-            vec!["--design".into(), "/nonexistent/paint.toml".into()],
-            exit::NO_INPUT,
+            vec!["--design", "/nonexistent/paint.toml"],
+            no_input,
             "/nonexistent/paint.toml",
         ),
     ];
@@ -567,13 +518,12 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
         // Small defaults for whatever the case does not set itself.
         let mut full = args.clone();
         for (flag, value) in [("--size", "8x8"), ("--spp", "1")] {
-            let timed = flag == "--spp" && args.iter().any(|a| a == "--seconds");
-            if !timed && !args.iter().any(|a| a == flag) {
-                full.extend([flag.to_owned(), value.to_owned()]);
+            let timed = flag == "--spp" && args.contains(&"--seconds");
+            if !timed && !args.contains(&flag) {
+                full.extend([flag, value]);
             }
         }
-        let refs: Vec<&str> = full.iter().map(String::as_str).collect();
-        let output = render_to(&png, &refs);
+        let output = render_to(&png, &full);
         let err = failure(&output, code);
         assert!(err.contains(expected), "{args:?}: {err}");
         // Each cause once: a message that names its cause must not get it appended
@@ -599,17 +549,7 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
     let bytes = b"glTF\x02\x00\x00\x00\xff\x00\x00\x00";
     let cut = out_path("cut.glb");
     std::fs::write(&cut, bytes).expect("write");
-    let output = render_to(
-        &png,
-        &[
-            "--scene",
-            cut.to_str().expect("utf-8"),
-            "--size",
-            "8x8",
-            "--spp",
-            "1",
-        ],
-    );
+    let output = render_small(&png, "8x8", 1, &["--scene", cut.to_str().expect("utf-8")]);
     let err = failure(&output, exit::DATA);
     assert!(err.contains("cut.glb"), "{err}");
 }
@@ -621,17 +561,15 @@ fn shared_models_render_or_are_refused_by_name() {
     };
     let lambo = dir.join("LamborghiniHuracanGT3/LamborghiniHuracanGT3.glb");
     let png = out_path("lambo.png");
-    let output = render_to(
+    let output = render_small(
         &png,
+        "32x18",
+        1,
         &[
             "--scene",
             lambo.to_str().expect("utf-8"),
             "--paint-material",
             "Material.035",
-            "--size",
-            "32x18",
-            "--spp",
-            "1",
             "--wavelengths",
             "4",
         ],
@@ -650,17 +588,7 @@ fn shared_models_render_or_are_refused_by_name() {
         ),
     ] {
         let path = dir.join(file);
-        let output = render_to(
-            &png,
-            &[
-                "--scene",
-                path.to_str().expect("utf-8"),
-                "--size",
-                "8x8",
-                "--spp",
-                "1",
-            ],
-        );
+        let output = render_small(&png, "8x8", 1, &["--scene", path.to_str().expect("utf-8")]);
         let err = failure(&output, exit::DATA);
         let name = path.file_name().and_then(|n| n.to_str()).expect("name");
         assert!(err.contains(extension) && err.contains(name), "{err}");

@@ -256,12 +256,19 @@ fn check_batch_against_single_rays(accel: &Accel, rays: &[([f32; 3], [f32; 3], f
     }
 }
 
+/// `mesh`'s tree built in each configuration of [`ALL_OPTIONS`].
+fn every_configuration(mesh: &TriangleMesh) -> impl Iterator<Item = (BuildOptions, Accel)> + '_ {
+    ALL_OPTIONS.into_iter().map(move |options| {
+        let accel = Accel::build_with(mesh, &options).expect("build");
+        (options, accel)
+    })
+}
+
 #[test]
 fn torus_agrees_with_brute_force_in_every_configuration() {
     let mesh = torus(120, 40);
     let rays = random_rays(&mesh, 2000, 1);
-    for options in ALL_OPTIONS {
-        let accel = Accel::build_with(&mesh, &options).expect("build");
+    for (options, accel) in every_configuration(&mesh) {
         accel.validate().expect("valid tree");
         assert_eq!(accel.triangle_count(), mesh.triangle_count());
         assert_eq!(accel.bvh().options(), options);
@@ -634,8 +641,7 @@ fn the_box_level_queries_agree_with_the_triangle_layer_in_every_layout() {
     // them) find the same hits as `Accel`'s own, packed path.
     let mesh = torus(60, 20);
     let rays = random_rays(&mesh, 800, 14);
-    for options in ALL_OPTIONS {
-        let accel = Accel::build_with(&mesh, &options).expect("build");
+    for (options, accel) in every_configuration(&mesh) {
         let slot_triangles = accel.slot_triangles();
         let intersect = |ray: &coatlab_core::accel::Ray, slot: usize| {
             let tri =
@@ -706,8 +712,7 @@ fn single_triangle() {
         triangles: vec![[0, 1, 2]],
         ..Default::default()
     };
-    for options in ALL_OPTIONS {
-        let accel = Accel::build_with(&mesh, &options).expect("build");
+    for (_, accel) in every_configuration(&mesh) {
         accel.validate().expect("valid");
         let hit = accel
             .closest_hit([0.25, 0.25, 1.0], [0.0, 0.0, -1.0], f32::INFINITY)
@@ -754,8 +759,7 @@ fn zero_area_triangles_are_skipped_and_never_hit() {
         ..Default::default()
     };
     mesh.triangles.extend(std::iter::repeat_n([3, 3, 3], 500));
-    for options in ALL_OPTIONS {
-        let accel = Accel::build_with(&mesh, &options).expect("build");
+    for (_, accel) in every_configuration(&mesh) {
         accel.validate().expect("valid");
         assert_eq!(accel.triangle_count(), 1);
         assert_eq!(accel.skipped_degenerate(), 502);
@@ -794,8 +798,7 @@ fn many_coincident_triangles_still_trace_correctly() {
     mesh.triangles
         .extend(std::iter::repeat_n([base, base + 1, base + 2], 2000));
     let rays = random_rays(&mesh, 600, 5);
-    for options in ALL_OPTIONS {
-        let accel = Accel::build_with(&mesh, &options).expect("build");
+    for (_, accel) in every_configuration(&mesh) {
         accel.validate().expect("valid");
         assert_eq!(accel.triangle_count(), mesh.triangle_count());
         check_against_brute_force(&mesh, &accel, &rays);
@@ -860,8 +863,7 @@ fn huge_coordinates_build_validate_and_trace() {
         *p = [p[0] * 500.0 + 1e6, p[1] * 500.0 - 1e6, p[2] * 500.0 + 1e6];
     }
     let rays = random_rays(&mesh, 1000, 4);
-    for options in ALL_OPTIONS {
-        let accel = Accel::build_with(&mesh, &options).expect("build");
+    for (_, accel) in every_configuration(&mesh) {
         accel.validate().expect("valid");
         check_against_brute_force(&mesh, &accel, &rays);
     }
@@ -956,8 +958,7 @@ fn batches_with_unusable_rays_and_every_length_agree_with_single_rays() {
     {
         rays.insert(7 * k + 3, bad);
     }
-    for options in ALL_OPTIONS {
-        let accel = Accel::build_with(&mesh, &options).expect("build");
+    for (_, accel) in every_configuration(&mesh) {
         for len in [0, 1, 2, 5, 9, 17, rays.len()] {
             check_batch_against_single_rays(&accel, &rays[..len]);
         }

@@ -10,7 +10,7 @@ use rand_pcg::Pcg64;
 
 #[path = "support/exr_text.rs"]
 mod exr_text;
-use exr_text::text_attributes;
+use exr_text::{expected_attributes, text_attributes};
 
 fn grids() -> [WavelengthGrid; 3] {
     [
@@ -242,6 +242,17 @@ const CLIP: DisplaySettings = DisplaySettings {
     tone_mapping: ToneMapping::Clip,
 };
 
+/// An opaque grey of `level` (±1 for rounding) in every channel.
+fn assert_grey(pixel: [u8; 4], level: i32) {
+    assert!(
+        pixel[..3]
+            .iter()
+            .all(|&c| (i32::from(c) - level).abs() <= 1)
+            && pixel[3] == 255,
+        "{pixel:?} is not grey {level}"
+    );
+}
+
 /// An equal-energy grey, adapted to E, is neutral: R = G = B within 1 code value, on
 /// every grid, with and without tone mapping. Unadapted, the same grey is visibly
 /// pink-ish relative to D65 (R > B by several codes): adaptation does something.
@@ -290,9 +301,7 @@ fn d65_white_maps_to_full_white_without_tone_mapping() {
     film.add_sample(1, 0, &half);
     let pixels = film.to_display(&CLIP);
     assert_eq!(pixels[0], [255, 255, 255, 255]);
-    for c in &pixels[1][..3] {
-        assert!((i32::from(*c) - 188).abs() <= 1, "{:?}", pixels[1]);
-    }
+    assert_grey(pixels[1], 188);
     let brighter = film.to_display(&DisplaySettings {
         exposure_stops: 1.0,
         ..CLIP
@@ -312,9 +321,7 @@ fn d65_white_maps_to_full_white_without_tone_mapping() {
         ..CLIP
     };
     let tone_mapped = film.to_display(&reinhard);
-    for c in &tone_mapped[0][..3] {
-        assert!((i32::from(*c) - 192).abs() <= 1, "{:?}", tone_mapped[0]);
-    }
+    assert_grey(tone_mapped[0], 192);
     let two_stops_up = film.to_display(&DisplaySettings {
         exposure_stops: 2.0,
         ..reinhard
@@ -361,16 +368,10 @@ fn auto_exposure_brings_the_log_average_to_middle_grey() {
 
 #[test]
 fn png_round_trip() {
-    let grid = WavelengthGrid::visible(16).unwrap();
     let (width, height) = (37u32, 11u32);
-    let mut film = Film::new(width, height, grid);
-    let mut rng = Pcg64::seed_from_u64(3);
-    for y in 0..height {
-        for x in 0..width {
-            let radiance: Vec<f32> = (0..grid.len()).map(|_| 2.0 * rng.random::<f32>()).collect();
-            film.add_sample(x, y, &radiance);
-        }
-    }
+    let film = random_film((width, height), 3, |_, _, radiance| {
+        radiance.iter_mut().for_each(|v| *v *= 2.0);
+    });
     let settings = DisplaySettings {
         exposure_stops: film.auto_exposure(),
         ..DisplaySettings::default()
@@ -401,17 +402,28 @@ fn png_round_trip() {
 /// A film of 9×5 pixels of random spectra with a narrow-band spike now and
 /// then: some pixels out of the sRGB gamut (negative components).
 fn out_of_gamut_film() -> Film {
+    random_film((9, 5), 5, |x, y, radiance| {
+        if (x + y) % 3 == 0 {
+            radiance.iter_mut().for_each(|v| *v *= 0.01);
+            radiance[12] = 20.0;
+        }
+    })
+}
+
+/// A film on a 16-wavelength grid with one sample a pixel: uniform random
+/// radiance in [0, 1) from `seed`, then changed by `shape(x, y, radiance)`.
+fn random_film(
+    (width, height): (u32, u32),
+    seed: u64,
+    mut shape: impl FnMut(u32, u32, &mut [f32]),
+) -> Film {
     let grid = WavelengthGrid::visible(16).unwrap();
-    let (width, height) = (9u32, 5u32);
     let mut film = Film::new(width, height, grid);
-    let mut rng = Pcg64::seed_from_u64(5);
+    let mut rng = Pcg64::seed_from_u64(seed);
     for y in 0..height {
         for x in 0..width {
             let mut radiance: Vec<f32> = (0..grid.len()).map(|_| rng.random::<f32>()).collect();
-            if (x + y) % 3 == 0 {
-                radiance.iter_mut().for_each(|v| *v *= 0.01);
-                radiance[12] = 20.0;
-            }
+            shape(x, y, &mut radiance);
             film.add_sample(x, y, &radiance);
         }
     }
@@ -562,17 +574,14 @@ fn exr_options_and_header_attributes_read_back() {
                 "{name}, {compression:?}"
             );
         }
-        let expected_attributes: std::collections::BTreeMap<String, String> = [
+        let expected_attributes = expected_attributes(&[
             (exr_attribute::DESIGN, "Rouge \"Évora\" 赤"),
             (exr_attribute::SAMPLES_PER_PIXEL, "16 mean, adaptive"),
             (exr_attribute::SEED, "42"),
             (exr_attribute::WAVELENGTHS, "16 from 392.5 to 767.5 nm"),
             (exr_attribute::LIGHTING, "booth-a"),
             (exr_attribute::ADAPTATION, EXR_ADAPTATION),
-        ]
-        .into_iter()
-        .map(|(k, v)| (k.to_owned(), v.to_owned()))
-        .collect();
+        ]);
         assert_eq!(exr.attributes, expected_attributes, "{compression:?}");
         // Reproducible: the header's attributes come in one order.
         let again = dir.join("again.exr");

@@ -10,17 +10,38 @@ use coatlab_core::scene::gltf_loader::{LoadOptions, SceneError, TARGET_LENGTH_M,
 mod gltf_testdata;
 use gltf_testdata::testdata;
 
-/// The test model at `rel`, checked against [`check_scene`]'s invariants; `None`
-/// where the test models are absent.
-fn load_model(rel: &str) -> Option<Scene> {
+/// Checks that `$result` is an error matching `$pattern` (showing it where not);
+/// the error.
+macro_rules! assert_refused {
+    ($result:expr, $pattern:pat) => {{
+        let err = $result.unwrap_err();
+        assert!(matches!(err, $pattern), "{err}");
+        err
+    }};
+}
+
+/// The test model at `rel`, checked against [`check_scene`]'s invariants and to
+/// hold `triangles` triangles; `None` where the test models are absent.
+fn load_model(rel: &str, triangles: usize) -> Option<Scene> {
     let path = testdata()?.join(rel);
     match load(&path, &LoadOptions::default()) {
         Ok(scene) => {
             check_scene(&scene, rel);
+            assert_eq!(scene.mesh.triangle_count(), triangles, "{rel}");
             Some(scene)
         }
         Err(e) => panic!("{rel}: {e}"),
     }
+}
+
+/// How loading the test model at `rel` fails, checked to name the file; `None`
+/// where the test models are absent.
+fn refusal(rel: &str) -> Option<SceneError> {
+    let path = testdata()?.join(rel);
+    let err = load(&path, &LoadOptions::default()).unwrap_err();
+    let file = rel.rsplit('/').next().unwrap_or(rel);
+    assert!(err.to_string().contains(file), "{err}");
+    Some(err)
 }
 
 /// Whether one of the loader's warnings on `scene` starts with `prefix`.
@@ -84,10 +105,9 @@ fn check_scene(scene: &Scene, what: &str) {
 
 #[test]
 fn cesium_milk_truck_instances_its_wheels() {
-    let Some(scene) = load_model("CesiumMilkTruck/CesiumMilkTruck.glb") else {
+    let Some(scene) = load_model("CesiumMilkTruck/CesiumMilkTruck.glb", 3624) else {
         return;
     };
-    assert_eq!(scene.mesh.triangle_count(), 3624);
     // Yup2Zup and the hierarchy leave the truck's length along z, upright.
     let (lo, hi) = scene.mesh.bounds().unwrap();
     assert!(hi[2] - lo[2] > hi[0] - lo[0], "length along z");
@@ -100,10 +120,9 @@ fn cesium_milk_truck_instances_its_wheels() {
 
 #[test]
 fn toy_car_with_external_bin_is_scaled_up() {
-    let Some(scene) = load_model("ToyCar/ToyCar.gltf") else {
+    let Some(scene) = load_model("ToyCar/ToyCar.gltf", 108_936) else {
         return;
     };
-    assert_eq!(scene.mesh.triangle_count(), 108_936);
     assert_eq!(paint_names(&scene), ["ToyCar"]);
     assert!(warns_with(&scene, "KHR_materials_clearcoat"));
     assert!(warns_about(
@@ -114,10 +133,9 @@ fn toy_car_with_external_bin_is_scaled_up() {
 
 #[test]
 fn clear_coat_car_paint_loads_despite_its_required_extensions() {
-    let Some(scene) = load_model("ClearCoatCarPaint/ClearCoatCarPaint.glb") else {
+    let Some(scene) = load_model("ClearCoatCarPaint/ClearCoatCarPaint.glb", 3072) else {
         return;
     };
-    assert_eq!(scene.mesh.triangle_count(), 3072);
     assert_eq!(scene.paint_materials, [0]);
     assert!(warns_with(
         &scene,
@@ -130,10 +148,9 @@ fn clear_coat_car_paint_loads_despite_its_required_extensions() {
 
 #[test]
 fn lamborghini_is_normalised_to_a_car_length() {
-    let Some(scene) = load_model("LamborghiniHuracanGT3/LamborghiniHuracanGT3.glb") else {
+    let Some(scene) = load_model("LamborghiniHuracanGT3/LamborghiniHuracanGT3.glb", 145_917) else {
         return;
     };
-    assert_eq!(scene.mesh.triangle_count(), 145_917);
     assert_eq!(scene.materials.len(), 45);
     // No material is named like paint: the largest non-excluded area seen from
     // outside wins (the livery; CarBase is larger but mostly hidden under it).
@@ -152,29 +169,24 @@ fn lamborghini_is_normalised_to_a_car_length() {
 
 #[test]
 fn draco_is_refused_by_name() {
-    let Some(dir) = testdata() else { return };
-    let path = dir.join("CesiumMilkTruck/glTF-Draco/CesiumMilkTruck.gltf");
-    let err = load(&path, &LoadOptions::default()).unwrap_err();
+    let Some(err) = refusal("CesiumMilkTruck/glTF-Draco/CesiumMilkTruck.gltf") else {
+        return;
+    };
     assert!(
         matches!(&err, SceneError::UnsupportedExtension { extension, .. } if extension == "KHR_draco_mesh_compression")
     );
-    let message = err.to_string();
-    assert!(message.contains("KHR_draco_mesh_compression"), "{message}");
-    assert!(message.contains("CesiumMilkTruck.gltf"), "{message}");
+    assert!(
+        err.to_string().contains("KHR_draco_mesh_compression"),
+        "{err}"
+    );
 }
 
 #[test]
 fn meshopt_is_refused_by_name() {
-    let Some(dir) = testdata() else { return };
-    let path = dir.join("LamborghiniHuracanGT3/LamborghiniHuracanGT3.meshopt.glb");
-    let message = load(&path, &LoadOptions::default())
-        .unwrap_err()
-        .to_string();
-    assert!(message.contains("EXT_meshopt_compression"), "{message}");
-    assert!(
-        message.contains("LamborghiniHuracanGT3.meshopt.glb"),
-        "{message}"
-    );
+    let Some(err) = refusal("LamborghiniHuracanGT3/LamborghiniHuracanGT3.meshopt.glb") else {
+        return;
+    };
+    assert!(err.to_string().contains("EXT_meshopt_compression"), "{err}");
 }
 
 #[test]
@@ -298,6 +310,13 @@ fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
 /// A unit right triangle in the x-y plane, facing +z.
 const TRIANGLE: [[f32; 3]; 3] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
 
+/// [`TRIANGLE`] as one mesh under `nodes`, `extra` merged into the root: the JSON
+/// and the binary payload.
+fn triangle(nodes: &str, extra: &str) -> (String, Vec<u8>) {
+    let json = gltf_json(&TRIANGLE, &[0, 1, 2], None, nodes, 4, extra);
+    (json, payload(&TRIANGLE, &[0, 1, 2]))
+}
+
 fn load_glb(tmp: &TempDir, json: &str, bin: &[u8]) -> Result<Scene, SceneError> {
     let path = tmp.write("scene.glb", &glb(json, bin));
     load(&path, &LoadOptions::default())
@@ -390,34 +409,25 @@ fn strips_fans_and_points() {
         [0.0, 1.0, 0.0],
         [1.0, 1.0, 0.0],
     ];
-    let bin = payload(&quad, &[0, 1, 2, 3]);
-    // Strip (5): 2 triangles, both facing +z.
-    let json = gltf_json(&quad, &[0, 1, 2, 3], None, "[0]", 5, "");
-    let scene = load_glb(&tmp, &json, &bin).unwrap();
-    assert_eq!(scene.mesh.triangle_count(), 2);
-    for t in 0..2 {
-        assert!(geometric_normal(&scene, t)[2] > 0.0, "strip triangle {t}");
-    }
-    // Fan (6) over 0, 1, 3, 2: 2 triangles facing +z.
-    let bin = payload(&quad, &[0, 1, 3, 2]);
-    let json = gltf_json(&quad, &[0, 1, 3, 2], None, "[0]", 6, "");
-    let scene = load_glb(&tmp, &json, &bin).unwrap();
-    assert_eq!(scene.mesh.triangle_count(), 2);
-    for t in 0..2 {
-        assert!(geometric_normal(&scene, t)[2] > 0.0, "fan triangle {t}");
+    // Strip (5) and fan (6, over 0, 1, 3, 2): 2 triangles each, both facing +z.
+    for (mode, indices, name) in [(5, [0, 1, 2, 3], "strip"), (6, [0, 1, 3, 2], "fan")] {
+        let bin = payload(&quad, &indices);
+        let json = gltf_json(&quad, &indices, None, "[0]", mode, "");
+        let scene = load_glb(&tmp, &json, &bin).unwrap();
+        assert_eq!(scene.mesh.triangle_count(), 2, "{name}");
+        for t in 0..2 {
+            assert!(geometric_normal(&scene, t)[2] > 0.0, "{name} triangle {t}");
+        }
     }
     // Points (0) only: skipped with a warning, leaving an empty scene.
+    let bin = payload(&quad, &[0, 1, 2, 3]);
     let json = gltf_json(&quad, &[0, 1, 2, 3], None, "[0]", 0, "");
-    let err = load_glb(&tmp, &json, &bin).unwrap_err();
-    assert!(matches!(err, SceneError::Empty { .. }), "{err}");
+    let err = assert_refused!(load_glb(&tmp, &json, &bin), SceneError::Empty { .. });
     assert!(err.to_string().contains("1 primitives skipped"), "{err}");
 }
 
 #[test]
 fn malformed_node_graphs_are_errors() {
-    let tmp = TempDir::new("graphs");
-    let bin = payload(&TRIANGLE, &[0, 1, 2]);
-    let json = gltf_json(&TRIANGLE, &[0, 1, 2], None, "[3]", 4, "");
     let cases = [
         // Node 0 under node 3 twice.
         (r#""children":[0]"#, r#""children":[0,0]"#),
@@ -426,21 +436,34 @@ fn malformed_node_graphs_are_errors() {
         // Node 3 its own child.
         (r#""children":[0]"#, r#""children":[3]"#),
     ];
-    for (k, (from, to)) in cases.iter().enumerate() {
+    for (k, err) in edits_refused("graphs", "[3]", &cases) {
+        assert!(matches!(err, SceneError::Parse { .. }), "case {k}: {err}");
+    }
+}
+
+/// The [`triangle`] under `nodes` with each of `edits` (text replaced once) in
+/// turn: each case's index and its error; fails where an edit does not apply or a
+/// case loads.
+fn edits_refused(name: &str, nodes: &str, edits: &[(&str, &str)]) -> Vec<(usize, SceneError)> {
+    let tmp = TempDir::new(name);
+    let (json, bin) = triangle(nodes, "");
+    let mut errors = Vec::new();
+    for (k, (from, to)) in edits.iter().enumerate() {
         let broken = json.replacen(from, to, 1);
         assert_ne!(broken, json, "case {k} did not apply");
         let Err(err) = load_glb(&tmp, &broken, &bin) else {
             panic!("case {k} loaded");
         };
-        assert!(matches!(err, SceneError::Parse { .. }), "case {k}: {err}");
+        errors.push((k, err));
     }
+    errors
 }
 
 #[test]
 fn truncated_glb_is_a_parse_error() {
     let tmp = TempDir::new("truncated");
-    let bin = payload(&TRIANGLE, &[0, 1, 2]);
-    let bytes = glb(&gltf_json(&TRIANGLE, &[0, 1, 2], None, "[0]", 4, ""), &bin);
+    let (json, bin) = triangle("[0]", "");
+    let bytes = glb(&json, &bin);
     for cut in [3, 12, 30, bytes.len() - 10] {
         let path = tmp.write("cut.glb", &bytes[..cut]);
         let err = load(&path, &LoadOptions::default()).unwrap_err();
@@ -451,12 +474,16 @@ fn truncated_glb_is_a_parse_error() {
     let mut bad = bytes.clone();
     bad[8..12].copy_from_slice(&4u32.to_le_bytes());
     let path = tmp.write("bad.glb", &bad);
-    let err = load(&path, &LoadOptions::default()).unwrap_err();
-    assert!(matches!(err, SceneError::Parse { .. }), "{err}");
+    assert_refused!(
+        load(&path, &LoadOptions::default()),
+        SceneError::Parse { .. }
+    );
     // Truncated JSON.
     let path = tmp.write("cut.gltf", b"{\"asset\":{\"version\":\"2.0\"},\"sce");
-    let err = load(&path, &LoadOptions::default()).unwrap_err();
-    assert!(matches!(err, SceneError::Parse { .. }), "{err}");
+    assert_refused!(
+        load(&path, &LoadOptions::default()),
+        SceneError::Parse { .. }
+    );
 }
 
 #[test]
@@ -473,11 +500,15 @@ fn missing_bin_is_reported_by_path() {
     assert!(message.contains("scene.gltf") && message.contains("gone.bin"));
     // A .bin that is shorter than its byteLength.
     tmp.write("gone.bin", &[0; 8]);
-    let err = load(&path, &LoadOptions::default()).unwrap_err();
-    assert!(matches!(err, SceneError::Parse { .. }), "{err}");
+    assert_refused!(
+        load(&path, &LoadOptions::default()),
+        SceneError::Parse { .. }
+    );
     // Missing file itself.
-    let err = load(&tmp.0.join("nothing.glb"), &LoadOptions::default()).unwrap_err();
-    assert!(matches!(err, SceneError::Io { .. }), "{err}");
+    assert_refused!(
+        load(&tmp.0.join("nothing.glb"), &LoadOptions::default()),
+        SceneError::Io { .. }
+    );
 }
 
 #[test]
@@ -493,37 +524,33 @@ fn nan_vertex_names_the_mesh() {
         "{err}"
     );
     // Infinite scale in a node transform.
-    let bin = payload(&TRIANGLE, &[0, 1, 2]);
-    let json = gltf_json(&TRIANGLE, &[0, 1, 2], None, "[0]", 4, "")
-        .replace(r#""name":"n0""#, r#""name":"n0","scale":[1e39,1,1]"#);
-    let err = load_glb(&tmp, &json, &bin).unwrap_err();
-    assert!(matches!(err, SceneError::NonFinite { .. }), "{err}");
+    let (json, bin) = triangle("[0]", "");
+    let json = json.replace(r#""name":"n0""#, r#""name":"n0","scale":[1e39,1,1]"#);
+    assert_refused!(load_glb(&tmp, &json, &bin), SceneError::NonFinite { .. });
 }
 
 #[test]
 fn empty_scenes_are_errors() {
     let tmp = TempDir::new("empty");
-    let bin = payload(&TRIANGLE, &[0, 1, 2]);
-    let json = gltf_json(&TRIANGLE, &[0, 1, 2], None, "[]", 4, "");
-    let err = load_glb(&tmp, &json, &bin).unwrap_err();
-    assert!(matches!(err, SceneError::Empty { .. }), "{err}");
+    let (json, bin) = triangle("[]", "");
+    assert_refused!(load_glb(&tmp, &json, &bin), SceneError::Empty { .. });
     let path = tmp.write("bare.gltf", br#"{"asset":{"version":"2.0"}}"#);
-    let err = load(&path, &LoadOptions::default()).unwrap_err();
-    assert!(matches!(err, SceneError::Empty { .. }), "{err}");
+    assert_refused!(
+        load(&path, &LoadOptions::default()),
+        SceneError::Empty { .. }
+    );
     // Degenerate: all vertices on one vertical line.
     let line = [[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 2.0, 0.0]];
     let bin = payload(&line, &[0, 1, 2]);
     let json = gltf_json(&line, &[0, 1, 2], None, "[0]", 4, "");
-    let err = load_glb(&tmp, &json, &bin).unwrap_err();
-    assert!(matches!(err, SceneError::Empty { .. }), "{err}");
+    assert_refused!(load_glb(&tmp, &json, &bin), SceneError::Empty { .. });
 }
 
 #[test]
 fn unknown_required_extension_is_refused_and_optional_warned() {
     let tmp = TempDir::new("extensions");
-    let bin = payload(&TRIANGLE, &[0, 1, 2]);
     let extra = r#","extensionsUsed":["EXT_fancy"],"extensionsRequired":["EXT_fancy"]"#;
-    let json = gltf_json(&TRIANGLE, &[0, 1, 2], None, "[0]", 4, extra);
+    let (json, bin) = triangle("[0]", extra);
     let err = load_glb(&tmp, &json, &bin).unwrap_err();
     assert!(
         matches!(&err, SceneError::UnsupportedExtension { extension, .. } if extension == "EXT_fancy"),
@@ -540,9 +567,6 @@ fn unknown_required_extension_is_refused_and_optional_warned() {
 
 #[test]
 fn bad_accessors_are_errors() {
-    let tmp = TempDir::new("accessors");
-    let bin = payload(&TRIANGLE, &[0, 1, 2]);
-    let json = gltf_json(&TRIANGLE, &[0, 1, 2], None, "[0]", 4, "");
     let cases = [
         // An accessor index that does not exist.
         (r#""indices":1"#, r#""indices":99"#),
@@ -561,28 +585,23 @@ fn bad_accessors_are_errors() {
             r#""count":0,"type":"SCALAR""#,
         ),
     ];
-    for (k, (from, to)) in cases.iter().enumerate() {
-        let broken = json.replacen(from, to, 1);
-        assert_ne!(broken, json, "case {k} did not apply");
-        let Err(err) = load_glb(&tmp, &broken, &bin) else {
-            panic!("case {k} loaded");
-        };
+    for (k, err) in edits_refused("accessors", "[0]", &cases) {
         assert!(
             matches!(err, SceneError::BadAccessor { .. }),
             "case {k}: {err}"
         );
     }
     // Index out of range.
+    let tmp = TempDir::new("accessors");
+    let (json, _) = triangle("[0]", "");
     let bin = payload(&TRIANGLE, &[0, 1, 7]);
-    let err = load_glb(&tmp, &json, &bin).unwrap_err();
-    assert!(matches!(err, SceneError::BadAccessor { .. }), "{err}");
+    assert_refused!(load_glb(&tmp, &json, &bin), SceneError::BadAccessor { .. });
 }
 
 #[test]
 fn paint_material_override() {
     let tmp = TempDir::new("override");
-    let bin = payload(&TRIANGLE, &[0, 1, 2]);
-    let json = gltf_json(&TRIANGLE, &[0, 1, 2], None, "[0]", 4, "");
+    let (json, bin) = triangle("[0]", "");
     let path = tmp.write("scene.glb", &glb(&json, &bin));
     let options = LoadOptions {
         paint_material: Some("Chassis".into()),
@@ -722,7 +741,7 @@ fn real_models_load_as_their_files_declare() {
         },
     ];
     for m in models {
-        let Some(scene) = load_model(m.rel) else {
+        let Some(scene) = load_model(m.rel, m.triangles) else {
             return;
         };
         let d = declared(&testdata().expect("test data").join(m.rel));

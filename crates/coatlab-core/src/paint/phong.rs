@@ -691,11 +691,8 @@ mod tests {
         assert!(fit_rms < naive_rms, "fit {fit_rms} vs naive {naive_rms}");
         assert!(fit_rms.is_finite() && fit_rms > 0.0);
         // The fitted exponent stays near the paint's (same lobe shape).
-        assert!(
-            fit.exponent > 100.0 && fit.exponent < 1000.0,
-            "m = {}",
-            fit.exponent
-        );
+        let m = fit.exponent;
+        assert!(m > 100.0 && m < 1000.0, "m = {m}");
     }
 
     /// The specular residual from the per-incidence sums ΣR, ΣR² equals the sum

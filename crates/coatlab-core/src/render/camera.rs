@@ -328,17 +328,14 @@ mod tests {
         (x, y)
     }
 
+    /// A camera with +y up.
+    fn upright(position: [f32; 3], look_at: [f32; 3], fov_deg: f32, (w, h): (u32, u32)) -> Camera {
+        Camera::new(position, look_at, [0.0, 1.0, 0.0], fov_deg, w, h).unwrap()
+    }
+
     #[test]
     fn centre_ray_points_at_look_at() {
-        let camera = Camera::new(
-            [3.0, 2.0, 5.0],
-            [0.0, 0.5, 0.0],
-            [0.0, 1.0, 0.0],
-            40.0,
-            640,
-            360,
-        )
-        .unwrap();
+        let camera = upright([3.0, 2.0, 5.0], [0.0, 0.5, 0.0], 40.0, (640, 360));
         let (origin, dir) = camera.ray(320.0, 180.0);
         assert_eq!(origin, [3.0, 2.0, 5.0]);
         let to_target = Vec3::new(0.0, 0.5, 0.0) - Vec3::from(origin);
@@ -348,15 +345,7 @@ mod tests {
 
     #[test]
     fn corner_rays_span_the_field_of_view() {
-        let camera = Camera::new(
-            [0.0, 1.0, 10.0],
-            [0.0, 1.0, 0.0],
-            [0.0, 1.0, 0.0],
-            35.0,
-            800,
-            400,
-        )
-        .unwrap();
+        let camera = upright([0.0, 1.0, 10.0], [0.0, 1.0, 0.0], 35.0, (800, 400));
         let dir = |x, y| Vec3::from(camera.ray(x, y).1);
         let (w, h) = (800.0, 400.0);
         // Top and bottom edge centres are the vertical fov apart; left and right the

@@ -188,6 +188,24 @@ mod tests {
         }
     }
 
+    /// `n` weights from uniform numbers: every `period`-th one 0 (empty bins), the
+    /// one after it `spike(u)`, the others `rest(u)`.
+    fn lumpy_weights(
+        n: usize,
+        period: usize,
+        state: &mut u64,
+        spike: impl Fn(f64) -> f64,
+        rest: impl Fn(f64) -> f64,
+    ) -> Vec<f64> {
+        (0..n)
+            .map(|i| match i % period {
+                0 => 0.0,
+                1 => spike(uniform(state)),
+                _ => rest(uniform(state)),
+            })
+            .collect()
+    }
+
     /// `sample` (guided search, one-index shortcut, probabilities computed once)
     /// gives the index and fraction of the plain inversion by binary search (with
     /// the same landing off empty bins), bit for bit, for random numbers, 0, the
@@ -196,13 +214,7 @@ mod tests {
     #[test]
     fn samples_are_the_plain_cdf_inversion() {
         let mut state = 3;
-        let weights: Vec<f64> = (0..700)
-            .map(|i| match i % 5 {
-                0 => 0.0,
-                1 => 1e3 * uniform(&mut state).powi(6),
-                _ => uniform(&mut state),
-            })
-            .collect();
+        let weights = lumpy_weights(700, 5, &mut state, |u| 1e3 * u.powi(6), |u| u);
         for w in [
             &weights[..],
             &[2.5][..],
@@ -251,13 +263,7 @@ mod tests {
     #[test]
     fn draws_follow_the_weights_and_fill_each_bin_uniformly() {
         let mut state = 29;
-        let weights: Vec<f64> = (0..60)
-            .map(|i| match i % 6 {
-                0 => 0.0,
-                1 => 5.0 * uniform(&mut state),
-                _ => uniform(&mut state).powi(2),
-            })
-            .collect();
+        let weights = lumpy_weights(60, 6, &mut state, |u| 5.0 * u, |u| u.powi(2));
         let d = Distribution1D::new(&weights);
         let half = weights.len() / 2;
         let draw = || d.sample(uniform(&mut state));

@@ -21,3 +21,12 @@ pub fn text_attributes<'a>(
         })
         .collect()
 }
+
+/// `pairs` of attribute name and value as [`text_attributes`] gives them, to compare
+/// with.
+pub fn expected_attributes(pairs: &[(&str, &str)]) -> BTreeMap<String, String> {
+    pairs
+        .iter()
+        .map(|&(k, v)| (k.to_owned(), v.to_owned()))
+        .collect()
+}

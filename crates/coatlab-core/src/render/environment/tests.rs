@@ -17,10 +17,7 @@ use crate::sampling::test_support::uniform;
 #[test]
 fn look_ups_in_two_steps_are_those_in_one() {
     let mut state = 17;
-    let grid = WavelengthGrid::new(380.0, 10.0, 33).unwrap();
-    let image_env = random_map(64, 32, 6, 50.0, &mut state, &grid);
-    let mut a = vec![0.0f32; grid.len()];
-    let mut b = vec![0.0f32; grid.len()];
+    let (grid, image_env, mut a, mut b) = map_and_scratch((64, 32), 6, 50.0, &mut state);
     for env in [
         image_env,
         Environment::studio(&grid),
@@ -67,10 +64,7 @@ fn look_ups_in_two_steps_are_those_in_one() {
 #[test]
 fn samples_facing_up_estimate_the_floors_irradiance_with_less_noise() {
     let mut state = 23;
-    let grid = WavelengthGrid::new(380.0, 10.0, 33).unwrap();
-    let image_env = random_map(64, 32, 6, 50.0, &mut state, &grid);
-    let mut a = vec![0.0f32; grid.len()];
-    let mut b = vec![0.0f32; grid.len()];
+    let (grid, image_env, mut a, mut b) = map_and_scratch((64, 32), 6, 50.0, &mut state);
     for (name, env, most) in [
         ("image", image_env, 0.2),
         ("studio", Environment::studio(&grid), 0.5),
@@ -145,6 +139,24 @@ fn samples_facing_up_estimate_the_floors_irradiance_with_less_noise() {
     }
 }
 
+/// The 10 nm grid of these tests, a [`random_map`] on it, and two spectra's worth
+/// of scratch space for its look-ups.
+fn map_and_scratch(
+    (width, height): (usize, usize),
+    power: i32,
+    scale: f32,
+    state: &mut u64,
+) -> (WavelengthGrid, Environment, Vec<f32>, Vec<f32>) {
+    let grid = WavelengthGrid::new(380.0, 10.0, 33).unwrap();
+    let map = random_map(width, height, power, scale, state, &grid);
+    (
+        grid,
+        map,
+        vec![0.0f32; grid.len()],
+        vec![0.0f32; grid.len()],
+    )
+}
+
 /// A map of random texels, each channel `scale` × a uniform number to the
 /// `power` (high powers: a few bright texels, as in a studio map).
 fn random_map(
@@ -185,10 +197,7 @@ fn sample_is_its_directions_look_up(env: &Environment, u: [f32; 2], a: &mut [f32
 fn map_samples_near_column_edges_find_their_directions_texel() {
     let (width, height) = (1024, 512);
     let mut state = 5;
-    let grid = WavelengthGrid::new(380.0, 10.0, 33).unwrap();
-    let env = random_map(width, height, 4, 20.0, &mut state, &grid);
-    let mut a = vec![0.0f32; grid.len()];
-    let mut b = vec![0.0f32; grid.len()];
+    let (_, env, mut a, mut b) = map_and_scratch((width, height), 4, 20.0, &mut state);
     let offsets = [0.0, 1e-9, 1e-7, 1e-6, 5e-6, 1e-5, 2e-5, 1e-4, 0.5];
     for _ in 0..2_000 {
         let u0 = uniform(&mut state) as f32;
@@ -212,14 +221,11 @@ fn map_samples_near_column_edges_find_their_directions_texel() {
 fn map_samples_near_row_edges_find_their_directions_texel() {
     let (width, height) = (1024, 512);
     let mut state = 9;
-    let grid = WavelengthGrid::new(380.0, 10.0, 33).unwrap();
-    let env = random_map(width, height, 4, 20.0, &mut state, &grid);
+    let (_, env, mut a, mut b) = map_and_scratch((width, height), 4, 20.0, &mut state);
     assert!(
         env.patches.is_empty(),
         "a map without emitters takes the shortcut"
     );
-    let mut a = vec![0.0f32; grid.len()];
-    let mut b = vec![0.0f32; grid.len()];
     let offsets = [0.0, 1e-12, 1e-9, 1e-7, 1e-6, 2e-6, 1e-5, 1e-3, 0.01, 0.5];
     let mut rows: Vec<usize> = (0..300)
         .map(|_| (uniform(&mut state) * height as f64) as usize)
