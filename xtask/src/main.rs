@@ -3,7 +3,7 @@
 //! assets, kept out of the shipped `coatlab` binary.
 //!
 //! - `cargo xtask bench reference|tradeoff`: the reference protocol and the
-//!   speed/accuracy sweep (docs/tradeoff.md; [`bench`]).
+//!   speed/accuracy sweep (docs/tradeoff.md; [`bench`](mod@bench)).
 //!
 //! Exit statuses are those of `coatlab` (README, "Exit status") for the classes a
 //! task can meet: 2 usage, 65 bad data, 66 a missing input, 70 a bug, 73 an output

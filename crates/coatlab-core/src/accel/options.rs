@@ -9,7 +9,7 @@ pub enum BvhLayout {
     /// Our own 8-wide BVH (`accel/wide.rs`): binned-SAH binary build collapsed to 8
     /// children per 224-byte node, f32 child boxes tested 8 at a time, leaves of up to
     /// 8 triangles stored lane by lane (one pack) for the watertight test; ordered
-    /// closest-hit and separate any-hit traversal. Through [`Accel`], triangles far
+    /// closest-hit and separate any-hit traversal. Through [`Accel`](super::Accel), triangles far
     /// larger than the average enter the tree as several references
     /// (`accel/split.rs`). The `quality` sets the SAH bins per axis.
     Simd8,
@@ -60,7 +60,7 @@ pub struct BuildOptions {
     pub layout: BvhLayout,
     pub quality: BuildQuality,
     /// Which triangles are cut into several references (`Simd8` through
-    /// [`Accel`] only).
+    /// [`Accel`](super::Accel) only).
     pub reference_splits: ReferenceSplits,
     /// Threads for the `Simd8` build (scoped threads of its own, each subtree of
     /// 4096 or more primitives split between two); 0 for

@@ -211,9 +211,10 @@ fn sigmoid(x: f64) -> f64 {
 /// the grid's span if wider), split between the two grid samples around each
 /// wavelength (linear-interpolation hats, the end hats extended), normalised to
 /// sum 1, so Σ wᵢ Lᵢ is the luminance of the spectrum L on the grid and a flat
-/// spectrum of 1 has luminance 1. Not for the RGB shortcut's three-channel grid
-/// ([`WavelengthGrid::linear_srgb`]), whose weights are the sRGB luminance
-/// coefficients (`render::environment::luminance_weights` handles both).
+/// spectrum of 1 has luminance 1. Not for the RGB shortcut
+/// ([`Channels::LinearSrgb`]), whose
+/// weights are the sRGB luminance coefficients
+/// (`render::environment::luminance_weights` handles both).
 pub fn spectral_luminance_weights(grid: &WavelengthGrid) -> Vec<f32> {
     let n = grid.len();
     let mut w = vec![0.0f64; n];

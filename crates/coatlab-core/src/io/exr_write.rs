@@ -5,7 +5,7 @@
 //! The files are single-part scanline images with the sRGB `chromaticities`
 //! (primaries and D65 white), which is what EXR viewers assume for RGB without
 //! them. They are reproducible: the same pixels and attributes give the same bytes
-//! (see [`canonical_attribute_order`]).
+//! (see `canonical_attribute_order`).
 
 use std::io::Cursor;
 use std::path::{Path, PathBuf};

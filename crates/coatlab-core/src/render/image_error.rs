@@ -162,7 +162,7 @@ impl XyzImage {
         }
     }
 
-    /// Writes the image (see [`MAGIC`]); creates the folder.
+    /// Writes the image (see `MAGIC`); creates the folder.
     pub fn write(&self, path: &Path) -> Result<(), ImageErrorError> {
         let io = |error| ImageErrorError::Io {
             path: path.display().to_string(),

@@ -9,7 +9,7 @@ use thiserror::Error;
 
 use crate::colour::cie::Illuminant;
 use crate::colour::spectrum::Channels;
-use crate::render::environment::{Environment, EnvironmentError, EnvironmentKind};
+use crate::render::environment::{Environment, EnvironmentError};
 
 /// A lighting setup or an environment map file.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -97,18 +97,6 @@ impl Lighting {
         })
     }
 
-    /// The lighting of an environment built before, for rebuilding it on another
-    /// grid; `None` for an image map (the environment does not keep its file).
-    pub fn of_kind(kind: EnvironmentKind) -> Option<Lighting> {
-        match kind {
-            EnvironmentKind::Studio => Some(Lighting::Studio),
-            EnvironmentKind::Booth(illuminant) => Some(Lighting::Booth(illuminant)),
-            EnvironmentKind::Outdoor => Some(Lighting::Outdoor),
-            EnvironmentKind::Uniform => Some(Lighting::Uniform),
-            EnvironmentKind::Image => None,
-        }
-    }
-
     /// The environment on `channels` (a wavelength grid, or linear sRGB). Only a
     /// map can fail (its file is read here).
     pub fn build(
@@ -136,6 +124,7 @@ impl fmt::Display for Lighting {
 mod tests {
     use super::*;
     use crate::colour::spectrum::WavelengthGrid;
+    use crate::render::environment::EnvironmentKind;
 
     #[test]
     fn every_setup_name_parses_back_to_its_setup() {
@@ -163,7 +152,14 @@ mod tests {
         let grid = WavelengthGrid::visible(16).unwrap();
         for setup in Lighting::SETUPS.iter().chain([&Lighting::Uniform]) {
             let environment = setup.build(&grid).unwrap();
-            assert_eq!(Lighting::of_kind(environment.kind()).as_ref(), Some(setup));
+            let expected = match setup {
+                Lighting::Studio => EnvironmentKind::Studio,
+                Lighting::Booth(illuminant) => EnvironmentKind::Booth(*illuminant),
+                Lighting::Outdoor => EnvironmentKind::Outdoor,
+                Lighting::Uniform => EnvironmentKind::Uniform,
+                Lighting::Map(_) => unreachable!("no map among the set-ups"),
+            };
+            assert_eq!(environment.kind(), expected, "{setup:?}");
         }
     }
 

@@ -416,7 +416,7 @@ const VISIBILITY_VIEWS: usize = 64;
 const VISIBILITY_GRID: usize = 40;
 
 /// Per material, the area a viewer outside the model sees of it: the projected
-/// area hit first by parallel rays from [`VISIBILITY_VIEWS`] directions spread over
+/// area hit first by parallel rays from `VISIBILITY_VIEWS` directions spread over
 /// the sphere (those from below the ground left out), averaged over the views
 /// (m²; a sphere of radius r scores πr²). Falls back to the total area when the
 /// mesh cannot be traced.

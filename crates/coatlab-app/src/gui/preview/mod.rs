@@ -8,7 +8,7 @@
 //! after each command is the engine's decision, not the widget's. Files (glTF
 //! scenes, environment maps) are read on the render thread too; what happens
 //! comes back as events the app shows in its notice bar. An export runs on the
-//! render thread between two passes ([`export`]).
+//! render thread between two passes (`export`).
 //!
 //! | file | what |
 //! | --- | --- |
