@@ -77,7 +77,8 @@ pub struct Comparison {
     pub gloss: Vec<GlossComparison>,
     /// Pass at every compared geometry; `None` when none could be compared.
     pub pass: Option<bool>,
-    /// A metamerism index above [`METAMERIC_DE00`] at some geometry.
+    /// A metamerism index above [`METAMERIC_DE00`] at some geometry where the pair
+    /// passes under D65.
     pub metameric: bool,
     /// What the reader should know (assumed conditions, extrapolated wavelengths).
     pub notes: Vec<String>,
@@ -138,8 +139,11 @@ fn finish(
     notes: Vec<String>,
 ) -> Comparison {
     let pass = (!angles.is_empty()).then(|| angles.iter().all(|a| a.pass));
+    // Metamerism is a property of a match: a pair that already fails under D65
+    // differs anyway, whatever its indices.
     let metameric = angles
         .iter()
+        .filter(|a| a.pass)
         .flat_map(|a| &a.metamerism)
         .any(|m| m.de00 > METAMERIC_DE00);
     Comparison {
