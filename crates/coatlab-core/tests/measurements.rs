@@ -324,7 +324,7 @@ fn every_malformed_file_is_refused_with_its_place_named() {
             "bad_geometry.cgats",
             &["line 11", "unknown geometry \"d:45\""],
         ),
-        ("bad_truncated.cxf", &["not well-formed XML"]),
+        ("bad_truncated.cxf", &["element <CxF>", "truncated"]),
         (
             "bad_geometry.cxf",
             &["element <ConeGeometry>", "unknown geometry element"],

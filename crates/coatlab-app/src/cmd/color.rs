@@ -100,7 +100,7 @@ fn run_measurement(
             None => {
                 let (lab, source) = sample
                     .lab(args.illuminant, args.observer)
-                    .with_context(|| format!("{file_name}"))
+                    .with_context(|| file_name.to_owned())
                     .or_fail(Failure::Data)?;
                 assumed |= source == LabSource::StatedAssumed;
                 (xyz_from_lab(lab, white), lab)

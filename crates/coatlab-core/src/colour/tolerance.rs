@@ -311,10 +311,6 @@ pub fn metamerism_index(
 mod tests {
     use super::*;
 
-    fn lab(l: f64, a: f64, b: f64) -> Lab {
-        Lab::new(l, a, b)
-    }
-
     #[test]
     fn tolerance_texts_parse() {
         assert_eq!("1".parse::<Tolerance>(), Ok(Tolerance::default()));

@@ -21,7 +21,7 @@
 //! `MEASUREMENT_GEOMETRY` or `GEOMETRY` for every row without its own;
 //! `ILLUMINATION_ANGLE`; `REFLECTANCE_SCALE`, `SPECTRAL_SCALE` or `SPECTRAL_UNITS`
 //! (`PERCENT` or `FRACTION`) for the scale of the spectra, which is otherwise judged
-//! from the data ([`super::decide_scale`]).
+//! from the data (any value above [`super::PERCENT_THRESHOLD`] means percent).
 //!
 //! Multi-angle files carry one row per sample and geometry: the geometry from a
 //! field, else from the end of the sample name (`RED_45as15`, `Red 45as-15`,

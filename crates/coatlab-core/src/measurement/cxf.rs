@@ -44,6 +44,8 @@ pub enum CxfProblem {
          could expand without bound (an XML bomb)"
     )]
     Dtd,
+    #[error("the file ends before the element is closed: it is truncated")]
+    Truncated,
     #[error("the file has more than {NODES_LIMIT} XML nodes")]
     TooLarge,
     #[error("the root element is <{0}>, not <CxF>")]
@@ -125,6 +127,14 @@ pub fn read_cxf(text: &str, file: &str) -> Result<Measurement, MeasurementError>
             element: "CxF".to_owned(),
             problem: CxfProblem::TooLarge,
         },
+        roxmltree::Error::UnclosedRootNode | roxmltree::Error::UnexpectedEndOfStream => {
+            MeasurementError::Cxf {
+                file: file.to_owned(),
+                line: u32::try_from(text.lines().count().max(1)).unwrap_or(u32::MAX),
+                element: "CxF".to_owned(),
+                problem: CxfProblem::Truncated,
+            }
+        }
         other => MeasurementError::Xml {
             file: file.to_owned(),
             message: other.to_string(),
@@ -240,7 +250,9 @@ fn read_document(doc: &Document) -> Result<Measurement, Located> {
         spectrum: Option<RawSpectrum>,
         colour: Option<(StatedValue, Option<Specification>)>,
     }
-    let mut samples_raw: Vec<(String, Option<String>, Vec<Reading>, Vec<GlossValue>)> = Vec::new();
+    /// An object's name, id, readings and gloss.
+    type RawObject = (String, Option<String>, Vec<Reading>, Vec<GlossValue>);
+    let mut samples_raw: Vec<RawObject> = Vec::new();
     let mut unknown_illuminant: Option<Located> = None;
 
     for object in root
