@@ -137,7 +137,7 @@ def main():
     write_cxf()
 
 
-CXF_HEAD = '<?xml version="1.0" encoding="UTF-8"?>\n<cc:CxF xmlns:cc="http://colorexchangeformat.com/CxF3-core">\n'
+CXF_HEAD = '<?xml version="1.0" encoding="UTF-8"?>\n<!-- Synthetic spectra, written by tools/make_measurement_fixtures.py -->\n<cc:CxF xmlns:cc="http://colorexchangeformat.com/CxF3-core">\n'
 
 
 def spec_xml(id_, geometry_xml, start=400, step=10, illuminant="D65", observer="10_Degree"):
@@ -208,7 +208,7 @@ def write_cxf():
         '<cc:ConeGeometry HalfAngle="5"/>'))
     write("bad_number.cxf", good.replace("0.4200", "0.42.00", 1) if "0.4200" in good
           else good.replace(values(grey, w5)[3], "n/a", 1))
-    bomb = ('<?xml version="1.0"?>\n<!DOCTYPE lolz [\n <!ENTITY lol "lol">\n'
+    bomb = ('<?xml version="1.0"?>\n<!DOCTYPE lolz [\n <!-- An entity-expansion bomb, written by tools/make_measurement_fixtures.py -->\n <!ENTITY lol "lol">\n'
             + "".join(f' <!ENTITY lol{k} "{("&lol%s;" % ("" if k == 1 else k - 1)) * 10}">\n' for k in range(1, 10))
             + ']>\n<cc:CxF xmlns:cc="http://colorexchangeformat.com/CxF3-core"><cc:Resources>'
             '<cc:ObjectCollection><cc:Object Name="&lol9;"/></cc:ObjectCollection></cc:Resources></cc:CxF>\n')

@@ -354,3 +354,95 @@ pub fn compare_to_standard(
         .collect();
     Ok(finish(tolerance, angles, not_comparable, gloss, notes))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::colour::spectrum::WavelengthGrid;
+    use crate::measurement::{Reflectance, Sample, SpecularComponent};
+    use crate::paint::gloss::GlossExponent;
+    use crate::paint::model::{GlossSetting, PaintParams};
+
+    fn grey_model(rho: f64) -> PaintModel {
+        PaintModel::new(PaintParams::grey(
+            WavelengthGrid::reference(),
+            rho,
+            1.5,
+            0.0005,
+            40.0,
+            GlossSetting::Exponent(GlossExponent::Finite(300.0)),
+        ))
+        .expect("valid model")
+    }
+
+    fn reading(geometry: Geometry, spectrum: Option<Reflectance>) -> Sample {
+        Sample {
+            name: "S".to_owned(),
+            id: None,
+            geometry,
+            spectrum,
+            colour: None,
+            gloss: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn the_directional_reading_at_the_instrument_angles_is_the_instrument_reading() {
+        let model = grey_model(0.4);
+        let m = instruments::measure(&model).expect("spectral");
+        for a in &m.angles {
+            let r =
+                instruments::directional_reading(&model, 45.0, a.aspecular_deg).expect("spectral");
+            assert_eq!(&r, a);
+        }
+    }
+
+    #[test]
+    fn a_design_against_its_own_readings_passes_and_a_sphere_is_not_compared() {
+        let model = grey_model(0.4);
+        let readings = instruments::measure(&model).expect("spectral");
+        let w = readings.wavelength_nm.clone();
+        let mut samples: Vec<Sample> = readings
+            .angles
+            .iter()
+            .map(|a| {
+                reading(
+                    Geometry::directional(45.0, a.aspecular_deg),
+                    Some(Reflectance::new(w.clone(), a.reflectance_factor.clone()).expect("valid")),
+                )
+            })
+            .collect();
+        samples.push(reading(
+            Geometry::Sphere {
+                specular: SpecularComponent::Excluded,
+            },
+            Some(Reflectance::new(w.clone(), vec![0.4; w.len()]).expect("valid")),
+        ));
+        let standard = Standard {
+            name: "S",
+            readings: samples.iter().collect(),
+        };
+        let c = compare_to_standard(&model, &readings, &standard, &Tolerance::default())
+            .expect("comparable");
+        assert_eq!(c.angles.len(), 5);
+        assert!(c.angles.iter().all(|a| a.difference.de00 < 1e-12 && a.pass));
+        assert_eq!(c.pass, Some(true));
+        assert!(!c.metameric);
+        assert_eq!(c.not_comparable.len(), 1);
+        assert!(c.notes.is_empty(), "{:?}", c.notes);
+
+        // A lighter grey fails, and the per-angle limit decides at 15°.
+        let lighter = grey_model(0.45);
+        let lighter_readings = instruments::measure(&lighter).expect("spectral");
+        let tolerance: Tolerance = "de00:0.1,15=100".parse().expect("tolerance");
+        let c = compare_to_standard(&lighter, &lighter_readings, &standard, &tolerance)
+            .expect("comparable");
+        assert!(
+            c.angles.iter().all(|a| a.difference.dl > 0.0),
+            "lighter: ΔL* > 0"
+        );
+        let passes: Vec<bool> = c.angles.iter().map(|a| a.pass).collect();
+        assert_eq!(passes, [true, false, false, false, false]);
+        assert_eq!(c.pass, Some(false));
+    }
+}

@@ -379,8 +379,32 @@ fn inconsistent_or_out_of_range_content_is_refused() {
     assert!(measurement::read(b"", "e.cgats").is_err());
     let e = measurement::read(b"wavelength_nm,a\n400,0.1\n", "s.csv").expect_err("csv");
     assert!(e.to_string().contains("neither CGATS"), "{e}");
-    // A CxF colour naming a specification that is not there.
+    // Colours under an illuminant Coatlab lacks, with no spectrum to recompute them.
+    let text = lab.replace("ILLUMINANT, D50", "ILLUMINANT, C");
+    let e = measurement::read(text.as_bytes(), "x.cgats").expect_err("illuminant C");
+    assert!(
+        e.to_string().contains("\"ILLUMINANT, C\"") && e.to_string().contains("line 4"),
+        "{e}"
+    );
+    // With spectra the stated colours are dropped instead (the spectra give them).
     let cxf = std::fs::read_to_string(path("multi_angle.cxf")).expect("fixture");
+    let text = cxf.replace(
+        "<cc:Illuminant>D65</cc:Illuminant>",
+        "<cc:Illuminant>C</cc:Illuminant>",
+    );
+    let m = measurement::read(text.as_bytes(), "x.cxf").expect("spectra suffice");
+    assert!(
+        read("multi_angle.cxf")
+            .samples
+            .iter()
+            .any(|s| s.colour.is_some())
+    );
+    assert!(
+        m.samples
+            .iter()
+            .all(|s| s.colour.is_none() && s.spectrum.is_some())
+    );
+    // A CxF colour naming a specification that is not there.
     let text = cxf.replacen(
         "ColorSpecification=\"CS_45as15\"",
         "ColorSpecification=\"CS_nope\"",
