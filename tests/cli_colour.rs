@@ -354,7 +354,7 @@ fn color_of_a_multi_angle_cxf_lists_each_geometry() {
             "45°as-15°",
             "45°as15°",
             "45°as25°",
-            "45°:0°",
+            "45°as45°",
             "45°as75°",
             "45°as110°"
         ]

