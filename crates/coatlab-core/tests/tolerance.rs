@@ -7,7 +7,9 @@
 //!   documentation of colour-science (`colour.difference.delta_E_CMC`,
 //!   `delta_E_CIE1976`, `delta_E_CIE2000`; BSD-3-Clause, licence in
 //!   `tests/data/LICENSE-colour-science`), an implementation independent of ours,
-//!   as printed there: 172.7047712…, 451.7133019…, 94.0356490….
+//!   as printed there: 172.7047712…, 451.7133019…, 94.0356490…; and the other CMC
+//!   cases of its test suite (`colour/difference/tests/test_delta_e.py`), one at
+//!   l:c = 1:1.
 //! - CMC's weighting functions S_L, S_C, S_H and ΔH*ab: cases worked by hand from
 //!   Clarke, McDonald & Rigg (1984) and CIE 15:2004 8.2.1 (the arithmetic is in
 //!   each test's comment).
@@ -69,6 +71,32 @@ fn colour_science_worked_example_for_cmc_cie1976_and_ciede2000() {
     assert!((d.de_cmc - 172.7047712).abs() < 1e-6, "{}", d.de_cmc);
     assert!((d.de_ab - 451.7133019).abs() < 1e-6, "{}", d.de_ab);
     assert!((d.de00 - 94.0356490).abs() < 1e-6, "{}", d.de00);
+    // The other CMC cases of colour-science's tests (colour/difference/tests/
+    // test_delta_e.py), one at l:c = 1:1, to their 8 decimals.
+    let cases = [
+        (
+            standard,
+            Lab::new(100.0, 74.05216981, 276.45318193),
+            2.0,
+            20.59732717,
+        ),
+        (
+            standard,
+            Lab::new(100.0, 8.32281957, -73.58297716),
+            1.0,
+            121.71841479,
+        ),
+        (
+            Lab::new(48.99183622, -0.10561667, 400.65619925),
+            Lab::new(50.65907324, -0.11671910, 402.82235718),
+            2.0,
+            0.89969998,
+        ),
+    ];
+    for (s, t, l, want) in cases {
+        let got = cmc(s, t, l, 1.0);
+        assert!((got - want).abs() < 1e-7, "{got} vs {want}");
+    }
 }
 
 #[test]
