@@ -273,3 +273,126 @@ fn color_reports_bad_data_with_file_line_and_column() {
     std::fs::write(&binary.0, b"wavelength_nm,r\xff\xfe\n400,\x00\x01\n").expect("write");
     failure(&coatlab(&["color", binary.path()], ""), exit::DATA);
 }
+
+// ---------------------------------------------------------------------------------
+// color on spectrophotometer files (CGATS.17, CxF3): the fixtures of
+// crates/coatlab-core/tests/data/measurements/.
+
+fn measurement_fixture(name: &str) -> String {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../coatlab-core/tests/data/measurements")
+        .join(name)
+        .to_str()
+        .expect("UTF-8 path")
+        .to_owned()
+}
+
+#[test]
+fn color_of_a_cgats_file_equals_color_of_the_same_spectra_as_csv() {
+    let file = measurement_fixture("spectral_percent_5nm_crlf.txt");
+    let output = coatlab(&["color", &file], "");
+    let (header, rows) = parse_rows(&stdout(&output));
+    assert_eq!(header, ["name", "geometry", "X", "Y", "Z", "L", "a", "b"]);
+    assert_eq!(rows.len(), 3);
+    // The percent scale was found, and said on stderr.
+    let note = String::from_utf8_lossy(&output.stderr);
+    assert!(note.contains("percent"), "{note}");
+    // The same spectra as a CSV of fractions.
+    let text = std::fs::read_to_string(&file).expect("fixture");
+    let lines: Vec<&str> = text.lines().collect();
+    let fields: Vec<&str> = lines[lines
+        .iter()
+        .position(|l| *l == "BEGIN_DATA_FORMAT")
+        .expect("format")
+        + 1]
+    .split_whitespace()
+    .collect();
+    let data_at = lines.iter().position(|l| *l == "BEGIN_DATA").expect("data") + 1;
+    let data: Vec<Vec<&str>> = lines[data_at..data_at + 3]
+        .iter()
+        .map(|l| l.split_whitespace().collect())
+        .collect();
+    let mut csv = String::from("wavelength_nm,red,blue,grey\n");
+    for (k, field) in fields.iter().enumerate().skip(1) {
+        let nm = field.trim_start_matches("nm");
+        let values: Vec<String> = data
+            .iter()
+            // Names are quoted and may hold spaces: count the values from the end.
+            .map(|row| {
+                row[row.len() - fields.len() + k]
+                    .parse::<f64>()
+                    .expect("value")
+                    / 100.0
+            })
+            .map(|v| v.to_string())
+            .collect();
+        csv += &format!("{nm},{}\n", values.join(","));
+    }
+    let csv_file = TempCsv::new("same-spectra.csv", &csv);
+    let (_, csv_rows) = parse_rows(&stdout(&coatlab(&["color", csv_file.path()], "")));
+    for (row, csv_row) in rows.iter().zip(&csv_rows) {
+        assert_eq!(row[1], "unspecified");
+        for k in 0..6 {
+            let (x, y): (f64, f64) = (
+                row[2 + k].parse().expect("n"),
+                csv_row[1 + k].parse().expect("n"),
+            );
+            assert!((x - y).abs() < 1e-12, "{row:?} vs {csv_row:?}");
+        }
+    }
+}
+
+#[test]
+fn color_of_a_multi_angle_cxf_lists_each_geometry() {
+    let output = coatlab(&["color", &measurement_fixture("multi_angle.cxf")], "");
+    let (_, rows) = parse_rows(&stdout(&output));
+    assert_eq!(rows.len(), 12);
+    let geometries: Vec<&str> = rows.iter().take(6).map(|r| r[1].as_str()).collect();
+    assert_eq!(
+        geometries,
+        [
+            "45°as-15°",
+            "45°as15°",
+            "45°as25°",
+            "45°as45°",
+            "45°as75°",
+            "45°as110°"
+        ]
+    );
+    // The flop: the red is lightest near the specular direction.
+    let l: Vec<f64> = rows
+        .iter()
+        .take(6)
+        .map(|r| r[5].parse().expect("L"))
+        .collect();
+    assert!(l.windows(2).all(|p| p[0] > p[1]), "{l:?}");
+}
+
+#[test]
+fn color_of_a_lab_only_file_needs_its_own_conditions() {
+    let file = measurement_fixture("lab_only_d50.cgats");
+    let (_, rows) = parse_rows(&stdout(&coatlab(
+        &["color", "--illuminant", "D50", "--observer", "2", &file],
+        "",
+    )));
+    assert_eq!(rows[0][0], "Signal red");
+    assert_eq!(rows[0][5..8], ["42.1", "58.3", "38.7"]);
+    let e = failure(&coatlab(&["color", &file], ""), exit::DATA);
+    assert!(e.contains("D50") && e.contains("lab_only_d50.cgats"), "{e}");
+}
+
+#[test]
+fn color_refuses_malformed_measurement_files_naming_the_place() {
+    for (name, wanted) in [
+        ("bad_truncated.cgats", "line 11"),
+        ("bad_number_of_fields.cgats", "NUMBER_OF_FIELDS"),
+        ("bad_geometry.cxf", "<ConeGeometry>"),
+        ("bad_xml_bomb.cxf", "DTD"),
+    ] {
+        let e = failure(
+            &coatlab(&["color", &measurement_fixture(name)], ""),
+            exit::DATA,
+        );
+        assert!(e.contains(name) && e.contains(wanted), "{e}");
+    }
+}

@@ -249,3 +249,416 @@ fn measure_refuses_a_bad_file_with_its_name() {
     failure(&output, exit::USAGE);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+// ---------------------------------------------------------------------------------
+// Measurement files as targets (CGATS, CxF3): the design's own virtual measurement
+// written out and read back must match it exactly; the fixtures of
+// crates/coatlab-core/tests/data/measurements/ exercise the geometries.
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../coatlab-core/tests/data/measurements")
+        .join(name)
+}
+
+/// The multi-angle reflectance of `json` (`coatlab measure --json`) on every
+/// `step`-th wavelength, as (wavelengths, [(aspecular, values)]).
+fn spectra_of(json: &serde_json::Value, step: usize) -> (Vec<f64>, Vec<(f64, Vec<f64>)>) {
+    let m = &json["measurement"];
+    let number = |v: &serde_json::Value| v.as_f64().expect("a number");
+    let w: Vec<f64> = m["wavelength_nm"]
+        .as_array()
+        .expect("grid")
+        .iter()
+        .map(number)
+        .collect();
+    let keep: Vec<usize> = (0..w.len()).step_by(step).collect();
+    let angles = m["angles"]
+        .as_array()
+        .expect("angles")
+        .iter()
+        .map(|a| {
+            let r: Vec<f64> = a["reflectance_factor"]
+                .as_array()
+                .expect("r")
+                .iter()
+                .map(number)
+                .collect();
+            (
+                number(&a["aspecular_deg"]),
+                keep.iter().map(|&i| r[i]).collect(),
+            )
+        })
+        .collect();
+    (keep.iter().map(|&i| w[i]).collect(), angles)
+}
+
+/// A CGATS multi-angle file (one row per angle, geometry in a field, percent).
+fn as_cgats(name: &str, (w, angles): &(Vec<f64>, Vec<(f64, Vec<f64>)>)) -> String {
+    let mut text = format!(
+        "CGATS.17\nNUMBER_OF_FIELDS {}\nBEGIN_DATA_FORMAT\nSAMPLE_NAME GEOMETRY",
+        w.len() + 2
+    );
+    for nm in w {
+        text += &format!(" SPECTRAL_NM_{nm}");
+    }
+    text += &format!(
+        "\nEND_DATA_FORMAT\nNUMBER_OF_SETS {}\nBEGIN_DATA\n",
+        angles.len()
+    );
+    for (aspecular, r) in angles {
+        text += &format!("\"{name}\" 45as{aspecular}");
+        for v in r {
+            text += &format!(" {}", v * 100.0);
+        }
+        text += "\n";
+    }
+    text + "END_DATA\n"
+}
+
+/// The same as a CxF3 file (MultiAngle specifications, fractions).
+fn as_cxf(name: &str, (w, angles): &(Vec<f64>, Vec<(f64, Vec<f64>)>)) -> String {
+    let step = w[1] - w[0];
+    let mut specs = String::new();
+    let mut values = String::new();
+    for (aspecular, r) in angles {
+        specs += &format!(
+            "<cc:ColorSpecification Id=\"ma{aspecular}\"><cc:MeasurementSpec><cc:GeometryChoice>\
+             <cc:MultiAngle><cc:IlluminationAngle>45</cc:IlluminationAngle><cc:Aspecular>{aspecular}</cc:Aspecular>\
+             </cc:MultiAngle></cc:GeometryChoice><cc:WavelengthRange StartWL=\"{}\" Increment=\"{step}\"/>\
+             </cc:MeasurementSpec></cc:ColorSpecification>\n",
+            w[0]
+        );
+        let r: Vec<String> = r.iter().map(f64::to_string).collect();
+        values += &format!(
+            "<cc:ReflectanceSpectrum ColorSpecification=\"ma{aspecular}\">{}</cc:ReflectanceSpectrum>\n",
+            r.join(" ")
+        );
+    }
+    format!(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<cc:CxF xmlns:cc=\"http://colorexchangeformat.com/CxF3-core\">\
+         <cc:Resources><cc:ObjectCollection><cc:Object Name=\"{name}\" Id=\"1\"><cc:ColorValues>\n{values}\
+         </cc:ColorValues></cc:Object></cc:ObjectCollection><cc:ColorSpecificationCollection>\n{specs}\
+         </cc:ColorSpecificationCollection></cc:Resources></cc:CxF>\n"
+    )
+}
+
+fn measure_json(args: &[&std::ffi::OsStr]) -> serde_json::Value {
+    let output = coatlab()
+        .arg("measure")
+        .arg("--json")
+        .args(args)
+        .output()
+        .expect("coatlab runs");
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    serde_json::from_slice(&output.stdout).expect("valid JSON")
+}
+
+#[test]
+fn a_design_against_its_own_measurement_file_passes_with_zero_difference() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let red = preset("signal-red");
+    let json = json_of(&["measure", "--json", red.to_str().expect("path")]);
+    // Every other wavelength (10 nm, 380–780 nm): the comparison happens on the
+    // file's own wavelengths, where the design's values are exact.
+    let spectra = spectra_of(&json, 2);
+    let cgats = dir.path().join("red.cgats");
+    std::fs::write(&cgats, as_cgats("Signal red", &spectra)).expect("write");
+    let cxf = dir.path().join("red.cxf");
+    std::fs::write(&cxf, as_cxf("Signal red", &spectra)).expect("write");
+    for (file, format) in [(&cgats, "CGATS"), (&cxf, "CxF3")] {
+        let json = measure_json(&[red.as_os_str(), "--target".as_ref(), file.as_os_str()]);
+        assert_eq!(json["target_kind"], "measurement");
+        assert_eq!(json["target_format"], format);
+        assert_eq!(json["target"], "Signal red");
+        let c = &json["comparison"];
+        let angles = c["angles"].as_array().expect("angles");
+        assert_eq!(angles.len(), 5, "{format}");
+        for a in angles {
+            let d = &a["difference"];
+            for key in ["dL", "da", "db", "dC", "dH", "dE00", "dEab", "dECMC"] {
+                assert!(
+                    d[key].as_f64().expect(key).abs() < 1e-9,
+                    "{format} {key}: {a}"
+                );
+            }
+            assert_eq!(a["pass"], true);
+            for m in a["metamerism"].as_array().expect("metamerism") {
+                assert!(m["dE00"].as_f64().expect("index") < 1e-9, "{m}");
+            }
+        }
+        assert_eq!(c["pass"], true);
+        assert_eq!(c["metameric"], false);
+    }
+    // Percent was recognised from the data, and said.
+    let json = measure_json(&[red.as_os_str(), "--target".as_ref(), cgats.as_os_str()]);
+    assert!(
+        json["reflectance_scale"]
+            .as_str()
+            .expect("said")
+            .contains("percent")
+    );
+
+    // Another design against the red's file fails, at every angle, in text too.
+    let blue = preset("deep-blue");
+    let output = coatlab()
+        .arg("measure")
+        .arg(&blue)
+        .arg("--target")
+        .arg(&cgats)
+        .output()
+        .expect("coatlab runs");
+    let text = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(text.contains("Against sample \"Signal red\""), "{text}");
+    assert_eq!(
+        text.lines()
+            .filter(|l| l.trim_end().ends_with("FAIL"))
+            .count(),
+        5,
+        "{text}"
+    );
+    assert!(text.contains("Result: FAIL at 5 of 5 geometries"), "{text}");
+    assert!(text.contains("Metamerism index"), "{text}");
+}
+
+#[test]
+fn the_tolerance_sets_the_formula_and_the_limit_per_angle() {
+    let red = preset("signal-red");
+    let target = fixture("multi_angle.cxf");
+    let json = measure_json(&[
+        red.as_os_str(),
+        "--target".as_ref(),
+        target.as_os_str(),
+        "--sample".as_ref(),
+        "Signal red".as_ref(),
+        "--tolerance".as_ref(),
+        "cmc:2.5,15=4,as110=6".as_ref(),
+    ]);
+    let c = &json["comparison"];
+    assert_eq!(c["tolerance"]["formula"], "dECMC");
+    let angles = c["angles"].as_array().expect("angles");
+    // The file's six angles, −15° included: the virtual instrument reads any
+    // in-plane geometry.
+    let aspecular: Vec<f64> = angles
+        .iter()
+        .map(|a| a["geometry"]["aspecular_deg"].as_f64().expect("angle"))
+        .collect();
+    assert_eq!(aspecular, [-15.0, 15.0, 25.0, 45.0, 75.0, 110.0]);
+    for a in angles {
+        let want = match a["geometry"]["aspecular_deg"].as_f64() {
+            Some(15.0) => 4.0,
+            Some(110.0) => 6.0,
+            _ => 2.5,
+        };
+        assert_eq!(a["limit"].as_f64(), Some(want), "{a}");
+        let value = a["value"].as_f64().expect("value");
+        assert_eq!(value, a["difference"]["dECMC"].as_f64().expect("cmc"));
+        assert_eq!(a["pass"].as_bool(), Some(value <= want));
+    }
+    // The file's gloss readings beside the design's.
+    let gloss = c["gloss"].as_array().expect("gloss");
+    assert_eq!(gloss.len(), 2);
+    assert_eq!(gloss[0]["target_gu"].as_f64(), Some(88.5));
+    let bad = coatlab()
+        .arg("measure")
+        .arg(&red)
+        .args(["--target"])
+        .arg(&target)
+        .args(["--tolerance", "cmc:-1"])
+        .output()
+        .expect("coatlab runs");
+    assert!(failure(&bad, exit::USAGE).contains("-1"));
+}
+
+#[test]
+fn sphere_readings_are_not_comparable_and_45_0_is_the_45_as_45_reading() {
+    let red = preset("signal-red");
+    let json = measure_json(&[
+        red.as_os_str(),
+        "--target".as_ref(),
+        fixture("sphere_and_45_0.cxf").as_os_str(),
+    ]);
+    let c = &json["comparison"];
+    let angles = c["angles"].as_array().expect("angles");
+    assert_eq!(angles.len(), 1);
+    assert_eq!(angles[0]["geometry"]["aspecular_deg"].as_f64(), Some(45.0));
+    let not = c["not_comparable"].as_array().expect("listed");
+    assert_eq!(not.len(), 2);
+    assert!(
+        not.iter()
+            .all(|n| n["reason"].as_str().expect("why").contains("sphere"))
+    );
+    // The 45:0 reading's design Lab is the instrument's 45as45 Lab under D65/10°
+    // (the comparison sums on the file's 5 nm grid from 360 nm, where the design
+    // is held flat beyond 380–780 nm: agreement to a few thousandths).
+    let table = &json["measurement"]["angles"][2]["lab"];
+    let design = &angles[0]["design_lab"];
+    for k in ["L", "a", "b"] {
+        let (x, y) = (
+            table[k].as_f64().expect("k"),
+            design[k].as_f64().expect("k"),
+        );
+        assert!((x - y).abs() < 0.02, "{k}: {x} vs {y}");
+    }
+    assert!(
+        c["notes"].to_string().contains("held at its end values"),
+        "{c}"
+    );
+}
+
+#[test]
+fn a_lab_only_target_is_compared_under_its_own_conditions() {
+    let red = preset("signal-red");
+    let output = coatlab()
+        .arg("measure")
+        .arg(&red)
+        .arg("--target")
+        .arg(fixture("lab_only_d50.cgats"))
+        .args(["--sample", "1"])
+        .output()
+        .expect("coatlab runs");
+    let text = String::from_utf8_lossy(&output.stdout);
+    // No geometry in the file: nothing to compare, and it says so.
+    assert!(text.contains("not comparable"), "{text}");
+    assert!(text.contains("Result: nothing to compare"), "{text}");
+    // With the geometry stated in the header, it compares under D50/2°.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("lab.cgats");
+    let with_geometry = std::fs::read_to_string(fixture("lab_only_d50.cgats"))
+        .expect("fixture")
+        .replace("CREATED", "MEASUREMENT_GEOMETRY \"45as45\"\nCREATED");
+    std::fs::write(&path, with_geometry).expect("write");
+    let json = measure_json(&[
+        red.as_os_str(),
+        "--target".as_ref(),
+        path.as_os_str(),
+        "--sample".as_ref(),
+        "Signal red".as_ref(),
+    ]);
+    let a = &json["comparison"]["angles"][0];
+    assert_eq!(a["conditions"], "D50/CIE 1931 2°");
+    assert_eq!(a["target_source"], "stated");
+    assert_eq!(a["target_lab"]["L"].as_f64(), Some(42.1));
+    assert!(a["metamerism"].as_array().expect("list").is_empty());
+}
+
+#[test]
+fn bad_measurement_targets_and_samples_are_refused() {
+    let red = preset("signal-red");
+    let run = |target: &Path, extra: &[&str]| {
+        coatlab()
+            .arg("measure")
+            .arg(&red)
+            .arg("--target")
+            .arg(target)
+            .args(extra)
+            .output()
+            .expect("coatlab runs")
+    };
+    let e = failure(&run(&fixture("bad_number_of_sets.cgats"), &[]), exit::DATA);
+    assert!(e.contains("bad_number_of_sets.cgats, line 13"), "{e}");
+    let e = failure(&run(&fixture("bad_xml_bomb.cxf"), &[]), exit::DATA);
+    assert!(e.contains("DTD"), "{e}");
+    // Two standards and no --sample; a --sample that is not there.
+    let e = failure(&run(&fixture("multi_angle.cxf"), &[]), exit::USAGE);
+    assert!(e.contains("Signal red, Deep blue"), "{e}");
+    let e = failure(
+        &run(&fixture("multi_angle.cxf"), &["--sample", "7"]),
+        exit::USAGE,
+    );
+    assert!(e.contains("no sample \"7\""), "{e}");
+    // --sample means nothing for a design target, or without a target.
+    let e = failure(&run(&preset("deep-blue"), &["--sample", "1"]), exit::USAGE);
+    assert!(e.contains("--sample"), "{e}");
+    let output = coatlab()
+        .arg("measure")
+        .arg(&red)
+        .args(["--sample", "1"])
+        .output()
+        .expect("coatlab runs");
+    failure(&output, exit::USAGE);
+}
+
+/// `v` less its projection on the D65/10° weights at `w`: a metameric black.
+fn metameric_black(w: &[f64], v: &[f64]) -> Vec<f64> {
+    use coatlab_core::colour::cie::{Illuminant, Observer, summation_weights};
+    let weights =
+        summation_weights(Illuminant::D65, Observer::Cie1964TenDegree, w).expect("weights");
+    let n = w.len();
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+    let mut basis: Vec<Vec<f64>> = Vec::new();
+    for k in 0..3 {
+        let mut r: Vec<f64> = (0..n)
+            .map(|i| {
+                let mut e = vec![0.0; n];
+                e[i] = 1.0;
+                let xyz = weights.xyz(&e);
+                [xyz.x, xyz.y, xyz.z][k]
+            })
+            .collect();
+        for b in &basis {
+            let p = dot(&r, b);
+            r.iter_mut().zip(b).for_each(|(x, y)| *x -= p * y);
+        }
+        let norm = dot(&r, &r).sqrt();
+        basis.push(r.iter().map(|x| x / norm).collect());
+    }
+    let mut out = v.to_vec();
+    for b in &basis {
+        let p = dot(&out, b);
+        out.iter_mut().zip(b).for_each(|(x, y)| *x -= p * y);
+    }
+    out
+}
+
+#[test]
+fn a_metameric_match_passes_under_d65_and_is_warned_about() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let red = preset("signal-red");
+    let json = json_of(&["measure", "--json", red.to_str().expect("path")]);
+    let (w, angles) = spectra_of(&json, 2);
+    let wiggle: Vec<f64> = w
+        .iter()
+        .map(|nm| 0.03 * ((nm - 380.0) / 30.0).sin())
+        .collect();
+    let black = metameric_black(&w, &wiggle);
+    let metamer: Vec<(f64, Vec<f64>)> = angles
+        .into_iter()
+        .map(|(a, r)| (a, r.iter().zip(&black).map(|(x, b)| x + b).collect()))
+        .collect();
+    let path = dir.path().join("metamer.cgats");
+    std::fs::write(&path, as_cgats("Metamer", &(w, metamer))).expect("write");
+    let output = coatlab()
+        .arg("measure")
+        .arg(&red)
+        .arg("--target")
+        .arg(&path)
+        .output()
+        .expect("coatlab runs");
+    let text = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(text.contains("Result: PASS"), "{text}");
+    assert!(text.contains("warning: the pair is metameric"), "{text}");
+    let json = measure_json(&[red.as_os_str(), "--target".as_ref(), path.as_os_str()]);
+    let c = &json["comparison"];
+    assert_eq!(c["metameric"], true);
+    for a in c["angles"].as_array().expect("angles") {
+        assert!(
+            a["difference"]["dE00"].as_f64().expect("dE00") < 1e-6,
+            "{a}"
+        );
+    }
+}

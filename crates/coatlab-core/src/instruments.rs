@@ -117,24 +117,9 @@ fn in_plane_direction(signed_deg: f64) -> [f64; 3] {
 pub fn measure(model: &PaintModel) -> Result<Measurement, InstrumentError> {
     let grid = spectral_grid(model)?;
     let colorimeter = Colorimeter::new(Illuminant::D65, Observer::Cie1964TenDegree, &grid);
-    // Illuminator on the −x side, so the specular direction is +45°.
-    let wi = in_plane_direction(-ILLUMINATION_DEG);
-    let mut f = vec![0.0; grid.len()];
     let angles = ASPECULAR_DEG
         .iter()
-        .map(|&aspecular| {
-            let detector = ILLUMINATION_DEG - aspecular;
-            let wo = in_plane_direction(detector);
-            model.eval_reference(wi, wo, &mut f);
-            let reflectance_factor: Vec<f64> = f.iter().map(|v| PI * v).collect();
-            let lab = colorimeter.lab(&reflectance_factor);
-            AngleReading {
-                aspecular_deg: aspecular,
-                detector_deg: detector,
-                lab,
-                reflectance_factor,
-            }
-        })
+        .map(|&aspecular| read_directional(model, &colorimeter, ILLUMINATION_DEG, aspecular))
         .collect();
     let gloss = GlossGeometry::ALL
         .iter()
@@ -145,6 +130,48 @@ pub fn measure(model: &PaintModel) -> Result<Measurement, InstrumentError> {
         angles,
         gloss,
     })
+}
+
+/// The multi-angle instrument's reading at any in-plane geometry: illumination at
+/// `illumination_deg` from the normal, detection at `aspecular_deg` from the
+/// specular direction toward the illuminator (45°as45° is the 45°:0° geometry).
+/// Errors for a model that is not spectral; the detector must be above the surface
+/// (|illumination − aspecular| < 90°), as a measurement file's geometry is.
+pub fn directional_reading(
+    model: &PaintModel,
+    illumination_deg: f64,
+    aspecular_deg: f64,
+) -> Result<AngleReading, InstrumentError> {
+    let grid = spectral_grid(model)?;
+    let colorimeter = Colorimeter::new(Illuminant::D65, Observer::Cie1964TenDegree, &grid);
+    Ok(read_directional(
+        model,
+        &colorimeter,
+        illumination_deg,
+        aspecular_deg,
+    ))
+}
+
+fn read_directional(
+    model: &PaintModel,
+    colorimeter: &Colorimeter,
+    illumination_deg: f64,
+    aspecular: f64,
+) -> AngleReading {
+    // Illuminator on the −x side, so the specular direction is +illumination.
+    let wi = in_plane_direction(-illumination_deg);
+    let detector = illumination_deg - aspecular;
+    let wo = in_plane_direction(detector);
+    let mut f = vec![0.0; colorimeter.grid().len()];
+    model.eval_reference(wi, wo, &mut f);
+    let reflectance_factor: Vec<f64> = f.iter().map(|v| PI * v).collect();
+    let lab = colorimeter.lab(&reflectance_factor);
+    AngleReading {
+        aspecular_deg: aspecular,
+        detector_deg: detector,
+        lab,
+        reflectance_factor,
+    }
 }
 
 /// The glossmeter's specular-only and total readings of a design at one geometry;

@@ -8,7 +8,9 @@
 //! - [`colour`]: wavelength grids and channels, CIE data, colorimetry, RGB → spectrum;
 //! - [`paint`]: the parameter table, Fresnel, the coat integral C, the body and
 //!   specular terms, the gloss lobe and its normalisation, m(g), sampling, Phong;
+//! - [`measurement`]: spectrophotometer files (CGATS.17, CxF3) read into readings;
 //! - [`instruments`]: the virtual multi-angle spectrophotometer and glossmeter;
+//!   [`target`]: a design against a target design or a measured standard;
 //! - [`design`]: paint design files;
 //! - [`io`]: image files in and out, atomic writes;
 //! - [`scene`]: glTF scenes and the built-in car;
@@ -23,10 +25,12 @@ pub mod design;
 pub mod engine;
 pub mod instruments;
 pub mod io;
+pub mod measurement;
 pub mod paint;
 pub mod parameter;
 pub mod quadrature;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod target;
 pub mod units;

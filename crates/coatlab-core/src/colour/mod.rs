@@ -15,6 +15,7 @@
 
 pub mod cie;
 pub mod spectrum;
+pub mod tolerance;
 pub mod upsampling;
 
 use std::sync::OnceLock;
