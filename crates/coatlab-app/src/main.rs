@@ -56,6 +56,9 @@ enum Command {
     Gloss(cmd::gloss::GlossArgs),
     /// Render a design on a car (progressive spectral path tracer) to PNG or EXR.
     Render(cmd::render::RenderArgs),
+    /// Add the .film parts of one render (sample ranges rendered apart) into its
+    /// image, exactly as one render of all the samples writes it.
+    Merge(cmd::merge::MergeArgs),
 }
 
 fn main() -> ExitCode {
@@ -72,6 +75,7 @@ fn main() -> ExitCode {
         Command::Measure(args) => cmd::measure::run(args, &mut stdout),
         Command::Gloss(args) => cmd::gloss::run(args, &mut stdout),
         Command::Render(args) => cmd::render::run(args, &mut stdout),
+        Command::Merge(args) => cmd::merge::run(args, &mut stdout),
     }
     .and_then(|()| stdout.flush().or_fail(Failure::Io));
     let Err(err) = result else {

@@ -7,5 +7,6 @@ pub mod delta_e;
 pub mod failure;
 pub mod gloss;
 pub mod measure;
+pub mod merge;
 pub mod render;
 mod table;
