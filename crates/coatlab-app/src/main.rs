@@ -59,6 +59,9 @@ enum Command {
     /// Add the .film parts of one render (sample ranges rendered apart) into its
     /// image, exactly as one render of all the samples writes it.
     Merge(cmd::merge::MergeArgs),
+    /// Many renders from a manifest, on this machine or as a scheduler's array
+    /// tasks (docs/batch.md): `batch plan`, `batch run`.
+    Batch(cmd::batch::BatchArgs),
 }
 
 fn main() -> ExitCode {
@@ -76,6 +79,7 @@ fn main() -> ExitCode {
         Command::Gloss(args) => cmd::gloss::run(args, &mut stdout),
         Command::Render(args) => cmd::render::run(args, &mut stdout),
         Command::Merge(args) => cmd::merge::run(args, &mut stdout),
+        Command::Batch(args) => cmd::batch::run(args, &mut stdout),
     }
     .and_then(|()| stdout.flush().or_fail(Failure::Io));
     let Err(err) = result else {

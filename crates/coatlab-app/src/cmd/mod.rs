@@ -1,6 +1,7 @@
 //! One module per subcommand. Each `run` reads and writes through the handles it is
 //! given, so the end-to-end tests and the binary share one code path.
 
+pub mod batch;
 pub mod brdf;
 pub mod color;
 pub mod delta_e;

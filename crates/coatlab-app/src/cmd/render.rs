@@ -157,7 +157,7 @@ fn parse_on_off(text: &str) -> Result<bool, String> {
     }
 }
 
-fn parse_model(text: &str) -> Result<ShadingModel, String> {
+pub fn parse_model(text: &str) -> Result<ShadingModel, String> {
     match text {
         "paint" => Ok(ShadingModel::Paint),
         "phong-naive" => Ok(ShadingModel::Phong(PhongVariant::Naive)),
@@ -300,92 +300,13 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
         return Err(Failure::Usage.error("--spp 0: at least one sample per pixel is needed"));
     }
     let samples = sample_range(args, part, spp)?;
-    let adaptive = AdaptiveSampling {
-        uniform_samples: args.adaptive_uniform_spp,
-        floor: args.adaptive_floor,
-        exponent: args.adaptive_exponent,
-    };
-    if args.adaptive {
-        adaptive.validate().map_err(|error| {
-            let flag = match error {
-                AdaptiveError::UniformSamples(_) => "--adaptive-uniform-spp",
-                AdaptiveError::Floor(_) => "--adaptive-floor",
-                AdaptiveError::Exponent(_) => "--adaptive-exponent",
-            };
-            Failure::Usage.error(format!("{flag}: {error}"))
-        })?;
-    }
-    let grid = WavelengthGrid::visible(args.wavelengths)
-        .with_context(|| format!("--wavelengths {}", args.wavelengths))
-        .or_fail(Failure::Usage)?;
-
-    let design = match &args.design {
-        Some(path) => PaintDesign::load(path)?,
-        None => {
-            presets::all()
-                .into_iter()
-                .next()
-                .context("no built-in preset")
-                .or_fail(Failure::Internal)?
-                .design
-        }
-    };
-    let model = design
-        .model(grid)
-        .context("cannot build the paint model")
-        .or_fail(Failure::Data)?;
-    let environment = environment(&args.environment, &grid)?;
-    let scene = scene(args.scene.as_deref(), args.paint_material.as_deref())?;
-    for warning in &scene.warnings {
-        to_stderr(format_args!("coatlab: warning: {warning}\n"));
-    }
-    let shading = Shading::for_scene(&model, args.model, &scene);
-    let render_scene = RenderScene::new(scene)
-        .context("cannot prepare the scene")
-        .or_fail(Failure::Data)?;
+    let Rendered {
+        render,
+        design,
+        grid,
+        totals,
+    } = render_film(args, samples.clone(), time_limit, true)?;
     let (width, height) = args.size;
-    let camera = render_scene.default_camera(width, height);
-    let mut render = ProgressiveRender::new(
-        Arc::new(render_scene),
-        Arc::new(environment),
-        Arc::new(shading),
-        camera,
-        RenderSettings {
-            seed: args.seed,
-            adaptive: args.adaptive.then_some(adaptive),
-            ..RenderSettings::default()
-        },
-    )
-    .or_fail(Failure::Data)?;
-
-    render
-        .restart_at_sample(samples.start)
-        .or_fail(Failure::Usage)?;
-    let mut progress = Progress::new(time_limit, samples.clone());
-    let start = Instant::now();
-    loop {
-        let done = render.samples_per_pixel();
-        let batch = match time_limit {
-            Some(_) => 1,
-            None => (samples.end - done).min(4),
-        };
-        render.render_pass(batch);
-        let elapsed = start.elapsed();
-        progress.update(render.samples_per_pixel(), elapsed);
-        let finished = match time_limit {
-            Some(limit) => elapsed >= limit,
-            None => render.samples_per_pixel() >= samples.end,
-        };
-        if finished {
-            break;
-        }
-    }
-    // The renderer counts samples and rays; the wall time includes the progress bar.
-    let totals = PassStats {
-        seconds: start.elapsed().as_secs_f64(),
-        ..render.totals()
-    };
-    progress.finish();
 
     if part {
         let header = part_header(args, &design, grid, spp, samples.clone())?;
@@ -450,6 +371,122 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
         totals.rays_per_second() / 1e6,
     )?;
     Ok(())
+}
+
+/// A finished render and what it was made of.
+pub struct Rendered {
+    pub render: ProgressiveRender,
+    pub design: PaintDesign,
+    pub grid: WavelengthGrid,
+    /// Samples and rays of the render and its wall time (the passes, not the set-up).
+    pub totals: PassStats,
+}
+
+/// Renders the sample indices `samples` of `args`' image (or, with
+/// `time_limit`, passes from the first until the time is up), with a progress
+/// bar on standard error if `show_progress`.
+pub fn render_film(
+    args: &RenderArgs,
+    samples: Range<u32>,
+    time_limit: Option<Duration>,
+    show_progress: bool,
+) -> anyhow::Result<Rendered> {
+    let adaptive = AdaptiveSampling {
+        uniform_samples: args.adaptive_uniform_spp,
+        floor: args.adaptive_floor,
+        exponent: args.adaptive_exponent,
+    };
+    if args.adaptive {
+        adaptive.validate().map_err(|error| {
+            let flag = match error {
+                AdaptiveError::UniformSamples(_) => "--adaptive-uniform-spp",
+                AdaptiveError::Floor(_) => "--adaptive-floor",
+                AdaptiveError::Exponent(_) => "--adaptive-exponent",
+            };
+            Failure::Usage.error(format!("{flag}: {error}"))
+        })?;
+    }
+    let grid = WavelengthGrid::visible(args.wavelengths)
+        .with_context(|| format!("--wavelengths {}", args.wavelengths))
+        .or_fail(Failure::Usage)?;
+
+    let design = match &args.design {
+        Some(path) => PaintDesign::load(path)?,
+        None => {
+            presets::all()
+                .into_iter()
+                .next()
+                .context("no built-in preset")
+                .or_fail(Failure::Internal)?
+                .design
+        }
+    };
+    let model = design
+        .model(grid)
+        .context("cannot build the paint model")
+        .or_fail(Failure::Data)?;
+    let environment = environment(&args.environment, &grid)?;
+    let scene = scene(args.scene.as_deref(), args.paint_material.as_deref())?;
+    for warning in &scene.warnings {
+        to_stderr(format_args!("coatlab: warning: {warning}\n"));
+    }
+    let shading = Shading::for_scene(&model, args.model, &scene);
+    let render_scene = RenderScene::new(scene)
+        .context("cannot prepare the scene")
+        .or_fail(Failure::Data)?;
+    let (width, height) = args.size;
+    let camera = render_scene.default_camera(width, height);
+    let mut render = ProgressiveRender::new(
+        Arc::new(render_scene),
+        Arc::new(environment),
+        Arc::new(shading),
+        camera,
+        RenderSettings {
+            seed: args.seed,
+            adaptive: args.adaptive.then_some(adaptive),
+            ..RenderSettings::default()
+        },
+    )
+    .or_fail(Failure::Data)?;
+
+    render
+        .restart_at_sample(samples.start)
+        .or_fail(Failure::Usage)?;
+    let mut progress = show_progress.then(|| Progress::new(time_limit, samples.clone()));
+    let start = Instant::now();
+    loop {
+        let done = render.samples_per_pixel();
+        let batch = match time_limit {
+            Some(_) => 1,
+            None => (samples.end - done).min(4),
+        };
+        render.render_pass(batch);
+        let elapsed = start.elapsed();
+        if let Some(progress) = &mut progress {
+            progress.update(render.samples_per_pixel(), elapsed);
+        }
+        let finished = match time_limit {
+            Some(limit) => elapsed >= limit,
+            None => render.samples_per_pixel() >= samples.end,
+        };
+        if finished {
+            break;
+        }
+    }
+    // The renderer counts samples and rays; the wall time includes the progress bar.
+    let totals = PassStats {
+        seconds: start.elapsed().as_secs_f64(),
+        ..render.totals()
+    };
+    if let Some(progress) = &progress {
+        progress.finish();
+    }
+    Ok(Rendered {
+        render,
+        design,
+        grid,
+        totals,
+    })
 }
 
 /// Where and how a film's image is written: PNG or EXR by the path's extension.
