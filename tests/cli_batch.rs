@@ -212,7 +212,9 @@ fn a_second_run_skips_and_a_changed_design_renders_again() {
 fn the_schedulers_index_variables_pick_one_task() {
     let dir = scratch("index");
     let path = manifest(&dir, r#"["paint"]"#);
-    let cases: [(&[&str], &[(&str, &str)], usize); 4] = [
+    // (flags, environment, the task that must run)
+    type Case<'a> = (&'a [&'a str], &'a [(&'a str, &'a str)], usize);
+    let cases: [Case; 4] = [
         (&[], &[("SLURM_ARRAY_TASK_ID", "1")], 1),
         (&[], &[("JOB_COMPLETION_INDEX", "2")], 2),
         (&[], &[("AWS_BATCH_JOB_ARRAY_INDEX", "3")], 3),

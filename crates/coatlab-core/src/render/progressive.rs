@@ -854,10 +854,10 @@ impl ProgressiveRender {
     /// processes ([`crate::render::film::part`]): each sample is keyed by (seed,
     /// pixel, index), so the range gets the samples a whole render gives it.
     /// [`Self::samples_per_pixel`] then counts on from `first`, while the film
-    /// holds only the range's samples. Refused with adaptive sampling, whose
-    /// allocation depends on the samples before the range.
+    /// holds only the range's samples. Refused past 0 with adaptive sampling,
+    /// whose allocation depends on the samples before the range.
     pub fn restart_at_sample(&mut self, first: u32) -> Result<(), RenderError> {
-        if self.settings.adaptive.is_some() {
+        if first > 0 && self.settings.adaptive.is_some() {
             return Err(RenderError::AdaptiveRange);
         }
         self.restart();

@@ -10,7 +10,7 @@ pub mod manifest;
 pub mod task;
 
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -77,7 +77,7 @@ pub fn run(args: &BatchArgs, out: &mut impl Write) -> anyhow::Result<()> {
     }
 }
 
-fn load(path: &PathBuf) -> anyhow::Result<Manifest> {
+fn load(path: &Path) -> anyhow::Result<Manifest> {
     let failure = if path.is_file() {
         Failure::Data
     } else {
@@ -86,7 +86,7 @@ fn load(path: &PathBuf) -> anyhow::Result<Manifest> {
     Manifest::load(path).or_fail(failure)
 }
 
-fn plan(path: &PathBuf, json: bool, out: &mut impl Write) -> anyhow::Result<()> {
+fn plan(path: &Path, json: bool, out: &mut impl Write) -> anyhow::Result<()> {
     let manifest = load(path)?;
     let tasks = manifest.tasks();
     if json {
@@ -152,7 +152,7 @@ pub fn task_index(
 }
 
 fn run_tasks(
-    path: &PathBuf,
+    path: &Path,
     index: Option<(usize, String)>,
     jobs: usize,
     out: &mut impl Write,
