@@ -21,7 +21,7 @@
 //! without rounding, smaller ones are cut towards zero, and the sum saturates at
 //! ±2⁶³ (≈ 9.2 · 10¹⁸). Integer addition is associative, so the sums, and the
 //! image, do not depend on the order the samples were added in: a render split
-//! into sample ranges on several machines and merged ([`crate::render::film_part`])
+//! into sample ranges on several machines and merged ([`part`])
 //! is bit for bit the render of one process. Beside them the film keeps Σ X², Σ Y²,
 //! Σ Z² and the sample count in 64-bit numbers, so the sum-of-squares variance does
 //! not cancel catastrophically in low-noise pixels after thousands of samples, and

@@ -526,14 +526,22 @@ mod tests {
         }
     }
 
-    /// A film of samples `range` of a deterministic (pixel, index) radiance.
+    /// The radiance of sample `s` of pixel (`x`, `y`): values near 1 and near
+    /// 2⁻³⁰ with assorted mantissas, so that f64 sums of them round, and round
+    /// differently in different orders.
+    fn radiance(x: u32, y: u32, s: u32) -> [f32; 4] {
+        let mantissa = 1.0 + ((x * 7 + y * 3 + s * 13) % 23) as f32 / 23.0;
+        let v = mantissa * 2f32.powi(-30 * ((s + x + y) % 2) as i32);
+        [v; 4]
+    }
+
+    /// A film of samples `range` of [`radiance`].
     fn film(range: Range<u32>) -> Film {
         let mut film = Film::new(3, 2, WavelengthGrid::visible(4).unwrap());
         for s in range {
             for y in 0..2 {
                 for x in 0..3 {
-                    let v = 0.1 + (x * 7 + y * 3 + s) as f32 * 0.37;
-                    film.add_sample_indexed(x, y, u64::from(s), &[v, v * 1.3, 0.2, 1e-3 * v]);
+                    film.add_sample_indexed(x, y, u64::from(s), &radiance(x, y, s));
                 }
             }
         }
@@ -556,6 +564,19 @@ mod tests {
             merge_parts(&[paths[2].clone(), paths[0].clone(), paths[1].clone()]).unwrap();
         assert_eq!(merged_header.samples(), 0..6);
         let whole = film(0..6);
+        // The data can tell: plain f64 sums of the parts, added part by part, are
+        // not the f64 sum of all samples in order for some pixel.
+        let xyz = |x, y, s| whole.xyz_of(&radiance(x, y, s)).y;
+        let in_order = |x, y, r: Range<u32>| r.fold(0.0, |sum, s| sum + xyz(x, y, s));
+        let differs = (0..2).any(|y| {
+            (0..3).any(|x| {
+                let by_parts = [0..1, 1..4, 4..6]
+                    .into_iter()
+                    .fold(0.0, |sum, r| sum + in_order(x, y, r));
+                by_parts != in_order(x, y, 0..6)
+            })
+        });
+        assert!(differs, "the test data must make f64 sums depend on order");
         assert_eq!(merged.exact, whole.exact);
         assert_eq!(merged.pixels, whole.pixels);
         assert_eq!(merged.linear_srgb_image(), whole.linear_srgb_image());
