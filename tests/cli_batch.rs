@@ -70,9 +70,11 @@ fn s(path: &Path) -> &str {
     path.to_str().expect("utf-8 path")
 }
 
-/// The task lines of `batch run`'s output: (index, output, rendered?).
+/// The task lines of `batch run`'s output (printed as tasks finish), by index:
+/// (index, output, rendered?).
 fn outcomes(text: &str) -> Vec<(usize, String, bool)> {
-    text.lines()
+    let mut lines: Vec<(usize, String, bool)> = text
+        .lines()
         .filter_map(|line| {
             let rest = line.strip_prefix("task ")?;
             let (index, rest) = rest.split_once('/')?;
@@ -84,7 +86,9 @@ fn outcomes(text: &str) -> Vec<(usize, String, bool)> {
                 outcome.starts_with("rendered"),
             ))
         })
-        .collect()
+        .collect();
+    lines.sort();
+    lines
 }
 
 #[test]

@@ -11,8 +11,8 @@ pub mod task;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc;
 
 use clap::Subcommand;
 
@@ -175,44 +175,46 @@ fn run_tasks(
     if jobs == 0 {
         return Err(Failure::Usage.error("--jobs 0: at least one task at a time"));
     }
-    // Workers take the next task in order; every task runs even when one fails,
-    // and the failures are reported together at the end.
+    // Workers take the next task in order; every task runs even when one fails.
+    // Each outcome is printed as it comes (a long run shows its progress), and
+    // the failures are summed up at the end.
     let next = AtomicUsize::new(0);
-    let results = Mutex::new(Vec::new());
-    std::thread::scope(|scope| {
+    let mut failed = Vec::new();
+    std::thread::scope(|scope| -> anyhow::Result<()> {
+        let (send, receive) = mpsc::channel();
         for _ in 0..jobs.min(tasks.len()) {
-            scope.spawn(|| {
+            let send = send.clone();
+            let (next, tasks, manifest) = (&next, &tasks, &manifest);
+            scope.spawn(move || {
                 loop {
                     let i = next.fetch_add(1, Ordering::Relaxed);
                     let Some(task) = tasks.get(i) else { break };
-                    let result = run_task(&manifest, task);
-                    if let Ok(mut results) = results.lock() {
-                        results.push((i, result));
+                    if send.send((i, run_task(manifest, task))).is_err() {
+                        break;
                     }
                 }
             });
         }
-    });
-    let mut results = results
-        .into_inner()
-        .map_err(|_| Failure::Internal.error("a batch worker panicked"))?;
-    results.sort_by_key(|(i, _)| *i);
-    let mut failed = Vec::new();
-    for (i, result) in results {
-        let task = &tasks[i];
-        match result {
-            Ok(outcome) => report(out, i, tasks.len(), &task.output, &outcome)?,
-            Err(error) => {
-                writeln!(
-                    out,
-                    "task {i}/{} {}: failed: {error:#}",
-                    tasks.len(),
-                    task.output
-                )?;
-                failed.push((i, error));
+        drop(send);
+        for (i, result) in receive {
+            let task = &tasks[i];
+            match result {
+                Ok(outcome) => report(out, i, tasks.len(), &task.output, &outcome)?,
+                Err(error) => {
+                    writeln!(
+                        out,
+                        "task {i}/{} {}: failed: {error:#}",
+                        tasks.len(),
+                        task.output
+                    )?;
+                    failed.push((i, error));
+                }
             }
+            out.flush()?;
         }
-    }
+        Ok(())
+    })?;
+    failed.sort_by_key(|(i, _)| *i);
     match failed.into_iter().next() {
         None => Ok(()),
         Some((i, error)) => Err(error.context(format!(
