@@ -54,7 +54,8 @@ enum Command {
     Measure(cmd::measure::MeasureArgs),
     /// Convert between a glossmeter reading (GU) and the lobe exponent m.
     Gloss(cmd::gloss::GlossArgs),
-    /// Render a design on a car (progressive spectral path tracer) to PNG or EXR.
+    /// Render a design on a car (progressive spectral path tracer) to PNG or EXR,
+    /// or a range of its samples to a .film part for `coatlab merge`.
     Render(cmd::render::RenderArgs),
     /// Add the .film parts of one render (sample ranges rendered apart) into its
     /// image, exactly as one render of all the samples writes it.

@@ -655,6 +655,20 @@ mod tests {
                 ..header(3..6)
             },
         );
+        let other_program = write(
+            "g.film",
+            PartHeader {
+                program: "coatlab 9.9.9".into(),
+                ..header(3..6)
+            },
+        );
+        let other_grid = dir.path().join("h.film");
+        let five = WavelengthGrid::visible(5).unwrap();
+        let grid_header = PartHeader {
+            grid: Some(five),
+            ..header(3..6)
+        };
+        write_part(&other_grid, &grid_header, &Film::new(3, 2, five)).unwrap();
         let message = |paths: &[&PathBuf]| {
             let paths: Vec<PathBuf> = paths.iter().map(|p| (*p).clone()).collect();
             merge_parts(&paths).unwrap_err().to_string()
@@ -671,6 +685,13 @@ mod tests {
         assert!(m.contains("samples 3..6"), "{m}");
         let m = message(&[&a, &other_seed]);
         assert!(m.contains("seed 7 vs 8") && m.contains("e.film"), "{m}");
+        let m = message(&[&a, &other_program]);
+        assert!(
+            m.contains("program coatlab test vs coatlab 9.9.9") && m.contains("g.film"),
+            "{m}"
+        );
+        let m = message(&[&a, &other_grid]);
+        assert!(m.contains("grid") && m.contains("h.film"), "{m}");
         let m = message(&[&a, &other_design]);
         assert!(m.contains("design") && m.contains("f.film"), "{m}");
     }
