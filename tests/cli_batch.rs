@@ -343,3 +343,26 @@ fn bad_manifests_are_refused_with_the_line_and_key() {
     );
     assert!(err.contains("none.toml"), "{err}");
 }
+
+#[test]
+fn a_failed_task_does_not_stop_the_others() {
+    let dir = scratch("failure");
+    let path = manifest(&dir, r#"["paint"]"#);
+    // A folder where task 1's image should go: it cannot be written.
+    std::fs::create_dir_all(dir.join("deck/signal-red--default--booth-d65--paint.png"))
+        .expect("folder");
+    let output = coatlab(&["batch", "run", s(&path)], &[]);
+    let err = failure(&output, exit::CANT_CREATE);
+    assert!(
+        err.contains("task 1 (signal-red--default--booth-d65--paint.png) failed"),
+        "{err}"
+    );
+    let text = String::from_utf8(output.stdout).expect("UTF-8");
+    let done = outcomes(&text);
+    let rendered: Vec<usize> = done.iter().filter(|o| o.2).map(|o| o.0).collect();
+    assert_eq!(rendered, [0, 2, 3], "{text}");
+    assert!(
+        text.contains("task 1/4 signal-red--default--booth-d65--paint.png: failed"),
+        "{text}"
+    );
+}
