@@ -480,7 +480,7 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
     let cases: Vec<(Vec<&str>, i32, &str)> = vec![
         (vec!["--size", "48"], usage, "WIDTHxHEIGHT"),
         (vec!["--size", "0x10"], usage, "1 to 16384"),
-        (vec!["--size", "16384x16384"], usage, "112 bytes a pixel"),
+        (vec!["--size", "16384x16384"], usage, "160 bytes a pixel"),
         (vec!["--model", "lambert"], usage, "phong-naive"),
         (vec!["--wavelengths", "0"], usage, "--wavelengths 0"),
         (vec!["--spp", "0"], usage, "--spp 0"),
@@ -535,7 +535,7 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
         );
     }
     let output = render_small(&out_path("image.jpg"), "8x8", 1, &[]);
-    assert!(failure(&output, exit::USAGE).contains(".png or .exr"));
+    assert!(failure(&output, exit::USAGE).contains(".png, .exr or .film"));
     // An output that cannot be written.
     let output = render_small(
         &out_path("no-such-folder/image.png"),

@@ -54,8 +54,15 @@ enum Command {
     Measure(cmd::measure::MeasureArgs),
     /// Convert between a glossmeter reading (GU) and the lobe exponent m.
     Gloss(cmd::gloss::GlossArgs),
-    /// Render a design on a car (progressive spectral path tracer) to PNG or EXR.
+    /// Render a design on a car (progressive spectral path tracer) to PNG or EXR,
+    /// or a range of its samples to a .film part for `coatlab merge`.
     Render(cmd::render::RenderArgs),
+    /// Add the .film parts of one render (sample ranges rendered apart) into its
+    /// image, exactly as one render of all the samples writes it.
+    Merge(cmd::merge::MergeArgs),
+    /// Many renders from a manifest, on this machine or as a scheduler's array
+    /// tasks (docs/batch.md): `batch plan`, `batch run`.
+    Batch(cmd::batch::BatchArgs),
 }
 
 fn main() -> ExitCode {
@@ -72,6 +79,8 @@ fn main() -> ExitCode {
         Command::Measure(args) => cmd::measure::run(args, &mut stdout),
         Command::Gloss(args) => cmd::gloss::run(args, &mut stdout),
         Command::Render(args) => cmd::render::run(args, &mut stdout),
+        Command::Merge(args) => cmd::merge::run(args, &mut stdout),
+        Command::Batch(args) => cmd::batch::run(args, &mut stdout),
     }
     .and_then(|()| stdout.flush().or_fail(Failure::Io));
     let Err(err) = result else {

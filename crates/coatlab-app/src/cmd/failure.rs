@@ -30,6 +30,7 @@ use coatlab_core::io::rgb_image::ImageReadError;
 use coatlab_core::paint::gloss::GlossError;
 use coatlab_core::render::environment::EnvironmentError;
 use coatlab_core::render::film::FilmError;
+use coatlab_core::render::film::part::PartError;
 use coatlab_core::scene::gltf_loader::SceneError;
 
 /// The exit status when stdout's reader went away before the output was all
@@ -207,6 +208,15 @@ fn class_of(cause: &(dyn StdError + 'static)) -> Option<Failure> {
             Failure::CantCreate
         } else {
             Failure::Internal
+        });
+    }
+    if let Some(e) = cause.downcast_ref::<PartError>() {
+        return Some(match e {
+            PartError::Read { .. } => Failure::NoInput,
+            PartError::Write(_) => Failure::CantCreate,
+            PartError::NoParts => Failure::Usage,
+            PartError::Mismatch { .. } => Failure::Internal,
+            _ => Failure::Data,
         });
     }
     // Gloss numbers come from the command line (a design's gloss is a DesignError).

@@ -2,6 +2,7 @@
 //! viewing) or OpenEXR (linear values, for analysis).
 
 use std::io::{IsTerminal, Write};
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -15,7 +16,8 @@ use coatlab_core::io::exr_write::{ExrCompression, ExrPrecision};
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::adaptive::{AdaptiveError, AdaptiveSampling};
 use coatlab_core::render::environment::Environment;
-use coatlab_core::render::film::{DisplaySettings, ExrOutput, RenderRecord};
+use coatlab_core::render::film::part::{Identity, PartHeader, write_part};
+use coatlab_core::render::film::{DisplaySettings, ExrOutput, Film, RenderRecord};
 use coatlab_core::render::lighting::Lighting;
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{
@@ -87,11 +89,17 @@ pub struct RenderArgs {
     /// Adaptive sampling: samples follow the per-sample noise to this power (0–4).
     #[arg(long, default_value_t = AdaptiveSampling::default().exponent)]
     pub adaptive_exponent: f32,
-    /// Output: .png (8-bit sRGB, exposure and tone mapping applied) or .exr (linear
+    /// Output: .png (8-bit sRGB, exposure and tone mapping applied), .exr (linear
     /// sRGB, D65 white at 1: R, G, B channels, no exposure or tone mapping; the
-    /// header says the design, samples, seed, wavelengths and lighting).
+    /// header says the design, samples, seed, wavelengths and lighting), or .film
+    /// (the film's sums of --sample-range, for `coatlab merge`; docs/film-format.md).
     #[arg(long)]
     pub out: PathBuf,
+    /// .film output only: render only the sample indices FIRST..END of the --spp
+    /// of the whole image [default: 0..spp]; parts covering 0..spp merge
+    /// (`coatlab merge`) into exactly the image of one render.
+    #[arg(long, value_name = "FIRST..END", value_parser = parse_sample_range)]
+    pub sample_range: Option<Range<u32>>,
     /// EXR output only: the channels' sample type, float (32-bit, exact) or half
     /// (16-bit) [default: float].
     #[arg(long, value_parser = parse_exr_precision)]
@@ -102,7 +110,21 @@ pub struct RenderArgs {
     pub exr_compression: Option<ExrCompression>,
 }
 
-fn parse_exr_precision(text: &str) -> Result<ExrPrecision, String> {
+fn parse_sample_range(text: &str) -> Result<Range<u32>, String> {
+    let message =
+        || format!("'{text}' is not a range of sample indices: use FIRST..END, e.g. 0..256");
+    let (first, end) = text.split_once("..").ok_or_else(message)?;
+    let first: u32 = first.trim().parse().map_err(|_| message())?;
+    let end: u32 = end.trim().parse().map_err(|_| message())?;
+    if first >= end {
+        return Err(format!(
+            "'{text}': the range is empty (FIRST must be below END)"
+        ));
+    }
+    Ok(first..end)
+}
+
+pub fn parse_exr_precision(text: &str) -> Result<ExrPrecision, String> {
     match text {
         "float" => Ok(ExrPrecision::Float),
         "half" => Ok(ExrPrecision::Half),
@@ -110,7 +132,7 @@ fn parse_exr_precision(text: &str) -> Result<ExrPrecision, String> {
     }
 }
 
-fn parse_exr_compression(text: &str) -> Result<ExrCompression, String> {
+pub fn parse_exr_compression(text: &str) -> Result<ExrCompression, String> {
     ExrCompression::from_name(text).ok_or_else(|| {
         let names: Vec<&str> = ExrCompression::ALL.iter().map(|c| c.name()).collect();
         format!("'{text}': use {}", names.join(", "))
@@ -135,7 +157,7 @@ fn parse_on_off(text: &str) -> Result<bool, String> {
     }
 }
 
-fn parse_model(text: &str) -> Result<ShadingModel, String> {
+pub fn parse_model(text: &str) -> Result<ShadingModel, String> {
     match text {
         "paint" => Ok(ShadingModel::Paint),
         "phong-naive" => Ok(ShadingModel::Phong(PhongVariant::Naive)),
@@ -159,12 +181,12 @@ pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
             "size {w}x{h}: width and height must be 1 to 16384 pixels"
         ));
     }
-    // The film keeps 112 bytes a pixel (render::film): 8192×8192 is 7.5 GB, the most
+    // The film keeps 160 bytes a pixel (render::film): 8192×8192 is 10.7 GB, the most
     // a workstation can be asked for without the process being killed for memory
     // instead of told why.
     if u64::from(w) * u64::from(h) > MAX_PIXELS {
         return Err(format!(
-            "size {w}x{h}: at most {MAX_PIXELS} pixels (8192x8192): the film needs 112 bytes a pixel"
+            "size {w}x{h}: at most {MAX_PIXELS} pixels (8192x8192): the film needs 160 bytes a pixel"
         ));
     }
     Ok((w, h))
@@ -239,12 +261,16 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    if !matches!(extension.as_deref(), Some("png") | Some("exr")) {
+    if !matches!(
+        extension.as_deref(),
+        Some("png") | Some("exr") | Some("film")
+    ) {
         return Err(Failure::Usage.error(format!(
-            "--out {}: the output must end in .png or .exr",
+            "--out {}: the output must end in .png, .exr or .film",
             args.out.display()
         )));
     }
+    let part = extension.as_deref() == Some("film");
     if extension.as_deref() != Some("exr") {
         let given = [
             ("--exr-precision", args.exr_precision.is_some()),
@@ -273,6 +299,98 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
     if spp == 0 {
         return Err(Failure::Usage.error("--spp 0: at least one sample per pixel is needed"));
     }
+    let samples = sample_range(args, part, spp)?;
+    let Rendered {
+        render,
+        design,
+        grid,
+        totals,
+    } = render_film(args, samples.clone(), time_limit, true)?;
+    let (width, height) = args.size;
+
+    if part {
+        let header = part_header(args, &design, grid, spp, samples.clone())?;
+        write_part(&args.out, &header, render.film())?;
+        writeln!(
+            out,
+            "wrote {} (samples {}..{} of {spp}, {width}x{height}, {} wavelengths, {}) in {:.1} s: \
+             {:.3} M samples/s, {:.2} M rays/s",
+            args.out.display(),
+            samples.start,
+            samples.end,
+            grid.len(),
+            args.model.label(),
+            totals.seconds,
+            totals.samples_per_second() / 1e6,
+            totals.rays_per_second() / 1e6,
+        )?;
+        return Ok(());
+    }
+    let display = DisplaySettings {
+        exposure_stops: args.exposure,
+        ..DisplaySettings::default()
+    };
+    let samples_per_pixel = if args.adaptive {
+        format!("{} mean, adaptive", render.samples_per_pixel())
+    } else {
+        render.samples_per_pixel().to_string()
+    };
+    let record = RenderRecord {
+        design: Some(design.name.clone()),
+        samples_per_pixel: Some(samples_per_pixel),
+        seed: Some(args.seed),
+        lighting: Some(lighting_name(&args.environment)),
+    };
+    let image = ImageOutput {
+        path: &args.out,
+        exr_precision: args.exr_precision,
+        exr_compression: args.exr_compression,
+    };
+    image.write(render.film(), record, &display)?;
+    let rejected = render.film().rejected_samples();
+    if rejected > 0 {
+        to_stderr(format_args!(
+            "coatlab: warning: {rejected} samples were not finite and counted as black\n"
+        ));
+    }
+    let noise = render
+        .noise_estimate(&display)
+        .map(|n| format!(", noise left ΔE00 {:.2} mean", n.mean_delta_e))
+        .unwrap_or_default();
+    writeln!(
+        out,
+        "wrote {} ({width}x{height}, {} spp{}, {} wavelengths, {}{noise}) in {:.1} s: \
+         {:.3} M samples/s, {:.2} M rays/s",
+        args.out.display(),
+        render.samples_per_pixel(),
+        if args.adaptive { " mean, adaptive" } else { "" },
+        grid.len(),
+        args.model.label(),
+        totals.seconds,
+        totals.samples_per_second() / 1e6,
+        totals.rays_per_second() / 1e6,
+    )?;
+    Ok(())
+}
+
+/// A finished render and what it was made of.
+pub struct Rendered {
+    pub render: ProgressiveRender,
+    pub design: PaintDesign,
+    pub grid: WavelengthGrid,
+    /// Samples and rays of the render and its wall time (the passes, not the set-up).
+    pub totals: PassStats,
+}
+
+/// Renders the sample indices `samples` of `args`' image (or, with
+/// `time_limit`, passes from the first until the time is up), with a progress
+/// bar on standard error if `show_progress`.
+pub fn render_film(
+    args: &RenderArgs,
+    samples: Range<u32>,
+    time_limit: Option<Duration>,
+    show_progress: bool,
+) -> anyhow::Result<Rendered> {
     let adaptive = AdaptiveSampling {
         uniform_samples: args.adaptive_uniform_spp,
         floor: args.adaptive_floor,
@@ -331,20 +449,25 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
     )
     .or_fail(Failure::Data)?;
 
-    let mut progress = Progress::new(time_limit, spp);
+    render
+        .restart_at_sample(samples.start)
+        .or_fail(Failure::Usage)?;
+    let mut progress = show_progress.then(|| Progress::new(time_limit, samples.clone()));
     let start = Instant::now();
     loop {
         let done = render.samples_per_pixel();
         let batch = match time_limit {
             Some(_) => 1,
-            None => (spp - done).min(4),
+            None => (samples.end - done).min(4),
         };
         render.render_pass(batch);
         let elapsed = start.elapsed();
-        progress.update(render.samples_per_pixel(), elapsed);
+        if let Some(progress) = &mut progress {
+            progress.update(render.samples_per_pixel(), elapsed);
+        }
         let finished = match time_limit {
             Some(limit) => elapsed >= limit,
-            None => render.samples_per_pixel() >= spp,
+            None => render.samples_per_pixel() >= samples.end,
         };
         if finished {
             break;
@@ -355,56 +478,181 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
         seconds: start.elapsed().as_secs_f64(),
         ..render.totals()
     };
-    progress.finish();
-
-    let display = DisplaySettings {
-        exposure_stops: args.exposure,
-        ..DisplaySettings::default()
-    };
-    match extension.as_deref() {
-        Some("exr") => {
-            let output = ExrOutput {
-                precision: args.exr_precision.unwrap_or_default(),
-                compression: args.exr_compression.unwrap_or_default(),
-                record: RenderRecord {
-                    design: Some(design.name.clone()),
-                    samples_per_pixel: Some(if args.adaptive {
-                        format!("{} mean, adaptive", render.samples_per_pixel())
-                    } else {
-                        render.samples_per_pixel().to_string()
-                    }),
-                    seed: Some(args.seed),
-                    lighting: Some(lighting_name(&args.environment)),
-                },
-            };
-            render.film().write_exr_with(&args.out, &output)?
-        }
-        _ => render.film().write_png(&args.out, &display)?,
+    if let Some(progress) = &progress {
+        progress.finish();
     }
-    let rejected = render.film().rejected_samples();
-    if rejected > 0 {
-        to_stderr(format_args!(
-            "coatlab: warning: {rejected} samples were not finite and counted as black\n"
+    Ok(Rendered {
+        render,
+        design,
+        grid,
+        totals,
+    })
+}
+
+/// Where and how a film's image is written: PNG or EXR by the path's extension.
+pub struct ImageOutput<'a> {
+    pub path: &'a Path,
+    pub exr_precision: Option<ExrPrecision>,
+    pub exr_compression: Option<ExrCompression>,
+}
+
+impl ImageOutput<'_> {
+    /// Writes `film`'s image: an EXR with `record` in its header, or a PNG shown
+    /// with `display`. What `coatlab render` and `coatlab merge` both write.
+    pub fn write(
+        &self,
+        film: &Film,
+        record: RenderRecord,
+        display: &DisplaySettings,
+    ) -> anyhow::Result<()> {
+        if is_exr(self.path) {
+            let output = ExrOutput {
+                precision: self.exr_precision.unwrap_or_default(),
+                compression: self.exr_compression.unwrap_or_default(),
+                record,
+            };
+            film.write_exr_with(self.path, &output)?;
+        } else {
+            film.write_png(self.path, display)?;
+        }
+        Ok(())
+    }
+}
+
+fn is_exr(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+}
+
+/// The sample indices to render: `--sample-range` (a .film part only, within
+/// `--spp`), or all of them.
+fn sample_range(args: &RenderArgs, part: bool, spp: u32) -> anyhow::Result<Range<u32>> {
+    if !part {
+        if args.sample_range.is_some() {
+            return Err(Failure::Usage.error(format!(
+                "--sample-range: only for a .film part (for `coatlab merge`), and --out {} is not one",
+                args.out.display()
+            )));
+        }
+        return Ok(0..spp);
+    }
+    if args.seconds.is_some() {
+        return Err(Failure::Usage.error(
+            "--seconds: a .film part holds a fixed range of samples; give --spp (and --sample-range)",
         ));
     }
-    let noise = render
-        .noise_estimate(&display)
-        .map(|n| format!(", noise left ΔE00 {:.2} mean", n.mean_delta_e))
-        .unwrap_or_default();
-    writeln!(
-        out,
-        "wrote {} ({width}x{height}, {} spp{}, {} wavelengths, {}{noise}) in {:.1} s: \
-         {:.3} M samples/s, {:.2} M rays/s",
-        args.out.display(),
-        render.samples_per_pixel(),
-        if args.adaptive { " mean, adaptive" } else { "" },
-        grid.len(),
+    if args.adaptive {
+        return Err(Failure::Usage.error(format!(
+            "--adaptive on: a .film part cannot be adaptive: {}",
+            coatlab_core::render::progressive::RenderError::AdaptiveRange
+        )));
+    }
+    let range = args.sample_range.clone().unwrap_or(0..spp);
+    if range.end > spp {
+        return Err(Failure::Usage.error(format!(
+            "--sample-range {}..{}: the image has {spp} samples per pixel (--spp), indices 0..{spp}",
+            range.start, range.end
+        )));
+    }
+    Ok(range)
+}
+
+/// The identities of a render's inputs: what a film part's header and a batch
+/// output's sidecar record, and what decides whether two renders are the same.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderInputs {
+    pub program: String,
+    pub scene: Identity,
+    pub design: Identity,
+    pub lighting: Identity,
+    pub settings: Identity,
+}
+
+/// This program and its version, as parts and sidecars record it.
+pub fn program() -> String {
+    format!("coatlab {}", env!("CARGO_PKG_VERSION"))
+}
+
+/// The identities of `args`' inputs, `design` as loaded. The design is hashed in
+/// its canonical TOML (comments and layout do not count); a glTF scene and an
+/// environment map by their file's bytes (a .gltf's external buffers are not
+/// read: edit the .gltf too, or use .glb); the built-in car and the lighting
+/// setups by their names and this program's version (which make them).
+pub fn render_inputs(
+    args: &RenderArgs,
+    design: &PaintDesign,
+    spp: u32,
+) -> anyhow::Result<RenderInputs> {
+    let read = |path: &Path| {
+        std::fs::read(path)
+            .with_context(|| format!("cannot read {}", path.display()))
+            .or_fail(Failure::NoInput)
+    };
+    let scene = match &args.scene {
+        Some(path) => Identity::of_bytes(path.display().to_string(), &read(path)?),
+        None => Identity::of_bytes(
+            "built-in car",
+            format!("{:?}", CarParameters::default()).as_bytes(),
+        ),
+    };
+    let design_identity =
+        Identity::of_bytes(design.name.clone(), design.to_toml_string().as_bytes());
+    let lighting = match Lighting::parse(&args.environment) {
+        Ok(Lighting::Map(path)) => Identity::of_bytes(path.display().to_string(), &read(&path)?),
+        _ => Identity::of_bytes(
+            lighting_name(&args.environment),
+            lighting_name(&args.environment).as_bytes(),
+        ),
+    };
+    let (width, height) = args.size;
+    let settings = format!(
+        "model={}; size={width}x{height}; wavelengths={}; spp={spp}; seed={}; exposure={}; \
+         paint-material={:?}; integrator={:?}; adaptive={}",
         args.model.label(),
-        totals.seconds,
-        totals.samples_per_second() / 1e6,
-        totals.rays_per_second() / 1e6,
-    )?;
-    Ok(())
+        args.wavelengths,
+        args.seed,
+        args.exposure,
+        args.paint_material,
+        RenderSettings::default().integrator,
+        args.adaptive,
+    );
+    Ok(RenderInputs {
+        program: program(),
+        scene,
+        design: design_identity,
+        lighting,
+        settings: Identity::of_bytes(
+            format!("{}, exposure {}", args.model.label(), args.exposure),
+            settings.as_bytes(),
+        ),
+    })
+}
+
+/// The header of the film part of `samples` of `args`' render.
+fn part_header(
+    args: &RenderArgs,
+    design: &PaintDesign,
+    grid: WavelengthGrid,
+    spp: u32,
+    samples: Range<u32>,
+) -> anyhow::Result<PartHeader> {
+    let inputs = render_inputs(args, design, spp)?;
+    Ok(PartHeader {
+        program: inputs.program,
+        width: args.size.0,
+        height: args.size.1,
+        grid: Some(grid),
+        seed: args.seed,
+        total_samples: spp,
+        sample_start: samples.start,
+        sample_end: samples.end,
+        scene: inputs.scene,
+        design: inputs.design,
+        lighting: inputs.lighting,
+        settings: inputs.settings,
+        exposure_stops: args.exposure,
+    })
 }
 
 /// Writes to standard error, ignoring failure: `eprintln!` panics when stderr is
@@ -418,16 +666,16 @@ fn to_stderr(text: std::fmt::Arguments) {
 /// tenth otherwise (logs stay readable).
 struct Progress {
     limit: Option<Duration>,
-    spp: u32,
+    samples: Range<u32>,
     terminal: bool,
     last_tenth: u32,
 }
 
 impl Progress {
-    fn new(limit: Option<Duration>, spp: u32) -> Self {
+    fn new(limit: Option<Duration>, samples: Range<u32>) -> Self {
         Self {
             limit,
-            spp,
+            samples,
             terminal: std::io::stderr().is_terminal(),
             last_tenth: 0,
         }
@@ -436,7 +684,10 @@ impl Progress {
     fn update(&mut self, done: u32, elapsed: Duration) {
         let fraction = match self.limit {
             Some(limit) => elapsed.as_secs_f64() / limit.as_secs_f64(),
-            None => f64::from(done) / f64::from(self.spp),
+            None => {
+                f64::from(done.saturating_sub(self.samples.start))
+                    / f64::from(self.samples.len() as u32)
+            }
         }
         .clamp(0.0, 1.0);
         let width = 30;
@@ -481,7 +732,7 @@ mod tests {
         assert!(
             parse_size("16384x16384")
                 .unwrap_err()
-                .contains("112 bytes a pixel")
+                .contains("160 bytes a pixel")
         );
         assert!(parse_size("16384x4097").is_err());
     }

@@ -13,13 +13,25 @@
 //! times the colour-matching function.
 //!
 //! # Accumulation and tiles
-//! Per pixel the film keeps Σ X, Σ Y, Σ Z, Σ X², Σ Y², Σ Z² and the sample count in
-//! 64-bit numbers, so the sum-of-squares variance does not cancel catastrophically
-//! in low-noise pixels after thousands of samples, and for the noise estimate
-//! (below) Σ X, Σ Y, Σ Z of the samples in the two highest power-of-two blocks of
-//! sample indices and which blocks those are: 112 bytes a pixel in all, 103 MB at
-//! 1280×720 (the blocks are 56 of them, 52 MB). [`Film::add_sample`] costs three
-//! dot products over the grid (in f32, 8 lanes) and ten additions.
+//! Per pixel the film keeps Σ X, Σ Y, Σ Z twice: exactly, in 128-bit fixed point
+//! with [`EXACT_FRACTION_BITS`] bits below the point, and that exact sum rounded
+//! to f64, which is what every reader (the mean, the display) uses. A sample's X,
+//! Y, Z are f32; every f32 of magnitude ≥ 2⁻⁴¹ (≈ 4.5 · 10⁻¹³, far below anything
+//! a display or an EXR of Y = 1 whites resolves) is a whole number of 2⁻⁶⁴ and adds
+//! without rounding, smaller ones are cut towards zero, and the sum saturates at
+//! ±2⁶³ (≈ 9.2 · 10¹⁸). Integer addition is associative, so the sums, and the
+//! image, do not depend on the order the samples were added in: a render split
+//! into sample ranges on several machines and merged ([`part`])
+//! is bit for bit the render of one process. Beside them the film keeps Σ X², Σ Y²,
+//! Σ Z² and the sample count in 64-bit numbers, so the sum-of-squares variance does
+//! not cancel catastrophically in low-noise pixels after thousands of samples, and
+//! for the noise estimate (below) Σ X, Σ Y, Σ Z of the samples in the two highest
+//! power-of-two blocks of sample indices and which blocks those are (these f64
+//! sums depend on the order of additions in their last bits; they feed only the
+//! noise estimates, never the image): 160 bytes a pixel in all, 147 MB at 1280×720
+//! (the blocks are 56 of them, 52 MB; the exact sums 48). [`Film::add_sample`]
+//! costs three dot products over the grid (in f32, 8 lanes), three conversions to
+//! fixed point and back, and ten additions.
 //!
 //! # Noise estimate: the two halves of a power-of-two prefix
 //! A pixel's samples are Owen-scrambled Sobol points ([`crate::render::sampler`]),
@@ -48,6 +60,8 @@
 //! # Tone mapping
 //! See [`ToneMapping`]: extended Reinhard on luminance, which keeps the chromaticity
 //! of every pixel, or a plain clip for colorimetric checks.
+
+pub mod part;
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
@@ -290,11 +304,29 @@ fn dot_8_lanes(a: &[f32], b: &[f32]) -> f32 {
     sum
 }
 
+/// Bits below the point of the film's exact sums (see the module docs).
+pub const EXACT_FRACTION_BITS: i32 = 64;
+
+/// `v` in fixed point with [`EXACT_FRACTION_BITS`] fraction bits: exact for
+/// |v| ≥ 2⁻⁴¹ (the scaling by a power of two is exact in f64; the conversion cuts
+/// towards zero and saturates).
+#[inline]
+fn to_exact(v: f32) -> i128 {
+    (f64::from(v) * 2f64.powi(EXACT_FRACTION_BITS)) as i128
+}
+
+/// An exact sum rounded to the nearest f64.
+#[inline]
+fn from_exact(sum: i128) -> f64 {
+    sum as f64 * 2f64.powi(-EXACT_FRACTION_BITS)
+}
+
 /// One pixel's running sums: what the display reads (32 bytes). The sums of
 /// squares live in a parallel array, so [`Film::to_display`] streams 32 instead of
 /// 56 bytes a pixel (it is memory-bound: 29 MB at 1280×720).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 struct PixelSums {
+    /// The exact sums of `exact` rounded to f64.
     sum: [f64; 3],
     count: u64,
 }
@@ -309,6 +341,16 @@ struct BlockSums {
     top_sum: [f64; 3],
     /// Σ X, Σ Y, Σ Z of block `top − 1` (0 when `top` is 0).
     below_sum: [f64; 3],
+}
+
+/// Adds `part` to the exact sums `exact` of `pixel` and rounds them into its
+/// f64 sums.
+#[inline]
+fn add_exact(pixel: &mut PixelSums, exact: &mut [i128; 3], part: &[i128; 3]) {
+    for k in 0..3 {
+        exact[k] = exact[k].saturating_add(part[k]);
+        pixel.sum[k] = from_exact(exact[k]);
+    }
 }
 
 /// The unbiased sample variance over n of a pixel's mean XYZ, per component;
@@ -411,6 +453,9 @@ pub struct Film {
     width: u32,
     height: u32,
     pixels: Vec<PixelSums>,
+    /// Σ X, Σ Y, Σ Z per pixel in fixed point (see the module docs), parallel to
+    /// `pixels`: the sums the image is made of.
+    exact: Vec<[i128; 3]>,
     /// Σ X², Σ Y², Σ Z² per pixel, parallel to `pixels`.
     squares: Vec<[f64; 3]>,
     /// The sums of the two highest sample-index blocks per pixel (see the module
@@ -450,6 +495,7 @@ impl Film {
             width,
             height,
             pixels: vec![PixelSums::default(); count],
+            exact: vec![[0; 3]; count],
             squares: vec![[0.0; 3]; count],
             blocks: vec![BlockSums::default(); count],
             rejected: 0,
@@ -512,11 +558,12 @@ impl Film {
         );
         for row in 0..other.height as usize {
             let start = self.index(other.origin[0], other.origin[1] + row as u32);
-            let source = &other.pixels[row * other.width as usize..][..other.width as usize];
-            for (to, from) in self.pixels[start..][..source.len()].iter_mut().zip(source) {
-                for k in 0..3 {
-                    to.sum[k] += from.sum[k];
-                }
+            let range = row * other.width as usize..(row + 1) * other.width as usize;
+            let pixels = self.pixels[start..][..range.len()].iter_mut();
+            let exact = self.exact[start..][..range.len()].iter_mut();
+            let sources = other.pixels[range.clone()].iter().zip(&other.exact[range]);
+            for ((to, to_exact), (from, from_exact)) in pixels.zip(exact).zip(sources) {
+                add_exact(to, to_exact, from_exact);
                 to.count += from.count;
             }
             let source = &other.squares[row * other.width as usize..][..other.width as usize];
@@ -563,10 +610,10 @@ impl Film {
         }
         let index = self.index(x, y);
         let pixel = &mut self.pixels[index];
+        add_exact(pixel, &mut self.exact[index], &xyz.map(to_exact));
         let squares = &mut self.squares[index];
         for (k, &v) in xyz.iter().enumerate() {
             let v = f64::from(v);
-            pixel.sum[k] += v;
             squares[k] += v * v;
         }
         pixel.count += 1;
@@ -634,9 +681,18 @@ impl Film {
         const CHUNK: usize = 1 << 14;
         rayon::join(
             || {
-                self.pixels
-                    .par_chunks_mut(CHUNK)
-                    .for_each(|c| c.fill(PixelSums::default()))
+                rayon::join(
+                    || {
+                        self.pixels
+                            .par_chunks_mut(CHUNK)
+                            .for_each(|c| c.fill(PixelSums::default()))
+                    },
+                    || {
+                        self.exact
+                            .par_chunks_mut(CHUNK)
+                            .for_each(|c| c.fill([0; 3]))
+                    },
+                )
             },
             || {
                 rayon::join(

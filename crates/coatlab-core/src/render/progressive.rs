@@ -136,6 +136,12 @@ pub enum RenderError {
         /// Wavelengths of the shading.
         shading: usize,
     },
+    /// A range of sample indices asked of an adaptive render.
+    #[error(
+        "adaptive sampling spreads a pass's samples by the noise of every sample before it, \
+         so it cannot render a range of sample indices on its own: render the range uniformly"
+    )]
+    AdaptiveRange,
     /// A zero-sized image.
     #[error("the image size {width}×{height} has no pixels")]
     EmptyImage {
@@ -841,6 +847,22 @@ impl ProgressiveRender {
         self.cache_capped = false;
         self.adaptive_weights = None;
         self.adaptive_passes = 0;
+    }
+
+    /// Restarts with the next pass beginning at sample index `first` of every
+    /// pixel, to render one range of the sample indices of a render split across
+    /// processes ([`crate::render::film::part`]): each sample is keyed by (seed,
+    /// pixel, index), so the range gets the samples a whole render gives it.
+    /// [`Self::samples_per_pixel`] then counts on from `first`, while the film
+    /// holds only the range's samples. Refused past 0 with adaptive sampling,
+    /// whose allocation depends on the samples before the range.
+    pub fn restart_at_sample(&mut self, first: u32) -> Result<(), RenderError> {
+        if first > 0 && self.settings.adaptive.is_some() {
+            return Err(RenderError::AdaptiveRange);
+        }
+        self.restart();
+        self.samples_per_pixel = first;
+        Ok(())
     }
 
     /// A new view (and possibly a new image size); restarts.
