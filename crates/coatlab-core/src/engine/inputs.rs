@@ -64,6 +64,7 @@ impl Inputs {
             Command::Lighting(_)
             | Command::OpenMap(_)
             | Command::Scene(_)
+            | Command::View(_)
             | Command::Quality(_) => Change::Nothing,
         }
     }

@@ -11,6 +11,7 @@ use crate::render::film::DisplaySettings;
 use crate::render::lighting::Lighting;
 use crate::render::material::Shading;
 use crate::render::reshade::ReshadeError;
+use crate::render::view::ViewChoice;
 
 use super::backend::{BackendView, RenderBackend, ViewSetup};
 use super::command::{Command, QualityKnobs, SceneSource, Views};
@@ -132,6 +133,7 @@ impl<B: RenderBackend> LiveEngine<B> {
             Command::Lighting(lighting) => self.take_lighting(lighting, out),
             Command::OpenMap(path) => self.take_map(path, out),
             Command::Quality(knobs) => self.take_quality(knobs, out),
+            Command::View(choice) => self.take_view(&choice, out),
             other => self.inputs.take(other),
         };
         let (state, actions) = transition(self.state, change);
@@ -152,6 +154,17 @@ impl<B: RenderBackend> LiveEngine<B> {
         self.world.info = info.clone();
         out(Output::Event(EngineEvent::SceneLoaded(info)));
         Change::Scene
+    }
+
+    fn take_view(&mut self, choice: &ViewChoice, out: &mut dyn FnMut(Output)) -> Change {
+        let (width, height) = self.inputs.size;
+        match self.world.scene.framing().camera(choice, width, height) {
+            Ok(camera) => {
+                self.inputs.camera = camera;
+                Change::Camera
+            }
+            Err(e) => failed(e.into(), out),
+        }
     }
 
     fn take_lighting(&mut self, lighting: Lighting, out: &mut dyn FnMut(Output)) -> Change {

@@ -11,6 +11,7 @@ use crate::colour::cie::Illuminant;
 use crate::design::{PaintDesign, RefractiveIndex, presets};
 use crate::paint::phong::PhongVariant;
 use crate::render::camera::Camera;
+use crate::render::view::{NamedView, ViewChoice, ViewError};
 use crate::render::environment::Environment;
 use crate::render::film::Film;
 use crate::render::lighting::Lighting;
@@ -399,6 +400,32 @@ fn a_camera_move_restarts_from_a_coarse_pass_and_rebuilds_nothing() {
     ] {
         restarts_coarse(command, RETRACE_ONLY);
     }
+}
+
+/// A view chosen from the toolbar moves the camera as an orbit does: nothing is
+/// rebuilt, the picture restarts from a coarse pass, and it is the view's camera.
+#[test]
+fn a_view_change_restarts_from_a_coarse_pass_and_rebuilds_nothing() {
+    for view in [NamedView::Side, NamedView::Top, NamedView::CloseUp] {
+        let engine = restarts_coarse(Command::View(ViewChoice::Named(view)), RETRACE_ONLY);
+        let (width, height) = engine.inputs.size;
+        let mut expected = engine.world.scene.framing().named(view, width, height);
+        expected.set_resolution(engine.inputs.camera.width(), engine.inputs.camera.height());
+        assert_eq!(engine.inputs.camera, expected, "{view}");
+    }
+    let free = "120,20,12,30".parse().expect("a free camera");
+    restarts_coarse(Command::View(free), RETRACE_ONLY);
+    // The built-in car has no cameras of its own: refused, nothing changes.
+    let (mut engine, before) = converged();
+    let camera = engine.inputs.camera.clone();
+    let outputs = apply(&mut engine, Command::View(ViewChoice::SceneCamera(0)));
+    assert!(matches!(
+        events(&outputs)[..],
+        [EngineEvent::Failed(EngineError::View(ViewError::NoSuchCamera { index: 0, count: 0 }))]
+    ));
+    assert_eq!(engine.inputs.camera, camera);
+    assert_ne!(engine.state().phase, Phase::Coarse);
+    assert_built(&engine, &before, ZERO);
 }
 
 #[test]
