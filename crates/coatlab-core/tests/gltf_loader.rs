@@ -777,9 +777,7 @@ fn real_models_load_as_their_files_declare() {
             assert!(
                 equal,
                 "{}: axis {k}: loaded {lo}..{hi}, declared {}..{}",
-                m.rel,
-                d.lo[k],
-                d.hi[k]
+                m.rel, d.lo[k], d.hi[k]
             );
         }
         assert_eq!(paint_names(&scene), [m.paint], "{}: paint", m.rel);
@@ -902,8 +900,14 @@ fn the_lower_end_becomes_the_nose_and_the_long_axis_follows_the_geometry() {
         // In the scene the car is 4.5 m along z, with its cabin (the high part)
         // behind: every vertex above the body is at z ≤ 0.
         let (lo, hi) = scene.mesh.bounds().unwrap();
-        assert!((hi[2] - lo[2] - 4.5).abs() < 1e-3, "yaw {yaw_deg}°: {lo:?} {hi:?}");
-        assert!((hi[0] - lo[0] - 1.8 * 4.5 / 4.0).abs() < 1e-3, "yaw {yaw_deg}°");
+        assert!(
+            (hi[2] - lo[2] - 4.5).abs() < 1e-3,
+            "yaw {yaw_deg}°: {lo:?} {hi:?}"
+        );
+        assert!(
+            (hi[0] - lo[0] - 1.8 * 4.5 / 4.0).abs() < 1e-3,
+            "yaw {yaw_deg}°"
+        );
         let body_top = 0.6 * 4.5 / 4.0 + 1e-3;
         assert!(
             scene
@@ -937,7 +941,10 @@ fn the_front_override_picks_the_end_of_the_long_axis() {
         let scene = load(&path, &options).unwrap();
         let nose = nose_in_block_frame(&scene, 30.0);
         assert!(nose.dot(expected) > 0.9999, "{front}: nose {nose:?}");
-        assert!(warns_about(&scene, &format!("front given as the file's {front}")));
+        assert!(warns_about(
+            &scene,
+            &format!("front given as the file's {front}")
+        ));
     }
     assert_eq!("-Z".parse::<Front>(), Ok(Front::MinusZ));
     assert!("+y".parse::<Front>().is_err());
@@ -964,6 +971,9 @@ fn a_car_exported_z_up_is_stood_upright() {
     let nose = glam::DVec3::from(scene.orientation.front_in_file);
     assert!(nose.dot(glam::DVec3::NEG_Y) > 0.9999, "{nose:?}");
     let (lo, hi) = scene.mesh.bounds().unwrap();
-    assert!((hi[1] - lo[1] - 1.3 * 4.5 / 4.0).abs() < 1e-3, "{lo:?} {hi:?}");
+    assert!(
+        (hi[1] - lo[1] - 1.3 * 4.5 / 4.0).abs() < 1e-3,
+        "{lo:?} {hi:?}"
+    );
     assert!((hi[2] - lo[2] - 4.5).abs() < 1e-3, "{lo:?} {hi:?}");
 }

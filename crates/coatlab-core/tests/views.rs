@@ -43,10 +43,14 @@ fn cars() -> Vec<TestCar> {
             lamborghini,
         ),
         ("ToyCar", "ToyCar/ToyCar.gltf", DVec3::Z),
-        ("CesiumMilkTruck", "CesiumMilkTruck/CesiumMilkTruck.glb", DVec3::Z),
+        (
+            "CesiumMilkTruck",
+            "CesiumMilkTruck/CesiumMilkTruck.glb",
+            DVec3::Z,
+        ),
     ] {
-        let scene = load(&dir.join(rel), &LoadOptions::default())
-            .unwrap_or_else(|e| panic!("{rel}: {e}"));
+        let scene =
+            load(&dir.join(rel), &LoadOptions::default()).unwrap_or_else(|e| panic!("{rel}: {e}"));
         cars.push(TestCar {
             name,
             scene,
@@ -106,7 +110,12 @@ fn the_loader_finds_each_test_cars_nose() {
             car.name,
             car.scene.orientation.reason
         );
-        assert_eq!(car.scene.orientation.up_in_file, [0.0, 1.0, 0.0], "{}", car.name);
+        assert_eq!(
+            car.scene.orientation.up_in_file,
+            [0.0, 1.0, 0.0],
+            "{}",
+            car.name
+        );
     }
 }
 
@@ -165,7 +174,10 @@ fn the_drape_is_not_the_car() {
         (car_length / scene_length - 0.0384 / 0.074).abs() < 0.03,
         "car {lo:?}..{hi:?} in {scene_lo:?}..{scene_hi:?}"
     );
-    assert!((hi[0] - lo[0]) / car_length < 0.55, "the car's width {lo:?}..{hi:?}");
+    assert!(
+        (hi[0] - lo[0]) / car_length < 0.55,
+        "the car's width {lo:?}..{hi:?}"
+    );
 }
 
 #[test]
@@ -196,11 +208,13 @@ fn each_named_view_looks_from_its_side() {
             assert!(ok, "{what}");
             if view == NamedView::CloseUp {
                 // Nearer than the default, looking at the left flank.
-                let distance = |c: &Camera| {
-                    (Vec3::from(c.position()) - Vec3::from(c.look_at())).length()
-                };
+                let distance =
+                    |c: &Camera| (Vec3::from(c.position()) - Vec3::from(c.look_at())).length();
                 assert!(distance(&camera) < 0.6 * distance(&default), "{what}");
-                assert!(camera.look_at()[0] > centre.x + 0.3 * (hi.x - lo.x), "{what}");
+                assert!(
+                    camera.look_at()[0] > centre.x + 0.3 * (hi.x - lo.x),
+                    "{what}"
+                );
                 continue;
             }
             let (x0, x1, y0, y1) = projected_box(&camera, &points);
@@ -268,7 +282,10 @@ fn the_files_cameras_see_the_car() {
         assert!(camera.up()[1] > 0.0, "camera {index}: {:?}", camera.up());
     }
     // Most of the file's cameras are aimed at the car (some at the drape beside it).
-    assert!(sees_the_car >= 5, "{sees_the_car} of 8 cameras look at the car");
+    assert!(
+        sees_the_car >= 5,
+        "{sees_the_car} of 8 cameras look at the car"
+    );
     assert!(matches!(
         framing.camera(&ViewChoice::SceneCamera(8), 320, 180),
         Err(ViewError::NoSuchCamera { index: 8, count: 8 })

@@ -21,9 +21,9 @@ use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{
     PassStats, ProgressiveRender, RenderScene, RenderSettings,
 };
+use coatlab_core::render::view::{NamedView, ViewChoice, ViewError};
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{CarParameters, generate};
-use coatlab_core::render::view::{NamedView, ViewChoice, ViewError};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
 use coatlab_core::scene::orientation::Front;
 

@@ -11,7 +11,6 @@ use crate::colour::cie::Illuminant;
 use crate::design::{PaintDesign, RefractiveIndex, presets};
 use crate::paint::phong::PhongVariant;
 use crate::render::camera::Camera;
-use crate::render::view::{NamedView, ViewChoice, ViewError};
 use crate::render::environment::Environment;
 use crate::render::film::Film;
 use crate::render::lighting::Lighting;
@@ -20,6 +19,7 @@ use crate::render::progressive::{
     EditOutcome, PassStats, ProgressiveRender, RenderError, RenderScene, RenderSettings,
 };
 use crate::render::reshade::{ReshadeError, Reshaded};
+use crate::render::view::{NamedView, ViewChoice, ViewError};
 
 use super::plan::{Actions, Change, Outcome, Restart, Second, Tables, advance, settle, transition};
 use super::*;
@@ -421,7 +421,9 @@ fn a_view_change_restarts_from_a_coarse_pass_and_rebuilds_nothing() {
     let outputs = apply(&mut engine, Command::View(ViewChoice::SceneCamera(0)));
     assert!(matches!(
         events(&outputs)[..],
-        [EngineEvent::Failed(EngineError::View(ViewError::NoSuchCamera { index: 0, count: 0 }))]
+        [EngineEvent::Failed(EngineError::View(
+            ViewError::NoSuchCamera { index: 0, count: 0 }
+        ))]
     ));
     assert_eq!(engine.inputs.camera, camera);
     assert_ne!(engine.state().phase, Phase::Coarse);

@@ -242,12 +242,20 @@ impl FromStr for ViewChoice {
 /// A view that cannot be made for this scene.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ViewError {
-    #[error("the scene has no camera {index} (it has {count}{})", if *count == 0 { "" } else { ": 0 to count − 1" })]
+    #[error("the scene has no camera {index} ({})", cameras_held(*count))]
     NoSuchCamera { index: usize, count: usize },
     #[error("free camera: {0}")]
     BadFreeCamera(String),
     #[error("the scene's camera {index}: {error}")]
     BadSceneCamera { index: usize, error: CameraError },
+}
+
+fn cameras_held(count: usize) -> String {
+    match count {
+        0 => "it has none of its own".into(),
+        1 => "it has one, gltf:0".into(),
+        n => format!("it has {n}, gltf:0 to gltf:{}", n - 1),
+    }
 }
 
 /// What the views of one scene are fitted to: the car's vertices and bounds, and
@@ -355,13 +363,24 @@ impl SceneFraming {
         let (azimuth, elevation) = view.direction_deg();
         let towards = direction(azimuth, elevation);
         // Straight down, "up" in the image is the nose.
-        let up = if view == NamedView::Top { Vec3::Z } else { Vec3::Y };
+        let up = if view == NamedView::Top {
+            Vec3::Z
+        } else {
+            Vec3::Y
+        };
         if view == NamedView::CloseUp {
             let panel = self.close_up_panel();
             return fit(&corners(panel), towards, up, CLOSE_UP_FILL, width, height);
         }
         if self.points.is_empty() {
-            return fit(&corners(self.bounds_or_point()), towards, up, FRAMING_FILL, width, height);
+            return fit(
+                &corners(self.bounds_or_point()),
+                towards,
+                up,
+                FRAMING_FILL,
+                width,
+                height,
+            );
         }
         fit(&self.points, towards, up, FRAMING_FILL, width, height)
     }
@@ -447,7 +466,10 @@ fn fit(points: &[Vec3], towards: Vec3, up: Vec3, fill: f32, width: u32, height: 
     };
     let mut distance = distance_for(target);
     for _ in 0..CENTRING_PASSES {
-        let (mut min, mut max) = (glam::Vec2::splat(f32::INFINITY), glam::Vec2::splat(f32::NEG_INFINITY));
+        let (mut min, mut max) = (
+            glam::Vec2::splat(f32::INFINITY),
+            glam::Vec2::splat(f32::NEG_INFINITY),
+        );
         for p in points {
             let o = *p - target;
             let depth = distance + o.dot(forward);
@@ -481,7 +503,10 @@ mod tests {
             assert_eq!(view.name().parse::<NamedView>(), Ok(view));
         }
         assert!("diagonal".parse::<NamedView>().is_err());
-        assert_eq!("gltf:3".parse::<ViewChoice>(), Ok(ViewChoice::SceneCamera(3)));
+        assert_eq!(
+            "gltf:3".parse::<ViewChoice>(),
+            Ok(ViewChoice::SceneCamera(3))
+        );
         assert_eq!(
             "30, -5, 8.5, 40".parse::<ViewChoice>(),
             Ok(ViewChoice::Free(FreeCamera {
@@ -497,9 +522,19 @@ mod tests {
                 "{bad}"
             );
         }
-        for bad in ["0,95,5,35", "0,0,0,35", "0,0,-1,35", "0,0,5,180", "0,0,5,0", "inf,0,5,35"] {
+        for bad in [
+            "0,95,5,35",
+            "0,0,0,35",
+            "0,0,-1,35",
+            "0,0,5,180",
+            "0,0,5,0",
+            "inf,0,5,35",
+        ] {
             assert!(
-                matches!(bad.parse::<ViewChoice>(), Err(ViewParseError::OutOfRange { .. })),
+                matches!(
+                    bad.parse::<ViewChoice>(),
+                    Err(ViewParseError::OutOfRange { .. })
+                ),
                 "{bad}"
             );
         }

@@ -41,7 +41,11 @@ pub fn car_triangles(mesh: &TriangleMesh, paint_materials: &[u32]) -> Vec<bool> 
         return vec![true; mesh.triangle_count()];
     };
     let inside = |p: [f32; 3]| (0..3).all(|k| p[k] >= grown.0[k] && p[k] <= grown.1[k]);
-    let materials = mesh.triangle_material.iter().max().map_or(0, |&m| m as usize + 1);
+    let materials = mesh
+        .triangle_material
+        .iter()
+        .max()
+        .map_or(0, |&m| m as usize + 1);
     let (mut area_inside, mut area_total) = (vec![0.0f32; materials], vec![0.0f32; materials]);
     let wholly_inside: Vec<bool> = mesh
         .triangles
@@ -75,8 +79,9 @@ pub fn car_bounds(mesh: &TriangleMesh, paint_materials: &[u32]) -> Option<Bounds
 
 /// The painted triangles' box grown by the margin and down to the scene's floor.
 fn grown_body_box(mesh: &TriangleMesh, paint_materials: &[u32]) -> Option<Bounds> {
-    let (lo, hi) =
-        bounds_of(mesh, |t| paint_materials.contains(&mesh.triangle_material[t]))?;
+    let (lo, hi) = bounds_of(mesh, |t| {
+        paint_materials.contains(&mesh.triangle_material[t])
+    })?;
     let (scene_lo, _) = mesh.bounds()?;
     let grown_lo = std::array::from_fn(|k| {
         if k == 1 {
@@ -117,7 +122,12 @@ mod tests {
     /// A quad from `lo` to `hi` in the plane y = `y`, material `material`.
     fn add_quad(mesh: &mut TriangleMesh, lo: [f32; 2], hi: [f32; 2], y: f32, material: u32) {
         let base = mesh.positions.len() as u32;
-        for (x, z) in [(lo[0], lo[1]), (hi[0], lo[1]), (hi[0], hi[1]), (lo[0], hi[1])] {
+        for (x, z) in [
+            (lo[0], lo[1]),
+            (hi[0], lo[1]),
+            (hi[0], hi[1]),
+            (lo[0], hi[1]),
+        ] {
             mesh.positions.push([x, y, z]);
             mesh.normals.push([0.0, 1.0, 0.0]);
         }

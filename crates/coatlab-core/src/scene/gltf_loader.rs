@@ -354,9 +354,8 @@ fn load_from_bytes(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<S
             *p = (turn * DVec3::from(p.map(f64::from))).as_vec3().into();
             *n = (turn * DVec3::from(n.map(f64::from))).as_vec3().into();
         }
-        world_from_file = normalise(&mut mesh).map_err(empty)?
-            * DAffine3::from_mat3(turn)
-            * world_from_file;
+        world_from_file =
+            normalise(&mut mesh).map_err(empty)? * DAffine3::from_mat3(turn) * world_from_file;
         add_areas(&mesh, &mut materials);
     }
     warnings.push(format!("orientation: {}", orientation.reason));
@@ -1358,7 +1357,10 @@ fn normalise(mesh: &mut TriangleMesh) -> Result<DAffine3, String> {
             p[k] = ((f64::from(p[k]) - centre[k]) * scale) as f32;
         }
     }
-    Ok(DAffine3::from_scale(DVec3::splat(scale)) * DAffine3::from_translation(-DVec3::from(centre)))
+    Ok(
+        DAffine3::from_scale(DVec3::splat(scale))
+            * DAffine3::from_translation(-DVec3::from(centre)),
+    )
 }
 
 #[cfg(test)]

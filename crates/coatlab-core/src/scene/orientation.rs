@@ -173,12 +173,18 @@ pub fn orient(mesh: &TriangleMesh, car: &[bool], front: Option<Front>) -> Orient
     let cab = sab / total - mean.0 * mean.1;
     // Angle of the major axis from the a axis, and the two variances.
     let angle = 0.5 * (2.0 * cab).atan2(caa - cbb);
-    let (mid, half_gap) = (0.5 * (caa + cbb), (0.25 * (caa - cbb).powi(2) + cab * cab).sqrt());
+    let (mid, half_gap) = (
+        0.5 * (caa + cbb),
+        (0.25 * (caa - cbb).powi(2) + cab * cab).sqrt(),
+    );
     let (major, minor) = (mid + half_gap, mid - half_gap);
     let car_shaped = {
         // Extents along the two principal axes.
         let (c, s) = (angle.cos(), angle.sin());
-        let (mut u, mut v) = ((f64::INFINITY, f64::NEG_INFINITY), (f64::INFINITY, f64::NEG_INFINITY));
+        let (mut u, mut v) = (
+            (f64::INFINITY, f64::NEG_INFINITY),
+            (f64::INFINITY, f64::NEG_INFINITY),
+        );
         for (p, _) in &samples {
             let (a, b) = horizontal(*p);
             let (pu, pv) = (a * c + b * s, -a * s + b * c);
@@ -226,7 +232,11 @@ pub fn orient(mesh: &TriangleMesh, car: &[bool], front: Option<Front>) -> Orient
                 let d = named.direction();
                 to_file(d.x, d.z)
             };
-            let chosen = if axis.dot(named_dir) >= 0.0 { axis } else { -axis };
+            let chosen = if axis.dot(named_dir) >= 0.0 {
+                axis
+            } else {
+                -axis
+            };
             (chosen, format!("front given as the file's {named}"))
         }
         None => {
@@ -279,8 +289,7 @@ fn triangles_of<'a>(
         .enumerate()
         .filter(|(t, _)| car.get(*t).copied().unwrap_or(true))
         .filter_map(|(_, triangle)| {
-            let corners =
-                triangle.map(|v| DVec3::from(mesh.positions[v as usize].map(f64::from)));
+            let corners = triangle.map(|v| DVec3::from(mesh.positions[v as usize].map(f64::from)));
             let [a, b, c] = corners;
             let area = 0.5 * (b - a).cross(c - a).length();
             (area.is_finite() && area > 0.0).then_some((corners, area))
@@ -313,20 +322,24 @@ fn extent(samples: &[(DVec3, f64)]) -> (DVec3, DVec3) {
 }
 
 fn height_of(samples: &[(DVec3, f64)], up: DVec3) -> f64 {
-    let (lo, hi) = samples.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (p, _)| {
-        let h = p.dot(up);
-        (lo.min(h), hi.max(h))
-    });
+    let (lo, hi) = samples
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (p, _)| {
+            let h = p.dot(up);
+            (lo.min(h), hi.max(h))
+        });
     hi - lo
 }
 
 /// The highest surface point over the last [`END_SLICE`] of the length at the
 /// `axis` end and at the opposite end.
 fn end_heights(samples: &[(DVec3, f64)], up: DVec3, axis: DVec3) -> (f64, f64) {
-    let (lo, hi) = samples.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (p, _)| {
-        let u = p.dot(axis);
-        (lo.min(u), hi.max(u))
-    });
+    let (lo, hi) = samples
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (p, _)| {
+            let u = p.dot(axis);
+            (lo.min(u), hi.max(u))
+        });
     let slice = END_SLICE * (hi - lo);
     let (mut plus, mut minus) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
     for (p, _) in samples {
