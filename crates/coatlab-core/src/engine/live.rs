@@ -81,6 +81,7 @@ impl<B: RenderBackend> LiveEngine<B> {
         let mut world = World::new(grid, &mut counters)?;
         let inputs = Inputs {
             camera: world.scene.default_camera(INITIAL_SIZE.0, INITIAL_SIZE.1),
+            view: Some(ViewChoice::default()),
             design,
             views: Views::default(),
             lighting: Lighting::Studio,
@@ -136,6 +137,9 @@ impl<B: RenderBackend> LiveEngine<B> {
             Command::View(choice) => self.take_view(&choice, out),
             other => self.inputs.take(other),
         };
+        if change == Change::Size {
+            self.refit_view();
+        }
         let (state, actions) = transition(self.state, change);
         let deferred = std::mem::take(&mut self.deferred);
         self.pending = self.pending.merge(deferred).merge(actions);
@@ -149,6 +153,7 @@ impl<B: RenderBackend> LiveEngine<B> {
         };
         let (width, height) = self.inputs.size;
         self.inputs.camera = scene.default_camera(width, height);
+        self.inputs.view = Some(ViewChoice::default());
         self.inputs.paint_override = None;
         self.world.scene = scene;
         self.world.info = info.clone();
@@ -161,9 +166,21 @@ impl<B: RenderBackend> LiveEngine<B> {
         match self.world.scene.framing().camera(choice, width, height) {
             Ok(camera) => {
                 self.inputs.camera = camera;
+                self.inputs.view = Some(*choice);
                 Change::Camera
             }
             Err(e) => failed(e.into(), out),
+        }
+    }
+
+    /// Fits the view the camera is at (if not moved by hand) to a new image size:
+    /// a view framed for one aspect crops the car in a narrower one.
+    fn refit_view(&mut self) {
+        let (width, height) = self.inputs.size;
+        if let Some(choice) = self.inputs.view
+            && let Ok(camera) = self.world.scene.framing().camera(&choice, width, height)
+        {
+            self.inputs.camera = camera;
         }
     }
 

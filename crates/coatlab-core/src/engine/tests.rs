@@ -430,6 +430,24 @@ fn a_view_change_restarts_from_a_coarse_pass_and_rebuilds_nothing() {
     assert_built(&engine, &before, ZERO);
 }
 
+/// A new image size fits the chosen view to the new aspect (a view framed wide
+/// would crop the car in a tall pane); a camera moved by hand only changes its
+/// resolution.
+#[test]
+fn a_resize_fits_the_view_again_unless_the_camera_was_moved() {
+    let tall = (SIZE.0 / 2, SIZE.1 * 2);
+    let engine = restarts_coarse(Command::Size(tall.0, tall.1), RETRACE_ONLY);
+    let expected = engine.world.scene.default_camera(tall.0, tall.1);
+    assert_eq!(engine.inputs.camera.position(), expected.position());
+    assert_eq!(engine.inputs.camera.look_at(), expected.look_at());
+
+    let (mut engine, _) = converged();
+    apply(&mut engine, Command::Orbit(30.0, 0.0));
+    let moved = engine.inputs.camera.position();
+    apply(&mut engine, Command::Size(tall.0, tall.1));
+    assert_eq!(engine.inputs.camera.position(), moved);
+}
+
 #[test]
 fn a_quality_preset_with_another_grid_rebuilds_lighting_tables_and_renders_on_it() {
     let (mut engine, before) = converged();

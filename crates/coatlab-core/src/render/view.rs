@@ -18,8 +18,12 @@
 //! | side | `side` | 90° | 5° | the car |
 //! | front | `front` | 0° | 8° | the car |
 //! | rear | `rear` | 180° | 8° | the car |
-//! | top | `top` | — | 90° | the car, nose up the image |
+//! | top | `top` | 180° | 89° | the car, nose up the image |
 //! | close-up | `closeup` | 65° | 10° | the left front door and wing |
+//!
+//! The top view stops at the orbit's limit ([`MAX_ORBIT_ELEVATION_DEG`]), seen
+//! from just behind, so its camera keeps +Y as up (orbiting from it turns about
+//! the vertical, as from any other view) and the nose is up the image.
 //!
 //! A named view's distance is the least at which every vertex of the car projects
 //! within [`FRAMING_FILL`] of the half-image in both axes, with the car's projected
@@ -108,7 +112,7 @@ impl NamedView {
             NamedView::Side => (90.0, 5.0),
             NamedView::Front => (0.0, 8.0),
             NamedView::Rear => (180.0, 8.0),
-            NamedView::Top => (0.0, 90.0),
+            NamedView::Top => (180.0, MAX_ORBIT_ELEVATION_DEG),
             NamedView::CloseUp => (65.0, 10.0),
         }
     }
@@ -163,7 +167,8 @@ impl FreeCamera {
         if !self.yaw_deg.is_finite() {
             return Err(format!("yaw {} must be finite", self.yaw_deg));
         }
-        if !(self.pitch_deg.abs() <= MAX_ORBIT_ELEVATION_DEG) {
+        // NaN fails the range test too.
+        if self.pitch_deg.is_nan() || self.pitch_deg.abs() > MAX_ORBIT_ELEVATION_DEG {
             return Err(format!(
                 "pitch {}° must be within ±{MAX_ORBIT_ELEVATION_DEG}°",
                 self.pitch_deg
@@ -362,12 +367,7 @@ impl SceneFraming {
     pub fn named(&self, view: NamedView, width: u32, height: u32) -> Camera {
         let (azimuth, elevation) = view.direction_deg();
         let towards = direction(azimuth, elevation);
-        // Straight down, "up" in the image is the nose.
-        let up = if view == NamedView::Top {
-            Vec3::Z
-        } else {
-            Vec3::Y
-        };
+        let up = Vec3::Y;
         if view == NamedView::CloseUp {
             let panel = self.close_up_panel();
             return fit(&corners(panel), towards, up, CLOSE_UP_FILL, width, height);
