@@ -503,6 +503,34 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
             "not a readable OpenEXR file",
         ),
         (vec!["--paint-material", "Chrome"], usage, "body, glass"),
+        (vec!["--view", "diagonal"], usage, "'diagonal' for '--view"),
+        (vec!["--camera", "1,2,3"], usage, "'1,2,3' for '--camera"),
+        (
+            vec!["--camera", "0,95,5,35"],
+            usage,
+            "pitch 95° must be within ±89°",
+        ),
+        (
+            vec!["--camera", "0,10,-2,35"],
+            usage,
+            "distance -2 m must be a positive",
+        ),
+        (
+            vec!["--camera", "gltf:0"],
+            usage,
+            "--camera gltf:0: the scene has no camera 0 (it has none of its own)",
+        ),
+        (
+            vec!["--view", "side", "--camera", "gltf:0"],
+            usage,
+            "cannot be used with",
+        ),
+        (vec!["--front", "+y"], usage, "'+y' for '--front"),
+        (
+            vec!["--front", "-x"],
+            usage,
+            "--front -x: only for a glTF --scene",
+        ),
         (
             vec!["--scene", "/nonexistent/car.glb"],
             no_input,
@@ -552,6 +580,55 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
     let output = render_small(&png, "8x8", 1, &["--scene", cut.to_str().expect("utf-8")]);
     let err = failure(&output, exit::DATA);
     assert!(err.contains("cut.glb"), "{err}");
+}
+
+/// `--view side` renders, and not the default view's picture (which view each
+/// named view shows is tested on the cameras in crates/coatlab-core/tests/views.rs).
+#[test]
+fn a_named_view_renders() {
+    let (side, default) = (out_path("side.png"), out_path("front-34.png"));
+    for (out, extra) in [(&side, &["--view", "side"][..]), (&default, &[][..])] {
+        let output = render_small(out, "32x18", 1, &[extra, &["--wavelengths", "4"]].concat());
+        stdout(&output);
+        assert_eq!(png_size(&std::fs::read(out).expect("png")), (32, 18));
+    }
+    assert_ne!(
+        std::fs::read(&side).expect("png"),
+        std::fs::read(&default).expect("png")
+    );
+}
+
+/// `--camera gltf:N` renders from ToyCar's own cameras, and one it does not have
+/// is refused by number.
+#[test]
+fn a_files_camera_renders_and_a_missing_one_is_refused() {
+    let Some(dir) = testdata() else {
+        return;
+    };
+    let toy_car = dir.join("ToyCar/ToyCar.gltf");
+    let toy_car = toy_car.to_str().expect("utf-8");
+    let png = out_path("toycar-camera.png");
+    let output = render_small(
+        &png,
+        "32x18",
+        1,
+        &[
+            "--scene",
+            toy_car,
+            "--camera",
+            "gltf:1",
+            "--wavelengths",
+            "4",
+        ],
+    );
+    stdout(&output);
+    assert_eq!(png_size(&std::fs::read(&png).expect("png")), (32, 18));
+    let output = render_small(&png, "8x8", 1, &["--scene", toy_car, "--camera", "gltf:8"]);
+    let err = failure(&output, exit::USAGE);
+    assert!(
+        err.contains("--camera gltf:8: the scene has no camera 8 (it has 8, gltf:0 to gltf:7)"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -25,6 +25,9 @@ use harness::{app_harness, options};
 mod hdr_fixture;
 use hdr_fixture::write_hdr;
 
+#[path = "../crates/coatlab-core/tests/support/gltf_testdata.rs"]
+mod gltf_testdata;
+
 fn app() -> CoatlabApp {
     CoatlabApp::new(options(false))
 }
@@ -1385,4 +1388,46 @@ fn a_mirror_paint_is_compared_through_independent_renders() {
     h.get_by_label_contains("Independent renders (same camera and seed): an ideal-mirror");
     let map = preview(h.state()).delta_e_map().expect("map");
     assert!(map.p95 > 0.5, "a mirror is not Phong: p95 {}", map.p95);
+}
+
+/// The preview's View list: the named views, and the scene file's own cameras
+/// once a file with cameras (ToyCar) is open. (What the engine does with the
+/// choice is tested without a window: `a_view_change_restarts_from_a_coarse_pass_and_rebuilds_nothing`.)
+#[test]
+fn the_view_list_offers_named_views_and_the_files_cameras() {
+    use coatlab_core::render::view::{NamedView, ViewChoice};
+    let Some(dir) = gltf_testdata::testdata() else {
+        return;
+    };
+    let mut h = preview_harness(false);
+    wait_until(&mut h, "the built-in car", |app| {
+        scene_shown(app).is_some_and(|s| s.name == "Built-in car")
+    });
+    let choose = |h: &mut Harness<'static, CoatlabApp>, label: &str| {
+        h.get_by_role_and_label(Role::ComboBox, "View").click();
+        steps(h, 2);
+        h.get_by_label(label).click();
+        steps(h, 2);
+    };
+    choose(&mut h, NamedView::Side.label());
+    assert_eq!(
+        preview(h.state()).view(),
+        ViewChoice::Named(NamedView::Side)
+    );
+
+    let toy_car = dir.join("ToyCar/ToyCar.gltf");
+    h.input_mut().dropped_files.push(Arc::new(Dropped(toy_car)));
+    wait_until(&mut h, "ToyCar", |app| {
+        scene_shown(app).is_some_and(|s| s.name == "ToyCar.gltf")
+    });
+    // A new scene opens at the default view.
+    assert_eq!(preview(h.state()).view(), ViewChoice::default());
+    assert_eq!(scene_shown(h.state()).expect("scene").cameras.len(), 8);
+    choose(&mut h, "Camera: Camera002");
+    assert_eq!(preview(h.state()).view(), ViewChoice::SceneCamera(1));
+    assert!(
+        !h.state().notices().iter().any(|n| n.is_error),
+        "{:?}",
+        h.state().notices()
+    );
 }

@@ -220,7 +220,7 @@ fn body_only(scene: &Scene) -> Result<Scene, String> {
         mesh,
         materials: vec![material],
         paint_materials: vec![0],
-        warnings: Vec::new(),
+        ..Scene::default()
     })
 }
 

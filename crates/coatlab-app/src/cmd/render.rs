@@ -23,9 +23,11 @@ use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{
     PassStats, ProgressiveRender, RenderScene, RenderSettings,
 };
+use coatlab_core::render::view::{NamedView, ViewChoice, ViewError};
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
+use coatlab_core::scene::orientation::Front;
 
 use super::failure::{Classify, Failure};
 
@@ -45,6 +47,19 @@ pub struct RenderArgs {
     /// Paint the material with exactly this name instead of the automatic choice.
     #[arg(long)]
     pub paint_material: Option<String>,
+    /// glTF scene only: the file axis the car's nose points along (+x, -x, +z or
+    /// -z) instead of the automatic orientation (docs/scenes.md).
+    #[arg(long, allow_hyphen_values = true)]
+    pub front: Option<Front>,
+    /// Named view: front-34 (the default), rear-34, side, front, rear, top or
+    /// closeup (a panel: the left front door and wing).
+    #[arg(long, conflicts_with = "camera")]
+    pub view: Option<NamedView>,
+    /// A camera by hand, yaw_deg,pitch_deg,distance_m,fov_deg (yaw from the nose
+    /// toward the car's left, pitch up, distance from the car's centre, vertical
+    /// field of view), or gltf:N for the scene file's camera N (from 0).
+    #[arg(long, allow_hyphen_values = true)]
+    pub camera: Option<ViewChoice>,
     /// Lighting: studio, booth-d65, booth-a, booth-f11, outdoor, or the path of an
     /// environment map (Radiance .hdr or OpenEXR .exr, equirectangular).
     #[arg(long, default_value = "studio")]
@@ -223,14 +238,23 @@ fn lighting_name(argument: &str) -> String {
 }
 
 /// The scene: a glTF file, or the built-in car.
-pub fn scene(path: Option<&Path>, paint_material: Option<&str>) -> anyhow::Result<Scene> {
+pub fn scene(
+    path: Option<&Path>,
+    paint_material: Option<&str>,
+    front: Option<Front>,
+) -> anyhow::Result<Scene> {
     match path {
         Some(path) => Ok(load(
             path,
             &LoadOptions {
                 paint_material: paint_material.map(str::to_owned),
+                front,
             },
         )?),
+        None if front.is_some() => Err(Failure::Usage.error(format!(
+            "--front {}: only for a glTF --scene; the built-in car's nose is +z already",
+            front.map(Front::name).unwrap_or_default()
+        ))),
         None => {
             let mut scene = generate(&CarParameters::default());
             if let Some(name) = paint_material {
@@ -426,7 +450,11 @@ pub fn render_film(
         .context("cannot build the paint model")
         .or_fail(Failure::Data)?;
     let environment = environment(&args.environment, &grid)?;
-    let scene = scene(args.scene.as_deref(), args.paint_material.as_deref())?;
+    let scene = scene(
+        args.scene.as_deref(),
+        args.paint_material.as_deref(),
+        args.front,
+    )?;
     for warning in &scene.warnings {
         to_stderr(format_args!("coatlab: warning: {warning}\n"));
     }
@@ -435,7 +463,21 @@ pub fn render_film(
         .context("cannot prepare the scene")
         .or_fail(Failure::Data)?;
     let (width, height) = args.size;
-    let camera = render_scene.default_camera(width, height);
+    let choice = match (args.view, args.camera) {
+        (Some(view), _) => ViewChoice::Named(view),
+        (None, Some(camera)) => camera,
+        (None, None) => ViewChoice::default(),
+    };
+    let camera = render_scene
+        .framing()
+        .camera(&choice, width, height)
+        .map_err(|error| {
+            let flag = match error {
+                ViewError::NoSuchCamera { index, .. } => format!("--camera gltf:{index}"),
+                _ => "--camera".to_owned(),
+            };
+            Failure::Usage.error(format!("{flag}: {error}"))
+        })?;
     let mut render = ProgressiveRender::new(
         Arc::new(render_scene),
         Arc::new(environment),

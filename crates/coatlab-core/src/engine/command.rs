@@ -6,6 +6,7 @@ use crate::design::PaintDesign;
 use crate::paint::phong::PhongVariant;
 use crate::render::lighting::Lighting;
 use crate::render::material::ShadingModel;
+use crate::render::view::ViewChoice;
 
 use super::{DEFAULT_WAVELENGTHS, MAX_SPP};
 
@@ -36,6 +37,10 @@ pub enum Command {
     Zoom(f32),
     /// Moves the camera and its target sideways, in pixels of the image.
     Pan(f32, f32),
+    /// Puts the camera at a named view, a free camera or one of the scene file's
+    /// cameras ([`crate::render::view`]); a camera the scene does not have is
+    /// reported and changes nothing.
+    View(ViewChoice),
     /// The quality knobs: wavelengths, sample target, resolution divisor.
     Quality(QualityKnobs),
 }

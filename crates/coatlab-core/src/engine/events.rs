@@ -6,6 +6,7 @@ use thiserror::Error;
 
 use crate::render::environment::EnvironmentError;
 use crate::render::progressive::RenderError;
+use crate::render::view::ViewError;
 use crate::scene::Scene;
 
 /// Something the user should be told.
@@ -54,6 +55,9 @@ pub enum EngineError {
     /// The back-end could not set up or change a render.
     #[error("preview: {0}")]
     Render(#[from] RenderError),
+    /// A view the scene cannot give (a file camera it does not have).
+    #[error("view: {0}")]
+    View(#[from] ViewError),
 }
 
 /// The scene being rendered, as a user sees it.
@@ -69,6 +73,8 @@ pub struct SceneInfo {
     pub automatic_paint: Vec<u32>,
     /// Problems that did not stop the load.
     pub warnings: Vec<String>,
+    /// Names of the file's own cameras, by index (`ViewChoice::SceneCamera`).
+    pub cameras: Vec<String>,
 }
 
 impl SceneInfo {
@@ -80,6 +86,7 @@ impl SceneInfo {
             materials: scene.materials.iter().map(|m| m.name.clone()).collect(),
             automatic_paint: scene.paint_materials.clone(),
             warnings: scene.warnings.clone(),
+            cameras: scene.cameras.iter().map(|c| c.name.clone()).collect(),
         }
     }
 }

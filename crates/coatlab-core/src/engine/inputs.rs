@@ -4,6 +4,7 @@
 use crate::design::PaintDesign;
 use crate::render::camera::Camera;
 use crate::render::lighting::Lighting;
+use crate::render::view::ViewChoice;
 
 use super::command::{Command, QualityKnobs, Views};
 use super::plan::Change;
@@ -26,6 +27,9 @@ pub(super) struct Inputs {
     pub size: (u32, u32),
     /// The view; its resolution follows the pass being rendered (coarse or full).
     pub camera: Camera,
+    /// The view the camera is at, while it is not moved by hand (an orbit, a zoom
+    /// or a pan clears it): a new image size fits that view again to its aspect.
+    pub view: Option<ViewChoice>,
 }
 
 impl Inputs {
@@ -64,6 +68,7 @@ impl Inputs {
             Command::Lighting(_)
             | Command::OpenMap(_)
             | Command::Scene(_)
+            | Command::View(_)
             | Command::Quality(_) => Change::Nothing,
         }
     }
@@ -83,6 +88,7 @@ impl Inputs {
 
     fn move_camera(&mut self, step: impl FnOnce(&mut Camera)) -> Change {
         step(&mut self.camera);
+        self.view = None;
         Change::Camera
     }
 

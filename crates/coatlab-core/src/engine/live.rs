@@ -11,6 +11,7 @@ use crate::render::film::DisplaySettings;
 use crate::render::lighting::Lighting;
 use crate::render::material::Shading;
 use crate::render::reshade::ReshadeError;
+use crate::render::view::ViewChoice;
 
 use super::backend::{BackendView, RenderBackend, ViewSetup};
 use super::command::{Command, QualityKnobs, SceneSource, Views};
@@ -80,6 +81,7 @@ impl<B: RenderBackend> LiveEngine<B> {
         let mut world = World::new(grid, &mut counters)?;
         let inputs = Inputs {
             camera: world.scene.default_camera(INITIAL_SIZE.0, INITIAL_SIZE.1),
+            view: Some(ViewChoice::default()),
             design,
             views: Views::default(),
             lighting: Lighting::Studio,
@@ -132,8 +134,12 @@ impl<B: RenderBackend> LiveEngine<B> {
             Command::Lighting(lighting) => self.take_lighting(lighting, out),
             Command::OpenMap(path) => self.take_map(path, out),
             Command::Quality(knobs) => self.take_quality(knobs, out),
+            Command::View(choice) => self.take_view(&choice, out),
             other => self.inputs.take(other),
         };
+        if change == Change::Size {
+            self.refit_view();
+        }
         let (state, actions) = transition(self.state, change);
         let deferred = std::mem::take(&mut self.deferred);
         self.pending = self.pending.merge(deferred).merge(actions);
@@ -147,11 +153,35 @@ impl<B: RenderBackend> LiveEngine<B> {
         };
         let (width, height) = self.inputs.size;
         self.inputs.camera = scene.default_camera(width, height);
+        self.inputs.view = Some(ViewChoice::default());
         self.inputs.paint_override = None;
         self.world.scene = scene;
         self.world.info = info.clone();
         out(Output::Event(EngineEvent::SceneLoaded(info)));
         Change::Scene
+    }
+
+    fn take_view(&mut self, choice: &ViewChoice, out: &mut dyn FnMut(Output)) -> Change {
+        let (width, height) = self.inputs.size;
+        match self.world.scene.framing().camera(choice, width, height) {
+            Ok(camera) => {
+                self.inputs.camera = camera;
+                self.inputs.view = Some(*choice);
+                Change::Camera
+            }
+            Err(e) => failed(e.into(), out),
+        }
+    }
+
+    /// Fits the view the camera is at (if not moved by hand) to a new image size:
+    /// a view framed for one aspect crops the car in a narrower one.
+    fn refit_view(&mut self) {
+        let (width, height) = self.inputs.size;
+        if let Some(choice) = self.inputs.view
+            && let Ok(camera) = self.world.scene.framing().camera(&choice, width, height)
+        {
+            self.inputs.camera = camera;
+        }
     }
 
     fn take_lighting(&mut self, lighting: Lighting, out: &mut dyn FnMut(Output)) -> Change {

@@ -19,6 +19,7 @@ use crate::render::progressive::{
     EditOutcome, PassStats, ProgressiveRender, RenderError, RenderScene, RenderSettings,
 };
 use crate::render::reshade::{ReshadeError, Reshaded};
+use crate::render::view::{NamedView, ViewChoice, ViewError};
 
 use super::plan::{Actions, Change, Outcome, Restart, Second, Tables, advance, settle, transition};
 use super::*;
@@ -399,6 +400,52 @@ fn a_camera_move_restarts_from_a_coarse_pass_and_rebuilds_nothing() {
     ] {
         restarts_coarse(command, RETRACE_ONLY);
     }
+}
+
+/// A view chosen from the toolbar moves the camera as an orbit does: nothing is
+/// rebuilt, the picture restarts from a coarse pass, and it is the view's camera.
+#[test]
+fn a_view_change_restarts_from_a_coarse_pass_and_rebuilds_nothing() {
+    for view in [NamedView::Side, NamedView::Top, NamedView::CloseUp] {
+        let engine = restarts_coarse(Command::View(ViewChoice::Named(view)), RETRACE_ONLY);
+        let (width, height) = engine.inputs.size;
+        let mut expected = engine.world.scene.framing().named(view, width, height);
+        expected.set_resolution(engine.inputs.camera.width(), engine.inputs.camera.height());
+        assert_eq!(engine.inputs.camera, expected, "{view}");
+    }
+    let free = "120,20,12,30".parse().expect("a free camera");
+    restarts_coarse(Command::View(free), RETRACE_ONLY);
+    // The built-in car has no cameras of its own: refused, nothing changes.
+    let (mut engine, before) = converged();
+    let camera = engine.inputs.camera.clone();
+    let outputs = apply(&mut engine, Command::View(ViewChoice::SceneCamera(0)));
+    assert!(matches!(
+        events(&outputs)[..],
+        [EngineEvent::Failed(EngineError::View(
+            ViewError::NoSuchCamera { index: 0, count: 0 }
+        ))]
+    ));
+    assert_eq!(engine.inputs.camera, camera);
+    assert_ne!(engine.state().phase, Phase::Coarse);
+    assert_built(&engine, &before, ZERO);
+}
+
+/// A new image size fits the chosen view to the new aspect (a view framed wide
+/// would crop the car in a tall pane); a camera moved by hand only changes its
+/// resolution.
+#[test]
+fn a_resize_fits_the_view_again_unless_the_camera_was_moved() {
+    let tall = (SIZE.0 / 2, SIZE.1 * 2);
+    let engine = restarts_coarse(Command::Size(tall.0, tall.1), RETRACE_ONLY);
+    let expected = engine.world.scene.default_camera(tall.0, tall.1);
+    assert_eq!(engine.inputs.camera.position(), expected.position());
+    assert_eq!(engine.inputs.camera.look_at(), expected.look_at());
+
+    let (mut engine, _) = converged();
+    apply(&mut engine, Command::Orbit(30.0, 0.0));
+    let moved = engine.inputs.camera.position();
+    apply(&mut engine, Command::Size(tall.0, tall.1));
+    assert_eq!(engine.inputs.camera.position(), moved);
 }
 
 #[test]

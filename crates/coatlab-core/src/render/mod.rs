@@ -17,7 +17,8 @@
 //! - [`progressive`]: passes over tiles on all cores, restarts, noise estimates;
 //! - [`adaptive`]: adaptive sampling, a pass's samples spent by each pixel's noise;
 //! - [`image_error`]: the error of a render against a reference (ΔE00 as displayed);
-//! - [`reshade`]: a paint edit's picture from the recorded paths, without tracing.
+//! - [`reshade`]: a paint edit's picture from the recorded paths, without tracing;
+//! - [`view`]: the named views, the free camera and the scene's own cameras.
 
 pub mod geometry;
 pub mod sampler;
@@ -32,3 +33,4 @@ pub mod lighting;
 pub mod material;
 pub mod progressive;
 pub mod reshade;
+pub mod view;

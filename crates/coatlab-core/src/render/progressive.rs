@@ -75,6 +75,7 @@ use crate::render::reshade::{
     reshade, reshade_prepared,
 };
 use crate::render::sampler::PixelSampler;
+use crate::render::view::{NamedView, SceneFraming};
 use crate::scene::{Scene, SceneMaterial};
 
 /// Side of the square tiles a pass is split into, pixels: small enough that two
@@ -160,6 +161,7 @@ pub struct RenderScene {
     materials: Vec<SceneMaterial>,
     paint_materials: Vec<u32>,
     bounds: ([f32; 3], [f32; 3]),
+    framing: SceneFraming,
 }
 
 impl RenderScene {
@@ -169,12 +171,14 @@ impl RenderScene {
         if scene.mesh.triangle_count() == 0 {
             return Err(RenderError::EmptyScene);
         }
+        let framing = SceneFraming::new(&scene);
         let geometry = RenderGeometry::new(scene.mesh, true)?;
         Ok(Self {
             geometry,
             materials: scene.materials,
             paint_materials: scene.paint_materials,
             bounds,
+            framing,
         })
     }
 
@@ -204,9 +208,16 @@ impl RenderScene {
         Shading::new(paint, model, &self.materials, &self.paint_materials)
     }
 
-    /// The default view of the scene at `width` × `height`: see [`Camera::framing`].
+    /// What the views are fitted to: the car (not the whole scene) and the file's
+    /// cameras.
+    pub fn framing(&self) -> &SceneFraming {
+        &self.framing
+    }
+
+    /// The default view of the car at `width` × `height`: the front three-quarter
+    /// view of [`crate::render::view`].
     pub fn default_camera(&self, width: u32, height: u32) -> Camera {
-        Camera::framing(self.bounds, width, height)
+        self.framing.named(NamedView::default(), width, height)
     }
 }
 

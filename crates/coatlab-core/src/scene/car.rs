@@ -349,6 +349,7 @@ pub fn generate(parameters: &CarParameters) -> Scene {
         materials,
         paint_materials: vec![BODY],
         warnings,
+        ..Scene::default()
     }
 }
 

@@ -10,8 +10,10 @@
 //! | buffers | GLB `BIN` chunk, files by URI relative to the `.gltf` (percent-decoded), base64 `data:` URIs |
 //! | flatten | the default scene (or scene 0), world matrices (TRS or matrix), every instance of a mesh, winding flipped under negative determinants |
 //! | normals | `NORMAL` by the inverse transpose, else area-weighted smooth normals |
-//! | normalise | uniform scale so the larger horizontal (x, z) extent is [`TARGET_LENGTH_M`], then min y = 0 and x, z centred; no rotation |
+//! | normalise | uniform scale so the larger horizontal (x, z) extent is [`TARGET_LENGTH_M`], then min y = 0 and x, z centred |
 //! | paint | [`LoadOptions::paint_material`] by name, else the heuristic of [`choose_paint_material`] |
+//! | orient | the car's triangles ([`super::framing`]) turned so it stands on +Y with its nose toward +Z ([`super::orientation`], or [`LoadOptions::front`]), then normalised again |
+//! | cameras | each perspective camera of the default scene's nodes, carried through its node transforms and the same turn, scale and centring |
 //!
 //! Every accessor is read by our own bounds-checked reader (the crate's reader
 //! panics on some malformed input), so bad files give a [`SceneError`], never a panic.
@@ -20,12 +22,13 @@ use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use glam::DVec3;
+use glam::{DAffine3, DMat3, DVec3};
 use gltf::json;
 use gltf::mesh::Mode;
 use palette::LinSrgb;
 
-use super::{Scene, SceneMaterial, TriangleMesh};
+use super::orientation::{Front, orient};
+use super::{Scene, SceneCamera, SceneMaterial, TriangleMesh, framing};
 
 /// Length the model is scaled to: its larger horizontal extent, metres (a car's length).
 pub const TARGET_LENGTH_M: f64 = 4.5;
@@ -92,6 +95,9 @@ pub const NOT_PAINT_NAME_HINTS: &[&str] = &[
 pub struct LoadOptions {
     /// Paint every material with exactly this name instead of the heuristic's choice.
     pub paint_material: Option<String>,
+    /// The file axis the car's nose points along, instead of the orientation
+    /// heuristic's choice ([`super::orientation`]).
+    pub front: Option<Front>,
 }
 
 /// Why a scene could not be loaded. Every variant names the file.
@@ -235,8 +241,9 @@ fn load_from_bytes(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<S
         })?;
     check_single_parents(&file, root)?;
     let mut instances = Vec::new();
+    let mut camera_nodes = Vec::new();
     for node in scene.nodes() {
-        collect_instances(&file, node, &IDENTITY, 0, &mut instances)?;
+        collect_instances(&file, node, &IDENTITY, 0, &mut instances, &mut camera_nodes)?;
     }
     if document.animations().next().is_some() {
         warnings.push("animations ignored: the scene is shown at rest".into());
@@ -298,18 +305,12 @@ fn load_from_bytes(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<S
         return Err(SceneError::Empty { file, details });
     }
     compact_vertices(&mut mesh);
-    normalise(&mut mesh).map_err(|details| SceneError::Empty {
+    let empty = |details| SceneError::Empty {
         file: file.clone(),
         details,
-    })?;
-
-    for m in &mut materials {
-        m.area_m2 = 0.0;
-    }
-    for t in 0..mesh.triangle_count() {
-        let m = mesh.triangle_material[t] as usize;
-        materials[m].area_m2 += mesh.triangle_area(t);
-    }
+    };
+    let mut world_from_file = normalise(&mut mesh).map_err(empty)?;
+    add_areas(&mesh, &mut materials);
 
     let paint_materials = match &options.paint_material {
         Some(name) => {
@@ -344,12 +345,103 @@ fn load_from_bytes(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<S
         },
     };
 
+    // Orient on the car alone: a drape or a floor would otherwise set the axes.
+    let car = framing::car_triangles(&mesh, &paint_materials);
+    let orientation = orient(&mesh, &car, options.front);
+    let turn = orientation.world_from_file();
+    if turn != DMat3::IDENTITY {
+        for (p, n) in mesh.positions.iter_mut().zip(&mut mesh.normals) {
+            *p = (turn * DVec3::from(p.map(f64::from))).as_vec3().into();
+            *n = (turn * DVec3::from(n.map(f64::from))).as_vec3().into();
+        }
+        world_from_file =
+            normalise(&mut mesh).map_err(empty)? * DAffine3::from_mat3(turn) * world_from_file;
+        add_areas(&mesh, &mut materials);
+    }
+    warnings.push(format!("orientation: {}", orientation.reason));
+    let cameras = scene_cameras(&camera_nodes, &world_from_file, &mut warnings);
+
     Ok(Scene {
         mesh,
         materials,
         paint_materials,
         warnings,
+        cameras,
+        orientation,
     })
+}
+
+/// Sets each material's area from the triangles using it.
+fn add_areas(mesh: &TriangleMesh, materials: &mut [SceneMaterial]) {
+    for m in materials.iter_mut() {
+        m.area_m2 = 0.0;
+    }
+    for t in 0..mesh.triangle_count() {
+        let m = mesh.triangle_material[t] as usize;
+        materials[m].area_m2 += mesh.triangle_area(t);
+    }
+}
+
+/// A camera node of the default scene: the camera, its node's world matrix (file
+/// frame) and the node's name.
+struct CameraNode<'a> {
+    camera: gltf::Camera<'a>,
+    world_from_node: Mat4,
+    node_name: Option<String>,
+}
+
+/// The perspective cameras carried into the scene's world frame by
+/// `world_from_file` (the loader's turn, scales and moves). A camera looks along
+/// its node's −Z with +Y up (glTF 2.0, 3.10.1); orthographic cameras and those
+/// whose node collapses the view are left out with a warning.
+fn scene_cameras(
+    nodes: &[CameraNode<'_>],
+    world_from_file: &DAffine3,
+    warnings: &mut Vec<String>,
+) -> Vec<SceneCamera> {
+    let mut cameras = Vec::new();
+    for (i, node) in nodes.iter().enumerate() {
+        let name = node
+            .camera
+            .name()
+            .map(str::to_owned)
+            .or_else(|| node.node_name.clone())
+            .unwrap_or_else(|| format!("camera {i}"));
+        let gltf::camera::Projection::Perspective(perspective) = node.camera.projection() else {
+            warnings.push(format!(
+                "camera '{name}': orthographic, left out (only perspective cameras are used)"
+            ));
+            continue;
+        };
+        let m = &node.world_from_node;
+        let column = |c: usize| DVec3::new(m[c][0], m[c][1], m[c][2]);
+        let node_to_world = |d: DVec3| world_from_file.transform_vector3(d);
+        let position = world_from_file.transform_point3(column(3));
+        let forward = node_to_world(-column(2)).normalize_or_zero();
+        let up = node_to_world(column(1));
+        // Only the part of up across the view shows in the image.
+        let up = (up - up.dot(forward) * forward).normalize_or_zero();
+        let fov_deg = f64::from(perspective.yfov()).to_degrees();
+        let usable = position.is_finite()
+            && forward != DVec3::ZERO
+            && up != DVec3::ZERO
+            && fov_deg > 0.0
+            && fov_deg < 180.0;
+        if !usable {
+            warnings.push(format!(
+                "camera '{name}': its node's transform or field of view gives no usable view, left out"
+            ));
+            continue;
+        }
+        cameras.push(SceneCamera {
+            name,
+            position: position.as_vec3().into(),
+            forward: forward.as_vec3().into(),
+            up: up.as_vec3().into(),
+            vertical_fov_deg: fov_deg as f32,
+        });
+    }
+    cameras
 }
 
 /// The heuristic for the car-body material by total area (see
@@ -985,12 +1077,13 @@ fn mat_mul(a: &Mat4, b: &Mat4) -> Mat4 {
     out
 }
 
-fn collect_instances(
+fn collect_instances<'a>(
     file: &Path,
-    node: gltf::Node<'_>,
+    node: gltf::Node<'a>,
     world_from_parent: &Mat4,
     depth: usize,
     out: &mut Vec<(usize, Mat4)>,
+    cameras: &mut Vec<CameraNode<'a>>,
 ) -> Result<(), SceneError> {
     if depth > MAX_NODE_DEPTH {
         return Err(SceneError::Parse {
@@ -1006,8 +1099,15 @@ fn collect_instances(
     if let Some(mesh) = node.mesh() {
         out.push((mesh.index(), world_from_node));
     }
+    if let Some(camera) = node.camera() {
+        cameras.push(CameraNode {
+            camera,
+            world_from_node,
+            node_name: node.name().map(str::to_owned),
+        });
+    }
     for child in node.children() {
-        collect_instances(file, child, &world_from_node, depth + 1, out)?;
+        collect_instances(file, child, &world_from_node, depth + 1, out, cameras)?;
     }
     Ok(())
 }
@@ -1235,8 +1335,9 @@ fn compact_vertices(mesh: &mut TriangleMesh) {
 }
 
 /// Scales uniformly so the larger horizontal extent is [`TARGET_LENGTH_M`], puts
-/// min y on 0 and centres x and z. Fails when the scene has no horizontal extent.
-fn normalise(mesh: &mut TriangleMesh) -> Result<(), String> {
+/// min y on 0 and centres x and z; the transform it applied. Fails when the scene
+/// has no horizontal extent.
+fn normalise(mesh: &mut TriangleMesh) -> Result<DAffine3, String> {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     for p in &mesh.positions {
@@ -1256,7 +1357,10 @@ fn normalise(mesh: &mut TriangleMesh) -> Result<(), String> {
             p[k] = ((f64::from(p[k]) - centre[k]) * scale) as f32;
         }
     }
-    Ok(())
+    Ok(
+        DAffine3::from_scale(DVec3::splat(scale))
+            * DAffine3::from_translation(-DVec3::from(centre)),
+    )
 }
 
 #[cfg(test)]

@@ -7,7 +7,9 @@
 use palette::LinSrgb;
 
 pub mod car;
+pub mod framing;
 pub mod gltf_loader;
+pub mod orientation;
 
 use crate::accel::Triangles;
 
@@ -92,4 +94,24 @@ pub struct Scene {
     pub paint_materials: Vec<u32>,
     /// Problems that did not stop the load (ignored optional extensions, …).
     pub warnings: Vec<String>,
+    /// The file's own cameras, in the scene's world frame (empty for the built-in car).
+    pub cameras: Vec<SceneCamera>,
+    /// How the file's axes were turned to the scene's convention (Y up, nose +Z).
+    pub orientation: orientation::Orientation,
+}
+
+/// A perspective camera the scene file carries, moved with the geometry into the
+/// scene's world frame (the loader's rotation, scale and centring).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneCamera {
+    /// Name of the camera (or of its node; a generated one when both are unnamed).
+    pub name: String,
+    /// Position, m, world.
+    pub position: [f32; 3],
+    /// Unit view direction, world (the camera node's −Z).
+    pub forward: [f32; 3],
+    /// Unit direction that appears upward in the image, world (the node's +Y).
+    pub up: [f32; 3],
+    /// Vertical field of view, degrees (glTF `yfov`).
+    pub vertical_fov_deg: f32,
 }

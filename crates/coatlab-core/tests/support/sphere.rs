@@ -44,7 +44,7 @@ pub fn sphere(rings: u32) -> Scene {
             area_m2: 4.0 * std::f32::consts::PI,
         }],
         paint_materials: vec![0],
-        warnings: Vec::new(),
+        ..Scene::default()
     }
 }
 

@@ -34,6 +34,7 @@ use coatlab_core::engine::{
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::lighting::Lighting;
 use coatlab_core::render::material::ShadingModel;
+use coatlab_core::render::view::ViewChoice;
 use egui::{RichText, Ui};
 
 pub use coatlab_core::engine::{Frame as PreviewFrame, SecondSource};
@@ -83,6 +84,9 @@ pub struct Preview {
     second: Option<(String, PaintDesign)>,
     scene: Option<SceneInfo>,
     paint_override: Option<u32>,
+    /// The view chosen last (a scene opens at the default one; orbiting, zooming
+    /// and panning move on from it).
+    view: ViewChoice,
     /// The current design's name (to offer a different one for comparison).
     design_name: String,
     size: (u32, u32),
@@ -121,6 +125,7 @@ impl Preview {
             second: None,
             scene: None,
             paint_override: None,
+            view: ViewChoice::default(),
             design_name: design.name.clone(),
             size: (0, 0),
             change_sent_at: None,
@@ -182,6 +187,18 @@ impl Preview {
             self.paint_override = index;
             self.send(Command::PaintMaterial(index));
         }
+    }
+
+    /// Puts the camera at `view`: sent even when it is the view chosen last, which
+    /// brings the camera back after an orbit.
+    pub fn set_view(&mut self, view: ViewChoice) {
+        self.view = view;
+        self.send(Command::View(view));
+    }
+
+    /// The view chosen last.
+    pub fn view(&self) -> ViewChoice {
+        self.view
     }
 
     /// The scene material painted instead of the loader's choice, if any.
@@ -292,6 +309,8 @@ impl Preview {
         let mut mailbox = self.engine.mailbox();
         let events = std::mem::take(&mut mailbox.events);
         if let Some(scene) = mailbox.scene.take() {
+            // The engine frames a new scene at the default view.
+            self.view = ViewChoice::default();
             self.scene = Some(scene);
         }
         if std::mem::take(&mut mailbox.fresh) {

@@ -6,6 +6,7 @@ use coatlab_core::design::presets::Preset;
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::lighting::Lighting;
 use coatlab_core::render::material::ShadingModel;
+use coatlab_core::render::view::{NamedView, ViewChoice};
 use egui::{RichText, Ui};
 
 use super::super::compare::{CompareLayout, CompareMode, SCALES};
@@ -189,6 +190,7 @@ impl Preview {
             {
                 self.built_in_scene();
             }
+            self.view_ui(ui);
             self.paint_material_ui(ui);
             ui.separator();
             request_button(
@@ -199,6 +201,49 @@ impl Preview {
                 requests,
             );
         });
+    }
+
+    /// The named views and the scene file's own cameras.
+    fn view_ui(&mut self, ui: &mut Ui) {
+        let cameras = self
+            .scene
+            .as_ref()
+            .map(|s| s.cameras.clone())
+            .unwrap_or_default();
+        let label_of = |choice: ViewChoice| match choice {
+            ViewChoice::Named(view) => view.label().to_owned(),
+            ViewChoice::SceneCamera(i) => format!(
+                "Camera: {}",
+                cameras.get(i).map_or("(none)", String::as_str)
+            ),
+            ViewChoice::Free(free) => format!(
+                "Free: {:.0}°, {:.0}°, {:.1} m, {:.0}°",
+                free.yaw_deg, free.pitch_deg, free.distance_m, free.fov_deg
+            ),
+        };
+        let mut picked = None;
+        egui::ComboBox::from_label("View")
+            .selected_text(label_of(self.view))
+            .show_ui(ui, |ui| {
+                let choices = NamedView::ALL
+                    .into_iter()
+                    .map(ViewChoice::Named)
+                    .chain((0..cameras.len()).map(ViewChoice::SceneCamera));
+                for choice in choices {
+                    // A click sends even the current view: it undoes an orbit.
+                    if ui
+                        .selectable_label(choice == self.view, label_of(choice))
+                        .clicked()
+                    {
+                        picked = Some(choice);
+                    }
+                }
+            })
+            .response
+            .on_hover_text("Named views of the car, and the scene file's own cameras");
+        if let Some(choice) = picked {
+            self.set_view(choice);
+        }
     }
 
     /// Which of the scene's materials carries the paint, and the load's warnings.
