@@ -39,7 +39,7 @@ version = 1
 output = "deck"
 scene = "builtin"
 designs = ["signal-red.toml", "deep-blue.toml"]
-views = ["default"]
+views = ["front-34"]
 lighting = ["studio", "booth-d65"]
 models = {models}
 spp = 2
@@ -95,6 +95,10 @@ fn outcomes(text: &str) -> Vec<(usize, String, bool)> {
 fn plan_lists_the_tasks_design_first_model_last() {
     let dir = scratch("plan");
     let path = manifest(&dir, r#"["paint", "phong-naive"]"#);
+    let two_views = std::fs::read_to_string(&path)
+        .expect("manifest")
+        .replace(r#"views = ["front-34"]"#, r#"views = ["front-34", "side"]"#);
+    std::fs::write(&path, two_views).expect("manifest");
     let text = stdout(&coatlab(&["batch", "plan", s(&path)], &[]));
     let outputs: Vec<&str> = text
         .lines()
@@ -104,18 +108,29 @@ fn plan_lists_the_tasks_design_first_model_last() {
     let expected: Vec<String> = ["signal-red", "deep-blue"]
         .iter()
         .flat_map(|d| {
-            ["studio", "booth-d65"].iter().flat_map(move |l| {
-                ["paint", "phong-naive"]
-                    .iter()
-                    .map(move |m| format!("{d}--default--{l}--{m}.png"))
+            ["front-34", "side"].iter().flat_map(move |v| {
+                ["studio", "booth-d65"].iter().flat_map(move |l| {
+                    ["paint", "phong-naive"]
+                        .iter()
+                        .map(move |m| format!("{d}--{v}--{l}--{m}.png"))
+                })
             })
         })
         .collect();
     assert_eq!(outputs, expected, "{text}");
     assert!(
-        text.lines().next().expect("a summary").contains("8 tasks"),
+        text.lines().next().expect("a summary").contains("16 tasks"),
         "{text}"
     );
+    // The view is applied: the first design's studio paint task from the front
+    // three-quarter view and from the side are different images.
+    for index in ["0", "4"] {
+        stdout(&coatlab(&["batch", "run", s(&path), "--index", index], &[]));
+    }
+    let deck = dir.join("deck");
+    let front = std::fs::read(deck.join("signal-red--front-34--studio--paint.png")).expect("png");
+    let side = std::fs::read(deck.join("signal-red--side--studio--paint.png")).expect("png");
+    assert_ne!(front, side, "the two views rendered the same image");
     let json: serde_json::Value = serde_json::from_str(&stdout(&coatlab(
         &["batch", "plan", s(&path), "--json"],
         &[],
@@ -152,8 +167,8 @@ fn a_second_run_skips_and_a_changed_design_renders_again() {
     assert_eq!(rendered.len(), 4, "{first}");
     assert!(rendered.iter().all(|(_, _, r)| *r), "{first}");
     let deck = dir.join("deck");
-    let image = deck.join("deep-blue--default--studio--paint.png");
-    let sidecar_path = deck.join("deep-blue--default--studio--paint.png.json");
+    let image = deck.join("deep-blue--front-34--studio--paint.png");
+    let sidecar_path = deck.join("deep-blue--front-34--studio--paint.png.json");
     let sidecar: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&sidecar_path).expect("a sidecar"))
             .expect("JSON");
@@ -295,9 +310,9 @@ fn bad_manifests_are_refused_with_the_line_and_key() {
             exit::DATA,
         ),
         (
-            "[\"default\"]",
             "[\"front-34\"]",
-            "line 6, key `views`: 'front-34': named views come with the views feature",
+            "[\"front-43\"]",
+            "line 6, key `views`: 'front-43': not a view (front-34, rear-34, side, front, rear, top, closeup)",
             exit::DATA,
         ),
         (
@@ -349,12 +364,12 @@ fn a_failed_task_does_not_stop_the_others() {
     let dir = scratch("failure");
     let path = manifest(&dir, r#"["paint"]"#);
     // A folder where task 1's image should go: it cannot be written.
-    std::fs::create_dir_all(dir.join("deck/signal-red--default--booth-d65--paint.png"))
+    std::fs::create_dir_all(dir.join("deck/signal-red--front-34--booth-d65--paint.png"))
         .expect("folder");
     let output = coatlab(&["batch", "run", s(&path)], &[]);
     let err = failure(&output, exit::CANT_CREATE);
     assert!(
-        err.contains("task 1 (signal-red--default--booth-d65--paint.png) failed"),
+        err.contains("task 1 (signal-red--front-34--booth-d65--paint.png) failed"),
         "{err}"
     );
     let text = String::from_utf8(output.stdout).expect("UTF-8");
@@ -362,7 +377,7 @@ fn a_failed_task_does_not_stop_the_others() {
     let rendered: Vec<usize> = done.iter().filter(|o| o.2).map(|o| o.0).collect();
     assert_eq!(rendered, [0, 2, 3], "{text}");
     assert!(
-        text.contains("task 1/4 signal-red--default--booth-d65--paint.png: failed"),
+        text.contains("task 1/4 signal-red--front-34--booth-d65--paint.png: failed"),
         "{text}"
     );
 }

@@ -17,14 +17,16 @@ use coatlab_core::render::material::ShadingModel;
 use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
+use coatlab_core::render::view::NamedView;
+
 use crate::cmd::render::{DEFAULT_WAVELENGTHS, parse_model, parse_size};
 
 /// The value of the manifest's `format` key.
 pub const FORMAT: &str = "coatlab-batch";
 /// The manifest version this program reads.
 pub const VERSION: i64 = 1;
-/// The one view there is until named views come (the scene's default framing).
-pub const DEFAULT_VIEW: &str = "default";
+/// The view of a manifest without a `views` key: the front three-quarter view.
+pub const DEFAULT_VIEW: NamedView = NamedView::FrontThreeQuarter;
 
 /// A manifest that cannot be used: the file, the line (where the problem is in
 /// the file) and the key.
@@ -265,22 +267,19 @@ impl Manifest {
         )?;
 
         let views = match &raw.views {
-            None => vec![DEFAULT_VIEW.to_owned()],
+            None => vec![DEFAULT_VIEW.name().to_owned()],
             Some(views) => {
                 let mut names = Vec::new();
                 for view in non_empty(views, "views", &at)? {
-                    if view.get_ref() != DEFAULT_VIEW {
-                        return Err(at(
+                    let named = view.get_ref().parse::<NamedView>().map_err(|_| {
+                        let known: Vec<&str> = NamedView::ALL.iter().map(|v| v.name()).collect();
+                        at(
                             view.span(),
                             "views",
-                            format!(
-                                "'{}': named views come with the views feature; for now the only \
-                                 view is \"{DEFAULT_VIEW}\" (the scene's default framing)",
-                                view.get_ref()
-                            ),
-                        ));
-                    }
-                    names.push((view.span(), view.get_ref().clone()));
+                            format!("'{}': not a view ({})", view.get_ref(), known.join(", ")),
+                        )
+                    })?;
+                    names.push((view.span(), named.name().to_owned()));
                 }
                 unique(names.iter().cloned(), "views", &at)?;
                 names.into_iter().map(|(_, n)| n).collect()

@@ -128,6 +128,9 @@ pub fn render_args(manifest: &Manifest, task: &Task) -> RenderArgs {
         exr_precision: None,
         exr_compression: None,
         sample_range: None,
+        front: None,
+        view: task.view.parse().ok(),
+        camera: None,
     }
 }
 
