@@ -29,4 +29,5 @@ pub mod quadrature;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod simd_path;
 pub mod units;
