@@ -15,6 +15,7 @@ use coatlab_core::render::image_error::{Region, RegionMasks};
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
 use coatlab_core::scene::car::{CarParameters, generate};
+use coatlab_core::simd_path::SimdPath;
 use common::{ExrImage, assert_rgb_f32, exit, failure, read_exr, stdout};
 
 #[path = "../crates/coatlab-core/tests/support/gltf_testdata.rs"]
@@ -35,6 +36,42 @@ fn png_size(bytes: &[u8]) -> (u32, u32) {
     assert_eq!(&bytes[12..16], b"IHDR");
     let be = |i: usize| u32::from_be_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
     (be(16), be(20))
+}
+
+/// `--version` names the hot kernels' SIMD path; `COATLAB_SIMD` forces one the CPU
+/// has, and one it does not know (or the CPU lacks) is refused with status 2.
+#[test]
+fn version_names_the_simd_path_and_coatlab_simd_forces_it() {
+    let version = |simd: Option<&str>| {
+        let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_coatlab"));
+        command.arg("--version").env_remove("COATLAB_SIMD");
+        if let Some(simd) = simd {
+            command.env("COATLAB_SIMD", simd);
+        }
+        command.output().expect("coatlab runs")
+    };
+    let detected = stdout(&version(None));
+    assert!(
+        detected.contains(&format!("(SIMD path: {})", SimdPath::best().name())),
+        "{detected}"
+    );
+    for path in SimdPath::ALL {
+        let output = version(Some(path.name()));
+        if path.is_available() {
+            let text = stdout(&output);
+            assert!(
+                text.contains(&format!("(SIMD path: {})", path.name())),
+                "{text}"
+            );
+        } else {
+            assert!(failure(&output, 2).contains("lacks"));
+        }
+    }
+    let message = failure(&version(Some("avx9000")), 2);
+    assert!(
+        message.contains("COATLAB_SIMD") && message.contains("portable"),
+        "{message}"
+    );
 }
 
 #[test]
@@ -63,6 +100,12 @@ fn renders_the_built_in_car_to_png_with_a_speed_line() {
     );
     assert!(
         last.contains("2 spp") && last.contains("8 wavelengths"),
+        "{last}"
+    );
+    // The hot kernels' SIMD path, as this process (same CPU, same environment)
+    // chooses it.
+    assert!(
+        last.ends_with(&format!(", SIMD path {}", SimdPath::current().name())),
         "{last}"
     );
     let bytes = std::fs::read(&out).expect("the PNG was written");

@@ -15,7 +15,12 @@ fi
 site="$("$work/venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')"
 libdir="$site/embreex.libs"
 lib="$(ls "$libdir"/libembree4-*.so.4)"
-cc -O2 -o "$work/embree_rays" benches/embree/embree_rays.c "$lib" -Wl,-rpath,"$libdir" -lpthread
+# Embree 4.4.0's own headers, as the wheel's library (4.4.0) was built with them:
+# checked against their recorded SHA-256 sums, and the library's version is checked
+# against them at start-up (embree_rays.c).
+(cd benches/embree/include && sha256sum --check --quiet SHA256SUMS)
+cc -O2 -Wall -Werror -I benches/embree/include -o "$work/embree_rays" \
+  benches/embree/embree_rays.c "$lib" -Wl,-rpath,"$libdir" -lpthread -lm
 
 # The bench binary itself, so that the rounds below run it without cargo.
 bench="$(cargo bench -p coatlab-core --bench accel --no-run --message-format=json 2>/dev/null |
@@ -30,6 +35,7 @@ for round in $(seq "$rounds"); do
   echo "== round $round, load $(cut -d' ' -f1-3 /proc/loadavg)"
   ACCEL_SUMMARY=1 ACCEL_FILTER="Simd8/Fast/Spatial" "$bench" 2>/dev/null | grep -v -- "---"
   for mesh in "$work"/dump/*.bin; do
+    # Every mode available (rtcIntersect1, 8, and 16 where the CPU has AVX-512).
     for quality in medium high; do
       "$work/embree_rays" "$mesh" "$quality" fast 2
     done

@@ -11,6 +11,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use cmd::failure::{BROKEN_PIPE, Classify, Failure, Outcome, classify};
+use coatlab_core::simd_path::SimdPath;
 
 /// The `--help` epilogue: the exit statuses of `cmd::failure` (and the README's).
 const EXIT_STATUS: &str = "\
@@ -25,10 +26,23 @@ Exit status:
   74   reading stdin or writing stdout failed
   141  stdout was closed by its reader (`coatlab ... | head`); nothing is printed";
 
+/// `--version`: the version and the SIMD path of the hot kernels (ray traversal,
+/// paint evaluation) on this CPU (`coatlab_core::simd_path`, chosen at start-up).
+fn version_line() -> &'static str {
+    static LINE: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    LINE.get_or_init(|| {
+        format!(
+            "{} (SIMD path: {})",
+            env!("CARGO_PKG_VERSION"),
+            SimdPath::current().name()
+        )
+    })
+}
+
 #[derive(Parser, Debug)]
 #[command(
     name = "coatlab",
-    version,
+    version = version_line(),
     about = "Spectral colour design for gloss solid automotive paints",
     after_help = EXIT_STATUS
 )]
@@ -66,6 +80,12 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    // A `COATLAB_SIMD` that names no path this CPU has is refused before anything
+    // runs (the library would otherwise quietly take the detected path).
+    if let Err(err) = SimdPath::from_env() {
+        let _ = writeln!(io::stderr(), "coatlab: {err}");
+        return ExitCode::from(Failure::Usage.code());
+    }
     let cli = Cli::parse();
     let Some(command) = &cli.command else {
         return run_gui(cli.design);

@@ -315,19 +315,32 @@ fn trace_camera(accel: &Accel, camera: &Camera) -> usize {
 fn trace_incoherent(accel: &Accel, rays: &[([f32; 3], [f32; 3])]) -> usize {
     rays.par_chunks(4096)
         .map(|chunk| {
-            let queries: Vec<RayQuery> = chunk
-                .iter()
-                .map(|&(origin, dir)| RayQuery {
-                    origin,
-                    dir,
-                    t_max: f32::INFINITY,
-                })
-                .collect();
-            let mut hits = vec![None; queries.len()];
-            accel.closest_hits(&queries, &mut hits);
+            let mut hits = vec![None; chunk.len()];
+            accel.closest_hits(&chunk_queries(chunk), &mut hits);
             hits.iter().filter(|h| h.is_some()).count()
         })
         .sum()
+}
+
+/// Closest-hit queries with `t_max = ∞` for a chunk of rays.
+fn chunk_queries(chunk: &[([f32; 3], [f32; 3])]) -> Vec<RayQuery> {
+    chunk
+        .iter()
+        .map(|&(origin, dir)| RayQuery {
+            origin,
+            dir,
+            t_max: f32::INFINITY,
+        })
+        .collect()
+}
+
+/// Each ray's closest hit through `closest_hits`, in the order of `rays`.
+fn incoherent_hits(accel: &Accel, rays: &[([f32; 3], [f32; 3])]) -> Vec<Option<Hit>> {
+    let mut hits = vec![None; rays.len()];
+    rays.par_chunks(4096)
+        .zip(hits.par_chunks_mut(4096))
+        .for_each(|(chunk, out)| accel.closest_hits(&chunk_queries(chunk), out));
+    hits
 }
 
 /// The same rays through `Accel::closest_hit`, one by one.
@@ -622,14 +635,17 @@ fn batch_comparison() {
 /// u32 (vertex, triangle, incoherent-ray and image-order-bounce counts, and how many
 /// of the incoherent rays our `closest_hits` finds a hit for), then the vertices
 /// (3 f32 each), the triangles (3 u32), the incoherent rays and the bounces (origin
-/// and direction, 6 f32 each).
+/// and direction, 6 f32 each). Beside it, `<dir>/<mesh>.hits`: for each incoherent
+/// ray, our closest hit's triangle index (`u32::MAX` for a miss) and distance (f32),
+/// so that the other tracer's hits can be compared ray by ray.
 fn dump(dir: &Path) {
     std::fs::create_dir_all(dir).expect("dump folder");
     for (name, mesh) in meshes() {
         let camera = Camera::three_quarter(&mesh);
         let rays = incoherent_rays(&mesh, INCOHERENT_RAYS, 7);
         let bounces = image_order_bounces(&mesh, &camera, 8);
-        let hits = trace_incoherent(&Accel::build(&mesh).expect("build"), &rays);
+        let ray_hits = incoherent_hits(&Accel::build(&mesh).expect("build"), &rays);
+        let hits = ray_hits.iter().filter(|h| h.is_some()).count();
         let mut out = Vec::new();
         let mut put = |x: u32| out.extend_from_slice(&x.to_le_bytes());
         for count in [
@@ -651,6 +667,15 @@ fn dump(dir: &Path) {
         }
         let path = dir.join(format!("{}.bin", name.replace(' ', "-")));
         std::fs::write(&path, out).expect("dump file");
+        let per_ray: Vec<u8> = ray_hits
+            .iter()
+            .flat_map(|hit| {
+                let (triangle, t) = hit.map_or((u32::MAX, f32::INFINITY), |h| (h.triangle, h.t));
+                [triangle.to_le_bytes(), t.to_bits().to_le_bytes()]
+            })
+            .flatten()
+            .collect();
+        std::fs::write(path.with_extension("hits"), per_ray).expect("dump hits file");
         eprintln!("{}: {} rays, {hits} hit", path.display(), rays.len());
     }
 }

@@ -5,7 +5,8 @@
 //!
 //! Run with `cargo bench -p coatlab-core --bench paint -- --warm-up-time 1
 //! --measurement-time 3`. Results, the machine and notes on noise are in
-//! `docs/benchmarks.md`.
+//! `docs/benchmarks.md`. `PAINT_ONCE=N` runs N evaluations once, for instruction
+//! counts (see `once`).
 //!
 //! Evaluation benches cycle through a fixed set of 64 direction pairs (half near
 //! the mirror direction, half uniform over the hemisphere) so branch prediction and
@@ -423,7 +424,31 @@ criterion_group!(
     derive_breakdown
 );
 
+/// `PAINT_ONCE=N`: N evaluations of the reference paint (81 wavelengths) over the
+/// bench's direction pairs, then exits: for instruction counts under cachegrind
+/// (`valgrind --tool=cachegrind --cache-sim=no`), e.g. of two builds' code paths.
+fn once(evaluations: usize) {
+    let model = reference_model();
+    let paint = model.spectral();
+    let pairs = direction_pairs();
+    let mut out = vec![0.0_f32; paint.len()];
+    let mut sum = 0.0_f32;
+    for k in 0..evaluations {
+        let (wi, wo) = pairs[k % PAIRS];
+        paint.eval(black_box(wi), black_box(wo), black_box(&mut out[..]));
+        sum += out[k % out.len()];
+    }
+    println!("{evaluations} evaluations, checksum {sum}");
+}
+
 fn main() {
+    if let Some(n) = std::env::var("PAINT_ONCE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+    {
+        once(n);
+        return;
+    }
     report_one_time_costs();
     benches();
     Criterion::default().configure_from_args().final_summary();

@@ -4,6 +4,8 @@
 //! sample are printed once per variant.
 //!
 //!     cargo bench -p coatlab-core --bench render
+//!
+//! `RENDER_ONCE=1` renders one pass and exits, for instruction counts (see `once`).
 
 use std::sync::Arc;
 
@@ -14,7 +16,7 @@ use coatlab_core::render::environment::Environment;
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
 use coatlab_core::scene::car::{CarParameters, generate};
-use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use criterion::{Criterion, Throughput, criterion_group};
 
 const WIDTH: u32 = 960;
 const HEIGHT: u32 = 540;
@@ -112,4 +114,21 @@ fn reshading(c: &mut Criterion) {
 }
 
 criterion_group!(benches, passes, reshading);
-criterion_main!(benches);
+
+/// `RENDER_ONCE=1`: one pass (one sample per pixel) of the 32-wavelength paint at
+/// 960×540 on this thread's pool, then exits: for instruction counts under
+/// cachegrind (with `RAYON_NUM_THREADS=1`).
+fn once() {
+    let mut render = render_for(32, ShadingModel::Paint);
+    let pass = render.render_pass(1);
+    println!("{} samples, {} rays", pass.samples, pass.rays);
+}
+
+fn main() {
+    if std::env::var_os("RENDER_ONCE").is_some() {
+        once();
+        return;
+    }
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}

@@ -32,6 +32,8 @@
 //! `wide.rs` and `wide/` (the `Simd8` tree: traversal, build, the collapse it
 //! replaced); `obvhs_layouts.rs`; `options.rs` (build options); `triangle.rs` (the
 //! watertight test on packs of triangles); `boxes.rs` (boxes, scalar and SIMD).
+//! The queries dispatch on the process's SIMD path (`crate::simd_path`), chosen at
+//! start-up.
 //!
 //! # Rays and the epsilon policy
 //!
@@ -91,6 +93,7 @@ use bvh::Tree;
 use triangle::{ShearedRay, TrianglePack};
 use wide::{BoxRay, PACK, Traversal, prefetch};
 
+use crate::simd_path::SimdPath;
 pub use boxes::Bounds;
 pub use bvh::{AccelError, Bvh, Ray};
 pub use options::{BuildOptions, BuildQuality, BvhLayout, ReferenceSplits};
@@ -304,6 +307,60 @@ impl Accel {
     /// module documentation for the epsilon policy. For shading rays and picking.
     #[inline]
     pub fn closest_hit(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> Option<Hit> {
+        self.closest_hit_checked(SimdPath::current(), origin, dir, t_max)
+    }
+
+    /// [`Accel::closest_hit`] on `path` rather than the process's
+    /// ([`SimdPath::current`]), for comparing the paths; a path this CPU lacks runs
+    /// the portable code.
+    pub fn closest_hit_on(
+        &self,
+        path: SimdPath,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        t_max: f32,
+    ) -> Option<Hit> {
+        let path = if path.is_available() {
+            path
+        } else {
+            SimdPath::Portable
+        };
+        self.closest_hit_checked(path, origin, dir, t_max)
+    }
+
+    /// [`Accel::closest_hit`] on `path`, which this CPU has.
+    #[inline(always)]
+    fn closest_hit_checked(
+        &self,
+        path: SimdPath,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        t_max: f32,
+    ) -> Option<Hit> {
+        #[cfg(target_arch = "x86_64")]
+        if path == SimdPath::Avx2 {
+            // SAFETY: the CPU has the features the function is compiled with.
+            return unsafe { self.closest_hit_avx2(origin, dir, t_max) };
+        }
+        let _ = path;
+        self.closest_hit_with::<false>(origin, dir, t_max)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+    fn closest_hit_avx2(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> Option<Hit> {
+        self.closest_hit_with::<true>(origin, dir, t_max)
+    }
+
+    /// [`Accel::closest_hit`] instantiated for one path (`AVX`: see
+    /// `accel/triangle.rs`).
+    #[inline(always)]
+    fn closest_hit_with<const AVX: bool>(
+        &self,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        t_max: f32,
+    ) -> Option<Hit> {
         if !usable_ray(origin, dir, t_max) {
             return None;
         }
@@ -311,16 +368,19 @@ impl Accel {
         if let Tree::Simd8(tree) = &self.bvh.tree {
             let box_ray = BoxRay::new(origin, dir);
             let mut best = None;
-            tree.closest(
+            tree.closest::<AVX>(
                 &box_ray,
                 t_max,
-                |pack, _, t_max| match sheared.intersect_pack(&self.packs[pack], t_max) {
+                #[inline(always)]
+                |pack, _, t_max| match sheared.intersect_pack::<AVX, PACK>(&self.packs[pack], t_max)
+                {
                     Some(hit) => {
                         best = Some((pack, hit));
                         hit.t
                     }
                     None => t_max,
                 },
+                #[inline(always)]
                 |pack, _| self.fetch_pack(pack),
             );
             return best.map(|(p, hit)| Hit {
@@ -359,7 +419,38 @@ impl Accel {
     ///
     /// If `hits` is not as long as `rays`.
     pub fn closest_hits(&self, rays: &[RayQuery], hits: &mut [Option<Hit>]) {
-        self.closest_hits_with_lanes::<BATCH_LANES>(rays, hits);
+        self.closest_hits_checked(SimdPath::current(), rays, hits);
+    }
+
+    /// [`Accel::closest_hits`] on `path` (see [`Accel::closest_hit_on`]).
+    ///
+    /// # Panics
+    ///
+    /// If `hits` is not as long as `rays`.
+    pub fn closest_hits_on(&self, path: SimdPath, rays: &[RayQuery], hits: &mut [Option<Hit>]) {
+        let path = if path.is_available() {
+            path
+        } else {
+            SimdPath::Portable
+        };
+        self.closest_hits_checked(path, rays, hits);
+    }
+
+    /// [`Accel::closest_hits`] on `path`, which this CPU has.
+    fn closest_hits_checked(&self, path: SimdPath, rays: &[RayQuery], hits: &mut [Option<Hit>]) {
+        #[cfg(target_arch = "x86_64")]
+        if path == SimdPath::Avx2 {
+            // SAFETY: the CPU has the features the function is compiled with.
+            return unsafe { self.closest_hits_avx2(rays, hits) };
+        }
+        let _ = path;
+        self.closest_hits_with_lanes::<false, BATCH_LANES>(rays, hits);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+    fn closest_hits_avx2(&self, rays: &[RayQuery], hits: &mut [Option<Hit>]) {
+        self.closest_hits_with_lanes::<true, BATCH_LANES>(rays, hits);
     }
 
     /// [`Accel::closest_hits`] with `LANES` rays in flight instead of
@@ -371,10 +462,28 @@ impl Accel {
         rays: &[RayQuery],
         hits: &mut [Option<Hit>],
     ) {
-        self.closest_hits_with_lanes::<LANES>(rays, hits);
+        #[cfg(target_arch = "x86_64")]
+        if SimdPath::current() == SimdPath::Avx2 {
+            // SAFETY: the current path is one the CPU has.
+            return unsafe { self.closest_hits_in_lanes_avx2::<LANES>(rays, hits) };
+        }
+        self.closest_hits_with_lanes::<false, LANES>(rays, hits);
     }
 
-    fn closest_hits_with_lanes<const LANES: usize>(
+    #[cfg(all(feature = "bvh-experiments", target_arch = "x86_64"))]
+    #[target_feature(enable = "avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+    fn closest_hits_in_lanes_avx2<const LANES: usize>(
+        &self,
+        rays: &[RayQuery],
+        hits: &mut [Option<Hit>],
+    ) {
+        self.closest_hits_with_lanes::<true, LANES>(rays, hits);
+    }
+
+    /// The batch traversal, instantiated for one path (`AVX`: see
+    /// `accel/triangle.rs`).
+    #[inline(always)]
+    fn closest_hits_with_lanes<const AVX: bool, const LANES: usize>(
         &self,
         rays: &[RayQuery],
         hits: &mut [Option<Hit>],
@@ -437,7 +546,7 @@ impl Accel {
                     ..
                 } = lane;
                 let mut leaf = |pack: usize, _, t_max: f32| match sheared
-                    .intersect_pack(&packs[pack], t_max)
+                    .intersect_pack::<AVX, PACK>(&packs[pack], t_max)
                 {
                     Some(hit) => {
                         *best = Some((pack, hit));
@@ -445,7 +554,7 @@ impl Accel {
                     }
                     None => t_max,
                 };
-                if tree.closest_step(box_ray, traversal, &mut leaf, &fetch_leaf) {
+                if tree.closest_step::<AVX>(box_ray, traversal, &mut leaf, &fetch_leaf) {
                     continue;
                 }
                 // This ray is done: its result, then the next ray in its place.
@@ -466,16 +575,58 @@ impl Accel {
     /// query for shadow rays. Agrees with `closest_hit(..).is_some()`.
     #[inline]
     pub fn occluded(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
+        self.occluded_checked(SimdPath::current(), origin, dir, t_max)
+    }
+
+    /// [`Accel::occluded`] on `path` (see [`Accel::closest_hit_on`]).
+    pub fn occluded_on(&self, path: SimdPath, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
+        let path = if path.is_available() {
+            path
+        } else {
+            SimdPath::Portable
+        };
+        self.occluded_checked(path, origin, dir, t_max)
+    }
+
+    /// [`Accel::occluded`] on `path`, which this CPU has.
+    #[inline(always)]
+    fn occluded_checked(
+        &self,
+        path: SimdPath,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        t_max: f32,
+    ) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if path == SimdPath::Avx2 {
+            // SAFETY: the CPU has the features the function is compiled with.
+            return unsafe { self.occluded_avx2(origin, dir, t_max) };
+        }
+        let _ = path;
+        self.occluded_with::<false>(origin, dir, t_max)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+    fn occluded_avx2(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
+        self.occluded_with::<true>(origin, dir, t_max)
+    }
+
+    /// [`Accel::occluded`] instantiated for one path.
+    #[inline(always)]
+    fn occluded_with<const AVX: bool>(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
         if !usable_ray(origin, dir, t_max) {
             return false;
         }
         let sheared = ShearedRay::new(origin, dir);
         if let Tree::Simd8(tree) = &self.bvh.tree {
             let box_ray = BoxRay::new(origin, dir);
-            return tree.any(
+            return tree.any::<AVX>(
                 &box_ray,
                 t_max,
-                |pack, _| sheared.any_in_pack(&self.packs[pack], t_max),
+                #[inline(always)]
+                |pack, _| sheared.any_in_pack::<AVX, PACK>(&self.packs[pack], t_max),
+                #[inline(always)]
                 |pack, _| self.fetch_pack(pack),
             );
         }
@@ -635,7 +786,7 @@ impl Accel {
             .bvh
             .closest(ray, |ray, slot| self.slot_distance(sheared, ray, slot))?;
         // Barycentrics only for the winner.
-        let hit = sheared.intersect_pack(&single(&self.triangles[slot]), t_max)?;
+        let hit = sheared.intersect_pack::<false, 1>(&single(&self.triangles[slot]), t_max)?;
         Some(Hit {
             t: hit.t,
             triangle: self.mesh_triangle[slot],
@@ -661,7 +812,7 @@ impl Accel {
     #[inline(always)]
     fn slot_distance(&self, sheared: &ShearedRay, ray: &Ray, slot: usize) -> f32 {
         sheared
-            .intersect_pack(&single(&self.triangles[slot]), ray.tmax)
+            .intersect_pack::<false, 1>(&single(&self.triangles[slot]), ray.tmax)
             .map_or(f32::INFINITY, |hit| hit.t)
     }
 
@@ -716,7 +867,7 @@ pub fn intersect_triangle(
     let mut pack = TrianglePack::<1>::empty();
     pack.set(0, vertices, 0);
     ShearedRay::new(origin, dir)
-        .intersect_pack(&pack, t_max)
+        .intersect_pack::<false, 1>(&pack, t_max)
         .map(|hit| (hit.t, hit.barycentric))
 }
 

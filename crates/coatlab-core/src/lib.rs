@@ -32,5 +32,6 @@ pub mod quadrature;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod simd_path;
 pub mod target;
 pub mod units;

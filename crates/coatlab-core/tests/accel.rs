@@ -12,6 +12,7 @@ use coatlab_core::accel::{
 use coatlab_core::scene::TriangleMesh;
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
+use coatlab_core::simd_path::SimdPath;
 use glam::Vec3;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
@@ -379,24 +380,100 @@ fn default_build_is_the_simd8_layout_with_the_fast_preset_and_spatial_splits() {
     );
 }
 
-/// Which SIMD code the accel compiled: `accel/{triangle,wide}.rs` choose by
-/// `target_feature = "avx"`, and a test crate is built with the same target flags
-/// as the library. CI runs the render and accel tests once per path and names the
-/// path it means in `COATLAB_EXPECT_ACCEL_PATH` (`avx` or `portable`), so a build
-/// flag that does not take effect fails here instead of testing the other path.
+/// The traversal's SIMD paths (`accel/simd_path.rs`: portable, and AVX2 where the
+/// CPU has it) do the same f32 operations, so every query gives the same result on
+/// each, bit for bit: closest hits (single and batch), and any hits, on the
+/// Lamborghini (its slivers and spatial splits) and the default car, for camera-like
+/// and bounce rays. On a CPU without AVX2 only the portable path exists and the
+/// comparison is with itself (it says so).
 #[test]
-fn the_compiled_simd_path_is_the_one_asked_for() {
-    let compiled = if cfg!(all(target_arch = "x86_64", target_feature = "avx")) {
-        "avx"
-    } else {
-        "portable"
-    };
-    println!("accel SIMD path compiled: {compiled}");
-    if let Some(expected) = std::env::var_os("COATLAB_EXPECT_ACCEL_PATH") {
+fn every_simd_path_gives_the_same_hits_bit_for_bit() {
+    let paths: Vec<SimdPath> = SimdPath::ALL
+        .into_iter()
+        .filter(|p| p.is_available())
+        .collect();
+    println!(
+        "SIMD paths this CPU has: {:?}; this process runs {}",
+        paths.iter().map(|p| p.name()).collect::<Vec<_>>(),
+        SimdPath::current().name()
+    );
+    let mut meshes = vec![generate(&CarParameters::default()).mesh];
+    meshes.extend(lamborghini());
+    for mesh in &meshes {
+        let accel = Accel::build(mesh).expect("build");
+        let mut rays = random_rays(mesh, 3000, 41);
+        rays.extend(bounce_rays(mesh, 3000, 43, false));
+        let queries: Vec<RayQuery> = rays
+            .iter()
+            .map(|&(origin, dir, t_max)| RayQuery { origin, dir, t_max })
+            .collect();
+        let on = |path: SimdPath| {
+            let mut batch = vec![None; queries.len()];
+            accel.closest_hits_on(path, &queries, &mut batch);
+            let single: Vec<_> = rays
+                .iter()
+                .map(|&(o, d, t)| hit_bits(accel.closest_hit_on(path, o, d, t)))
+                .collect();
+            let any: Vec<bool> = rays
+                .iter()
+                .map(|&(o, d, t)| accel.occluded_on(path, o, d, t.min(1.0)))
+                .collect();
+            (
+                batch.into_iter().map(hit_bits).collect::<Vec<_>>(),
+                single,
+                any,
+            )
+        };
+        let reference = on(SimdPath::Portable);
         assert_eq!(
-            std::ffi::OsStr::new(compiled),
+            reference.0, reference.1,
+            "portable: batch against single rays"
+        );
+        let hits = reference.0.iter().filter(|h| h.is_some()).count();
+        assert!(
+            hits > rays.len() / 4,
+            "only {hits} of {} rays hit",
+            rays.len()
+        );
+        for &path in &paths {
+            let got = on(path);
+            for (i, ray) in rays.iter().enumerate() {
+                assert_eq!(
+                    got.0[i],
+                    reference.0[i],
+                    "{}: batch, ray {i}: {ray:?}",
+                    path.name()
+                );
+                assert_eq!(
+                    got.1[i],
+                    reference.1[i],
+                    "{}: single, ray {i}: {ray:?}",
+                    path.name()
+                );
+                assert_eq!(
+                    got.2[i],
+                    reference.2[i],
+                    "{}: any hit, ray {i}: {ray:?}",
+                    path.name()
+                );
+            }
+        }
+    }
+}
+
+/// CI names the path it means each test run to take in `COATLAB_EXPECT_SIMD_PATH`
+/// (`portable` or `avx2`, forced with `COATLAB_SIMD` or detected), so that a forcing
+/// that does not take effect fails here instead of testing the other path.
+#[test]
+fn the_simd_path_running_is_the_one_asked_for() {
+    let current = SimdPath::current();
+    println!("traversal SIMD path: {}", current.name());
+    assert!(current.is_available());
+    if let Some(expected) = std::env::var_os("COATLAB_EXPECT_SIMD_PATH") {
+        assert_eq!(
+            std::ffi::OsStr::new(current.name()),
             expected,
-            "COATLAB_EXPECT_ACCEL_PATH names another path than the one compiled"
+            "COATLAB_EXPECT_SIMD_PATH names another path than the one running"
         );
     }
 }

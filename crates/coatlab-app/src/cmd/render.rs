@@ -28,6 +28,7 @@ use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
 use coatlab_core::scene::orientation::Front;
+use coatlab_core::simd_path::SimdPath;
 
 use super::failure::{Classify, Failure};
 
@@ -338,7 +339,7 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
         writeln!(
             out,
             "wrote {} (samples {}..{} of {spp}, {width}x{height}, {} wavelengths, {}) in {:.1} s: \
-             {:.3} M samples/s, {:.2} M rays/s",
+             {:.3} M samples/s, {:.2} M rays/s, SIMD path {}",
             args.out.display(),
             samples.start,
             samples.end,
@@ -347,6 +348,7 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
             totals.seconds,
             totals.samples_per_second() / 1e6,
             totals.rays_per_second() / 1e6,
+            SimdPath::current().name(),
         )?;
         return Ok(());
     }
@@ -384,7 +386,7 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
     writeln!(
         out,
         "wrote {} ({width}x{height}, {} spp{}, {} wavelengths, {}{noise}) in {:.1} s: \
-         {:.3} M samples/s, {:.2} M rays/s",
+         {:.3} M samples/s, {:.2} M rays/s, SIMD path {}",
         args.out.display(),
         render.samples_per_pixel(),
         if args.adaptive { " mean, adaptive" } else { "" },
@@ -393,6 +395,7 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
         totals.seconds,
         totals.samples_per_second() / 1e6,
         totals.rays_per_second() / 1e6,
+        SimdPath::current().name(),
     )?;
     Ok(())
 }

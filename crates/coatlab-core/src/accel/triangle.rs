@@ -8,7 +8,15 @@
 //! of the tests) give bit-identical distances and barycentrics. The per-lane loops are
 //! written for LLVM's loop vectoriser (straight-line arithmetic over fixed-size
 //! arrays, no early exits), which turns a pack of 8 into AVX instructions without
-//! `unsafe`.
+//! `unsafe` where it is compiled with AVX enabled.
+//!
+//! The crate is built for baseline x86-64; the traversal runs on the path chosen at
+//! start-up (`crate::simd_path`). The const parameter `AVX` of the routines here
+//! says which code they are instantiated for: `true` only inside the traversal's
+//! entry points compiled with AVX2 and FMA enabled (`#[target_feature]`), which are
+//! called only where the CPU has them; there the reductions use AVX intrinsics.
+//! Both instantiations do the same f32 operations, so their results are the same,
+//! bit for bit.
 
 /// Triangles per leaf block of the 8-wide tree: 8, one AVX register per coordinate.
 /// (Measured against 4 with leaves of up to 4 or 8: see docs/benchmarks.md.)
@@ -98,7 +106,7 @@ impl ShearedRay {
     /// barycentrics, or `t = ∞` for a miss (zero-area triangles, NaN and unused lanes
     /// never hit).
     #[inline(always)]
-    fn lanes<const N: usize>(
+    fn lanes<const AVX: bool, const N: usize>(
         &self,
         pack: &TrianglePack<N>,
         t_max: f32,
@@ -132,7 +140,7 @@ impl ShearedRay {
         // An exact zero (the ray through an edge or vertex, to f32 precision) is
         // decided in f64, where the products are exact: this is what makes shared
         // edges watertight. Rare, so a scalar loop.
-        if any_zero(&u, &v, &w) {
+        if any_zero::<AVX, N>(&u, &v, &w) {
             let f = |p: f32, q: f32, r: f32, s: f32| {
                 (f64::from(p) * f64::from(q) - f64::from(r) * f64::from(s)) as f32
             };
@@ -162,16 +170,97 @@ impl ShearedRay {
         (t, bu, bv)
     }
 
+    /// The vertices of `lane` in ray space, as [`ShearedRay::lanes`] computes them.
+    #[inline(always)]
+    fn corners<const N: usize>(&self, pack: &TrianglePack<N>, lane: usize) -> [[f32; 3]; 3] {
+        let [kx, ky, kz] = self.k;
+        let [sx, sy, sz] = self.shear;
+        let o = self.origin;
+        pack.v.map(|vj| {
+            let dx = vj[kx][lane] - o[kx];
+            let dy = vj[ky][lane] - o[ky];
+            let dz = vj[kz][lane] - o[kz];
+            [dx - sx * dz, dy - sy * dz, sz * dz]
+        })
+    }
+
+    /// The hit of `lane`, at `t` by [`ShearedRay::lanes`], checked: `t` where its
+    /// sign is certain, else the distance recomputed in f64 (∞ when that is not in
+    /// `(0, t_max)`).
+    ///
+    /// The distance's rounding error can exceed the distance itself when the
+    /// origin lies micrometres from a long sliver's plane (the edge functions
+    /// cancel to a small determinant): the f32 distance then has the wrong sign, a
+    /// hit on the surface the ray has just left (found on the Lamborghini against
+    /// Intel Embree and exact arithmetic, benches/embree/README.md). Only hits are
+    /// checked: a hit closer than its own rounding error may still be missed, as
+    /// with any f32 test, but none is reported behind the origin. The edge test,
+    /// and so watertightness, is unchanged.
+    #[inline(always)]
+    fn checked_distance<const N: usize>(
+        &self,
+        pack: &TrianglePack<N>,
+        lane: usize,
+        t: f32,
+        t_max: f32,
+    ) -> f32 {
+        let corners = self.corners(pack, lane);
+        let [a, b, c] = corners.map(|p| p[2]);
+        // With every corner on one side of the origin along the ray, the distance
+        // is a mean of their z with weights of one sign, so its sign is theirs.
+        if (a > 0.0) & (b > 0.0) & (c > 0.0) {
+            return t;
+        }
+        certain_distance(corners, t, t_max)
+    }
+
     /// The nearest hit in the pack with `t` in `(0, t_max)`; on equal distances the
     /// lowest lane.
     #[inline(always)]
-    pub fn intersect_pack<const N: usize>(
+    pub fn intersect_pack<const AVX: bool, const N: usize>(
         &self,
         pack: &TrianglePack<N>,
         t_max: f32,
     ) -> Option<LaneHit> {
-        let (t, bu, bv) = self.lanes(pack, t_max);
-        nearest_lane(&t).map(|best| LaneHit {
+        let (mut t, bu, bv) = self.lanes::<AVX, N>(pack, t_max);
+        loop {
+            let best = nearest_lane::<AVX, N>(&t)?;
+            let checked = self.checked_distance(pack, best, t[best], t_max);
+            if checked.to_bits() == t[best].to_bits() {
+                return Some(LaneHit {
+                    lane: best,
+                    t: checked,
+                    barycentric: [bu[best], bv[best]],
+                });
+            }
+            // Rare: the lane's distance was uncertain. Its f64 distance (or a
+            // miss) replaces it, and the nearest lane is chosen again; the f64
+            // distance is final (checking it again returns it unchanged, as its
+            // corners are the same), so this ends.
+            t[best] = checked;
+            if checked < f32::INFINITY {
+                return self.nearest_after_recheck(pack, &mut t, &bu, &bv, t_max);
+            }
+        }
+    }
+
+    /// The nearest lane of `t` after one lane's distance was recomputed, every
+    /// other hit lane checked in turn (a scalar loop: this is the rare path).
+    #[cold]
+    fn nearest_after_recheck<const N: usize>(
+        &self,
+        pack: &TrianglePack<N>,
+        t: &mut [f32; N],
+        bu: &[f32; N],
+        bv: &[f32; N],
+        t_max: f32,
+    ) -> Option<LaneHit> {
+        for (i, ti) in t.iter_mut().enumerate() {
+            if *ti < f32::INFINITY {
+                *ti = self.checked_distance(pack, i, *ti, t_max);
+            }
+        }
+        nearest_lane_portable(t).map(|best| LaneHit {
             lane: best,
             t: t[best],
             barycentric: [bu[best], bv[best]],
@@ -180,18 +269,83 @@ impl ShearedRay {
 
     /// Whether some triangle of the pack is hit with `t` in `(0, t_max)`.
     #[inline(always)]
-    pub fn any_in_pack<const N: usize>(&self, pack: &TrianglePack<N>, t_max: f32) -> bool {
-        let (t, _, _) = self.lanes(pack, t_max);
-        nearest_lane(&t).is_some()
+    pub fn any_in_pack<const AVX: bool, const N: usize>(
+        &self,
+        pack: &TrianglePack<N>,
+        t_max: f32,
+    ) -> bool {
+        let (mut t, _, _) = self.lanes::<AVX, N>(pack, t_max);
+        while let Some(best) = nearest_lane::<AVX, N>(&t) {
+            if self.checked_distance(pack, best, t[best], t_max) < f32::INFINITY {
+                return true;
+            }
+            t[best] = f32::INFINITY;
+        }
+        false
+    }
+}
+
+/// [`ShearedRay::checked_distance`] for a triangle with corners on both sides of
+/// the origin: `t` where its rounding error cannot change the hit decision, else
+/// the distance recomputed in f64, or ∞ where that is not in `(0, t_max)`.
+/// `corners` are the vertices in ray space.
+///
+/// The bound: in ray space the distance is `Σ eᵢ·zᵢ / Σ eᵢ` with edge functions
+/// eᵢ of one sign on a hit. Each eᵢ is a difference of two products, with an error
+/// of at most γ₂ times the sum of their magnitudes (γₙ = n·ε/(1 − n·ε), Higham);
+/// the weighted sum adds γ₃·Σ|eᵢ|·max|zᵢ|. If the f32 numerator is larger than that
+/// bound (doubled, for the bound's own rounding), its sign, so the hit decision at
+/// `t = 0`, is right.
+#[inline(never)]
+#[cold]
+fn certain_distance(corners: [[f32; 3]; 3], t: f32, t_max: f32) -> f32 {
+    let [a, b, c] = corners;
+    // The products of each edge function: u = c₀b₁ − c₁b₀, v = a₀c₁ − a₁c₀,
+    // w = b₀a₁ − b₁a₀.
+    let products = [(c, b), (a, c), (b, a)];
+    let eps = f64::from(f32::EPSILON) / 2.0;
+    let gamma = |n: f64| n * eps / (1.0 - n * eps);
+    let z_max = [a[2], b[2], c[2]]
+        .iter()
+        .fold(0.0f64, |m, z| m.max(f64::from(z.abs())));
+    let edges = products.map(|(p, q)| p[0] * q[1] - p[1] * q[0]);
+    let edge_error: f64 = products
+        .iter()
+        .map(|(p, q)| {
+            gamma(2.0) * (f64::from((p[0] * q[1]).abs()) + f64::from((p[1] * q[0]).abs()))
+        })
+        .sum();
+    let edge_sum: f64 = edges.iter().map(|e| f64::from(e.abs())).sum();
+    let bound = 2.0 * z_max * (edge_error + gamma(3.0) * edge_sum);
+    let numerator = edges[0] * a[2] + edges[1] * b[2] + edges[2] * c[2];
+    // (An edge function of exactly zero was recomputed in f64 by the test, so
+    // `numerator` may differ from the test's; the f64 path below then decides.)
+    if f64::from(numerator.abs()) > bound && edges.iter().all(|&e| e != 0.0) {
+        return t;
+    }
+    // In f64 the products of f32 values are exact and each edge function is
+    // rounded once.
+    let f =
+        |p: f32, q: f32, r: f32, s: f32| f64::from(p) * f64::from(q) - f64::from(r) * f64::from(s);
+    let e = products.map(|(p, q)| f(p[0], q[1], p[1], q[0]));
+    let det = e[0] + e[1] + e[2];
+    let distance = (e[0] * f64::from(a[2]) + e[1] * f64::from(b[2]) + e[2] * f64::from(c[2])) / det;
+    let distance = distance as f32;
+    if distance > 0.0 && distance < t_max {
+        distance
+    } else {
+        f32::INFINITY
     }
 }
 
 /// Whether some lane of `u`, `v` or `w` is exactly zero (either sign).
 #[inline(always)]
-fn any_zero<const N: usize>(u: &[f32; N], v: &[f32; N], w: &[f32; N]) -> bool {
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
-    if let (Ok(u), Ok(v), Ok(w)) = (u[..].try_into(), v[..].try_into(), w[..].try_into()) {
-        return avx::any_zero(u, v, w);
+fn any_zero<const AVX: bool, const N: usize>(u: &[f32; N], v: &[f32; N], w: &[f32; N]) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if AVX && let (Ok(u), Ok(v), Ok(w)) = (u[..].try_into(), v[..].try_into(), w[..].try_into()) {
+        // SAFETY: `AVX` is true only where AVX is enabled and the CPU has it (see
+        // the module documentation).
+        return unsafe { avx::any_zero(u, v, w) };
     }
     any_zero_portable(u, v, w)
 }
@@ -206,10 +360,11 @@ fn any_zero_portable<const N: usize>(u: &[f32; N], v: &[f32; N], w: &[f32; N]) -
 /// The lane of the smallest `t` below ∞, the lowest such lane on ties; `None` when
 /// every lane is ∞ (no lane holds NaN: the test writes ∞ for every miss).
 #[inline(always)]
-fn nearest_lane<const N: usize>(t: &[f32; N]) -> Option<usize> {
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
-    if let Ok(t) = t[..].try_into() {
-        return avx::nearest_lane(t);
+fn nearest_lane<const AVX: bool, const N: usize>(t: &[f32; N]) -> Option<usize> {
+    #[cfg(target_arch = "x86_64")]
+    if AVX && let Ok(t) = t[..].try_into() {
+        // SAFETY: as in `any_zero`.
+        return unsafe { avx::nearest_lane(t) };
     }
     nearest_lane_portable(t)
 }
@@ -228,8 +383,9 @@ fn nearest_lane_portable<const N: usize>(t: &[f32; N]) -> Option<usize> {
 }
 
 /// The 8-lane reductions of the pack test with AVX intrinsics (the loop vectoriser
-/// does not find them).
-#[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+/// does not find them). Each is `unsafe`: to be called only where the CPU has AVX,
+/// and inlined only into code compiled with it (the const `AVX` of the callers).
+#[cfg(target_arch = "x86_64")]
 mod avx {
     use std::arch::x86_64::{
         __m256, _CMP_EQ_OQ, _mm256_cmp_ps, _mm256_cvtss_f32, _mm256_min_ps, _mm256_movemask_ps,
@@ -237,17 +393,17 @@ mod avx {
     };
 
     // SAFETY (every `unsafe` block below): these intrinsics need AVX, which the
-    // module's cfg guarantees at compile time; they take and return values only (no
-    // memory access).
+    // callers of these `unsafe` functions guarantee; they take and return values
+    // only (no memory access).
 
     #[inline(always)]
-    fn vector(a: &[f32; 8]) -> __m256 {
+    unsafe fn vector(a: &[f32; 8]) -> __m256 {
         // SAFETY: see above.
         unsafe { _mm256_setr_ps(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]) }
     }
 
     #[inline(always)]
-    pub(super) fn any_zero(u: &[f32; 8], v: &[f32; 8], w: &[f32; 8]) -> bool {
+    pub(super) unsafe fn any_zero(u: &[f32; 8], v: &[f32; 8], w: &[f32; 8]) -> bool {
         // SAFETY: see above.
         unsafe {
             let zero = _mm256_setzero_ps();
@@ -257,7 +413,7 @@ mod avx {
     }
 
     #[inline(always)]
-    pub(super) fn nearest_lane(t: &[f32; 8]) -> Option<usize> {
+    pub(super) unsafe fn nearest_lane(t: &[f32; 8]) -> Option<usize> {
         // SAFETY: see above.
         unsafe {
             let t = vector(t);
@@ -303,9 +459,9 @@ mod tests {
                 single.set(0, tri, lane as u32);
                 singles.push(single);
             }
-            let (t, bu, bv) = ray.lanes(&pack, 10.0);
+            let (t, bu, bv) = ray.lanes::<false, PACK>(&pack, 10.0);
             for (lane, single) in singles.iter().enumerate() {
-                let (t1, bu1, bv1) = ray.lanes(single, 10.0);
+                let (t1, bu1, bv1) = ray.lanes::<false, 1>(single, 10.0);
                 assert_eq!(t[lane].to_bits(), t1[0].to_bits());
                 if t1[0] < f32::INFINITY {
                     hits += 1;
@@ -317,9 +473,14 @@ mod tests {
     }
 
     /// The AVX reductions against the portable ones, on lanes drawn from a few
-    /// values so that ties, zeros of either sign and all-∞ packs are common.
+    /// values so that ties, zeros of either sign and all-∞ packs are common (where
+    /// the CPU has AVX).
     #[test]
     fn reductions_agree_with_the_portable_ones() {
+        if !crate::simd_path::SimdPath::Avx2.is_available() {
+            println!("no AVX2 on this CPU: only the portable reductions exist");
+            return;
+        }
         let values = [0.0, -0.0, 1.0, 2.5, 1e-30, -3.0, f32::INFINITY];
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
         let mut pick = move || {
@@ -334,13 +495,13 @@ mod tests {
                 |pick: &mut dyn FnMut() -> f32| -> [f32; PACK] { std::array::from_fn(|_| pick()) };
             let (u, v, w) = (lanes(&mut pick), lanes(&mut pick), lanes(&mut pick));
             assert_eq!(
-                any_zero(&u, &v, &w),
+                any_zero::<true, PACK>(&u, &v, &w),
                 any_zero_portable(&u, &v, &w),
                 "{u:?} {v:?} {w:?}"
             );
             // Distances are positive or ∞ (misses).
             let t = u.map(|x| if x > 0.0 { x } else { f32::INFINITY });
-            let best = nearest_lane(&t);
+            let best = nearest_lane::<true, PACK>(&t);
             assert_eq!(best, nearest_lane_portable(&t), "{t:?}");
             match best {
                 None => none += 1,
@@ -351,11 +512,52 @@ mod tests {
         assert!(none > 100 && ties > 1000, "{none} {ties}");
     }
 
+    /// A ray of the accel bench leaving a Lamborghini surface 1.9 µm off the plane
+    /// of a 2 m sliver, away from it: exact (rational) arithmetic puts the line's
+    /// crossing of the plane at t = −2.808·10⁻⁶, inside the triangle, but the f32
+    /// distance came out as +8.47·10⁻⁶, a hit on the surface just left, where Intel
+    /// Embree (robust) reports none (benches/embree/README.md). Started 10⁻⁴ further
+    /// back, the same line must hit, at 10⁻⁴ − 2.808·10⁻⁶, within the f32
+    /// distance's error for this sliver (about 10⁻⁵, as above).
+    #[test]
+    fn distances_near_zero_have_the_right_sign() {
+        let sliver = [
+            [-0.780_187_37, 0.100_365_12, 0.729_199_9],
+            [0.680_211_1, 0.100_398_15, -0.815_169_04],
+            [0.686_082_6, 0.100_364_4, -0.817_328_6],
+        ];
+        let origin = [-0.350_136_73, 0.100_363_046, 0.275_604_7];
+        let dir = [0.169_235_17, -0.685_412_6, 0.708_215_5];
+        let mut pack = TrianglePack::<PACK>::empty();
+        pack.set(3, sliver, 7);
+        let ray = ShearedRay::new(origin, dir);
+        assert_eq!(
+            ray.intersect_pack::<false, PACK>(&pack, f32::INFINITY),
+            None
+        );
+        assert!(!ray.any_in_pack::<false, PACK>(&pack, f32::INFINITY));
+        if crate::simd_path::SimdPath::Avx2.is_available() {
+            assert_eq!(ray.intersect_pack::<true, PACK>(&pack, f32::INFINITY), None);
+            assert!(!ray.any_in_pack::<true, PACK>(&pack, f32::INFINITY));
+        }
+        let back = 1e-4f32;
+        let behind = std::array::from_fn(|k| origin[k] - back * dir[k]);
+        let hit = ShearedRay::new(behind, dir)
+            .intersect_pack::<false, PACK>(&pack, f32::INFINITY)
+            .expect("the line crosses the sliver ahead of this origin");
+        assert_eq!(hit.lane, 3);
+        let expected = back - 2.808e-6;
+        assert!((hit.t - expected).abs() < 2e-5, "{} vs {expected}", hit.t);
+    }
+
     #[test]
     fn unused_lanes_never_hit() {
         let pack = TrianglePack::<PACK>::empty();
         let ray = ShearedRay::new([0.0; 3], [0.0, 0.0, 1.0]);
-        assert_eq!(ray.intersect_pack(&pack, f32::INFINITY), None);
-        assert!(!ray.any_in_pack(&pack, f32::INFINITY));
+        assert_eq!(
+            ray.intersect_pack::<false, PACK>(&pack, f32::INFINITY),
+            None
+        );
+        assert!(!ray.any_in_pack::<false, PACK>(&pack, f32::INFINITY));
     }
 }

@@ -13,8 +13,10 @@
 //!   coincident triangles.
 //! - **Nodes**: the 8 children's boxes as plain f32 planes, structure of arrays
 //!   (`bounds[plane][child]`, 224 bytes a node): one ray is tested against all 8 boxes
-//!   with the same straight-line code per child, which LLVM vectorises to AVX under
-//!   `target-cpu=x86-64-v3` (and to SSE2 otherwise) without `unsafe`.
+//!   with the same straight-line code per child, which LLVM vectorises to AVX in the
+//!   traversal compiled for AVX2 (and to SSE2 in the portable one) without `unsafe`;
+//!   the const parameter `AVX` of the traversal says which of the two it is
+//!   instantiated for, as in `accel/triangle.rs`.
 //! - **Leaves**: up to [`MAX_LEAF`] primitives, stored by the geometry layer as
 //!   blocks ("packs") of [`PACK`] lanes; a leaf's child reference holds its first pack
 //!   and its primitive count, so a leaf is reached without an indirection.
@@ -189,7 +191,7 @@ impl BoxRay {
     /// The children hit within `[0, t_max]` (bit i for child i) and each one's
     /// entry distance.
     #[inline(always)]
-    fn hit_children(&self, node: &Node, t_max: f32) -> (u32, [f32; WIDTH]) {
+    fn hit_children<const AVX: bool>(&self, node: &Node, t_max: f32) -> (u32, [f32; WIDTH]) {
         let b = &node.bounds;
         let near = |axis: usize| &b[2 * axis + (self.negative[axis] & 1)];
         let far = |axis: usize| &b[2 * axis + (!self.negative[axis] & 1)];
@@ -213,28 +215,31 @@ impl BoxRay {
             entry[i] = tn;
             limit[i] = min(tf, t_max);
         }
-        (hit_mask(&entry, &limit), entry)
+        (hit_mask::<AVX>(&entry, &limit), entry)
     }
 }
 
-/// Bit i set where `entry[i] <= limit[i]` (false for NaN), with AVX: one compare
+/// Bit i set where `entry[i] <= limit[i]` (false for NaN); with `AVX` one compare
 /// and one `vmovmskps` (LLVM builds the mask of the portable loop with four pack
 /// and logic instructions instead; see docs/benchmarks.md).
-#[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
 #[inline(always)]
-fn hit_mask(entry: &[f32; WIDTH], limit: &[f32; WIDTH]) -> u32 {
-    use std::arch::x86_64::{_CMP_LE_OQ, _mm256_cmp_ps, _mm256_movemask_ps, _mm256_setr_ps};
-    // SAFETY: these intrinsics need AVX, which the cfg guarantees at compile time;
-    // they take and return values only (no memory access).
-    unsafe {
-        let vector =
-            |a: &[f32; WIDTH]| _mm256_setr_ps(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]);
-        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(vector(entry), vector(limit))) as u32
+fn hit_mask<const AVX: bool>(entry: &[f32; WIDTH], limit: &[f32; WIDTH]) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    if AVX {
+        use std::arch::x86_64::{_CMP_LE_OQ, _mm256_cmp_ps, _mm256_movemask_ps, _mm256_setr_ps};
+        // SAFETY: `AVX` is true only where AVX is enabled and the CPU has it (see
+        // the module documentation); these intrinsics take and return values only
+        // (no memory access).
+        return unsafe {
+            let vector =
+                |a: &[f32; WIDTH]| _mm256_setr_ps(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]);
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(vector(entry), vector(limit))) as u32
+        };
     }
+    hit_mask_portable(entry, limit)
 }
 
-/// The portable [`hit_mask`] (the only one without AVX; tested against it with).
-#[cfg(any(test, not(all(target_arch = "x86_64", target_feature = "avx"))))]
+/// The portable [`hit_mask`].
 #[inline(always)]
 fn hit_mask_portable(entry: &[f32; WIDTH], limit: &[f32; WIDTH]) -> u32 {
     let mut mask = 0;
@@ -243,9 +248,6 @@ fn hit_mask_portable(entry: &[f32; WIDTH], limit: &[f32; WIDTH]) -> u32 {
     }
     mask
 }
-
-#[cfg(not(all(target_arch = "x86_64", target_feature = "avx")))]
-use hit_mask_portable as hit_mask;
 
 /// Asks the cache for the memory of `value` (a hint: no fault, no effect on results).
 /// Incoherent rays are bound by memory latency, one dependent miss per level; fetching
@@ -382,7 +384,7 @@ impl WideBvh {
     /// packs and returns the new `t_max` (smaller when it found a closer hit);
     /// `fetch_leaf(first_pack, primitive_count)` may prefetch them.
     #[inline(always)]
-    pub fn closest(
+    pub fn closest<const AVX: bool>(
         &self,
         ray: &BoxRay,
         t_max: f32,
@@ -391,7 +393,7 @@ impl WideBvh {
     ) {
         let mut traversal = Traversal::new();
         traversal.start(t_max);
-        while self.closest_step(ray, &mut traversal, &mut leaf, &fetch_leaf) {}
+        while self.closest_step::<AVX>(ray, &mut traversal, &mut leaf, &fetch_leaf) {}
     }
 
     /// One step of a closest-hit traversal: visits the traversal's current node or
@@ -401,7 +403,7 @@ impl WideBvh {
     /// memory each ray waits for arrives while the others work. The steps of one ray
     /// are the same either way, so are its results, bit for bit.
     #[inline(always)]
-    pub fn closest_step(
+    pub fn closest_step<const AVX: bool>(
         &self,
         ray: &BoxRay,
         traversal: &mut Traversal,
@@ -417,7 +419,7 @@ impl WideBvh {
             traversal.t_max = leaf(first, count, traversal.t_max);
         } else {
             let node = &self.nodes[current as usize];
-            let (mut mask, entry) = ray.hit_children(node, traversal.t_max * TMAX_WIDEN);
+            let (mut mask, entry) = ray.hit_children::<AVX>(node, traversal.t_max * TMAX_WIDEN);
             if mask != 0 {
                 // Hit children, sorted by decreasing entry distance (insertion
                 // sort: rarely more than three).
@@ -458,7 +460,7 @@ impl WideBvh {
     /// Any hit: `leaf(first_pack, primitive_count)` says whether a leaf holds a hit;
     /// stops at the first. `fetch_leaf` as for [`WideBvh::closest`].
     #[inline(always)]
-    pub fn any(
+    pub fn any<const AVX: bool>(
         &self,
         ray: &BoxRay,
         t_max: f32,
@@ -479,7 +481,7 @@ impl WideBvh {
                 }
             } else {
                 let node = &self.nodes[current as usize];
-                let (mut mask, _) = ray.hit_children(node, t_box);
+                let (mut mask, _) = ray.hit_children::<AVX>(node, t_box);
                 if mask != 0 {
                     // No ordering: any hit ends the query.
                     let i = mask.trailing_zeros() as usize;
