@@ -540,7 +540,7 @@ fn cholesky_solve(mut h: Vec<f64>, n: usize, b: &mut [f64]) -> Option<()> {
 fn projected_newton(
     mut x: Vec<f64>,
     local: impl Fn(&[f64]) -> Local,
-    value: impl Fn(&[f64]) -> f64,
+    value: &impl Fn(&[f64]) -> f64,
 ) -> Vec<f64> {
     let n = x.len();
     for _ in 0..200 {

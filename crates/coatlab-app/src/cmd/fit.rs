@@ -34,9 +34,11 @@ pub struct FitArgs {
     /// Where to write the fitted design (atomically).
     #[arg(long, value_name = "DESIGN.toml")]
     pub out: PathBuf,
-    /// Pass/fail limits of the report, as `coatlab measure --tolerance`.
-    #[arg(long, value_name = "SPEC", default_value = "de00:1")]
-    pub tolerance: Tolerance,
+    /// Pass/fail limits of the report, as `coatlab measure --tolerance` (default:
+    /// the start design's `[tolerance]`, else `de00:1`); the written design keeps
+    /// the start design's.
+    #[arg(long, value_name = "SPEC")]
+    pub tolerance: Option<Tolerance>,
     /// Print JSON instead of a report.
     #[arg(long)]
     pub json: bool,
@@ -91,7 +93,12 @@ pub fn run(args: &FitArgs, out: &mut impl Write) -> anyhow::Result<()> {
             .map_or(file.clone(), |n| n.to_string_lossy().into_owned()),
         start.name
     ));
-    let report = fit::report(&fitted, &standard, &args.tolerance)
+    let tolerance = args
+        .tolerance
+        .clone()
+        .or_else(|| start.tolerance.clone())
+        .unwrap_or_default();
+    let report = fit::report(&fitted, &standard, &tolerance)
         .map_err(usage_or_data)
         .with_context(|| format!("{file}: cannot compare the fitted design"))?;
     fitted.design.save(&args.out)?;
