@@ -3,14 +3,18 @@
 //!
 //! The reading of the multi-angle instrument at one geometry is (spec 4, 7)
 //!
-//!     R(λ) = π·R_F(μi)·S(ωi, ωo) + g(λ)·ρ/(1 − c(λ)·ρ)
+//! ```text
+//! R(λ) = π·R_F(μi)·S(ωi, ωo) + g(λ)·ρ/(1 − c(λ)·ρ)
+//! ```
 //!
 //! with the specular part fixed by the coat and the gloss, g = T(μi)·T(μo)·
 //! exp(−τ(1/μi′ + 1/μo′))/n² and c = C/π (the body term of spec 4.1 times π). The
 //! body part is increasing in ρ, so the reading at one wavelength and geometry
 //! fixes ρ; from the body part b = R − π·R_F·S,
 //!
-//!     ρ = b / (g + c·b),
+//! ```text
+//! ρ = b / (g + c·b),
+//! ```
 //!
 //! and the readings a coat allows lie between its surface reflection alone (ρ = 0)
 //! and that plus g/(1 − c) (ρ = 1).
@@ -42,7 +46,7 @@ use crate::paint::fresnel::reflectance;
 use crate::paint::model::PaintModel;
 use crate::target::{Comparison, TargetError, compare_to_standard};
 
-/// The weight λ of the smoothness term (see [`smoothness_matrix`]): the objective
+/// The weight λ of the smoothness term: the objective
 /// is mean(residual²) + λ·mean((ρ″·(10 nm)²)²). With λ = 10⁻³ a noiseless fit moves
 /// ρ by less than 10⁻⁴ while 0.5 % measurement noise is damped.
 pub const SMOOTHNESS_WEIGHT: f64 = 1e-3;
