@@ -435,6 +435,67 @@ fn measure_cases(designs: &[(String, PathBuf)], dir: &Path) -> Vec<Case> {
     cases
 }
 
+/// `coatlab fit` with the malformed designs as its start, and malformed arguments
+/// (the measurement files themselves are driven by `tests/cli_measure.rs` and the
+/// readers' property test).
+fn fit_cases(designs: &[(String, PathBuf)], dir: &Path) -> Vec<Case> {
+    let target = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../coatlab-core/tests/data/measurements/multi_angle_geometry_field.cgats");
+    let target = target.to_str().expect("UTF-8").to_owned();
+    let out = dir.join("fitted.toml");
+    let out = out.to_str().expect("UTF-8").to_owned();
+    let mut cases: Vec<Case> = designs
+        .iter()
+        .take(40)
+        .map(|(what, path)| {
+            Case::new(
+                format!("fit --start: {what}"),
+                &[
+                    "fit",
+                    "--target",
+                    &target,
+                    "--sample",
+                    "1",
+                    "--start",
+                    path.to_str().expect("UTF-8"),
+                    "--out",
+                    &out,
+                ],
+            )
+        })
+        .collect();
+    let bad = designs[0].1.to_str().expect("UTF-8");
+    let dir_path = dir.to_str().expect("UTF-8");
+    for args in [
+        &["fit", "--target", bad, "--out", &out][..],
+        &[
+            "fit", "--target", &target, "--sample", "1", "--free", "n", "--out", &out,
+        ],
+        &[
+            "fit", "--target", &target, "--sample", "1", "--free", "", "--out", &out,
+        ],
+        &[
+            "fit",
+            "--target",
+            &target,
+            "--sample",
+            "1",
+            "--tolerance",
+            "nan",
+            "--out",
+            &out,
+        ],
+        &["fit", "--target", &target, "--sample", "99", "--out", &out],
+        &["fit", "--target", "/nonexistent/t.cgats", "--out", &out],
+        &["fit", "--target", dir_path, "--out", &out],
+        &["fit", "--target", &target],
+        &["fit"],
+    ] {
+        cases.push(Case::new(format!("{args:?}"), args));
+    }
+    cases
+}
+
 /// Environment maps: EXR files of every awkward content, Radiance files that lie
 /// about their size or stop early.
 fn environment_maps(dir: &Path, rng: &mut Rng) -> Vec<(String, PathBuf)> {
@@ -729,6 +790,7 @@ fn no_input_makes_any_command_panic() {
     cases.extend(color_cases(&dir, &mut rng));
     cases.extend(gloss_cases());
     cases.extend(measure_cases(&designs, &dir));
+    cases.extend(fit_cases(&designs, &dir));
     cases.extend(render_cases(&dir, &designs, &maps, &scenes));
     cases.extend(top_level_cases());
 

@@ -662,3 +662,37 @@ fn a_metameric_match_passes_under_d65_and_is_warned_about() {
         );
     }
 }
+
+#[test]
+fn the_design_files_tolerance_is_used_unless_one_is_given() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    // Deep blue against red fails by tens of ΔE00; a design-file limit of 100 passes.
+    let mut blue = PaintDesign::load(preset("deep-blue")).expect("preset");
+    blue.tolerance = Some("de00:100".parse().expect("tolerance"));
+    let path = dir.path().join("blue.toml");
+    blue.save(&path).expect("save");
+    let red = preset("signal-red");
+    let output = coatlab()
+        .arg("measure")
+        .arg(&path)
+        .arg("--target")
+        .arg(&red)
+        .output()
+        .expect("coatlab runs");
+    let text = String::from_utf8_lossy(&output.stdout);
+    assert!(text.contains("ΔE00 ≤ 100 (from the design file)"), "{text}");
+    assert!(text.contains("Result: PASS"), "{text}");
+    // --tolerance wins.
+    let json = measure_json(&[
+        path.as_os_str(),
+        "--target".as_ref(),
+        red.as_os_str(),
+        "--tolerance".as_ref(),
+        "1".as_ref(),
+    ]);
+    assert_eq!(json["tolerance_source"], "command line");
+    assert_eq!(json["comparison"]["pass"], false);
+    let json = measure_json(&[path.as_os_str(), "--target".as_ref(), red.as_os_str()]);
+    assert_eq!(json["tolerance_source"], "design");
+    assert_eq!(json["comparison"]["pass"], true);
+}

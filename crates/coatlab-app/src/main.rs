@@ -66,6 +66,8 @@ enum Command {
     DeltaE,
     /// Multi-angle colour and gloss readings of a paint design file.
     Measure(cmd::measure::MeasureArgs),
+    /// Fit a design's pigment albedo to a measured standard (CGATS or CxF3) and write it.
+    Fit(cmd::fit::FitArgs),
     /// Convert between a glossmeter reading (GU) and the lobe exponent m.
     Gloss(cmd::gloss::GlossArgs),
     /// Render a design on a car (progressive spectral path tracer) to PNG or EXR,
@@ -97,6 +99,7 @@ fn main() -> ExitCode {
         Command::Color(args) => cmd::color::run(args, &mut stdout),
         Command::DeltaE => cmd::delta_e::run(stdin, &mut stdout),
         Command::Measure(args) => cmd::measure::run(args, &mut stdout),
+        Command::Fit(args) => cmd::fit::run(args, &mut stdout),
         Command::Gloss(args) => cmd::gloss::run(args, &mut stdout),
         Command::Render(args) => cmd::render::run(args, &mut stdout),
         Command::Merge(args) => cmd::merge::run(args, &mut stdout),

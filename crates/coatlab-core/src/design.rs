@@ -15,6 +15,7 @@
 //! | gloss g | [`GLOSS`], at least the reading of m = 0 | `gloss.gu` |
 //! | glossmeter geometry | 20°, 60°, 85° ([`GlossGeometry`]) | `gloss.geometry_deg` |
 //! | specular lobe | `normalised`, `paper` ([`LobeKind`]) | `gloss.lobe` |
+//! | pass/fail limits (optional) | [`Tolerance`], as `coatlab measure --tolerance` writes them | `tolerance.spec`, with `tolerance.version` ([`TOLERANCE_VERSION`]) |
 //!
 //! Tables are `{ wavelength_nm = [...], value = [...] }` with strictly increasing
 //! wavelengths covering at least 400–700 nm; between samples a table is linear, beyond
@@ -38,6 +39,12 @@
 //! gu = 88.0
 //! geometry_deg = 20
 //! lobe = "normalised"
+//!
+//! # Optional: the limits a measured standard is judged by (`coatlab measure
+//! # --target` uses them when no --tolerance is given).
+//! [tolerance]
+//! version = 1
+//! spec = "de00:1,15=1.5,110=2"
 //! ```
 //!
 //! Reading is strict: an unknown `format`, a newer `version`, a missing or unknown key
@@ -57,6 +64,7 @@ use serde::Deserialize;
 use thiserror::Error;
 
 use crate::colour::spectrum::{SampledSpectrum, TabulatedSpectrum, VISIBLE, WavelengthGrid};
+use crate::colour::tolerance::{Formula, Tolerance};
 use crate::io::atomic::write_bytes_atomically;
 use crate::paint::gloss::{
     GLOSS_WAVELENGTH_NM, GlossError, GlossExponent, GlossGeometry, exponent_from_reading,
@@ -72,6 +80,10 @@ use crate::paint::parameters::{
 pub const FORMAT_NAME: &str = "coatlab-paint-design";
 /// The file format version this Coatlab writes (and the newest it reads).
 pub const FORMAT_VERSION: i64 = 1;
+/// The version of the `[tolerance]` table this Coatlab writes (and the newest it
+/// reads); the table has its own so that its syntax can grow without a new design
+/// file version.
+pub const TOLERANCE_VERSION: i64 = 1;
 /// Every tabulated spectrum must cover at least this range, where colour is decided;
 /// beyond its ends a table is held constant.
 pub const REQUIRED_COVERAGE_NM: (f64, f64) = (400.0, 700.0);
@@ -313,6 +325,9 @@ pub struct PaintDesign {
     pub gloss: Gloss,
     /// Which specular lobe the model uses.
     pub lobe: LobeKind,
+    /// Pass/fail limits against a target, stored with the design (`[tolerance]`);
+    /// `None`: the default, ΔE00 ≤ 1 at every angle.
+    pub tolerance: Option<Tolerance>,
 }
 
 impl PaintDesign {
@@ -390,6 +405,23 @@ impl PaintDesign {
         }
         check_value("clear_coat.thickness_um", self.thickness_um, &THICKNESS)?;
         check_value("gloss.gu", self.gloss.gu, &GLOSS)?;
+        if let Some(tolerance) = &self.tolerance {
+            let limits = std::iter::once(tolerance.default_limit)
+                .chain(tolerance.per_angle.iter().map(|(_, limit)| *limit));
+            let angles_finite = tolerance
+                .per_angle
+                .iter()
+                .all(|(angle, _)| angle.is_finite());
+            if !limits.into_iter().all(|l| l.is_finite() && l > 0.0) || !angles_finite {
+                return Err(invalid(
+                    "tolerance.spec",
+                    format!(
+                        "tolerance.spec = {}: every limit must be a positive number and every angle finite",
+                        toml_string(&tolerance_spec(tolerance))
+                    ),
+                ));
+            }
+        }
         self.exponent().map(|_| ())
     }
 
@@ -649,6 +681,59 @@ struct DesignFile {
     pigment: PigmentSection,
     clear_coat: ClearCoatSection,
     gloss: GlossSection,
+    #[serde(default)]
+    tolerance: Option<ToleranceSection>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ToleranceSection {
+    version: i64,
+    spec: String,
+}
+
+impl ToleranceSection {
+    fn into_tolerance(self) -> Result<Tolerance, DesignError> {
+        if self.version > TOLERANCE_VERSION {
+            return Err(invalid(
+                "tolerance.version",
+                format!(
+                    "tolerance.version = {}: this tolerance was written by a newer Coatlab (this one reads up to version {TOLERANCE_VERSION}); update Coatlab, or remove the [tolerance] table",
+                    self.version
+                ),
+            ));
+        }
+        if self.version < 1 {
+            return Err(invalid(
+                "tolerance.version",
+                format!(
+                    "tolerance.version = {} is not a tolerance version (this Coatlab reads version {TOLERANCE_VERSION})",
+                    self.version
+                ),
+            ));
+        }
+        self.spec.parse().map_err(|error| {
+            invalid(
+                "tolerance.spec",
+                format!("tolerance.spec = {}: {error}", toml_string(&self.spec)),
+            )
+        })
+    }
+}
+
+/// A tolerance in the `--tolerance` syntax, which [`Tolerance`]'s `FromStr` reads
+/// back to an equal value (numbers in Rust's shortest round-trip form).
+pub fn tolerance_spec(tolerance: &Tolerance) -> String {
+    let formula = match tolerance.formula {
+        Formula::De00 => "de00",
+        Formula::DeAb => "deab",
+        Formula::Cmc => "cmc",
+    };
+    let mut spec = format!("{formula}:{}", tolerance.default_limit);
+    for (angle, limit) in &tolerance.per_angle {
+        spec.push_str(&format!(",{angle}={limit}"));
+    }
+    spec
 }
 
 #[derive(Deserialize)]
@@ -778,6 +863,10 @@ fn parse_design(text: &str) -> Result<PaintDesign, DesignError> {
             geometry: file.gloss.geometry_deg,
         },
         lobe: file.gloss.lobe,
+        tolerance: file
+            .tolerance
+            .map(ToleranceSection::into_tolerance)
+            .transpose()?,
     };
     design.validate()?;
     Ok(design)
@@ -857,6 +946,15 @@ fn write_design(design: &PaintDesign) -> String {
     let _ = writeln!(out, "gu = {}", toml_float(design.gloss.gu));
     let _ = writeln!(out, "geometry_deg = {}", u32::from(design.gloss.geometry));
     let _ = writeln!(out, "lobe = {}", toml_string(design.lobe.name()));
+    if let Some(tolerance) = &design.tolerance {
+        out.push_str(
+            "\n# Pass/fail limits against a target, as `coatlab measure --tolerance` takes them:\n",
+        );
+        out.push_str("# [FORMULA:]LIMIT[,ANGLE=LIMIT...], FORMULA de00, deab or cmc (2:1).\n");
+        out.push_str("[tolerance]\n");
+        let _ = writeln!(out, "version = {TOLERANCE_VERSION}");
+        let _ = writeln!(out, "spec = {}", toml_string(&tolerance_spec(tolerance)));
+    }
     out
 }
 
@@ -1087,6 +1185,7 @@ pub mod presets {
                 thickness_um: coat.thickness_um,
                 gloss: coat.gloss,
                 lobe: coat.lobe,
+                tolerance: None,
             },
         }
     }

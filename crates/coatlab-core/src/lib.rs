@@ -11,7 +11,7 @@
 //! - [`measurement`]: spectrophotometer files (CGATS.17, CxF3) read into readings;
 //! - [`instruments`]: the virtual multi-angle spectrophotometer and glossmeter;
 //!   [`target`]: a design against a target design or a measured standard;
-//! - [`design`]: paint design files;
+//! - [`design`]: paint design files; [`fit`]: a design fitted to a measured standard;
 //! - [`io`]: image files in and out, atomic writes;
 //! - [`scene`]: glTF scenes and the built-in car;
 //! - [`accel`]: the BVH over triangles;
@@ -23,6 +23,7 @@ pub mod analysis;
 pub mod colour;
 pub mod design;
 pub mod engine;
+pub mod fit;
 pub mod instruments;
 pub mod io;
 pub mod measurement;

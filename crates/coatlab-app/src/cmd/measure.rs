@@ -31,9 +31,10 @@ pub struct MeasureArgs {
     #[arg(long, value_name = "NAME|INDEX")]
     pub sample: Option<String>,
     /// Pass/fail limits: `[FORMULA:]LIMIT[,ANGLE=LIMIT…]`, FORMULA de00 (default),
-    /// deab or cmc (2:1); e.g. `1`, `cmc:1.5`, `de00:1,15=1.5,110=2`.
-    #[arg(long, value_name = "SPEC", default_value = "de00:1")]
-    pub tolerance: Tolerance,
+    /// deab or cmc (2:1); e.g. `1`, `cmc:1.5`, `de00:1,15=1.5,110=2`. Default: the
+    /// design file's `[tolerance]`, else `de00:1`.
+    #[arg(long, value_name = "SPEC")]
+    pub tolerance: Option<Tolerance>,
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -63,6 +64,16 @@ enum Target {
 
 pub fn run(args: &MeasureArgs, out: &mut impl Write) -> anyhow::Result<()> {
     let (design, model, readings) = load_design(&args.design)?;
+    let tolerance = args
+        .tolerance
+        .clone()
+        .or_else(|| design.tolerance.clone())
+        .unwrap_or_default();
+    let tolerance_source = match (&args.tolerance, &design.tolerance) {
+        (Some(_), _) => "command line",
+        (None, Some(_)) => "design",
+        (None, None) => "default",
+    };
     let mut target = None;
     if let Some(path) = &args.target {
         let file = path.display().to_string();
@@ -75,7 +86,7 @@ pub fn run(args: &MeasureArgs, out: &mut impl Write) -> anyhow::Result<()> {
                 .select(args.sample.as_deref())
                 .with_context(|| format!("{file}: --sample"))
                 .or_fail(Failure::Usage)?;
-            let comparison = compare_to_standard(&model, &readings, &standard, &args.tolerance)
+            let comparison = compare_to_standard(&model, &readings, &standard, &tolerance)
                 .with_context(|| format!("{file}: cannot compare with sample {:?}", standard.name))
                 .or_fail(Failure::Data)?;
             target = Some((
@@ -93,8 +104,8 @@ pub fn run(args: &MeasureArgs, out: &mut impl Write) -> anyhow::Result<()> {
                 )));
             }
             let (t, _, t_readings) = load_design(path)?;
-            let comparison = compare_designs(&readings, &t_readings, &args.tolerance)
-                .or_fail(Failure::Internal)?;
+            let comparison =
+                compare_designs(&readings, &t_readings, &tolerance).or_fail(Failure::Internal)?;
             target = Some((Target::Design { name: t.name }, comparison));
         }
     } else if args.sample.is_some() {
@@ -137,6 +148,7 @@ pub fn run(args: &MeasureArgs, out: &mut impl Write) -> anyhow::Result<()> {
             "reflectance_scale": scale,
             "delta_e00": delta_e,
             "comparison": target.as_ref().map(|(_, c)| c),
+            "tolerance_source": target.as_ref().map(|_| tolerance_source),
         });
         serde_json::to_writer_pretty(&mut *out, &json).or_fail(Failure::Io)?;
         writeln!(out)?;
@@ -167,7 +179,7 @@ pub fn run(args: &MeasureArgs, out: &mut impl Write) -> anyhow::Result<()> {
         )?;
     }
     if let Some((t, comparison)) = &target {
-        write_comparison(out, t, comparison, args)?;
+        write_comparison(out, t, comparison, args, tolerance_source)?;
     }
     Ok(())
 }
@@ -177,6 +189,7 @@ fn write_comparison(
     target: &Target,
     c: &Comparison,
     args: &MeasureArgs,
+    tolerance_source: &str,
 ) -> anyhow::Result<()> {
     let file = args
         .target
@@ -202,7 +215,15 @@ fn write_comparison(
     for (angle, limit) in &t.per_angle {
         limits.push_str(&format!(", {limit} at as{angle}°"));
     }
-    writeln!(out, "Tolerance: {limits}; differences are design − target")?;
+    let from = if tolerance_source == "design" {
+        " (from the design file)"
+    } else {
+        ""
+    };
+    writeln!(
+        out,
+        "Tolerance: {limits}{from}; differences are design − target"
+    )?;
     writeln!(
         out,
         "{:<12} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>6}  verdict",

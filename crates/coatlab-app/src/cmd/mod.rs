@@ -6,6 +6,7 @@ pub mod brdf;
 pub mod color;
 pub mod delta_e;
 pub mod failure;
+pub mod fit;
 pub mod gloss;
 pub mod measure;
 pub mod merge;

@@ -1,0 +1,270 @@
+//! End-to-end tests of `coatlab fit`: a preset's own virtual measurement, written as
+//! CGATS and CxF3, fitted back; unreachable and colour-only standards; refusals.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+mod common;
+
+use common::{exit, failure};
+
+#[path = "../crates/coatlab-core/tests/support/measurement_files.rs"]
+mod measurement_files;
+
+use coatlab_core::design::PaintDesign;
+use measurement_files::{Spectra, as_cgats, as_cxf, lab_only_cgats};
+
+fn coatlab() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_coatlab"))
+}
+
+fn preset(slug: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../assets/presets")
+        .join(format!("{slug}.toml"))
+}
+
+fn run(args: &[&std::ffi::OsStr]) -> Output {
+    coatlab().args(args).output().expect("coatlab runs")
+}
+
+fn json(output: &Output) -> serde_json::Value {
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    serde_json::from_slice(&output.stdout).expect("valid JSON")
+}
+
+fn number(v: &serde_json::Value) -> f64 {
+    v.as_f64().expect("a number")
+}
+
+/// A preset's multi-angle reflectance from `coatlab measure --json`, every
+/// `step`-th wavelength.
+fn spectra_of(design: &Path, step: usize) -> Spectra {
+    let j = json(&run(&[
+        "measure".as_ref(),
+        "--json".as_ref(),
+        design.as_os_str(),
+    ]));
+    let m = &j["measurement"];
+    let w: Vec<f64> = m["wavelength_nm"]
+        .as_array()
+        .expect("grid")
+        .iter()
+        .map(number)
+        .collect();
+    let keep: Vec<usize> = (0..w.len()).step_by(step).collect();
+    let angles = m["angles"]
+        .as_array()
+        .expect("angles")
+        .iter()
+        .map(|a| {
+            let r: Vec<f64> = a["reflectance_factor"]
+                .as_array()
+                .expect("r")
+                .iter()
+                .map(number)
+                .collect();
+            (
+                number(&a["aspecular_deg"]),
+                keep.iter().map(|&i| r[i]).collect(),
+            )
+        })
+        .collect();
+    (keep.iter().map(|&i| w[i]).collect(), angles)
+}
+
+#[test]
+fn a_presets_measurement_is_fitted_back_and_the_fit_passes_measure() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let blue = preset("deep-blue");
+    let spectra = spectra_of(&blue, 2);
+    for (name, text) in [
+        ("blue.cgats", as_cgats("Deep blue", &spectra)),
+        ("blue.cxf", as_cxf("Deep blue", &spectra)),
+    ] {
+        let target = dir.path().join(name);
+        std::fs::write(&target, text).expect("write");
+        let out = dir.path().join(format!("{name}.toml"));
+        let j = json(&run(&[
+            "fit".as_ref(),
+            "--target".as_ref(),
+            target.as_os_str(),
+            "--start".as_ref(),
+            blue.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+            "--json".as_ref(),
+        ]));
+        assert_eq!(j["method"], "least_squares");
+        assert_eq!(j["smoothness_weight"].as_f64(), Some(1e-3));
+        assert_eq!(j["free"], serde_json::json!(["rho"]));
+        let angles = j["comparison"]["angles"].as_array().expect("angles");
+        assert_eq!(angles.len(), 5);
+        for a in angles {
+            assert!(number(&a["difference"]["dE00"]) <= 0.05, "{name}: {a}");
+        }
+        assert_eq!(j["spectral_rms"].as_array().map(Vec::len), Some(5));
+        assert!(j["unreachable"].as_array().expect("list").is_empty());
+        // The written design is a valid design with the start's coat, named after
+        // the standard, and passes against the standard.
+        let fitted = PaintDesign::load(&out).expect("a valid design");
+        let start = PaintDesign::load(&blue).expect("preset");
+        assert_eq!(fitted.name, "Deep blue");
+        assert_eq!(fitted.refractive_index, start.refractive_index);
+        assert_eq!(fitted.thickness_um, start.thickness_um);
+        let output = run(&[
+            "measure".as_ref(),
+            out.as_os_str(),
+            "--target".as_ref(),
+            target.as_os_str(),
+        ]);
+        let text = String::from_utf8_lossy(&output.stdout);
+        assert!(text.contains("Result: PASS"), "{text}");
+    }
+}
+
+#[test]
+fn one_geometry_is_inverted_to_the_designs_albedo() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let red = preset("signal-red");
+    let (w, angles) = spectra_of(&red, 1);
+    let single: Spectra = (w, angles.into_iter().filter(|(a, _)| *a == 45.0).collect());
+    let target = dir.path().join("red.cgats");
+    std::fs::write(&target, as_cgats("Signal red", &single)).expect("write");
+    let out = dir.path().join("fitted.toml");
+    let output = run(&[
+        "fit".as_ref(),
+        "--target".as_ref(),
+        target.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ]);
+    let text = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{text}");
+    assert!(text.contains("closed form"), "{text}");
+    assert!(text.contains("Wrote"), "{text}");
+    let fitted = PaintDesign::load(&out).expect("design");
+    let original = PaintDesign::load(&red).expect("preset");
+    for (nm, rho) in fitted
+        .albedo
+        .wavelengths_nm()
+        .iter()
+        .zip(fitted.albedo.values())
+    {
+        let expected = original.albedo.value_at_nm(*nm);
+        assert!(
+            (rho - expected).abs() < 1e-4,
+            "{nm} nm: {rho} vs {expected}"
+        );
+    }
+}
+
+#[test]
+fn an_unreachable_target_is_named_by_wavelength_and_geometry() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let white = preset("pure-white");
+    let (w, angles) = spectra_of(&white, 2);
+    let mut single: Spectra = (w, angles.into_iter().filter(|(a, _)| *a == 45.0).collect());
+    let at = single.0.iter().position(|nm| *nm == 600.0).expect("600 nm");
+    single.1[0].1[at] = 1.3;
+    let target = dir.path().join("too_bright.cgats");
+    std::fs::write(&target, as_cgats("White", &single)).expect("write");
+    let out = dir.path().join("fitted.toml");
+    let output = run(&[
+        "fit".as_ref(),
+        "--target".as_ref(),
+        target.as_os_str(),
+        "--start".as_ref(),
+        white.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ]);
+    let text = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{text}");
+    assert!(text.contains("cannot be reached at 1 wavelength"), "{text}");
+    assert!(
+        text.contains("45°as45° at 600 nm: the target reads 1.3000, brighter than ρ = 1"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_lab_only_standard_gets_the_smoothest_metamer() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let target = dir.path().join("lab.cgats");
+    std::fs::write(
+        &target,
+        lab_only_cgats("Teal", [45.0, -30.0, -8.0], "D50", "2 degree"),
+    )
+    .expect("write");
+    let out = dir.path().join("teal.toml");
+    let j = json(&run(&[
+        "fit".as_ref(),
+        "--target".as_ref(),
+        target.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+        "--json".as_ref(),
+    ]));
+    assert_eq!(j["method"], "smoothest_metamer");
+    let a = &j["comparison"]["angles"][0];
+    assert_eq!(a["conditions"], "D50/CIE 1931 2°");
+    assert!(number(&a["difference"]["dE00"]) < 0.01, "{a}");
+    let notes = j["notes"].to_string();
+    assert!(notes.contains("metamer"), "{notes}");
+    let comparison_notes = j["comparison"]["notes"].to_string();
+    assert!(
+        comparison_notes.contains("no metamerism index"),
+        "{comparison_notes}"
+    );
+    PaintDesign::load(&out).expect("a valid design");
+}
+
+#[test]
+fn bad_arguments_and_files_are_refused_and_nothing_is_written() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let red = preset("signal-red");
+    let (w, angles) = spectra_of(&red, 2);
+    let target = dir.path().join("red.cgats");
+    std::fs::write(&target, as_cgats("Signal red", &(w, angles))).expect("write");
+    let out = dir.path().join("out.toml");
+    let fit = |extra: &[&str], target: &Path, out: &Path| {
+        coatlab()
+            .arg("fit")
+            .arg("--target")
+            .arg(target)
+            .arg("--out")
+            .arg(out)
+            .args(extra)
+            .output()
+            .expect("coatlab runs")
+    };
+    let e = failure(&fit(&["--free", "rho,n"], &target, &out), exit::USAGE);
+    assert!(e.contains("--free n: only the pigment"), "{e}");
+    let e = failure(&fit(&["--free", "colour"], &target, &out), exit::USAGE);
+    assert!(e.contains("unknown parameter"), "{e}");
+    let e = failure(&fit(&[], &red, &out), exit::DATA);
+    assert!(e.contains("not a CGATS.17 or CxF3"), "{e}");
+    let e = failure(
+        &fit(&[], &dir.path().join("missing.cgats"), &out),
+        exit::NO_INPUT,
+    );
+    assert!(e.contains("missing.cgats"), "{e}");
+    let e = failure(&fit(&["--sample", "Blue"], &target, &out), exit::USAGE);
+    assert!(e.contains("--sample"), "{e}");
+    assert!(!out.exists());
+    // An output that cannot be created; an existing one is replaced whole.
+    let e = failure(
+        &fit(&[], &target, &dir.path().join("no/such/dir/out.toml")),
+        exit::CANT_CREATE,
+    );
+    assert!(e.contains("out.toml"), "{e}");
+    std::fs::write(&out, "old").expect("write");
+    let output = fit(&[], &target, &out);
+    assert!(output.status.success());
+    PaintDesign::load(&out).expect("replaced by a valid design");
+}
