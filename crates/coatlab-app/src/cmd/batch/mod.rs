@@ -85,10 +85,7 @@ pub fn run(args: &BatchArgs, out: &mut impl Write) -> anyhow::Result<()> {
         BatchCommand::Report { manifest } => {
             let summary = report::write_deck(&load(manifest)?)?;
             let compared = if summary.pass + summary.fail > 0 {
-                format!(
-                    "; designs: {} pass, {} fail",
-                    summary.pass, summary.fail
-                )
+                format!("; designs: {} pass, {} fail", summary.pass, summary.fail)
             } else {
                 String::new()
             };

@@ -15,8 +15,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use coatlab_core::analysis::Analysis;
-use coatlab_core::colour::tolerance::{Formula, Tolerance};
 use coatlab_core::colour::spectrum::WavelengthGrid;
+use coatlab_core::colour::tolerance::{Formula, Tolerance};
 use coatlab_core::design::PaintDesign;
 use coatlab_core::instruments::{self, Measurement};
 use coatlab_core::io::atomic::write_bytes_atomically;
