@@ -5,7 +5,6 @@
 
 mod common;
 #[path = "common/xvfb.rs"]
-#[allow(dead_code)] // the GUI tests' helpers; this file needs two of them
 mod xvfb;
 
 use std::path::{Path, PathBuf};
@@ -268,6 +267,41 @@ fn the_deck_loads_in_headless_chromium() {
     assert_eq!(dom.matches("data-natural-width=\"48\"").count(), 4);
     assert!(dom.contains("<table id=\"summary\">"));
     assert!(dom.contains("Signal red") && dom.contains("Deep blue"));
+
+    // Sorted by the largest ΔE00, descending (what a click on the column does
+    // twice; ?sort= does it on opening): deep blue first, in the table and below.
+    let dom = chromium(&[
+        "--virtual-time-budget=5000",
+        "--dump-dom",
+        &format!("{url}?sort=-max"),
+    ]);
+    let dom = String::from_utf8_lossy(&dom.stdout);
+    assert!(dom.contains(r#"data-sorted-by="max descending""#), "sorted");
+    let at = |needle: &str| {
+        dom.find(needle)
+            .unwrap_or_else(|| panic!("{needle} in the DOM"))
+    };
+    assert!(
+        at(r#"<tr data-section="design-deep-blue""#)
+            < at(r#"<tr data-section="design-signal-red""#),
+        "the summary's rows sorted by ΔE00, largest first"
+    );
+    assert!(
+        at(r#"<section class="design" id="design-deep-blue""#)
+            < at(r#"<section class="design" id="design-signal-red""#),
+        "the sections follow the table"
+    );
+    let dom = chromium(&[
+        "--virtual-time-budget=5000",
+        "--dump-dom",
+        &format!("{url}?sort=max"),
+    ]);
+    let dom = String::from_utf8_lossy(&dom.stdout);
+    assert!(
+        dom.find(r#"<tr data-section="design-signal-red""#)
+            < dom.find(r#"<tr data-section="design-deep-blue""#),
+        "ascending: signal red (0.00) first"
+    );
 
     let shot = dir.join("deck.png");
     let _ = std::fs::remove_file(&shot);

@@ -4,7 +4,7 @@
 //! `docs/batch.md`.
 //!
 //! The manifest and its task order are in [`manifest`]; running a task, the
-//! up-to-date check and the sidecar in [`task`]; the review deck in [`report`].
+//! up-to-date check and the sidecar in [`task`]; the review deck in [`mod@report`].
 
 pub mod manifest;
 pub mod report;

@@ -245,12 +245,8 @@ fn verdict(pass: Option<bool>) -> &'static str {
     }
 }
 
-fn formula_name(formula: Formula) -> String {
-    formula.to_string()
-}
-
 fn tolerance_text(t: &Tolerance) -> String {
-    let mut text = format!("{} ≤ {}", formula_name(t.formula), t.default_limit);
+    let mut text = format!("{} ≤ {}", t.formula, t.default_limit);
     for (angle, limit) in &t.per_angle {
         let _ = write!(text, ", {limit} at {angle}°");
     }
@@ -332,9 +328,20 @@ const SCRIPT: &str = r#"
         var section = document.getElementById(row.dataset.section);
         if (section) { designs.appendChild(section); }
       });
-      table.dataset.sortedBy = th.textContent;
+      table.dataset.sortedBy = th.dataset.key + (ascending ? "" : " descending");
     });
   });
+  // index.html?sort=KEY sorts by a column on opening (?sort=-KEY: descending),
+  // so a link can hand a reviewer the deck sorted by ΔE00.
+  var wanted = new URLSearchParams(window.location.search).get("sort");
+  if (wanted) {
+    var descending = wanted.charAt(0) === "-";
+    var th = table.querySelector('th[data-key="' + wanted.replace(/^-/, "") + '"]');
+    if (th) {
+      th.click();
+      if (descending) { th.click(); }
+    }
+  }
   window.addEventListener("load", function () {
     var images = Array.prototype.slice.call(document.images);
     var loaded = 0;
@@ -448,15 +455,25 @@ fn summary_table(
 ) {
     let columns = geometry_columns(pages);
     h.push_str("<h2>Summary</h2>\n<table id=\"summary\">\n<thead><tr>");
-    h.push_str("<th class=\"name\" data-sort=\"text\">Design</th>");
-    h.push_str("<th data-sort=\"number\">max ΔE00</th>");
+    h.push_str("<th class=\"name\" data-sort=\"text\" data-key=\"design\">Design</th>");
+    h.push_str("<th data-sort=\"number\" data-key=\"max\">max ΔE00</th>");
     for c in &columns {
-        let _ = write!(h, "<th data-sort=\"number\">ΔE00 {}</th>", esc(c));
+        // The key: the geometry's digits and signs, e.g. 45as-15 for 45°as-15°.
+        let key: String = c
+            .chars()
+            .filter(|ch| ch.is_ascii_alphanumeric() || *ch == '-')
+            .collect();
+        let _ = write!(
+            h,
+            "<th data-sort=\"number\" data-key=\"{}\">ΔE00 {}</th>",
+            esc(&key),
+            esc(c)
+        );
     }
     let _ = write!(
         h,
         "<th>Result ({})</th><th>Renders</th></tr></thead>\n<tbody>\n",
-        esc(&formula_name(manifest.tolerance.formula))
+        esc(&manifest.tolerance.formula.to_string())
     );
     for page in pages {
         let _ = write!(
@@ -695,7 +712,7 @@ fn angle_table(h: &mut String, manifest: &Manifest, page: &DesignPage<'_>) {
         esc(target_name)
     );
     if other {
-        let _ = write!(h, "<th>{}</th>", esc(&formula_name(formula)));
+        let _ = write!(h, "<th>{}</th>", esc(&formula.to_string()));
     }
     h.push_str("<th>limit</th><th>result</th></tr></thead><tbody>\n");
     for a in &c.angles {
