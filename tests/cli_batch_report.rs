@@ -182,6 +182,14 @@ fn a_measured_target_compares_each_design_with_its_standard() {
     assert!(html.contains("Against Signal red."), "red's standard");
     assert!(html.contains("Against Deep blue."), "blue's standard");
     assert_eq!(html.matches("missing: task").count(), 4);
+    // The standards' 45°as45° spectra give the swatches their target halves.
+    for illuminant in ["D65", "A", "F11"] {
+        assert_eq!(
+            html.matches(&format!("</div>{illuminant} · ΔE00 ")).count(),
+            2,
+            "{illuminant}"
+        );
+    }
 
     // target_sample chooses one standard for every design.
     let manifest = self::manifest(

@@ -14,15 +14,14 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use coatlab_core::analysis::Analysis;
+use coatlab_core::analysis::{SWATCH_ASPECULAR_DEG, Swatch, swatches as swatches_of};
 use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::colour::tolerance::{Formula, Tolerance};
 use coatlab_core::design::PaintDesign;
 use coatlab_core::instruments::{self, Measurement};
 use coatlab_core::io::atomic::write_bytes_atomically;
-use coatlab_core::measurement::{self, Standard};
+use coatlab_core::measurement::{self, Geometry, Standard, interpolate};
 use coatlab_core::paint::model::PaintModel;
-use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::target::{Comparison, compare_designs, compare_to_standard};
 
 use super::manifest::{DesignEntry, ImageFormat, Manifest, Task};
@@ -62,7 +61,9 @@ struct DesignPage<'a> {
     entry: &'a DesignEntry,
     design: PaintDesign,
     readings: Measurement,
-    analysis: Analysis,
+    /// Under D65, A and F11, with the target's half when the target has a
+    /// spectrum at the swatches' angle.
+    swatches: Vec<Swatch>,
     /// The comparison, and the name of what it was compared with.
     comparison: Option<(String, Comparison)>,
 }
@@ -139,37 +140,55 @@ fn design_page<'a>(
 ) -> anyhow::Result<DesignPage<'a>> {
     let (design, model, readings) = load_design(entry)?;
     let tolerance = &manifest.tolerance;
+    let mut target_factor: Option<Vec<f64>> = None;
     let comparison = match target {
         None => None,
         Some(Target::Design {
             name,
             readings: target,
-        }) => Some((
-            name.clone(),
-            compare_designs(&readings, target, tolerance).or_fail(Failure::Internal)?,
-        )),
+        }) => {
+            target_factor = target
+                .angles
+                .iter()
+                .find(|a| a.aspecular_deg == SWATCH_ASPECULAR_DEG)
+                .map(|a| a.reflectance_factor.clone());
+            Some((
+                name.clone(),
+                compare_designs(&readings, target, tolerance).or_fail(Failure::Internal)?,
+            ))
+        }
         Some(Target::Measured { file, readings: m }) => {
             let standard = standard_for(m, file, manifest.target_sample.as_deref(), &design.name)?;
+            // The standard's spectrum at the swatches' angle, on the design's
+            // wavelengths (held at its end values beyond its range, as the
+            // comparison does).
+            target_factor = standard
+                .readings
+                .iter()
+                .filter(|r| {
+                    matches!(r.geometry, Geometry::Directional { aspecular_deg, .. }
+                        if aspecular_deg == SWATCH_ASPECULAR_DEG)
+                })
+                .find_map(|r| r.spectrum.as_ref())
+                .map(|spectrum| {
+                    readings
+                        .wavelength_nm
+                        .iter()
+                        .map(|&nm| interpolate(spectrum.wavelengths_nm(), spectrum.factors(), nm))
+                        .collect()
+                });
             let c = compare_to_standard(&model, &readings, &standard, tolerance)
                 .with_context(|| format!("{file}: cannot compare with {:?}", standard.name))
                 .or_fail(Failure::Data)?;
             Some((standard.name.to_owned(), c))
         }
     };
-    // The swatches' target half needs the target's readings on the instrument's
-    // angles, which only a target design has; a measured standard's colour is in
-    // the multi-angle table instead.
-    let target_design = match (target, &manifest.target) {
-        (Some(Target::Design { .. }), Some(path)) => Some(PaintDesign::load(path)?),
-        _ => None,
-    };
-    let analysis = Analysis::compute(&design, target_design.as_ref(), PhongVariant::Naive)
-        .map_err(|e| Failure::Data.error(format!("{}: {e}", entry.path.display())))?;
+    let swatches = swatches_of(&readings, target_factor.as_deref());
     Ok(DesignPage {
         entry,
         design,
         readings,
-        analysis,
+        swatches,
         comparison,
     })
 }
@@ -657,14 +676,14 @@ fn swatches(h: &mut String, page: &DesignPage<'_>) {
         h,
         "<h3>Swatches</h3>\n<p class=\"notes\">At {}° aspecular, shown adapted to D65{}.</p>\n\
          <div class=\"swatches\">",
-        coatlab_core::analysis::SWATCH_ASPECULAR_DEG,
-        if page.analysis.target.is_some() {
+        SWATCH_ASPECULAR_DEG,
+        if page.swatches.iter().any(|s| s.target_srgb.is_some()) {
             "; left the design, right the target"
         } else {
             ""
         }
     );
-    for s in &page.analysis.swatches {
+    for s in &page.swatches {
         let _ = write!(
             h,
             "<div class=\"swatch\" data-illuminant=\"{}\"><div class=\"chip\"><div style=\"background:{}\"></div>",
