@@ -166,9 +166,9 @@ say "deck: array job $deck_job, 20 tasks"
 
 # Kill the renderer of task KILL_TASK on its first attempt, as soon as it runs.
 first_attempt="$WORK/pids/task-$KILL_TASK.attempt-0"
-for _ in $(seq 600); do [ -s "$first_attempt" ] && break; sleep 0.2; done
+# At these sizes a task lasts about a second: poll often and kill at once.
+for _ in $(seq 6000); do [ -s "$first_attempt" ] && break; sleep 0.05; done
 [ -s "$first_attempt" ] || die "task $KILL_TASK did not start"
-sleep 0.5
 victim=$(cat "$first_attempt")
 if kill -0 "$victim" 2>/dev/null; then
   kill -KILL "$victim"
@@ -235,8 +235,8 @@ sed -e "s/^spp = .*/spp = 1/" -e '/^target/d' \
 "$COATLAB" batch run "$one/review.toml" --jobs 1 >/dev/null
 t1=$(cat "$one/out"/*.png.json | sed -n 's/^  "seconds": \([0-9.e+-]*\),$/\1/p' \
   | awk '{ s += $1; n += 1 } END { print s / n }')
-tn=$(grep -h '^  "seconds"' "$deck/out"/signal-red--default--studio--paint.png.json \
-  "$deck/out"/deep-blue--default--studio--paint.png.json \
+tn=$(grep -h '^  "seconds"' "$deck/out"/signal-red--*--studio--paint.png.json \
+  "$deck/out"/deep-blue--*--studio--paint.png.json \
   | sed -n 's/^  "seconds": \([0-9.e+-]*\),$/\1/p' | awk '{ s += $1; n += 1 } END { print s / n }')
 fixed=$(awk -v a="$t1" -v b="$tn" -v n="$DECK_SPP" 'BEGIN { f = (n * a - b) / (n - 1); printf "%.2f", f < 0 ? 0 : f }')
 load=$(cut -d' ' -f1-3 /proc/loadavg)
