@@ -77,7 +77,7 @@ enum Command {
     /// image, exactly as one render of all the samples writes it.
     Merge(cmd::merge::MergeArgs),
     /// Many renders from a manifest, on this machine or as a scheduler's array
-    /// tasks (docs/batch.md): `batch plan`, `batch run`.
+    /// tasks (docs/batch.md): `batch plan`, `batch run`, `batch report`.
     Batch(cmd::batch::BatchArgs),
 }
 

@@ -127,8 +127,9 @@ impl Analysis {
             .collect();
         let swatches = swatches(
             &measurement,
-            target_measurement.as_ref().map(|(_, m)| m),
-            &grid,
+            target_measurement
+                .as_ref()
+                .map(|(_, m)| m.angles[swatch_angle()].reflectance_factor.as_slice()),
         );
         Ok(Analysis {
             wavelength_nm: grid.wavelengths_nm().collect(),
@@ -225,15 +226,21 @@ fn srgb_bytes(xyz: crate::colour::Xyz, white: crate::colour::Xyz) -> [u8; 3] {
     [byte(c.red), byte(c.green), byte(c.blue)]
 }
 
-fn swatches(
-    design: &Measurement,
-    target: Option<&Measurement>,
-    grid: &WavelengthGrid,
-) -> Vec<Swatch> {
-    let angle = instruments::ASPECULAR_DEG
+/// The index of [`SWATCH_ASPECULAR_DEG`] in the instrument's angles.
+fn swatch_angle() -> usize {
+    instruments::ASPECULAR_DEG
         .iter()
         .position(|&a| a == SWATCH_ASPECULAR_DEG)
-        .unwrap_or(0);
+        .unwrap_or(0)
+}
+
+/// Swatches of a design's readings under [`SWATCH_ILLUMINANTS`], beside a
+/// target's reflectance factor at [`SWATCH_ASPECULAR_DEG`] on the reference grid
+/// (a target design's reading there, or a measured standard's spectrum
+/// interpolated onto the grid), if there is one.
+pub fn swatches(design: &Measurement, target: Option<&[f64]>) -> Vec<Swatch> {
+    let grid = &WavelengthGrid::reference();
+    let angle = swatch_angle();
     SWATCH_ILLUMINANTS
         .iter()
         .map(|&illuminant| {
@@ -242,16 +249,14 @@ fn swatches(
             // metamerism as a visible difference between its two halves.
             let display = Colorimeter::new(illuminant, Observer::Cie1931TwoDegree, grid);
             let colour = Colorimeter::new(illuminant, Observer::Cie1964TenDegree, grid);
-            let show = |m: &Measurement| {
-                let r = &m.angles[angle].reflectance_factor;
-                srgb_bytes(display.xyz(r), display.white())
-            };
-            let lab = |m: &Measurement| -> Lab { colour.lab(&m.angles[angle].reflectance_factor) };
+            let show = |r: &[f64]| srgb_bytes(display.xyz(r), display.white());
+            let lab = |r: &[f64]| -> Lab { colour.lab(r) };
+            let own = design.angles[angle].reflectance_factor.as_slice();
             Swatch {
                 illuminant,
-                design_srgb: show(design),
+                design_srgb: show(own),
                 target_srgb: target.map(show),
-                delta_e: target.map(|t| ciede2000(lab(design), lab(t))),
+                delta_e: target.map(|t| ciede2000(lab(own), lab(t))),
             }
         })
         .collect()

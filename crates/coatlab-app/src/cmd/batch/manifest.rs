@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 
 use coatlab_app::gui::quality::QualityPresets;
 use coatlab_core::colour::spectrum::{MAX_VISIBLE_SAMPLES, WavelengthGrid};
+use coatlab_core::colour::tolerance::Tolerance;
 use coatlab_core::design::PaintDesign;
 use coatlab_core::render::lighting::Lighting;
 use coatlab_core::render::material::ShadingModel;
@@ -72,6 +73,8 @@ struct RawManifest {
     seed: Option<Spanned<i64>>,
     image: Option<Spanned<String>>,
     target: Option<Spanned<String>>,
+    target_sample: Option<Spanned<String>>,
+    tolerance: Option<Spanned<String>>,
 }
 
 /// One paint design of the manifest.
@@ -141,6 +144,11 @@ pub struct Manifest {
     pub image: ImageFormat,
     /// A design or a measurement to compare against (for the review deck).
     pub target: Option<PathBuf>,
+    /// The standard of a measurement file with several: its name, id or number
+    /// from 1 (`None`: the only one, else the one named like each design).
+    pub target_sample: Option<String>,
+    /// The review deck's pass/fail limits (default ΔE00 ≤ 1 at every angle).
+    pub tolerance: Tolerance,
 }
 
 /// One numbered task: one image.
@@ -382,6 +390,20 @@ impl Manifest {
                 Some(file)
             }
         };
+        if let (None, Some(sample)) = (&target, &raw.target_sample) {
+            return Err(at(
+                sample.span(),
+                "target_sample",
+                "chooses a standard of the target's measurement file: give target too".into(),
+            ));
+        }
+        let tolerance = match &raw.tolerance {
+            None => Tolerance::default(),
+            Some(t) => t
+                .get_ref()
+                .parse()
+                .map_err(|e| at(t.span(), "tolerance", format!("'{}': {e}", t.get_ref())))?,
+        };
         Ok(Manifest {
             path: path.to_owned(),
             output,
@@ -395,6 +417,8 @@ impl Manifest {
             seed,
             image,
             target,
+            target_sample: raw.target_sample.map(|s| s.into_inner()),
+            tolerance,
         })
     }
 

@@ -4,9 +4,10 @@
 //! `docs/batch.md`.
 //!
 //! The manifest and its task order are in [`manifest`]; running a task, the
-//! up-to-date check and the sidecar in [`task`].
+//! up-to-date check and the sidecar in [`task`]; the review deck in [`mod@report`].
 
 pub mod manifest;
+pub mod report;
 pub mod task;
 
 use std::io::Write;
@@ -59,6 +60,13 @@ pub enum BatchCommand {
         #[arg(long, default_value_t = 2)]
         jobs: usize,
     },
+    /// Write the review deck, OUTPUT/index.html: per design the renders, the
+    /// readings, ΔE00 to the target per angle with pass or fail, and swatches.
+    /// Tasks not rendered yet are shown as missing.
+    Report {
+        /// The manifest (TOML, docs/batch.md).
+        manifest: PathBuf,
+    },
 }
 
 pub fn run(args: &BatchArgs, out: &mut impl Write) -> anyhow::Result<()> {
@@ -74,6 +82,24 @@ pub fn run(args: &BatchArgs, out: &mut impl Write) -> anyhow::Result<()> {
             *jobs,
             out,
         ),
+        BatchCommand::Report { manifest } => {
+            let summary = report::write_deck(&load(manifest)?)?;
+            let compared = if summary.pass + summary.fail > 0 {
+                format!("; designs: {} pass, {} fail", summary.pass, summary.fail)
+            } else {
+                String::new()
+            };
+            writeln!(
+                out,
+                "{}: {} tasks, {} rendered, {} missing, {} out of date{compared}",
+                summary.path.display(),
+                summary.tasks,
+                summary.done,
+                summary.missing,
+                summary.out_of_date
+            )?;
+            Ok(())
+        }
     }
 }
 

@@ -156,19 +156,46 @@ fn inputs_of(
     Ok((sha256_hex(key.as_bytes()), design, inputs))
 }
 
-/// Whether `task`'s image and sidecar exist and were made from `inputs_sha256`.
-fn up_to_date(image: &Path, inputs_sha256: &str) -> bool {
-    let Ok(text) = std::fs::read_to_string(sidecar_path(image)) else {
-        return false;
+/// Where a task's output stands.
+#[derive(Debug, Clone, PartialEq)]
+pub enum State {
+    /// No image, or no readable sidecar: not rendered (or killed before its
+    /// sidecar was written).
+    Missing,
+    /// The image and its sidecar, made from the task's inputs as they are now.
+    Done(serde_json::Value),
+    /// An image and sidecar that do not match the inputs now (changed since),
+    /// or whose image is not the one the sidecar names.
+    OutOfDate(serde_json::Value),
+}
+
+/// The sidecar of `image`, if there is a readable one.
+fn read_sidecar(image: &Path) -> Option<serde_json::Value> {
+    let text = std::fs::read_to_string(sidecar_path(image)).ok()?;
+    serde_json::from_str(&text).ok()
+}
+
+fn state_of(image: &Path, inputs_sha256: &str) -> State {
+    let Some(sidecar) = read_sidecar(image) else {
+        return State::Missing;
     };
-    let Ok(sidecar) = serde_json::from_str::<serde_json::Value>(&text) else {
-        return false;
+    let Ok(bytes) = std::fs::read(image) else {
+        return State::Missing;
     };
     let field = |name: &str| sidecar.get(name).and_then(|v| v.as_str());
-    if field("inputs_sha256") != Some(inputs_sha256) {
-        return false;
+    if field("inputs_sha256") == Some(inputs_sha256)
+        && field("image_sha256") == Some(&sha256_hex(&bytes))
+    {
+        State::Done(sidecar)
+    } else {
+        State::OutOfDate(sidecar)
     }
-    std::fs::read(image).is_ok_and(|bytes| field("image_sha256") == Some(&sha256_hex(&bytes)))
+}
+
+/// Where `task`'s output stands now.
+pub fn state(manifest: &Manifest, task: &Task) -> anyhow::Result<State> {
+    let (inputs_sha256, _, _) = inputs_of(manifest, task)?;
+    Ok(state_of(&image_path(manifest, task), &inputs_sha256))
 }
 
 /// Runs `task`: skips it if its output is up to date, else renders it.
@@ -176,7 +203,7 @@ pub fn run_task(manifest: &Manifest, task: &Task) -> anyhow::Result<Outcome> {
     let start = Instant::now();
     let (inputs_sha256, design, inputs) = inputs_of(manifest, task)?;
     let image = image_path(manifest, task);
-    if up_to_date(&image, &inputs_sha256) {
+    if matches!(state_of(&image, &inputs_sha256), State::Done(_)) {
         return Ok(Outcome::Skipped);
     }
     std::fs::create_dir_all(&manifest.output)

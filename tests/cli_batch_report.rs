@@ -1,0 +1,357 @@
+//! End-to-end tests of `coatlab batch report`, the review deck: what the page
+//! holds (renders, missing and out-of-date tasks, the verdicts against a target
+//! design or a measured standard), and the page in headless Chromium: every image
+//! loads, the summary table is there, a screenshot is drawn.
+
+mod common;
+#[path = "common/xvfb.rs"]
+mod xvfb;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use common::{exit, failure, stdout};
+
+const PRESETS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/presets");
+const MEASUREMENTS: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../coatlab-core/tests/data/measurements"
+);
+
+/// A fresh folder with the signal red and deep blue presets, a copy of signal red
+/// as `standard.toml`, and the two-standard CxF3 fixture.
+fn scratch(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join("cli_batch_report")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch folder");
+    for preset in ["signal-red", "deep-blue"] {
+        std::fs::copy(
+            format!("{PRESETS}/{preset}.toml"),
+            dir.join(format!("{preset}.toml")),
+        )
+        .expect("copy a preset");
+    }
+    std::fs::copy(
+        format!("{PRESETS}/signal-red.toml"),
+        dir.join("standard.toml"),
+    )
+    .expect("copy the target");
+    std::fs::copy(
+        format!("{MEASUREMENTS}/multi_angle.cxf"),
+        dir.join("standards.cxf"),
+    )
+    .expect("copy the measurement fixture");
+    dir
+}
+
+/// 2 designs × 1 view × 2 lighting, 2 spp, 4 λ, 48×27, with `extra` lines.
+fn manifest(dir: &Path, extra: &str) -> PathBuf {
+    let path = dir.join("review.toml");
+    std::fs::write(
+        &path,
+        format!(
+            r#"format = "coatlab-batch"
+version = 1
+output = "deck"
+designs = ["signal-red.toml", "deep-blue.toml"]
+lighting = ["studio", "booth-d65"]
+spp = 2
+wavelengths = 4
+size = "48x27"
+{extra}
+"#
+        ),
+    )
+    .expect("write the manifest");
+    path
+}
+
+fn coatlab(args: &[&str]) -> Output {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_coatlab"));
+    command.args(args);
+    for name in [
+        "SLURM_ARRAY_TASK_ID",
+        "JOB_COMPLETION_INDEX",
+        "AWS_BATCH_JOB_ARRAY_INDEX",
+    ] {
+        command.env_remove(name);
+    }
+    command.output().expect("coatlab runs")
+}
+
+fn s(path: &Path) -> &str {
+    path.to_str().expect("utf-8 path")
+}
+
+fn render(manifest: &Path, indices: &[usize]) {
+    for i in indices {
+        stdout(&coatlab(&[
+            "batch",
+            "run",
+            s(manifest),
+            "--index",
+            &i.to_string(),
+        ]));
+    }
+}
+
+/// The output names of the manifest's tasks, in task order (from `batch plan
+/// --json`, so that the test does not depend on the default view's name).
+fn outputs(manifest: &Path) -> Vec<String> {
+    let plan: serde_json::Value =
+        serde_json::from_str(&stdout(&coatlab(&["batch", "plan", s(manifest), "--json"])))
+            .expect("plan JSON");
+    plan["tasks"]
+        .as_array()
+        .expect("tasks")
+        .iter()
+        .map(|t| t["output"].as_str().expect("output").to_owned())
+        .collect()
+}
+
+fn report(manifest: &Path) -> (String, String) {
+    let said = stdout(&coatlab(&["batch", "report", s(manifest)]));
+    let deck = manifest.parent().expect("folder").join("deck/index.html");
+    (
+        said,
+        std::fs::read_to_string(deck).expect("the deck is written"),
+    )
+}
+
+/// The summary row of the design whose section is `anchor`.
+fn summary_row<'a>(html: &'a str, anchor: &str) -> &'a str {
+    let start = html
+        .find(&format!("<tr data-section=\"{anchor}\""))
+        .unwrap_or_else(|| panic!("no summary row for {anchor}"));
+    let row = &html[start..];
+    &row[..row.find("</tr>").expect("row ends")]
+}
+
+#[test]
+fn the_deck_shows_renders_verdicts_and_missing_tasks() {
+    let dir = scratch("design_target");
+    let manifest = manifest(&dir, r#"target = "standard.toml""#);
+    // Task 3 (deep blue in the booth) is left unrendered.
+    render(&manifest, &[0, 1, 2]);
+    let (said, html) = report(&manifest);
+    assert!(
+        said.contains("4 tasks, 3 rendered, 1 missing, 0 out of date; designs: 1 pass, 1 fail"),
+        "{said}"
+    );
+    assert!(html.contains("<table id=\"summary\">"), "the summary table");
+    // The renders are referred to relatively, one <img> per rendered task.
+    let outputs = outputs(&manifest);
+    assert_eq!(html.matches("<img ").count(), 3);
+    for output in &outputs[..3] {
+        assert!(html.contains(&format!("src=\"{output}\"")), "{output}");
+    }
+    assert!(outputs[3].starts_with("deep-blue--") && outputs[3].contains("--booth-d65--"));
+    assert!(html.contains("missing: task 3 not rendered"));
+    assert!(!html.contains(&format!("src=\"{}\"", outputs[3])));
+    assert!(
+        html.contains(&outputs[3]),
+        "the missing task's output is named"
+    );
+    // Signal red against itself passes at 0.00; deep blue is far from it.
+    let red = summary_row(&html, "design-signal-red");
+    assert!(
+        red.contains("class=\"pass\"") && red.contains(">0.00<"),
+        "{red}"
+    );
+    assert!(red.contains("2 of 2"), "{red}");
+    let blue = summary_row(&html, "design-deep-blue");
+    assert!(blue.contains("class=\"fail\""), "{blue}");
+    assert!(blue.contains("1 of 2"), "{blue}");
+    // Five angles with their ΔE00 and verdicts per design, three swatches each.
+    assert_eq!(html.matches("<td class=\"de00\"").count(), 10);
+    for illuminant in ["D65", "A", "F11"] {
+        assert_eq!(
+            html.matches(&format!("data-illuminant=\"{illuminant}\""))
+                .count(),
+            2,
+            "{illuminant}"
+        );
+    }
+    assert_eq!(html.matches("<table class=\"gloss\">").count(), 2);
+    // Nothing from the network.
+    assert!(!html.contains("http://") && !html.contains("https://"));
+
+    // A changed seed changes every task's inputs: the rendered three are out of date.
+    let manifest = self::manifest(&dir, "target = \"standard.toml\"\nseed = 5");
+    let (said, html) = report(&manifest);
+    assert!(
+        said.contains("4 tasks, 0 rendered, 1 missing, 3 out of date"),
+        "{said}"
+    );
+    assert_eq!(html.matches("class=\"stale\">out of date").count(), 3);
+}
+
+#[test]
+fn a_measured_target_compares_each_design_with_its_standard() {
+    let dir = scratch("measured_target");
+    // The file holds "Signal red" and "Deep blue": each design meets its namesake.
+    let manifest = manifest(&dir, r#"target = "standards.cxf""#);
+    let (said, html) = report(&manifest);
+    assert!(said.contains("4 tasks, 0 rendered, 4 missing"), "{said}");
+    assert!(html.contains("Against Signal red."), "red's standard");
+    assert!(html.contains("Against Deep blue."), "blue's standard");
+    assert_eq!(html.matches("missing: task").count(), 4);
+    // The standards' 45°as45° spectra give the swatches their target halves.
+    for illuminant in ["D65", "A", "F11"] {
+        assert_eq!(
+            html.matches(&format!("</div>{illuminant} · ΔE00 ")).count(),
+            2,
+            "{illuminant}"
+        );
+    }
+
+    // target_sample chooses one standard for every design.
+    let manifest = self::manifest(
+        &dir,
+        "target = \"standards.cxf\"\ntarget_sample = \"Deep blue\"\ntolerance = \"cmc:2\"",
+    );
+    let (_, html) = report(&manifest);
+    assert_eq!(html.matches("Against Deep blue.").count(), 2);
+    assert!(
+        html.contains("<th>ΔE CMC(2:1)</th>"),
+        "the tolerance's formula"
+    );
+
+    // One it does not have is refused, naming the key.
+    let manifest = self::manifest(
+        &dir,
+        "target = \"standards.cxf\"\ntarget_sample = \"Lime green\"",
+    );
+    let stderr = failure(&coatlab(&["batch", "report", s(&manifest)]), exit::DATA);
+    assert!(stderr.contains("target_sample"), "{stderr}");
+    assert!(stderr.contains("Lime green"), "{stderr}");
+}
+
+#[test]
+fn a_bad_tolerance_or_a_sample_without_target_is_refused_by_line_and_key() {
+    let dir = scratch("refusals");
+    let manifest = manifest(&dir, "tolerance = \"de00:-1\"");
+    let stderr = failure(&coatlab(&["batch", "plan", s(&manifest)]), exit::DATA);
+    assert!(
+        stderr.contains("line 9, key `tolerance`") && stderr.contains("-1"),
+        "{stderr}"
+    );
+    let manifest = self::manifest(&dir, "target_sample = \"Deep blue\"");
+    let stderr = failure(&coatlab(&["batch", "plan", s(&manifest)]), exit::DATA);
+    assert!(
+        stderr.contains("line 9, key `target_sample`") && stderr.contains("give target"),
+        "{stderr}"
+    );
+}
+
+/// Runs Chromium headless on `args`, with no sandbox (tests run as root in CI
+/// containers, where Chromium's sandbox refuses to start).
+fn chromium(args: &[&str]) -> Output {
+    Command::new("chromium")
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--hide-scrollbars",
+        ])
+        .args(args)
+        .output()
+        .expect("chromium runs")
+}
+
+#[test]
+fn the_deck_loads_in_headless_chromium() {
+    if !xvfb::have("chromium") {
+        assert!(
+            !xvfb::gui_tools_required(),
+            "chromium is not installed, and CI needs this test (apt-get install chromium)"
+        );
+        eprintln!("skipped: chromium not installed (apt-get install chromium)");
+        return;
+    }
+    let dir = scratch("chromium");
+    let manifest = manifest(&dir, r#"target = "standard.toml""#);
+    render(&manifest, &[0, 1, 2, 3]);
+    let (said, _) = report(&manifest);
+    assert!(said.contains("4 rendered, 0 missing"), "{said}");
+    let url = format!("file://{}", s(&dir.join("deck/index.html")));
+
+    // The page's own script records every image's naturalWidth once it has loaded.
+    let dom = chromium(&["--virtual-time-budget=5000", "--dump-dom", &url]);
+    let dom = String::from_utf8_lossy(&dom.stdout);
+    assert!(
+        dom.contains(r#"id="image-check" data-loaded="4" data-total="4""#),
+        "every image loads: {}",
+        dom.lines()
+            .find(|l| l.contains("image-check"))
+            .unwrap_or("no image check in the DOM")
+    );
+    assert_eq!(dom.matches("data-natural-width=\"48\"").count(), 4);
+    assert!(dom.contains("<table id=\"summary\">"));
+    assert!(dom.contains("Signal red") && dom.contains("Deep blue"));
+
+    // Sorted by the largest ΔE00, descending (what a click on the column does
+    // twice; ?sort= does it on opening): deep blue first, in the table and below.
+    let dom = chromium(&[
+        "--virtual-time-budget=5000",
+        "--dump-dom",
+        &format!("{url}?sort=-max"),
+    ]);
+    let dom = String::from_utf8_lossy(&dom.stdout);
+    assert!(dom.contains(r#"data-sorted-by="max descending""#), "sorted");
+    let at = |needle: &str| {
+        dom.find(needle)
+            .unwrap_or_else(|| panic!("{needle} in the DOM"))
+    };
+    assert!(
+        at(r#"<tr data-section="design-deep-blue""#)
+            < at(r#"<tr data-section="design-signal-red""#),
+        "the summary's rows sorted by ΔE00, largest first"
+    );
+    assert!(
+        at(r#"<section class="design" id="design-deep-blue""#)
+            < at(r#"<section class="design" id="design-signal-red""#),
+        "the sections follow the table"
+    );
+    let dom = chromium(&[
+        "--virtual-time-budget=5000",
+        "--dump-dom",
+        &format!("{url}?sort=max"),
+    ]);
+    let dom = String::from_utf8_lossy(&dom.stdout);
+    assert!(
+        dom.find(r#"<tr data-section="design-signal-red""#)
+            < dom.find(r#"<tr data-section="design-deep-blue""#),
+        "ascending: signal red (0.00) first"
+    );
+
+    let shot = dir.join("deck.png");
+    let _ = std::fs::remove_file(&shot);
+    let out = chromium(&[
+        "--window-size=1200,1600",
+        &format!("--screenshot={}", s(&shot)),
+        &url,
+    ]);
+    assert!(
+        shot.is_file(),
+        "a screenshot: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // The page drew more than a blank: the pass and fail badges' colours are there.
+    let decoder = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(&shot).expect("the screenshot"),
+    ));
+    let mut reader = decoder.read_info().expect("a PNG");
+    let mut pixels = vec![0; reader.output_buffer_size().expect("size")];
+    let info = reader.next_frame(&mut pixels).expect("decodes");
+    let channels = info.color_type.samples();
+    let has = |rgb: [u8; 3]| {
+        pixels[..info.buffer_size()]
+            .chunks(channels)
+            .any(|p| p[..3] == rgb)
+    };
+    assert!(has([0x2a, 0x7d, 0x2e]), "the pass badge's green is drawn");
+    assert!(has([0xb3, 0x26, 0x1e]), "the fail badge's red is drawn");
+}
