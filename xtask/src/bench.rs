@@ -26,6 +26,7 @@ use coatlab_core::design::{PaintDesign, presets};
 use coatlab_core::io::rgb_image::ImageReadError;
 use coatlab_core::paint::coat::CoatIntegralMethod;
 use coatlab_core::paint::lobe::LobeKind;
+use coatlab_core::render::camera::Camera;
 use coatlab_core::render::environment::EnvironmentError;
 use coatlab_core::render::film::DisplaySettings;
 use coatlab_core::render::image_error::{ImageError, Region, RegionMasks, XyzImage, image_error};
@@ -244,6 +245,14 @@ struct PreparedCase {
 }
 
 impl PreparedCase {
+    /// The protocol's camera: the scene-box framing (`Camera::framing`), which the
+    /// committed quality presets and docs/tradeoff.md were measured with. It is not
+    /// the car's default view (`RenderScene::default_camera`, which frames the car
+    /// closer); moving the protocol to that view means measuring the presets again.
+    fn camera(&self, width: u32, height: u32) -> Camera {
+        Camera::framing(self.scene.bounds(), width, height)
+    }
+
     fn new(case: &Case) -> Result<Self, Failed> {
         let loaded = scene(case.scene.as_deref())?;
         for warning in &loaded.warnings {
@@ -463,9 +472,7 @@ fn reference(
 ) -> Result<Reference, Failed> {
     let key = reference_key(prepared, protocol);
     let paths = [0, 1].map(|i| cache.join(format!("{key}.half{i}.xyz")));
-    let camera = prepared
-        .scene
-        .default_camera(protocol.size.0, protocol.size.1);
+    let camera = prepared.camera(protocol.size.0, protocol.size.1);
     let masks = RegionMasks::from_scene(&prepared.scene, &camera);
     for region in Region::ALL {
         if masks.count(region) == 0 {
@@ -579,7 +586,7 @@ fn render(
         (protocol.size.0 / setting.scale).max(1),
         (protocol.size.1 / setting.scale).max(1),
     );
-    let camera = prepared.scene.default_camera(width, height);
+    let camera = prepared.camera(width, height);
     let mut render = ProgressiveRender::new(
         Arc::clone(&prepared.scene),
         Arc::new(environment),

@@ -265,6 +265,7 @@ mod tests {
         use std::sync::Arc;
 
         use coatlab_core::design::{PaintDesign, presets};
+        use coatlab_core::render::camera::Camera;
         use coatlab_core::render::environment::Environment;
         use coatlab_core::render::film::DisplaySettings;
         use coatlab_core::render::image_error::{RegionMasks, XyzImage, image_error};
@@ -301,14 +302,17 @@ mod tests {
                 Arc::clone(&scene),
                 Arc::new(Environment::studio(&grid)),
                 Arc::new(shading),
-                scene.default_camera(width, height),
+                Camera::framing(scene.bounds(), width, height),
                 RenderSettings::seeded(seed),
             )
             .expect("a render");
             render.render_to(spp, 4);
             XyzImage::from_film(render.film()).resized(size.0, size.1)
         };
-        let masks = RegionMasks::from_scene(&scene, &scene.default_camera(size.0, size.1));
+        // The protocol's camera: the scene-box framing the presets were measured
+        // with (see `PreparedCase::camera` in xtask/src/bench.rs).
+        let masks =
+            RegionMasks::from_scene(&scene, &Camera::framing(scene.bounds(), size.0, size.1));
         let error = |a: &XyzImage, b: &XyzImage| {
             image_error(a, b, &masks, &DisplaySettings::default())
                 .expect("same sizes")
