@@ -18,8 +18,8 @@ lib="$(ls "$libdir"/libembree4-*.so.4)"
 # Embree 4.4.0's own headers, as the wheel's library (4.4.0) was built with them:
 # checked against their recorded SHA-256 sums, and the library's version is checked
 # against them at start-up (embree_rays.c).
-(cd benches/embree/include && sha256sum --check --quiet SHA256SUMS)
-cc -O2 -Wall -Werror -I benches/embree/include -o "$work/embree_rays" \
+(cd vendor/embree4/include && sha256sum --check --quiet SHA256SUMS)
+cc -O2 -Wall -Werror -I vendor/embree4/include -o "$work/embree_rays" \
   benches/embree/embree_rays.c "$lib" -Wl,-rpath,"$libdir" -lpthread -lm
 
 # The bench binary itself, so that the rounds below run it without cargo.
