@@ -6,7 +6,7 @@ use std::process::{Command, Output};
 
 mod common;
 
-use common::{exit, failure};
+use common::{exit, failure, measured_spectra};
 
 #[path = "../crates/coatlab-core/tests/support/measurement_files.rs"]
 mod measurement_files;
@@ -49,32 +49,7 @@ fn spectra_of(design: &Path, step: usize) -> Spectra {
         "--json".as_ref(),
         design.as_os_str(),
     ]));
-    let m = &j["measurement"];
-    let w: Vec<f64> = m["wavelength_nm"]
-        .as_array()
-        .expect("grid")
-        .iter()
-        .map(number)
-        .collect();
-    let keep: Vec<usize> = (0..w.len()).step_by(step).collect();
-    let angles = m["angles"]
-        .as_array()
-        .expect("angles")
-        .iter()
-        .map(|a| {
-            let r: Vec<f64> = a["reflectance_factor"]
-                .as_array()
-                .expect("r")
-                .iter()
-                .map(number)
-                .collect();
-            (
-                number(&a["aspecular_deg"]),
-                keep.iter().map(|&i| r[i]).collect(),
-            )
-        })
-        .collect();
-    (keep.iter().map(|&i| w[i]).collect(), angles)
+    measured_spectra(&j, step)
 }
 
 #[test]

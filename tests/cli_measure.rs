@@ -5,7 +5,11 @@ use std::process::Command;
 
 mod common;
 
-use common::{exit, failure};
+use common::{exit, failure, measured_spectra};
+
+#[path = "../crates/coatlab-core/tests/support/measurement_files.rs"]
+mod measurement_files;
+use measurement_files::{Spectra, as_cxf};
 
 #[path = "../crates/coatlab-core/tests/support/instrument_reference.rs"]
 mod instrument_reference;
@@ -261,86 +265,10 @@ fn fixture(name: &str) -> PathBuf {
         .join(name)
 }
 
-/// The multi-angle reflectance of `json` (`coatlab measure --json`) on every
-/// `step`-th wavelength, as (wavelengths, [(aspecular, values)]).
-fn spectra_of(json: &serde_json::Value, step: usize) -> (Vec<f64>, Vec<(f64, Vec<f64>)>) {
-    let m = &json["measurement"];
-    let number = |v: &serde_json::Value| v.as_f64().expect("a number");
-    let w: Vec<f64> = m["wavelength_nm"]
-        .as_array()
-        .expect("grid")
-        .iter()
-        .map(number)
-        .collect();
-    let keep: Vec<usize> = (0..w.len()).step_by(step).collect();
-    let angles = m["angles"]
-        .as_array()
-        .expect("angles")
-        .iter()
-        .map(|a| {
-            let r: Vec<f64> = a["reflectance_factor"]
-                .as_array()
-                .expect("r")
-                .iter()
-                .map(number)
-                .collect();
-            (
-                number(&a["aspecular_deg"]),
-                keep.iter().map(|&i| r[i]).collect(),
-            )
-        })
-        .collect();
-    (keep.iter().map(|&i| w[i]).collect(), angles)
-}
-
-/// A CGATS multi-angle file (one row per angle, geometry in a field, percent).
-fn as_cgats(name: &str, (w, angles): &(Vec<f64>, Vec<(f64, Vec<f64>)>)) -> String {
-    let mut text = format!(
-        "CGATS.17\nNUMBER_OF_FIELDS {}\nBEGIN_DATA_FORMAT\nSAMPLE_NAME GEOMETRY",
-        w.len() + 2
-    );
-    for nm in w {
-        text += &format!(" SPECTRAL_NM_{nm}");
-    }
-    text += &format!(
-        "\nEND_DATA_FORMAT\nNUMBER_OF_SETS {}\nBEGIN_DATA\n",
-        angles.len()
-    );
-    for (aspecular, r) in angles {
-        text += &format!("\"{name}\" 45as{aspecular}");
-        for v in r {
-            text += &format!(" {}", v * 100.0);
-        }
-        text += "\n";
-    }
-    text + "END_DATA\n"
-}
-
-/// The same as a CxF3 file (MultiAngle specifications, fractions).
-fn as_cxf(name: &str, (w, angles): &(Vec<f64>, Vec<(f64, Vec<f64>)>)) -> String {
-    let step = w[1] - w[0];
-    let mut specs = String::new();
-    let mut values = String::new();
-    for (aspecular, r) in angles {
-        specs += &format!(
-            "<cc:ColorSpecification Id=\"ma{aspecular}\"><cc:MeasurementSpec><cc:GeometryChoice>\
-             <cc:MultiAngle><cc:IlluminationAngle>45</cc:IlluminationAngle><cc:Aspecular>{aspecular}</cc:Aspecular>\
-             </cc:MultiAngle></cc:GeometryChoice><cc:WavelengthRange StartWL=\"{}\" Increment=\"{step}\"/>\
-             </cc:MeasurementSpec></cc:ColorSpecification>\n",
-            w[0]
-        );
-        let r: Vec<String> = r.iter().map(f64::to_string).collect();
-        values += &format!(
-            "<cc:ReflectanceSpectrum ColorSpecification=\"ma{aspecular}\">{}</cc:ReflectanceSpectrum>\n",
-            r.join(" ")
-        );
-    }
-    format!(
-        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<cc:CxF xmlns:cc=\"http://colorexchangeformat.com/CxF3-core\">\
-         <cc:Resources><cc:ObjectCollection><cc:Object Name=\"{name}\" Id=\"1\"><cc:ColorValues>\n{values}\
-         </cc:ColorValues></cc:Object></cc:ObjectCollection><cc:ColorSpecificationCollection>\n{specs}\
-         </cc:ColorSpecificationCollection></cc:Resources></cc:CxF>\n"
-    )
+/// A CGATS multi-angle file as [`measurement_files::as_cgats`] writes it but without
+/// its scale keyword, so the reader must recognise percent from the data.
+fn as_cgats(name: &str, spectra: &Spectra) -> String {
+    measurement_files::as_cgats(name, spectra).replace("REFLECTANCE_SCALE PERCENT\n", "")
 }
 
 fn measure_json(args: &[&std::ffi::OsStr]) -> serde_json::Value {
@@ -365,7 +293,7 @@ fn a_design_against_its_own_measurement_file_passes_with_zero_difference() {
     let json = json_of(&["measure", "--json", red.to_str().expect("path")]);
     // Every other wavelength (10 nm, 380–780 nm): the comparison happens on the
     // file's own wavelengths, where the design's values are exact.
-    let spectra = spectra_of(&json, 2);
+    let spectra = measured_spectra(&json, 2);
     let cgats = dir.path().join("red.cgats");
     std::fs::write(&cgats, as_cgats("Signal red", &spectra)).expect("write");
     let cxf = dir.path().join("red.cxf");
@@ -625,7 +553,7 @@ fn a_metameric_match_passes_under_d65_and_is_warned_about() {
     let dir = tempfile::tempdir().expect("temp dir");
     let red = preset("signal-red");
     let json = json_of(&["measure", "--json", red.to_str().expect("path")]);
-    let (w, angles) = spectra_of(&json, 2);
+    let (w, angles) = measured_spectra(&json, 2);
     let wiggle: Vec<f64> = w
         .iter()
         .map(|nm| 0.03 * ((nm - 380.0) / 30.0).sin())

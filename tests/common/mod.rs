@@ -120,3 +120,35 @@ pub fn read_exr(path: &std::path::Path) -> ExrImage {
         chromaticities,
     }
 }
+
+/// The multi-angle reflectance in `coatlab measure --json`'s output on every
+/// `step`-th wavelength, as (wavelengths, [(aspecular, values)]).
+pub fn measured_spectra(json: &serde_json::Value, step: usize) -> (Vec<f64>, Vec<(f64, Vec<f64>)>) {
+    let m = &json["measurement"];
+    let number = |v: &serde_json::Value| v.as_f64().expect("a number");
+    let w: Vec<f64> = m["wavelength_nm"]
+        .as_array()
+        .expect("grid")
+        .iter()
+        .map(number)
+        .collect();
+    let keep: Vec<usize> = (0..w.len()).step_by(step).collect();
+    let angles = m["angles"]
+        .as_array()
+        .expect("angles")
+        .iter()
+        .map(|a| {
+            let r: Vec<f64> = a["reflectance_factor"]
+                .as_array()
+                .expect("r")
+                .iter()
+                .map(number)
+                .collect();
+            (
+                number(&a["aspecular_deg"]),
+                keep.iter().map(|&i| r[i]).collect(),
+            )
+        })
+        .collect();
+    (keep.iter().map(|&i| w[i]).collect(), angles)
+}
