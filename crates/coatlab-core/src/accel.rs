@@ -320,11 +320,7 @@ impl Accel {
         dir: [f32; 3],
         t_max: f32,
     ) -> Option<Hit> {
-        let path = if path.is_available() {
-            path
-        } else {
-            SimdPath::Portable
-        };
+        let path = path.or_portable();
         self.closest_hit_checked(path, origin, dir, t_max)
     }
 
@@ -428,11 +424,7 @@ impl Accel {
     ///
     /// If `hits` is not as long as `rays`.
     pub fn closest_hits_on(&self, path: SimdPath, rays: &[RayQuery], hits: &mut [Option<Hit>]) {
-        let path = if path.is_available() {
-            path
-        } else {
-            SimdPath::Portable
-        };
+        let path = path.or_portable();
         self.closest_hits_checked(path, rays, hits);
     }
 
@@ -580,11 +572,7 @@ impl Accel {
 
     /// [`Accel::occluded`] on `path` (see [`Accel::closest_hit_on`]).
     pub fn occluded_on(&self, path: SimdPath, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
-        let path = if path.is_available() {
-            path
-        } else {
-            SimdPath::Portable
-        };
+        let path = path.or_portable();
         self.occluded_checked(path, origin, dir, t_max)
     }
 

@@ -58,6 +58,16 @@ impl SimdPath {
         }
     }
 
+    /// This path where the CPU has it, else the portable one: what a caller asking
+    /// for `self` is given.
+    pub fn or_portable(self) -> SimdPath {
+        if self.is_available() {
+            self
+        } else {
+            SimdPath::Portable
+        }
+    }
+
     /// The fastest path this CPU has.
     pub fn best() -> SimdPath {
         if SimdPath::Avx2.is_available() {
