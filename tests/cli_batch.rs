@@ -7,25 +7,11 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use common::{exit, failure, stdout};
-
-const PRESETS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/presets");
+use common::{exit, failure, scratch_with_presets, stdout};
 
 /// A fresh folder with the signal red and deep blue presets in it.
 fn scratch(name: &str) -> PathBuf {
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-        .join("cli_batch")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("scratch folder");
-    for preset in ["signal-red", "deep-blue"] {
-        std::fs::copy(
-            format!("{PRESETS}/{preset}.toml"),
-            dir.join(format!("{preset}.toml")),
-        )
-        .expect("copy a preset");
-    }
-    dir
+    scratch_with_presets("cli_batch", name, &["signal-red", "deep-blue"])
 }
 
 /// A tiny manifest: 2 designs × 1 view × 2 lighting × `models`, 2 spp, 4 λ, 16×9.

@@ -10,7 +10,7 @@ mod xvfb;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use common::{exit, failure, stdout};
+use common::{exit, failure, scratch_with_presets, stdout};
 
 const PRESETS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/presets");
 const MEASUREMENTS: &str = concat!(
@@ -21,18 +21,7 @@ const MEASUREMENTS: &str = concat!(
 /// A fresh folder with the signal red and deep blue presets, a copy of signal red
 /// as `standard.toml`, and the two-standard CxF3 fixture.
 fn scratch(name: &str) -> PathBuf {
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-        .join("cli_batch_report")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("scratch folder");
-    for preset in ["signal-red", "deep-blue"] {
-        std::fs::copy(
-            format!("{PRESETS}/{preset}.toml"),
-            dir.join(format!("{preset}.toml")),
-        )
-        .expect("copy a preset");
-    }
+    let dir = scratch_with_presets("cli_batch_report", name, &["signal-red", "deep-blue"]);
     std::fs::copy(
         format!("{PRESETS}/signal-red.toml"),
         dir.join("standard.toml"),

@@ -11,6 +11,10 @@ use common::{exit, failure, measured_spectra};
 mod measurement_files;
 use measurement_files::{Spectra, as_cxf};
 
+#[path = "../crates/coatlab-core/tests/support/metameric_black.rs"]
+mod metameric_black;
+use metameric_black::metameric_black;
+
 #[path = "../crates/coatlab-core/tests/support/instrument_reference.rs"]
 mod instrument_reference;
 
@@ -514,38 +518,6 @@ fn bad_measurement_targets_and_samples_are_refused() {
         .output()
         .expect("coatlab runs");
     failure(&output, exit::USAGE);
-}
-
-/// `v` less its projection on the D65/10° weights at `w`: a metameric black.
-fn metameric_black(w: &[f64], v: &[f64]) -> Vec<f64> {
-    use coatlab_core::colour::cie::{Illuminant, Observer, summation_weights};
-    let weights =
-        summation_weights(Illuminant::D65, Observer::Cie1964TenDegree, w).expect("weights");
-    let n = w.len();
-    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
-    let mut basis: Vec<Vec<f64>> = Vec::new();
-    for k in 0..3 {
-        let mut r: Vec<f64> = (0..n)
-            .map(|i| {
-                let mut e = vec![0.0; n];
-                e[i] = 1.0;
-                let xyz = weights.xyz(&e);
-                [xyz.x, xyz.y, xyz.z][k]
-            })
-            .collect();
-        for b in &basis {
-            let p = dot(&r, b);
-            r.iter_mut().zip(b).for_each(|(x, y)| *x -= p * y);
-        }
-        let norm = dot(&r, &r).sqrt();
-        basis.push(r.iter().map(|x| x / norm).collect());
-    }
-    let mut out = v.to_vec();
-    for b in &basis {
-        let p = dot(&out, b);
-        out.iter_mut().zip(b).for_each(|(x, y)| *x -= p * y);
-    }
-    out
 }
 
 #[test]

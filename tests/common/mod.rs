@@ -152,3 +152,22 @@ pub fn measured_spectra(json: &serde_json::Value, step: usize) -> (Vec<f64>, Vec
         .collect();
     (keep.iter().map(|&i| w[i]).collect(), angles)
 }
+
+/// A fresh folder `<test>/<name>` under Cargo's temporary folder for tests, holding
+/// copies of the design presets named by `presets` (`signal-red` → `signal-red.toml`).
+pub fn scratch_with_presets(test: &str, name: &str, presets: &[&str]) -> std::path::PathBuf {
+    let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join(test)
+        .join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch folder");
+    let assets = concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/presets");
+    for preset in presets {
+        std::fs::copy(
+            format!("{assets}/{preset}.toml"),
+            dir.join(format!("{preset}.toml")),
+        )
+        .expect("copy a preset");
+    }
+    dir
+}

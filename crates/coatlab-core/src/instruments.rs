@@ -95,7 +95,8 @@ pub struct Measurement {
     pub gloss: Vec<GlossReading>,
 }
 
-fn serialize_lab<S: serde::Serializer>(lab: &Lab, s: S) -> Result<S::Ok, S::Error> {
+/// CIELAB as `{"L", "a", "b"}`, as every JSON report writes it.
+pub(crate) fn serialize_lab<S: serde::Serializer>(lab: &Lab, s: S) -> Result<S::Ok, S::Error> {
     use serde::ser::SerializeStruct;
     let mut st = s.serialize_struct("Lab", 3)?;
     st.serialize_field("L", &lab.l)?;

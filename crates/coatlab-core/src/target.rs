@@ -32,10 +32,10 @@ pub const METAMERISM_TEST_ILLUMINANTS: [Illuminant; 2] = [Illuminant::A, Illumin
 pub struct AngleComparison {
     pub geometry: Geometry,
     /// The design's CIELAB at this geometry.
-    #[serde(serialize_with = "serialize_lab")]
+    #[serde(serialize_with = "instruments::serialize_lab")]
     pub design_lab: Lab,
     /// The target's CIELAB.
-    #[serde(serialize_with = "serialize_lab")]
+    #[serde(serialize_with = "instruments::serialize_lab")]
     pub target_lab: Lab,
     /// The conditions of both, e.g. "D65/CIE 1964 10°".
     pub conditions: String,
@@ -82,15 +82,6 @@ pub struct Comparison {
     pub metameric: bool,
     /// What the reader should know (assumed conditions, extrapolated wavelengths).
     pub notes: Vec<String>,
-}
-
-fn serialize_lab<S: serde::Serializer>(lab: &Lab, s: S) -> Result<S::Ok, S::Error> {
-    use serde::ser::SerializeStruct;
-    let mut st = s.serialize_struct("Lab", 3)?;
-    st.serialize_field("L", &lab.l)?;
-    st.serialize_field("a", &lab.a)?;
-    st.serialize_field("b", &lab.b)?;
-    st.end()
 }
 
 /// Why a comparison cannot be made.

@@ -338,17 +338,13 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
         write_part(&args.out, &header, render.film())?;
         writeln!(
             out,
-            "wrote {} (samples {}..{} of {spp}, {width}x{height}, {} wavelengths, {}) in {:.1} s: \
-             {:.3} M samples/s, {:.2} M rays/s, SIMD path {}",
+            "wrote {} (samples {}..{} of {spp}, {width}x{height}, {} wavelengths, {}) {}",
             args.out.display(),
             samples.start,
             samples.end,
             grid.len(),
             args.model.label(),
-            totals.seconds,
-            totals.samples_per_second() / 1e6,
-            totals.rays_per_second() / 1e6,
-            SimdPath::current().name(),
+            speed(&totals),
         )?;
         return Ok(());
     }
@@ -385,19 +381,26 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
         .unwrap_or_default();
     writeln!(
         out,
-        "wrote {} ({width}x{height}, {} spp{}, {} wavelengths, {}{noise}) in {:.1} s: \
-         {:.3} M samples/s, {:.2} M rays/s, SIMD path {}",
+        "wrote {} ({width}x{height}, {} spp{}, {} wavelengths, {}{noise}) {}",
         args.out.display(),
         render.samples_per_pixel(),
         if args.adaptive { " mean, adaptive" } else { "" },
         grid.len(),
         args.model.label(),
+        speed(&totals),
+    )?;
+    Ok(())
+}
+
+/// The end of a render's last line: its time, rates and SIMD path.
+fn speed(totals: &PassStats) -> String {
+    format!(
+        "in {:.1} s: {:.3} M samples/s, {:.2} M rays/s, SIMD path {}",
         totals.seconds,
         totals.samples_per_second() / 1e6,
         totals.rays_per_second() / 1e6,
         SimdPath::current().name(),
-    )?;
-    Ok(())
+    )
 }
 
 /// A finished render and what it was made of.
