@@ -7,3 +7,4 @@ pub mod exr_write;
 pub mod hdr;
 pub mod png_write;
 pub mod rgb_image;
+pub mod tagged;

@@ -17,13 +17,13 @@
 //! horizontal), painted top (bonnet, roof: normal within 45° of up — where the
 //! overhead lights' highlight sits), floor, or none of these.
 
-use std::io::Read;
 use std::path::Path;
 
 use thiserror::Error;
 
 use crate::colour::{Xyz, ciede2000};
 use crate::io::atomic::write_bytes_atomically;
+use crate::io::tagged::{TAGGED_HEADER_BYTES, tagged_header};
 use crate::render::camera::Camera;
 use crate::render::film::{DisplaySettings, Film, display_lab_of_xyz};
 use crate::render::geometry::Surface;
@@ -185,31 +185,25 @@ impl XyzImage {
     /// Reads an image written by [`Self::write`].
     pub fn read(path: &Path) -> Result<XyzImage, ImageErrorError> {
         let name = path.display().to_string();
-        let mut bytes = Vec::new();
-        std::fs::File::open(path)
-            .and_then(|mut f| f.read_to_end(&mut bytes))
-            .map_err(|error| ImageErrorError::Io {
-                path: name.clone(),
-                error,
-            })?;
+        let bytes = std::fs::read(path).map_err(|error| ImageErrorError::Io {
+            path: name.clone(),
+            error,
+        })?;
         let bad = |reason: String| ImageErrorError::BadFile {
             path: name.clone(),
             reason,
         };
-        if bytes.len() < 16 || &bytes[..8] != MAGIC {
+        let Some([width, height]) = tagged_header(&bytes, MAGIC) else {
             return Err(bad("wrong signature".into()));
-        }
-        let word =
-            |i: usize| u32::from_le_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
-        let (width, height) = (word(8), word(12));
-        let want = 16 + width as usize * height as usize * 12;
+        };
+        let want = TAGGED_HEADER_BYTES + width as usize * height as usize * 12;
         if bytes.len() != want {
             return Err(bad(format!(
                 "{width}×{height} needs {want} bytes, the file has {}",
                 bytes.len()
             )));
         }
-        let pixels = bytes[16..]
+        let pixels = bytes[TAGGED_HEADER_BYTES..]
             .chunks_exact(12)
             .map(|c| {
                 std::array::from_fn(|k| {

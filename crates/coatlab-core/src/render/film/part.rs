@@ -12,8 +12,7 @@
 //! TOML header ([`PartHeader`]: the program, the image, the sample range and the
 //! identity of every input), the per-pixel sums, and a SHA-256 of all of it.
 
-use std::fs::File;
-use std::io::{self, BufWriter, Read, Write};
+use std::io::{self, BufWriter, Write};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
@@ -24,6 +23,7 @@ use thiserror::Error;
 use super::{BlockSums, Film, PixelSums, from_exact};
 use crate::colour::spectrum::{Channels, WavelengthGrid};
 use crate::io::atomic::{WriteError, write_atomically};
+use crate::io::tagged::{TAGGED_HEADER_BYTES, tagged_header};
 
 /// The first bytes of every film part.
 pub const MAGIC: &[u8; 8] = b"COATFILM";
@@ -284,13 +284,10 @@ pub fn write_part(path: &Path, header: &PartHeader, film: &Film) -> Result<(), P
 /// Reads and checks a film part: the magic, the version, the header, the length
 /// and the checksum.
 pub fn read_part(path: &Path) -> Result<FilmPart, PartError> {
-    let mut bytes = Vec::new();
-    File::open(path)
-        .and_then(|mut f| f.read_to_end(&mut bytes))
-        .map_err(|error| PartError::Read {
-            path: path.to_owned(),
-            error,
-        })?;
+    let bytes = std::fs::read(path).map_err(|error| PartError::Read {
+        path: path.to_owned(),
+        error,
+    })?;
     parse_part(path, &bytes)
 }
 
@@ -300,27 +297,23 @@ pub fn parse_part(path: &Path, bytes: &[u8]) -> Result<FilmPart, PartError> {
         path: path.to_owned(),
         why,
     };
-    if bytes.len() < 16 || &bytes[..8] != MAGIC {
+    let Some([version, header_len]) = tagged_header(bytes, MAGIC) else {
         return Err(corrupt("it does not start with COATFILM".into()));
-    }
-    let u32_at =
-        |i: usize| u32::from_le_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
-    let version = u32_at(8);
+    };
     if version != FORMAT_VERSION {
         return Err(PartError::Version {
             path: path.to_owned(),
             found: version,
         });
     }
-    let header_len = u32_at(12);
-    if header_len > MAX_HEADER_BYTES || 16 + header_len as usize > bytes.len() {
+    if header_len > MAX_HEADER_BYTES || TAGGED_HEADER_BYTES + header_len as usize > bytes.len() {
         return Err(corrupt(format!(
             "a header of {header_len} bytes in a file of {} (truncated?)",
             bytes.len()
         )));
     }
-    let body_start = 16 + header_len as usize;
-    let text = std::str::from_utf8(&bytes[16..body_start])
+    let body_start = TAGGED_HEADER_BYTES + header_len as usize;
+    let text = std::str::from_utf8(&bytes[TAGGED_HEADER_BYTES..body_start])
         .map_err(|_| corrupt("the header is not UTF-8".into()))?;
     let header: PartHeader =
         toml::from_str(text).map_err(|e| corrupt(format!("the header: {e}")))?;
