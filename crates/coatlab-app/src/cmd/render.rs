@@ -23,7 +23,7 @@ use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{
     PassStats, ProgressiveRender, RenderScene, RenderSettings,
 };
-use coatlab_core::render::view::{NamedView, ViewChoice, ViewError};
+use coatlab_core::render::view::{ViewChoice, ViewError, ViewSpec};
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
@@ -37,7 +37,7 @@ pub const DEFAULT_WAVELENGTHS: usize = 32;
 /// Samples per pixel unless `--spp` or `--seconds` says otherwise.
 pub const DEFAULT_SPP: u32 = 64;
 
-#[derive(clap::Args, Debug)]
+#[derive(clap::Args, Debug, Clone)]
 pub struct RenderArgs {
     /// Paint design file (TOML); the built-in signal red when left out.
     #[arg(long)]
@@ -53,9 +53,11 @@ pub struct RenderArgs {
     #[arg(long, allow_hyphen_values = true)]
     pub front: Option<Front>,
     /// Named view: front-34 (the default), rear-34, side, front, rear, top or
-    /// closeup (a panel: the left front door and wing).
+    /// closeup (a panel: the left front door and wing); or turntable:N, N frames
+    /// (1–360) around the car in equal steps, written as OUT's name with -00, -01…
+    /// before the extension; or turntable:N:K, frame K (from 0) alone, to --out.
     #[arg(long, conflicts_with = "camera")]
-    pub view: Option<NamedView>,
+    pub view: Option<ViewSpec>,
     /// A camera by hand, yaw_deg,pitch_deg,distance_m,fov_deg (yaw from the nose
     /// toward the car's left, pitch up, distance from the car's centre, vertical
     /// field of view), or gltf:N for the scene file's camera N (from 0).
@@ -281,22 +283,9 @@ pub fn scene(
 }
 
 pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
-    let extension = args
-        .out
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    if !matches!(
-        extension.as_deref(),
-        Some("png") | Some("exr") | Some("film")
-    ) {
-        return Err(Failure::Usage.error(format!(
-            "--out {}: the output must end in .png, .exr or .film",
-            args.out.display()
-        )));
-    }
-    let part = extension.as_deref() == Some("film");
-    if extension.as_deref() != Some("exr") {
+    let extension = out_extension(&args.out, &["png", "exr", "film"], "the output")?;
+    let part = extension == "film";
+    if extension != "exr" {
         let given = [
             ("--exr-precision", args.exr_precision.is_some()),
             ("--exr-compression", args.exr_compression.is_some()),
@@ -325,15 +314,58 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
         return Err(Failure::Usage.error("--spp 0: at least one sample per pixel is needed"));
     }
     let samples = sample_range(args, part, spp)?;
+    let prepared = prepare(args)?;
+    match args.view {
+        Some(whole @ ViewSpec::Turntable(turntable)) => {
+            for (k, frame) in whole.frames().into_iter().enumerate() {
+                let frame_args = RenderArgs {
+                    view: Some(frame),
+                    out: frame_path(&args.out, k as u32, turntable.frames()),
+                    ..args.clone()
+                };
+                let rendered =
+                    render_prepared(&frame_args, &prepared, samples.clone(), time_limit, true)?;
+                write_render(&frame_args, rendered, spp, samples.clone(), out)?;
+            }
+            Ok(())
+        }
+        _ => {
+            let rendered = render_prepared(args, &prepared, samples.clone(), time_limit, true)?;
+            write_render(args, rendered, spp, samples, out)
+        }
+    }
+}
+
+/// Frame `k` of an `n`-frame turntable written to `out`: its name with `-KK`
+/// before the extension, K zero-padded to the digits of n − 1 (at least two),
+/// so the files sort in the order of the turn.
+pub fn frame_path(out: &Path, k: u32, n: u32) -> PathBuf {
+    let digits = (n.saturating_sub(1).max(1).ilog10() + 1).max(2) as usize;
+    let stem = out.file_stem().unwrap_or_default().to_string_lossy();
+    let name = match out.extension() {
+        Some(extension) => format!("{stem}-{k:0digits$}.{}", extension.to_string_lossy()),
+        None => format!("{stem}-{k:0digits$}"),
+    };
+    out.with_file_name(name)
+}
+
+/// Writes one finished render to `args.out` (a film part, an EXR or a PNG) and
+/// prints its line.
+fn write_render(
+    args: &RenderArgs,
+    rendered: Rendered,
+    spp: u32,
+    samples: Range<u32>,
+    out: &mut impl Write,
+) -> anyhow::Result<()> {
     let Rendered {
         render,
         design,
         grid,
         totals,
-    } = render_film(args, samples.clone(), time_limit, true)?;
+    } = rendered;
     let (width, height) = args.size;
-
-    if part {
+    if is_part(&args.out) {
         let header = part_header(args, &design, grid, spp, samples.clone())?;
         write_part(&args.out, &header, render.film())?;
         writeln!(
@@ -392,6 +424,24 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `--out path`'s extension, lower-case, if it is one of `accepted`; else a usage
+/// error saying that `what` must end in one of them.
+pub fn out_extension(path: &Path, accepted: &[&str], what: &str) -> anyhow::Result<String> {
+    let extension = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .filter(|e| accepted.contains(&e.as_str()));
+    extension.ok_or_else(|| {
+        let list: Vec<String> = accepted.iter().map(|e| format!(".{e}")).collect();
+        Failure::Usage.error(format!(
+            "--out {}: {what} must end in {}",
+            path.display(),
+            coatlab_core::names::or_list(&list)
+        ))
+    })
+}
+
 /// The end of a render's last line: its time, rates and SIMD path.
 fn speed(totals: &PassStats) -> String {
     format!(
@@ -421,6 +471,23 @@ pub fn render_film(
     time_limit: Option<Duration>,
     show_progress: bool,
 ) -> anyhow::Result<Rendered> {
+    let prepared = prepare(args)?;
+    render_prepared(args, &prepared, samples, time_limit, show_progress)
+}
+
+/// What every image of one `coatlab render` shares, built once: the design, its
+/// grid, the scene with its BVH, the lighting and the shading.
+pub struct Prepared {
+    design: PaintDesign,
+    grid: WavelengthGrid,
+    scene: Arc<RenderScene>,
+    environment: Arc<Environment>,
+    shading: Arc<Shading>,
+    adaptive: Option<AdaptiveSampling>,
+}
+
+/// Loads and builds what `args`' images share (see [`Prepared`]).
+pub fn prepare(args: &RenderArgs) -> anyhow::Result<Prepared> {
     let adaptive = AdaptiveSampling {
         uniform_samples: args.adaptive_uniform_spp,
         floor: args.adaptive_floor,
@@ -468,30 +535,47 @@ pub fn render_film(
     let render_scene = RenderScene::new(scene)
         .context("cannot prepare the scene")
         .or_fail(Failure::Data)?;
+    Ok(Prepared {
+        design,
+        grid,
+        scene: Arc::new(render_scene),
+        environment: Arc::new(environment),
+        shading: Arc::new(shading),
+        adaptive: args.adaptive.then_some(adaptive),
+    })
+}
+
+/// Renders `args`' image (its view or camera) from what `prepared` holds; as
+/// [`render_film`].
+pub fn render_prepared(
+    args: &RenderArgs,
+    prepared: &Prepared,
+    samples: Range<u32>,
+    time_limit: Option<Duration>,
+    show_progress: bool,
+) -> anyhow::Result<Rendered> {
     let (width, height) = args.size;
-    let choice = match (args.view, args.camera) {
-        (Some(view), _) => ViewChoice::Named(view),
-        (None, Some(camera)) => camera,
-        (None, None) => ViewChoice::default(),
+    let framing = prepared.scene.framing();
+    let camera = match (args.view, args.camera) {
+        (Some(view), _) => framing.view(view, width, height),
+        (None, camera) => framing
+            .camera(&camera.unwrap_or_default(), width, height)
+            .map_err(|error| {
+                let flag = match error {
+                    ViewError::NoSuchCamera { index, .. } => format!("--camera gltf:{index}"),
+                    _ => "--camera".to_owned(),
+                };
+                Failure::Usage.error(format!("{flag}: {error}"))
+            })?,
     };
-    let camera = render_scene
-        .framing()
-        .camera(&choice, width, height)
-        .map_err(|error| {
-            let flag = match error {
-                ViewError::NoSuchCamera { index, .. } => format!("--camera gltf:{index}"),
-                _ => "--camera".to_owned(),
-            };
-            Failure::Usage.error(format!("{flag}: {error}"))
-        })?;
     let mut render = ProgressiveRender::new(
-        Arc::new(render_scene),
-        Arc::new(environment),
-        Arc::new(shading),
+        Arc::clone(&prepared.scene),
+        Arc::clone(&prepared.environment),
+        Arc::clone(&prepared.shading),
         camera,
         RenderSettings {
             seed: args.seed,
-            adaptive: args.adaptive.then_some(adaptive),
+            adaptive: prepared.adaptive,
             ..RenderSettings::default()
         },
     )
@@ -531,8 +615,8 @@ pub fn render_film(
     }
     Ok(Rendered {
         render,
-        design,
-        grid,
+        design: prepared.design.clone(),
+        grid: prepared.grid,
         totals,
     })
 }
@@ -568,9 +652,17 @@ impl ImageOutput<'_> {
 }
 
 fn is_exr(path: &Path) -> bool {
+    has_extension(path, "exr")
+}
+
+fn is_part(path: &Path) -> bool {
+    has_extension(path, "film")
+}
+
+fn has_extension(path: &Path, extension: &str) -> bool {
     path.extension()
         .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+        .is_some_and(|e| e.eq_ignore_ascii_case(extension))
 }
 
 /// The sample indices to render: `--sample-range` (a .film part only, within
@@ -656,7 +748,7 @@ pub fn render_inputs(
     let (width, height) = args.size;
     let settings = format!(
         "model={}; size={width}x{height}; wavelengths={}; spp={spp}; seed={}; exposure={}; \
-         paint-material={:?}; integrator={:?}; adaptive={}",
+         paint-material={:?}; integrator={:?}; adaptive={}; view={}",
         args.model.label(),
         args.wavelengths,
         args.seed,
@@ -664,6 +756,11 @@ pub fn render_inputs(
         args.paint_material,
         RenderSettings::default().integrator,
         args.adaptive,
+        match (args.view, args.camera) {
+            (Some(view), _) => view.to_string(),
+            (None, Some(camera)) => format!("{camera:?}"),
+            (None, None) => "default".to_owned(),
+        },
     );
     Ok(RenderInputs {
         program: program(),
@@ -783,6 +880,16 @@ mod tests {
                 .contains("160 bytes a pixel")
         );
         assert!(parse_size("16384x4097").is_err());
+    }
+
+    #[test]
+    fn turntable_frames_are_numbered_to_sort_in_order() {
+        let out = Path::new("deck/spin.png");
+        assert_eq!(frame_path(out, 3, 8), Path::new("deck/spin-03.png"));
+        assert_eq!(frame_path(out, 0, 1), Path::new("deck/spin-00.png"));
+        assert_eq!(frame_path(out, 99, 100), Path::new("deck/spin-99.png"));
+        assert_eq!(frame_path(out, 5, 360), Path::new("deck/spin-005.png"));
+        assert_eq!(frame_path(Path::new("spin"), 1, 2), Path::new("spin-01"));
     }
 
     #[test]
