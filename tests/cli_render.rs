@@ -522,7 +522,7 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
     let (usage, no_input) = (exit::USAGE, exit::NO_INPUT);
     // Each case's arguments split at spaces.
     let garbage_arg = format!("--environment {garbage_map}");
-    let cases: [(&str, i32, &str); 25] = [
+    let cases: [(&str, i32, &str); 26] = [
         ("--size 48", usage, "WIDTHxHEIGHT"),
         ("--size 0x10", usage, "1 to 16384"),
         ("--size 16384x16384", usage, "160 bytes a pixel"),
@@ -544,6 +544,11 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
         ),
         (&garbage_arg, exit::DATA, "not a readable OpenEXR file"),
         ("--paint-material Chrome", usage, "body, glass"),
+        (
+            "--paint-material body,Chrome",
+            usage,
+            "--paint-material 'Chrome': the built-in car has no such material (it has body, glass",
+        ),
         ("--view diagonal", usage, "'diagonal' for '--view"),
         (
             "--view turntable:0",
@@ -721,6 +726,33 @@ fn a_files_camera_renders_and_a_missing_one_is_refused() {
         err.contains("--camera gltf:8: the scene has no camera 8 (it has 8, gltf:0 to gltf:7)"),
         "{err}"
     );
+}
+
+/// `--paint-material` takes several names, comma-separated or repeated, and
+/// paints them all: the same image either way, another than the body's alone.
+#[test]
+fn several_paint_materials_by_name() {
+    let image = |name: &str, extra: &[&str]| {
+        let out = out_path(name);
+        stdout(&render_small(
+            &out,
+            "32x18",
+            1,
+            &[&["--wavelengths", "4"], extra].concat(),
+        ));
+        std::fs::read(&out).expect("the image")
+    };
+    let listed = image("paint-listed.png", &["--paint-material", "body,glass"]);
+    let repeated = image(
+        "paint-repeated.png",
+        &["--paint-material", "body", "--paint-material", "glass"],
+    );
+    let body = image("paint-body.png", &["--paint-material", "body"]);
+    assert_eq!(
+        listed, repeated,
+        "a list and a repeated flag are the same choice"
+    );
+    assert_ne!(listed, body, "the glass carries the paint too");
 }
 
 #[test]

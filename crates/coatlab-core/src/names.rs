@@ -60,6 +60,6 @@ mod tests {
         );
         assert_eq!(or_list(&["a"]), "a");
         assert_eq!(or_list(&["a", "b"]), "a or b");
-        assert_eq!(or_list::<&str>(&[]), "");
+        assert_eq!(or_list(&[] as &[&str]), "");
     }
 }

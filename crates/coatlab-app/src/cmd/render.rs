@@ -13,6 +13,7 @@ use coatlab_core::colour::spectrum::{
 };
 use coatlab_core::design::{PaintDesign, presets};
 use coatlab_core::io::exr_write::{ExrCompression, ExrPrecision};
+use coatlab_core::names::or_list;
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::adaptive::{AdaptiveError, AdaptiveSampling};
 use coatlab_core::render::environment::Environment;
@@ -45,9 +46,11 @@ pub struct RenderArgs {
     /// glTF scene (.glb or .gltf); the built-in car when left out.
     #[arg(long)]
     pub scene: Option<PathBuf>,
-    /// Paint the material with exactly this name instead of the automatic choice.
-    #[arg(long)]
-    pub paint_material: Option<String>,
+    /// Paint the materials with exactly these names instead of the automatic
+    /// choice (a body split across materials): comma-separated, or the flag
+    /// repeated.
+    #[arg(long, value_delimiter = ',')]
+    pub paint_material: Vec<String>,
     /// glTF scene only: the file axis the car's nose points along (+x, -x, +z or
     /// -z) instead of the automatic orientation (docs/scenes.md).
     #[arg(long, allow_hyphen_values = true)]
@@ -240,46 +243,63 @@ fn lighting_name(argument: &str) -> String {
         .unwrap_or_else(|_| argument.to_owned())
 }
 
-/// The scene: a glTF file, or the built-in car.
+/// The scene: a glTF file, or the built-in car; `paint_materials` (names), when
+/// given, carry the design instead of the automatic choice.
 pub fn scene(
     path: Option<&Path>,
-    paint_material: Option<&str>,
+    paint_materials: &[String],
     front: Option<Front>,
 ) -> anyhow::Result<Scene> {
-    match path {
-        Some(path) => Ok(load(
+    let mut scene = match path {
+        // The loader frames and centres the car by its paint: the first name
+        // stands in for the body there.
+        Some(path) => load(
             path,
             &LoadOptions {
-                paint_material: paint_material.map(str::to_owned),
+                paint_material: paint_materials.first().cloned(),
                 front,
             },
-        )?),
-        None if front.is_some() => Err(Failure::Usage.error(format!(
-            "--front {}: only for a glTF --scene; the built-in car's nose is +z already",
-            front.map(Front::name).unwrap_or_default()
-        ))),
-        None => {
-            let mut scene = generate(&CarParameters::default());
-            if let Some(name) = paint_material {
-                let index = scene
-                    .materials
-                    .iter()
-                    .position(|m| m.name == name)
-                    .with_context(|| {
-                        let names: Vec<&str> =
-                            scene.materials.iter().map(|m| m.name.as_str()).collect();
-                        format!(
-                            "--paint-material '{name}': the built-in car has no such material \
-                             (it has {})",
-                            names.join(", ")
-                        )
-                    })
-                    .or_fail(Failure::Usage)?;
-                scene.paint_materials = vec![index as u32];
-            }
-            Ok(scene)
+        )?,
+        None if front.is_some() => {
+            return Err(Failure::Usage.error(format!(
+                "--front {}: only for a glTF --scene; the built-in car's nose is +z already",
+                front.map(Front::name).unwrap_or_default()
+            )));
         }
+        None => generate(&CarParameters::default()),
+    };
+    if !paint_materials.is_empty() {
+        scene.paint_materials = materials_named(&scene, paint_materials, path.is_none())?;
     }
+    Ok(scene)
+}
+
+/// The indices of the materials named `names` (every material of a name: a file
+/// may use one name twice), or a usage error naming the first unknown name and
+/// listing the scene's materials.
+fn materials_named(scene: &Scene, names: &[String], built_in: bool) -> anyhow::Result<Vec<u32>> {
+    let mut chosen = Vec::new();
+    for name in names {
+        let named: Vec<u32> = (0..scene.materials.len() as u32)
+            .filter(|&i| scene.materials[i as usize].name == *name)
+            .collect();
+        if named.is_empty() {
+            let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
+            return Err(Failure::Usage.error(format!(
+                "--paint-material '{name}': {} has no such material (it has {})",
+                if built_in {
+                    "the built-in car"
+                } else {
+                    "the scene"
+                },
+                or_list(&names)
+            )));
+        }
+        chosen.extend(named);
+    }
+    chosen.sort_unstable();
+    chosen.dedup();
+    Ok(chosen)
 }
 
 pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
@@ -437,7 +457,7 @@ pub fn out_extension(path: &Path, accepted: &[&str], what: &str) -> anyhow::Resu
         Failure::Usage.error(format!(
             "--out {}: {what} must end in {}",
             path.display(),
-            coatlab_core::names::or_list(&list)
+            or_list(&list)
         ))
     })
 }
@@ -523,11 +543,7 @@ pub fn prepare(args: &RenderArgs) -> anyhow::Result<Prepared> {
         .context("cannot build the paint model")
         .or_fail(Failure::Data)?;
     let environment = environment(&args.environment, &grid)?;
-    let scene = scene(
-        args.scene.as_deref(),
-        args.paint_material.as_deref(),
-        args.front,
-    )?;
+    let scene = scene(args.scene.as_deref(), &args.paint_material, args.front)?;
     for warning in &scene.warnings {
         to_stderr(format_args!("coatlab: warning: {warning}\n"));
     }

@@ -111,7 +111,7 @@ pub fn render_args(manifest: &Manifest, task: &Task) -> RenderArgs {
     RenderArgs {
         design: Some(task.design.path.clone()),
         scene: manifest.scene.clone(),
-        paint_material: None,
+        paint_material: Vec::new(),
         environment: task.lighting.argument.clone(),
         model: task.shading_model,
         spp: Some(manifest.quality.samples_per_pixel),
