@@ -520,72 +520,52 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
     std::fs::write(&garbage_map, b"v/1\x01 not really an EXR").expect("write");
     let garbage_map = garbage_map.to_str().expect("utf-8").to_owned();
     let (usage, no_input) = (exit::USAGE, exit::NO_INPUT);
-    // Each case's arguments split at spaces.
     let garbage_arg = format!("--environment {garbage_map}");
-    let cases: [(&str, i32, &str); 26] = [
-        ("--size 48", usage, "WIDTHxHEIGHT"),
-        ("--size 0x10", usage, "1 to 16384"),
-        ("--size 16384x16384", usage, "160 bytes a pixel"),
-        ("--model lambert", usage, "phong-naive"),
-        ("--wavelengths 0", usage, "--wavelengths 0"),
-        ("--spp 0", usage, "--spp 0"),
-        ("--adaptive maybe", usage, "use on or off"),
+    // Refused as a usage error: the arguments (split at spaces), the message.
+    let usage_cases: [(&str, &str); 22] = [
+        ("--size 48", "WIDTHxHEIGHT"),
+        ("--size 0x10", "1 to 16384"),
+        ("--size 16384x16384", "160 bytes a pixel"),
+        ("--model lambert", "phong-naive"),
+        ("--wavelengths 0", "--wavelengths 0"),
+        ("--spp 0", "--spp 0"),
+        ("--adaptive maybe", "use on or off"),
         (
             "--adaptive on --adaptive-floor 0",
-            usage,
             "--adaptive-floor: floor 0: must be in (0, 1]",
         ),
-        ("--seconds -1", usage, "--seconds -1"),
-        ("--environment moonlight", usage, "no such file"),
-        (
-            "--environment /nonexistent/sky.exr",
-            no_input,
-            "no such file",
-        ),
-        (&garbage_arg, exit::DATA, "not a readable OpenEXR file"),
-        ("--paint-material Chrome", usage, "body, glass"),
+        ("--seconds -1", "--seconds -1"),
+        ("--environment moonlight", "no such file"),
+        ("--paint-material Chrome", "body, glass"),
         (
             "--paint-material body,Chrome",
-            usage,
             "--paint-material 'Chrome': the built-in car has no such material (it has body, glass",
         ),
-        ("--view diagonal", usage, "'diagonal' for '--view"),
-        (
-            "--view turntable:0",
-            usage,
-            "'turntable:0': 0 frames: a turntable takes 1 to 360",
-        ),
-        (
-            "--view turntable:4:4",
-            usage,
-            "frame 4 of 4: the frames are 0 to 3",
-        ),
-        ("--camera 1,2,3", usage, "'1,2,3' for '--camera"),
-        ("--camera 0,95,5,35", usage, "pitch 95° must be within ±89°"),
-        (
-            "--camera 0,10,-2,35",
-            usage,
-            "distance -2 m must be a positive",
-        ),
-        (
-            "--camera gltf:0",
-            usage,
-            "--camera gltf:0: the scene has no camera 0 (it has none of its own)",
-        ),
-        ("--view side --camera gltf:0", usage, "cannot be used with"),
-        ("--front +y", usage, "'+y' for '--front"),
-        ("--front -x", usage, "--front -x: only for a glTF --scene"),
-        (
-            "--scene /nonexistent/car.glb",
-            no_input,
-            "/nonexistent/car.glb",
-        ),
+        ("--view diagonal", "'diagonal' for '--view"),
+        ("--view turntable:0", "'turntable:0': 0 frames"),
+        ("--view turntable:4:4", "frame 4 of 4"),
+        ("--camera 1,2,3", "'1,2,3' for '--camera"),
+        ("--camera 0,95,5,35", "pitch 95° must be within ±89°"),
+        ("--camera 0,10,-2,35", "distance -2 m must be a positive"),
+        ("--camera gltf:0", "no camera 0 (it has none of its own)"),
+        ("--view side --camera gltf:0", "cannot be used with"),
+        ("--front +y", "'+y' for '--front"),
+        ("--front -x", "--front -x: only for a glTF --scene"),
+    ];
+    let no_input_cases = [
+        ("--environment /nonexistent/sky.exr", "no such file"),
+        ("--scene /nonexistent/car.glb", "/nonexistent/car.glb"),
         (
             "--design /nonexistent/paint.toml",
-            no_input,
             "/nonexistent/paint.toml",
         ),
     ];
+    let data_case = (&*garbage_arg, exit::DATA, "not a readable OpenEXR file");
+    let cases = usage_cases
+        .map(|(args, expected)| (args, usage, expected))
+        .into_iter()
+        .chain(no_input_cases.map(|(args, expected)| (args, no_input, expected)))
+        .chain([data_case]);
     for (args, code, expected) in cases {
         let args: Vec<&str> = args.split_whitespace().collect();
         // Small defaults for whatever the case does not set itself.
