@@ -5,8 +5,8 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
+use common::batch::{self, coatlab_batch as coatlab};
 use common::{exit, failure, scratch_with_presets, stdout};
 
 /// A fresh folder with the signal red and deep blue presets in it.
@@ -16,40 +16,10 @@ fn scratch(name: &str) -> PathBuf {
 
 /// A tiny manifest: 2 designs × 1 view × 2 lighting × `models`, 2 spp, 4 λ, 16×9.
 fn manifest(dir: &Path, models: &str) -> PathBuf {
-    let path = dir.join("review.toml");
-    std::fs::write(
-        &path,
-        format!(
-            r#"format = "coatlab-batch"
-version = 1
-output = "deck"
-scene = "builtin"
-designs = ["signal-red.toml", "deep-blue.toml"]
-views = ["front-34"]
-lighting = ["studio", "booth-d65"]
-models = {models}
-spp = 2
-wavelengths = 4
-size = "16x9"
-"#
-        ),
+    batch::write_manifest(
+        dir,
+        &format!("scene = \"builtin\"\nviews = [\"front-34\"]\nmodels = {models}\nsize = \"16x9\""),
     )
-    .expect("write the manifest");
-    path
-}
-
-fn coatlab(args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_coatlab"));
-    command.args(args);
-    for name in [
-        "SLURM_ARRAY_TASK_ID",
-        "JOB_COMPLETION_INDEX",
-        "AWS_BATCH_JOB_ARRAY_INDEX",
-    ] {
-        command.env_remove(name);
-    }
-    command.envs(env.iter().copied());
-    command.output().expect("coatlab runs")
 }
 
 fn s(path: &Path) -> &str {
@@ -280,31 +250,31 @@ fn bad_manifests_are_refused_with_the_line_and_key() {
         (
             "\"deep-blue.toml\"",
             "\"deep-blue.toml\", \"nowhere.toml\"",
-            "line 5, key `designs`: 'nowhere.toml': no such design file",
+            "line 4, key `designs`: 'nowhere.toml': no such design file",
             exit::DATA,
         ),
         (
             "\"deep-blue.toml\"",
             "\"deep-blue.toml\", \"other/signal-red.toml\"",
-            "line 5, key `designs`: 'signal-red' is there twice",
+            "line 4, key `designs`: 'signal-red' is there twice",
             exit::DATA,
         ),
         (
             "[\"studio\", \"booth-d65\"]",
             "[\"studio\", \"booth-d65\", \"studio\"]",
-            "line 7, key `lighting`: 'studio' is there twice",
+            "line 5, key `lighting`: 'studio' is there twice",
             exit::DATA,
         ),
         (
             "[\"front-34\"]",
             "[\"front-43\"]",
-            "line 6, key `views`: 'front-43': not a view (front-34, rear-34, side, front, rear, top, closeup)",
+            "line 9, key `views`: 'front-43' is not a view: use front-34, rear-34, side, front, rear, top, closeup or turntable:N",
             exit::DATA,
         ),
         (
             "spp = 2",
             "quality = \"ultra\"",
-            "line 9, key `quality`: 'ultra': not a quality preset",
+            "line 6, key `quality`: 'ultra': not a quality preset",
             exit::DATA,
         ),
         (
@@ -322,7 +292,7 @@ fn bad_manifests_are_refused_with_the_line_and_key() {
         (
             "[\"paint\"]",
             "[\"lambert\"]",
-            "line 8, key `models`: unknown model 'lambert'",
+            "line 10, key `models`: unknown model 'lambert'",
             exit::DATA,
         ),
         ("\"16x9\"", "\"16\"", "line 11, key `size`", exit::DATA),

@@ -10,6 +10,7 @@ mod xvfb;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use common::batch::{coatlab_batch, write_manifest};
 use common::{exit, failure, scratch_with_presets, stdout};
 
 const PRESETS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../assets/presets");
@@ -37,37 +38,11 @@ fn scratch(name: &str) -> PathBuf {
 
 /// 2 designs × 1 view × 2 lighting, 2 spp, 4 λ, 48×27, with `extra` lines.
 fn manifest(dir: &Path, extra: &str) -> PathBuf {
-    let path = dir.join("review.toml");
-    std::fs::write(
-        &path,
-        format!(
-            r#"format = "coatlab-batch"
-version = 1
-output = "deck"
-designs = ["signal-red.toml", "deep-blue.toml"]
-lighting = ["studio", "booth-d65"]
-spp = 2
-wavelengths = 4
-size = "48x27"
-{extra}
-"#
-        ),
-    )
-    .expect("write the manifest");
-    path
+    write_manifest(dir, &format!("size = \"48x27\"\n{extra}"))
 }
 
 fn coatlab(args: &[&str]) -> Output {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_coatlab"));
-    command.args(args);
-    for name in [
-        "SLURM_ARRAY_TASK_ID",
-        "JOB_COMPLETION_INDEX",
-        "AWS_BATCH_JOB_ARRAY_INDEX",
-    ] {
-        command.env_remove(name);
-    }
-    command.output().expect("coatlab runs")
+    coatlab_batch(args, &[])
 }
 
 fn s(path: &Path) -> &str {
@@ -250,14 +225,23 @@ fn chromium(args: &[&str]) -> Output {
         .expect("chromium runs")
 }
 
+/// Whether Chromium is here; where it is not, CI fails (it must run the browser
+/// checks) and elsewhere the caller skips them, saying so.
+fn have_chromium() -> bool {
+    if xvfb::have("chromium") {
+        return true;
+    }
+    assert!(
+        !xvfb::gui_tools_required(),
+        "chromium is not installed, and CI needs this test (apt-get install chromium)"
+    );
+    eprintln!("skipped the browser check: chromium not installed (apt-get install chromium)");
+    false
+}
+
 #[test]
 fn the_deck_loads_in_headless_chromium() {
-    if !xvfb::have("chromium") {
-        assert!(
-            !xvfb::gui_tools_required(),
-            "chromium is not installed, and CI needs this test (apt-get install chromium)"
-        );
-        eprintln!("skipped: chromium not installed (apt-get install chromium)");
+    if !have_chromium() {
         return;
     }
     let dir = scratch("chromium");
@@ -343,4 +327,95 @@ fn the_deck_loads_in_headless_chromium() {
     };
     assert!(has([0x2a, 0x7d, 0x2e]), "the pass badge's green is drawn");
     assert!(has([0xb3, 0x26, 0x1e]), "the fail badge's red is drawn");
+}
+
+/// `views = ["turntable:3"]` is three tasks a design and lighting, one a frame,
+/// named in the order of the turn; the deck shows each turn as a strip of its
+/// frames, in one row in Chromium.
+#[test]
+fn a_turntable_is_a_task_a_frame_and_a_strip_in_the_deck() {
+    let dir = scratch("turntable");
+    let manifest = manifest(&dir, r#"views = ["side", "turntable:3"]"#);
+    let outputs = outputs(&manifest);
+    // 2 designs × (side + 3 frames) × 2 lighting.
+    assert_eq!(outputs.len(), 16);
+    let red_studio: Vec<&str> = outputs[..8]
+        .iter()
+        .map(String::as_str)
+        .filter(|o| o.contains("--studio--"))
+        .collect();
+    assert_eq!(
+        red_studio,
+        [
+            "signal-red--side--studio--paint.png",
+            "signal-red--turntable-3-0--studio--paint.png",
+            "signal-red--turntable-3-1--studio--paint.png",
+            "signal-red--turntable-3-2--studio--paint.png",
+        ]
+    );
+    stdout(&coatlab(&["batch", "run", s(&manifest)]));
+    let (said, html) = report(&manifest);
+    assert!(said.contains("16 tasks, 16 rendered"), "{said}");
+    assert_eq!(
+        html.matches("<div class=\"strip\" data-view=\"turntable:3\">")
+            .count(),
+        4
+    );
+    let strip = &html[html.find("<div class=\"strip\"").expect("a strip")..];
+    let strip = &strip[..strip.find("</div></td>").expect("the strip ends")];
+    let frames: Vec<usize> = (0..3)
+        .map(|k| {
+            strip
+                .find(&format!(
+                    "src=\"signal-red--turntable-3-{k}--studio--paint.png\""
+                ))
+                .unwrap_or_else(|| panic!("frame {k} in the first strip: {strip}"))
+        })
+        .collect();
+    assert!(frames.is_sorted(), "the frames in the order of the turn");
+    // Bad turntables are refused by line and key, naming the value.
+    for (view, expected) in [
+        (
+            "turntable:0",
+            "'turntable:0': 0 frames: a turntable takes 1 to 360",
+        ),
+        ("turntable:three", "N 'three' is not a whole number"),
+    ] {
+        let bad = self::manifest(&dir, &format!("views = [\"{view}\"]"));
+        let stderr = failure(&coatlab(&["batch", "plan", s(&bad)]), exit::DATA);
+        assert!(
+            stderr.contains("key `views`") && stderr.contains(expected),
+            "{stderr}"
+        );
+    }
+    let twice = self::manifest(&dir, r#"views = ["turntable:3", "turntable:3:1"]"#);
+    let stderr = failure(&coatlab(&["batch", "plan", s(&twice)]), exit::DATA);
+    assert!(
+        stderr.contains("'turntable:3:1' is there twice"),
+        "{stderr}"
+    );
+
+    if !have_chromium() {
+        return;
+    }
+    let url = format!("file://{}", s(&dir.join("deck/index.html")));
+    let dom = chromium(&["--virtual-time-budget=5000", "--dump-dom", &url]);
+    let dom = String::from_utf8_lossy(&dom.stdout);
+    assert!(
+        dom.contains(r#"id="image-check" data-loaded="16" data-total="16""#),
+        "every image loads"
+    );
+    assert_eq!(
+        dom.matches(r#"data-frames="3" data-in-row="true""#).count(),
+        4,
+        "each strip's three frames stand in one row"
+    );
+    let shot = dir.join("deck.png");
+    let _ = std::fs::remove_file(&shot);
+    chromium(&[
+        "--window-size=1200,1600",
+        &format!("--screenshot={}", s(&shot)),
+        &url,
+    ]);
+    assert!(shot.is_file(), "a screenshot of the deck");
 }

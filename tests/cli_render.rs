@@ -520,72 +520,54 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
     std::fs::write(&garbage_map, b"v/1\x01 not really an EXR").expect("write");
     let garbage_map = garbage_map.to_str().expect("utf-8").to_owned();
     let (usage, no_input) = (exit::USAGE, exit::NO_INPUT);
-    let cases: Vec<(Vec<&str>, i32, &str)> = vec![
-        (vec!["--size", "48"], usage, "WIDTHxHEIGHT"),
-        (vec!["--size", "0x10"], usage, "1 to 16384"),
-        (vec!["--size", "16384x16384"], usage, "160 bytes a pixel"),
-        (vec!["--model", "lambert"], usage, "phong-naive"),
-        (vec!["--wavelengths", "0"], usage, "--wavelengths 0"),
-        (vec!["--spp", "0"], usage, "--spp 0"),
-        (vec!["--adaptive", "maybe"], usage, "use on or off"),
+    let garbage_arg = format!("--environment {garbage_map}");
+    // Refused as a usage error: the arguments (split at spaces), the message.
+    let usage_cases: [(&str, &str); 22] = [
+        ("--size 48", "WIDTHxHEIGHT"),
+        ("--size 0x10", "1 to 16384"),
+        ("--size 16384x16384", "160 bytes a pixel"),
+        ("--model lambert", "phong-naive"),
+        ("--wavelengths 0", "--wavelengths 0"),
+        ("--spp 0", "--spp 0"),
+        ("--adaptive maybe", "use on or off"),
         (
-            vec!["--adaptive", "on", "--adaptive-floor", "0"],
-            usage,
+            "--adaptive on --adaptive-floor 0",
             "--adaptive-floor: floor 0: must be in (0, 1]",
         ),
-        (vec!["--seconds", "-1"], usage, "--seconds -1"),
-        (vec!["--environment", "moonlight"], usage, "no such file"),
+        ("--seconds -1", "--seconds -1"),
+        ("--environment moonlight", "no such file"),
+        ("--paint-material Chrome", "body, glass"),
         (
-            vec!["--environment", "/nonexistent/sky.exr"],
-            no_input,
-            "no such file",
+            "--paint-material body,Chrome",
+            "--paint-material 'Chrome': the built-in car has no such material (it has body, glass",
         ),
+        ("--view diagonal", "'diagonal' for '--view"),
+        ("--view turntable:0", "'turntable:0': 0 frames"),
+        ("--view turntable:4:4", "frame 4 of 4"),
+        ("--camera 1,2,3", "'1,2,3' for '--camera"),
+        ("--camera 0,95,5,35", "pitch 95° must be within ±89°"),
+        ("--camera 0,10,-2,35", "distance -2 m must be a positive"),
+        ("--camera gltf:0", "no camera 0 (it has none of its own)"),
+        ("--view side --camera gltf:0", "cannot be used with"),
+        ("--front +y", "'+y' for '--front"),
+        ("--front -x", "--front -x: only for a glTF --scene"),
+    ];
+    let no_input_cases = [
+        ("--environment /nonexistent/sky.exr", "no such file"),
+        ("--scene /nonexistent/car.glb", "/nonexistent/car.glb"),
         (
-            vec!["--environment", &garbage_map],
-            exit::DATA,
-            "not a readable OpenEXR file",
-        ),
-        (vec!["--paint-material", "Chrome"], usage, "body, glass"),
-        (vec!["--view", "diagonal"], usage, "'diagonal' for '--view"),
-        (vec!["--camera", "1,2,3"], usage, "'1,2,3' for '--camera"),
-        (
-            vec!["--camera", "0,95,5,35"],
-            usage,
-            "pitch 95° must be within ±89°",
-        ),
-        (
-            vec!["--camera", "0,10,-2,35"],
-            usage,
-            "distance -2 m must be a positive",
-        ),
-        (
-            vec!["--camera", "gltf:0"],
-            usage,
-            "--camera gltf:0: the scene has no camera 0 (it has none of its own)",
-        ),
-        (
-            vec!["--view", "side", "--camera", "gltf:0"],
-            usage,
-            "cannot be used with",
-        ),
-        (vec!["--front", "+y"], usage, "'+y' for '--front"),
-        (
-            vec!["--front", "-x"],
-            usage,
-            "--front -x: only for a glTF --scene",
-        ),
-        (
-            vec!["--scene", "/nonexistent/car.glb"],
-            no_input,
-            "/nonexistent/car.glb",
-        ),
-        (
-            vec!["--design", "/nonexistent/paint.toml"],
-            no_input,
+            "--design /nonexistent/paint.toml",
             "/nonexistent/paint.toml",
         ),
     ];
+    let data_case = (&*garbage_arg, exit::DATA, "not a readable OpenEXR file");
+    let cases = usage_cases
+        .map(|(args, expected)| (args, usage, expected))
+        .into_iter()
+        .chain(no_input_cases.map(|(args, expected)| (args, no_input, expected)))
+        .chain([data_case]);
     for (args, code, expected) in cases {
+        let args: Vec<&str> = args.split_whitespace().collect();
         // Small defaults for whatever the case does not set itself.
         let mut full = args.clone();
         for (flag, value) in [("--size", "8x8"), ("--spp", "1")] {
@@ -623,6 +605,58 @@ fn bad_inputs_are_refused_with_a_reason_and_no_panic() {
     let output = render_small(&png, "8x8", 1, &["--scene", cut.to_str().expect("utf-8")]);
     let err = failure(&output, exit::DATA);
     assert!(err.contains("cut.glb"), "{err}");
+}
+
+/// `--view turntable:4` writes four frames, numbered in the order of the turn
+/// after the output's name; each is another side of the car, and
+/// `turntable:4:K` alone renders frame K's very image.
+#[test]
+fn a_turntable_writes_numbered_frames() {
+    let dir = out_path("turntable");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("folder");
+    let spin = dir.join("spin.png");
+    let small = ["--wavelengths", "4", "--view"];
+    let said = stdout(&render_small(
+        &spin,
+        "32x18",
+        1,
+        &[&small[..], &["turntable:4"]].concat(),
+    ));
+    let frames: Vec<PathBuf> = (0..4).map(|k| dir.join(format!("spin-0{k}.png"))).collect();
+    let lines: Vec<&str> = said.lines().filter(|l| l.starts_with("wrote ")).collect();
+    assert_eq!(lines.len(), 4, "{said}");
+    let mut images = Vec::new();
+    for (frame, line) in frames.iter().zip(&lines) {
+        assert!(
+            line.starts_with(&format!("wrote {}", frame.display())),
+            "{line}"
+        );
+        let bytes = std::fs::read(frame).expect("the frame is written");
+        assert_eq!(png_size(&bytes), (32, 18));
+        images.push(bytes);
+    }
+    assert!(!spin.exists(), "no file under the bare name");
+    for i in 0..4 {
+        for j in i + 1..4 {
+            assert_ne!(
+                images[i], images[j],
+                "frames {i} and {j} show the same picture"
+            );
+        }
+    }
+    let alone = dir.join("frame2.png");
+    stdout(&render_small(
+        &alone,
+        "32x18",
+        1,
+        &[&small[..], &["turntable:4:2"]].concat(),
+    ));
+    assert_eq!(
+        std::fs::read(&alone).expect("frame 2 alone"),
+        images[2],
+        "turntable:4:2 is the turn's frame 2"
+    );
 }
 
 /// `--view side` renders, and not the default view's picture (which view each
@@ -672,6 +706,33 @@ fn a_files_camera_renders_and_a_missing_one_is_refused() {
         err.contains("--camera gltf:8: the scene has no camera 8 (it has 8, gltf:0 to gltf:7)"),
         "{err}"
     );
+}
+
+/// `--paint-material` takes several names, comma-separated or repeated, and
+/// paints them all: the same image either way, another than the body's alone.
+#[test]
+fn several_paint_materials_by_name() {
+    let image = |name: &str, extra: &[&str]| {
+        let out = out_path(name);
+        stdout(&render_small(
+            &out,
+            "32x18",
+            1,
+            &[&["--wavelengths", "4"], extra].concat(),
+        ));
+        std::fs::read(&out).expect("the image")
+    };
+    let listed = image("paint-listed.png", &["--paint-material", "body,glass"]);
+    let repeated = image(
+        "paint-repeated.png",
+        &["--paint-material", "body", "--paint-material", "glass"],
+    );
+    let body = image("paint-body.png", &["--paint-material", "body"]);
+    assert_eq!(
+        listed, repeated,
+        "a list and a repeated flag are the same choice"
+    );
+    assert_ne!(listed, body, "the glass carries the paint too");
 }
 
 #[test]

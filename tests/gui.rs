@@ -7,6 +7,7 @@ use std::sync::Arc;
 use coatlab_app::gui::dialogs::{
     DialogOutcome, DialogRequest, NativeFileDialog, native_dialog_availability,
 };
+use coatlab_app::gui::paint_materials::material_label;
 use coatlab_app::gui::storage::Storage;
 use coatlab_app::gui::{AppOptions, CoatlabApp, app::Tab};
 use coatlab_core::render::lighting::Lighting;
@@ -489,6 +490,16 @@ fn choose_quality_preset(h: &mut Harness<'static, CoatlabApp>, name: &str) {
     steps(h, 2);
 }
 
+/// Clicks `label`'s box in the paint list, opening the list first if it is shut.
+fn click_in_paint_list(h: &mut Harness<'static, CoatlabApp>, label: &str) {
+    if h.query_by_label(label).is_none() {
+        h.get_by_label("Paint materials").click();
+        steps(h, 2);
+    }
+    h.get_by_label(label).click();
+    steps(h, 2);
+}
+
 fn steps(h: &mut Harness<'static, CoatlabApp>, n: usize) {
     for _ in 0..n {
         h.step();
@@ -710,20 +721,22 @@ fn dropped_scenes_and_environment_maps_go_to_the_preview_and_bad_ones_change_not
     steps(&mut h, 2);
     h.get_by_label(&format!("{} warning(s)", scene.warnings.len()));
 
-    // Paint another material by name, through the combo listing the scene's materials.
+    // Paint another material too, through the list of the scene's materials with
+    // their areas; then take the loader's choice off: only the other is painted.
     let other = (0..scene.materials.len() as u32)
         .find(|i| !scene.automatic_paint.contains(i))
         .expect("a material that is not painted");
-    let name = scene.materials[other as usize].clone();
-    h.get_by_role_and_label(Role::ComboBox, "Paint material")
-        .click();
-    steps(&mut h, 2);
-    h.get_all_by_label(&name)
-        .next()
-        .expect("the material in the list")
-        .click();
-    steps(&mut h, 2);
-    assert_eq!(preview(h.state()).paint_material(), Some(other));
+    let label = |i: u32| material_label(&scene.materials[i as usize], scene.areas_m2[i as usize]);
+    click_in_paint_list(&mut h, &label(other));
+    let mut both = scene.automatic_paint.clone();
+    both.push(other);
+    both.sort_unstable();
+    assert_eq!(preview(h.state()).paint_materials(), both);
+    assert!(!preview(h.state()).paint_is_automatic());
+    for &automatic in &scene.automatic_paint {
+        click_in_paint_list(&mut h, &label(automatic));
+    }
+    assert_eq!(preview(h.state()).paint_materials(), vec![other]);
     let epoch = preview(h.state()).status().map(|s| s.epoch).unwrap_or(0);
     wait_until(&mut h, "the repainted scene", |app| {
         app.preview_status()

@@ -1,6 +1,7 @@
 //! Helpers shared by the end-to-end tests of the `coatlab` binary.
 #![allow(dead_code)] // each test crate uses its own subset
 
+pub mod batch;
 mod outcome;
 
 use std::ffi::OsStr;

@@ -27,6 +27,7 @@ pub mod fit;
 pub mod instruments;
 pub mod io;
 pub mod measurement;
+pub mod names;
 pub mod paint;
 pub mod parameter;
 pub mod quadrature;

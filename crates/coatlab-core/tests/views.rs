@@ -4,7 +4,10 @@
 
 use coatlab_core::accel::Accel;
 use coatlab_core::render::camera::Camera;
-use coatlab_core::render::view::{NamedView, SceneFraming, ViewChoice, ViewError};
+use coatlab_core::render::camera::{FRAMING_AZIMUTH_DEG, FRAMING_ELEVATION_DEG};
+use coatlab_core::render::view::{
+    NamedView, SceneFraming, Turntable, ViewChoice, ViewError, ViewParseError, ViewSpec,
+};
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::framing::car_triangles;
@@ -249,6 +252,101 @@ fn the_free_camera_is_placed_as_asked() {
     assert!((offset / 10.0 - expected).length() < 1e-4, "{offset:?}");
     assert_eq!(camera.vertical_fov_deg(), 50.0);
     assert_eq!(Vec3::from(camera.look_at()), centre);
+}
+
+/// A turntable's cameras stand on one orbit around the car's centre: one distance,
+/// one elevation, azimuths at equal steps of 360°/N from the front three-quarter's,
+/// each looking at the centre with the whole car in its frame.
+#[test]
+fn a_turntable_circles_the_car_in_equal_steps() {
+    let scene = generate(&CarParameters::default());
+    let framing = SceneFraming::new(&scene);
+    let points = car_points(&scene);
+    let (lo, hi) = framing.car_bounds().unwrap();
+    let centre = 0.5 * (Vec3::from(lo) + Vec3::from(hi));
+    let (w, h) = (320, 180);
+    let turntable = Turntable::new(8).unwrap();
+    let spec: ViewSpec = "turntable:8".parse().unwrap();
+    assert_eq!(spec, ViewSpec::Turntable(turntable));
+    assert_eq!(spec.frames().len(), 8);
+    let cameras: Vec<Camera> = spec
+        .frames()
+        .into_iter()
+        .map(|f| framing.view(f, w, h))
+        .collect();
+    let distance = (Vec3::from(cameras[0].position()) - centre).length();
+    for (k, camera) in cameras.iter().enumerate() {
+        let offset = Vec3::from(camera.position()) - centre;
+        assert!(
+            (offset.length() - distance).abs() < 1e-3 * distance,
+            "frame {k}"
+        );
+        assert_eq!(Vec3::from(camera.look_at()), centre, "frame {k}");
+        let elevation = (offset.y / offset.length()).asin().to_degrees();
+        assert!(
+            (elevation - FRAMING_ELEVATION_DEG).abs() < 1e-2,
+            "frame {k}: {elevation}"
+        );
+        // Azimuth from +Z toward +X.
+        let azimuth = offset.x.atan2(offset.z).to_degrees();
+        let expected = FRAMING_AZIMUTH_DEG + 45.0 * k as f32;
+        let step = (azimuth - expected).rem_euclid(360.0);
+        assert!(
+            step.min(360.0 - step) < 1e-2,
+            "frame {k}: azimuth {azimuth}°"
+        );
+        let (x0, x1, y0, y1) = projected_box(camera, &points);
+        assert!(
+            x0 >= 0.0 && y0 >= 0.0 && x1 <= w as f32 && y1 <= h as f32,
+            "frame {k}: the car leaves the frame ({x0}, {x1}, {y0}, {y1})"
+        );
+    }
+    // The tightest frame is filled as a named view is: the distance is no larger
+    // than the turn needs.
+    let widest = cameras
+        .iter()
+        .map(|c| {
+            let (x0, x1, y0, y1) = projected_box(c, &points);
+            ((x1 - x0) / w as f32).max((y1 - y0) / h as f32)
+        })
+        .fold(0.0, f32::max);
+    assert!(
+        widest > 0.75,
+        "the turntable's fullest frame is {widest:.2} of the image"
+    );
+    // One frame by itself is the same camera as in the whole turn.
+    let third: ViewSpec = "turntable:8:3".parse().unwrap();
+    assert_eq!(framing.view(third, w, h), cameras[3]);
+}
+
+#[test]
+fn bad_turntables_are_refused_naming_the_value() {
+    for (text, expected) in [
+        (
+            "turntable:0",
+            "'turntable:0': 0 frames: a turntable takes 1 to 360",
+        ),
+        ("turntable:361", "361 frames: a turntable takes 1 to 360"),
+        ("turntable:x", "'turntable:x': N 'x' is not a whole number"),
+        ("turntable:-3", "N '-3' is not a whole number"),
+        (
+            "turntable:8:8",
+            "'turntable:8:8': frame 8 of 8: the frames are 0 to 7",
+        ),
+        ("turntable:", "N '' is not a whole number"),
+    ] {
+        let error = text.parse::<ViewSpec>().unwrap_err();
+        assert!(matches!(error, ViewParseError::OutOfRange { .. }), "{text}");
+        assert!(error.to_string().contains(expected), "{text}: {error}");
+    }
+    let unknown = "spin".parse::<ViewSpec>().unwrap_err().to_string();
+    assert_eq!(
+        unknown,
+        "'spin' is not a view: use front-34, rear-34, side, front, rear, top, closeup or turntable:N"
+    );
+    for spec in ["side", "turntable:12", "turntable:12:11"] {
+        assert_eq!(spec.parse::<ViewSpec>().unwrap().to_string(), spec);
+    }
 }
 
 /// `--camera gltf:N`: ToyCar's cameras, carried through the loader's transform,

@@ -10,7 +10,9 @@ use coatlab_core::render::film::part::merge_parts;
 use coatlab_core::render::film::{DisplaySettings, RenderRecord};
 
 use super::failure::Failure;
-use super::render::{ImageOutput, parse_exr_compression, parse_exr_precision, program};
+use super::render::{
+    ImageOutput, out_extension, parse_exr_compression, parse_exr_precision, program,
+};
 
 #[derive(clap::Args, Debug)]
 pub struct MergeArgs {
@@ -31,20 +33,8 @@ pub struct MergeArgs {
 }
 
 pub fn run(args: &MergeArgs, out: &mut impl Write) -> anyhow::Result<()> {
-    let extension = args
-        .out
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    if !matches!(extension.as_deref(), Some("png") | Some("exr")) {
-        return Err(Failure::Usage.error(format!(
-            "--out {}: the merged image must end in .png or .exr",
-            args.out.display()
-        )));
-    }
-    if extension.as_deref() != Some("exr")
-        && (args.exr_precision.is_some() || args.exr_compression.is_some())
-    {
+    let extension = out_extension(&args.out, &["png", "exr"], "the merged image")?;
+    if extension != "exr" && (args.exr_precision.is_some() || args.exr_compression.is_some()) {
         return Err(Failure::Usage.error(format!(
             "--exr-precision/--exr-compression: only for .exr output, and --out {} is not one",
             args.out.display()

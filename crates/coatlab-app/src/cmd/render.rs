@@ -13,6 +13,7 @@ use coatlab_core::colour::spectrum::{
 };
 use coatlab_core::design::{PaintDesign, presets};
 use coatlab_core::io::exr_write::{ExrCompression, ExrPrecision};
+use coatlab_core::names::or_list;
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::adaptive::{AdaptiveError, AdaptiveSampling};
 use coatlab_core::render::environment::Environment;
@@ -23,7 +24,7 @@ use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{
     PassStats, ProgressiveRender, RenderScene, RenderSettings,
 };
-use coatlab_core::render::view::{NamedView, ViewChoice, ViewError};
+use coatlab_core::render::view::{ViewChoice, ViewError, ViewSpec};
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
@@ -37,7 +38,7 @@ pub const DEFAULT_WAVELENGTHS: usize = 32;
 /// Samples per pixel unless `--spp` or `--seconds` says otherwise.
 pub const DEFAULT_SPP: u32 = 64;
 
-#[derive(clap::Args, Debug)]
+#[derive(clap::Args, Debug, Clone)]
 pub struct RenderArgs {
     /// Paint design file (TOML); the built-in signal red when left out.
     #[arg(long)]
@@ -45,17 +46,21 @@ pub struct RenderArgs {
     /// glTF scene (.glb or .gltf); the built-in car when left out.
     #[arg(long)]
     pub scene: Option<PathBuf>,
-    /// Paint the material with exactly this name instead of the automatic choice.
-    #[arg(long)]
-    pub paint_material: Option<String>,
+    /// Paint the materials with exactly these names instead of the automatic
+    /// choice (a body split across materials): comma-separated, or the flag
+    /// repeated.
+    #[arg(long, value_delimiter = ',')]
+    pub paint_material: Vec<String>,
     /// glTF scene only: the file axis the car's nose points along (+x, -x, +z or
     /// -z) instead of the automatic orientation (docs/scenes.md).
     #[arg(long, allow_hyphen_values = true)]
     pub front: Option<Front>,
     /// Named view: front-34 (the default), rear-34, side, front, rear, top or
-    /// closeup (a panel: the left front door and wing).
+    /// closeup (a panel: the left front door and wing); or turntable:N, N frames
+    /// (1–360) around the car in equal steps, written as OUT's name with -00, -01…
+    /// before the extension; or turntable:N:K, frame K (from 0) alone, to --out.
     #[arg(long, conflicts_with = "camera")]
-    pub view: Option<NamedView>,
+    pub view: Option<ViewSpec>,
     /// A camera by hand, yaw_deg,pitch_deg,distance_m,fov_deg (yaw from the nose
     /// toward the car's left, pitch up, distance from the car's centre, vertical
     /// field of view), or gltf:N for the scene file's camera N (from 0).
@@ -238,65 +243,69 @@ fn lighting_name(argument: &str) -> String {
         .unwrap_or_else(|_| argument.to_owned())
 }
 
-/// The scene: a glTF file, or the built-in car.
+/// The scene: a glTF file, or the built-in car; `paint_materials` (names), when
+/// given, carry the design instead of the automatic choice.
 pub fn scene(
     path: Option<&Path>,
-    paint_material: Option<&str>,
+    paint_materials: &[String],
     front: Option<Front>,
 ) -> anyhow::Result<Scene> {
-    match path {
-        Some(path) => Ok(load(
+    let mut scene = match path {
+        // The loader frames and centres the car by its paint: the first name
+        // stands in for the body there.
+        Some(path) => load(
             path,
             &LoadOptions {
-                paint_material: paint_material.map(str::to_owned),
+                paint_material: paint_materials.first().cloned(),
                 front,
             },
-        )?),
-        None if front.is_some() => Err(Failure::Usage.error(format!(
-            "--front {}: only for a glTF --scene; the built-in car's nose is +z already",
-            front.map(Front::name).unwrap_or_default()
-        ))),
-        None => {
-            let mut scene = generate(&CarParameters::default());
-            if let Some(name) = paint_material {
-                let index = scene
-                    .materials
-                    .iter()
-                    .position(|m| m.name == name)
-                    .with_context(|| {
-                        let names: Vec<&str> =
-                            scene.materials.iter().map(|m| m.name.as_str()).collect();
-                        format!(
-                            "--paint-material '{name}': the built-in car has no such material \
-                             (it has {})",
-                            names.join(", ")
-                        )
-                    })
-                    .or_fail(Failure::Usage)?;
-                scene.paint_materials = vec![index as u32];
-            }
-            Ok(scene)
+        )?,
+        None if front.is_some() => {
+            return Err(Failure::Usage.error(format!(
+                "--front {}: only for a glTF --scene; the built-in car's nose is +z already",
+                front.map(Front::name).unwrap_or_default()
+            )));
         }
+        None => generate(&CarParameters::default()),
+    };
+    if !paint_materials.is_empty() {
+        scene.paint_materials = materials_named(&scene, paint_materials, path.is_none())?;
     }
+    Ok(scene)
+}
+
+/// The indices of the materials named `names` (every material of a name: a file
+/// may use one name twice), or a usage error naming the first unknown name and
+/// listing the scene's materials.
+fn materials_named(scene: &Scene, names: &[String], built_in: bool) -> anyhow::Result<Vec<u32>> {
+    let mut chosen = Vec::new();
+    for name in names {
+        let named: Vec<u32> = (0..scene.materials.len() as u32)
+            .filter(|&i| scene.materials[i as usize].name == *name)
+            .collect();
+        if named.is_empty() {
+            let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
+            return Err(Failure::Usage.error(format!(
+                "--paint-material '{name}': {} has no such material (it has {})",
+                if built_in {
+                    "the built-in car"
+                } else {
+                    "the scene"
+                },
+                or_list(&names)
+            )));
+        }
+        chosen.extend(named);
+    }
+    chosen.sort_unstable();
+    chosen.dedup();
+    Ok(chosen)
 }
 
 pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
-    let extension = args
-        .out
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    if !matches!(
-        extension.as_deref(),
-        Some("png") | Some("exr") | Some("film")
-    ) {
-        return Err(Failure::Usage.error(format!(
-            "--out {}: the output must end in .png, .exr or .film",
-            args.out.display()
-        )));
-    }
-    let part = extension.as_deref() == Some("film");
-    if extension.as_deref() != Some("exr") {
+    let extension = out_extension(&args.out, &["png", "exr", "film"], "the output")?;
+    let part = extension == "film";
+    if extension != "exr" {
         let given = [
             ("--exr-precision", args.exr_precision.is_some()),
             ("--exr-compression", args.exr_compression.is_some()),
@@ -325,15 +334,58 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
         return Err(Failure::Usage.error("--spp 0: at least one sample per pixel is needed"));
     }
     let samples = sample_range(args, part, spp)?;
+    let prepared = prepare(args)?;
+    match args.view {
+        Some(whole @ ViewSpec::Turntable(turntable)) => {
+            for (k, frame) in whole.frames().into_iter().enumerate() {
+                let frame_args = RenderArgs {
+                    view: Some(frame),
+                    out: frame_path(&args.out, k as u32, turntable.frames()),
+                    ..args.clone()
+                };
+                let rendered =
+                    render_prepared(&frame_args, &prepared, samples.clone(), time_limit, true)?;
+                write_render(&frame_args, rendered, spp, samples.clone(), out)?;
+            }
+            Ok(())
+        }
+        _ => {
+            let rendered = render_prepared(args, &prepared, samples.clone(), time_limit, true)?;
+            write_render(args, rendered, spp, samples, out)
+        }
+    }
+}
+
+/// Frame `k` of an `n`-frame turntable written to `out`: its name with `-KK`
+/// before the extension, K zero-padded to the digits of n − 1 (at least two),
+/// so the files sort in the order of the turn.
+pub fn frame_path(out: &Path, k: u32, n: u32) -> PathBuf {
+    let digits = (n.saturating_sub(1).max(1).ilog10() + 1).max(2) as usize;
+    let stem = out.file_stem().unwrap_or_default().to_string_lossy();
+    let name = match out.extension() {
+        Some(extension) => format!("{stem}-{k:0digits$}.{}", extension.to_string_lossy()),
+        None => format!("{stem}-{k:0digits$}"),
+    };
+    out.with_file_name(name)
+}
+
+/// Writes one finished render to `args.out` (a film part, an EXR or a PNG) and
+/// prints its line.
+fn write_render(
+    args: &RenderArgs,
+    rendered: Rendered,
+    spp: u32,
+    samples: Range<u32>,
+    out: &mut impl Write,
+) -> anyhow::Result<()> {
     let Rendered {
         render,
         design,
         grid,
         totals,
-    } = render_film(args, samples.clone(), time_limit, true)?;
+    } = rendered;
     let (width, height) = args.size;
-
-    if part {
+    if is_part(&args.out) {
         let header = part_header(args, &design, grid, spp, samples.clone())?;
         write_part(&args.out, &header, render.film())?;
         writeln!(
@@ -392,6 +444,24 @@ pub fn run(args: &RenderArgs, out: &mut impl Write) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `--out path`'s extension, lower-case, if it is one of `accepted`; else a usage
+/// error saying that `what` must end in one of them.
+pub fn out_extension(path: &Path, accepted: &[&str], what: &str) -> anyhow::Result<String> {
+    let extension = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .filter(|e| accepted.contains(&e.as_str()));
+    extension.ok_or_else(|| {
+        let list: Vec<String> = accepted.iter().map(|e| format!(".{e}")).collect();
+        Failure::Usage.error(format!(
+            "--out {}: {what} must end in {}",
+            path.display(),
+            or_list(&list)
+        ))
+    })
+}
+
 /// The end of a render's last line: its time, rates and SIMD path.
 fn speed(totals: &PassStats) -> String {
     format!(
@@ -421,6 +491,23 @@ pub fn render_film(
     time_limit: Option<Duration>,
     show_progress: bool,
 ) -> anyhow::Result<Rendered> {
+    let prepared = prepare(args)?;
+    render_prepared(args, &prepared, samples, time_limit, show_progress)
+}
+
+/// What every image of one `coatlab render` shares, built once: the design, its
+/// grid, the scene with its BVH, the lighting and the shading.
+pub struct Prepared {
+    design: PaintDesign,
+    grid: WavelengthGrid,
+    scene: Arc<RenderScene>,
+    environment: Arc<Environment>,
+    shading: Arc<Shading>,
+    adaptive: Option<AdaptiveSampling>,
+}
+
+/// Loads and builds what `args`' images share (see [`Prepared`]).
+pub fn prepare(args: &RenderArgs) -> anyhow::Result<Prepared> {
     let adaptive = AdaptiveSampling {
         uniform_samples: args.adaptive_uniform_spp,
         floor: args.adaptive_floor,
@@ -456,11 +543,7 @@ pub fn render_film(
         .context("cannot build the paint model")
         .or_fail(Failure::Data)?;
     let environment = environment(&args.environment, &grid)?;
-    let scene = scene(
-        args.scene.as_deref(),
-        args.paint_material.as_deref(),
-        args.front,
-    )?;
+    let scene = scene(args.scene.as_deref(), &args.paint_material, args.front)?;
     for warning in &scene.warnings {
         to_stderr(format_args!("coatlab: warning: {warning}\n"));
     }
@@ -468,30 +551,47 @@ pub fn render_film(
     let render_scene = RenderScene::new(scene)
         .context("cannot prepare the scene")
         .or_fail(Failure::Data)?;
+    Ok(Prepared {
+        design,
+        grid,
+        scene: Arc::new(render_scene),
+        environment: Arc::new(environment),
+        shading: Arc::new(shading),
+        adaptive: args.adaptive.then_some(adaptive),
+    })
+}
+
+/// Renders `args`' image (its view or camera) from what `prepared` holds; as
+/// [`render_film`].
+pub fn render_prepared(
+    args: &RenderArgs,
+    prepared: &Prepared,
+    samples: Range<u32>,
+    time_limit: Option<Duration>,
+    show_progress: bool,
+) -> anyhow::Result<Rendered> {
     let (width, height) = args.size;
-    let choice = match (args.view, args.camera) {
-        (Some(view), _) => ViewChoice::Named(view),
-        (None, Some(camera)) => camera,
-        (None, None) => ViewChoice::default(),
+    let framing = prepared.scene.framing();
+    let camera = match (args.view, args.camera) {
+        (Some(view), _) => framing.view(view, width, height),
+        (None, camera) => framing
+            .camera(&camera.unwrap_or_default(), width, height)
+            .map_err(|error| {
+                let flag = match error {
+                    ViewError::NoSuchCamera { index, .. } => format!("--camera gltf:{index}"),
+                    _ => "--camera".to_owned(),
+                };
+                Failure::Usage.error(format!("{flag}: {error}"))
+            })?,
     };
-    let camera = render_scene
-        .framing()
-        .camera(&choice, width, height)
-        .map_err(|error| {
-            let flag = match error {
-                ViewError::NoSuchCamera { index, .. } => format!("--camera gltf:{index}"),
-                _ => "--camera".to_owned(),
-            };
-            Failure::Usage.error(format!("{flag}: {error}"))
-        })?;
     let mut render = ProgressiveRender::new(
-        Arc::new(render_scene),
-        Arc::new(environment),
-        Arc::new(shading),
+        Arc::clone(&prepared.scene),
+        Arc::clone(&prepared.environment),
+        Arc::clone(&prepared.shading),
         camera,
         RenderSettings {
             seed: args.seed,
-            adaptive: args.adaptive.then_some(adaptive),
+            adaptive: prepared.adaptive,
             ..RenderSettings::default()
         },
     )
@@ -531,8 +631,8 @@ pub fn render_film(
     }
     Ok(Rendered {
         render,
-        design,
-        grid,
+        design: prepared.design.clone(),
+        grid: prepared.grid,
         totals,
     })
 }
@@ -568,9 +668,17 @@ impl ImageOutput<'_> {
 }
 
 fn is_exr(path: &Path) -> bool {
+    has_extension(path, "exr")
+}
+
+fn is_part(path: &Path) -> bool {
+    has_extension(path, "film")
+}
+
+fn has_extension(path: &Path, extension: &str) -> bool {
     path.extension()
         .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+        .is_some_and(|e| e.eq_ignore_ascii_case(extension))
 }
 
 /// The sample indices to render: `--sample-range` (a .film part only, within
@@ -656,7 +764,7 @@ pub fn render_inputs(
     let (width, height) = args.size;
     let settings = format!(
         "model={}; size={width}x{height}; wavelengths={}; spp={spp}; seed={}; exposure={}; \
-         paint-material={:?}; integrator={:?}; adaptive={}",
+         paint-material={:?}; integrator={:?}; adaptive={}; view={}",
         args.model.label(),
         args.wavelengths,
         args.seed,
@@ -664,6 +772,11 @@ pub fn render_inputs(
         args.paint_material,
         RenderSettings::default().integrator,
         args.adaptive,
+        match (args.view, args.camera) {
+            (Some(view), _) => view.to_string(),
+            (None, Some(camera)) => format!("{camera:?}"),
+            (None, None) => "default".to_owned(),
+        },
     );
     Ok(RenderInputs {
         program: program(),
@@ -783,6 +896,16 @@ mod tests {
                 .contains("160 bytes a pixel")
         );
         assert!(parse_size("16384x4097").is_err());
+    }
+
+    #[test]
+    fn turntable_frames_are_numbered_to_sort_in_order() {
+        let out = Path::new("deck/spin.png");
+        assert_eq!(frame_path(out, 3, 8), Path::new("deck/spin-03.png"));
+        assert_eq!(frame_path(out, 0, 1), Path::new("deck/spin-00.png"));
+        assert_eq!(frame_path(out, 99, 100), Path::new("deck/spin-99.png"));
+        assert_eq!(frame_path(out, 5, 360), Path::new("deck/spin-005.png"));
+        assert_eq!(frame_path(Path::new("spin"), 1, 2), Path::new("spin-01"));
     }
 
     #[test]

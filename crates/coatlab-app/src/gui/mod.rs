@@ -28,6 +28,7 @@ pub mod file_browser;
 pub mod frame_log;
 pub mod history;
 pub mod instruments_panel;
+pub mod paint_materials;
 pub mod paint_panel;
 pub mod plots;
 pub mod preview;

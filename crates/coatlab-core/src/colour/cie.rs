@@ -22,6 +22,7 @@ use thiserror::Error;
 
 use crate::colour::spectrum::{SampledSpectrum, TabulatedSpectrum, VISIBLE, WavelengthGrid};
 use crate::colour::{Lab, Xyz, lab_from_xyz};
+use crate::names::{UnknownName, by_name};
 
 const CIE_TABLES_CSV: &str = include_str!("../../data/cie_tables.csv");
 const DAYLIGHT_BASIS_CSV: &str = include_str!("../../data/cie_daylight_basis.csv");
@@ -32,8 +33,8 @@ const TABLE_STEP_NM: f64 = 5.0;
 pub enum CieError {
     #[error("unknown observer {0:?}: expected 2 (CIE 1931) or 10 (CIE 1964)")]
     UnknownObserver(String),
-    #[error("unknown illuminant {0:?}: expected D65, D50, A, F2, F7 or F11")]
-    UnknownIlluminant(String),
+    #[error(transparent)]
+    UnknownIlluminant(#[from] UnknownName),
     #[error(
         "correlated colour temperature {cct_k} K is outside the CIE daylight range 4000–25000 K"
     )]
@@ -184,10 +185,9 @@ impl FromStr for Illuminant {
 
     /// Case-insensitive name: D65, D50, A, F2, F7, F11.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Illuminant::ALL
-            .into_iter()
-            .find(|ill| ill.to_string().eq_ignore_ascii_case(s.trim()))
-            .ok_or_else(|| CieError::UnknownIlluminant(s.to_owned()))
+        Ok(by_name(s, "an illuminant", &Illuminant::ALL, |i| {
+            i.to_string()
+        })?)
     }
 }
 

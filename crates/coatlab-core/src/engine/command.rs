@@ -26,9 +26,14 @@ pub enum Command {
     /// The scene to render: its BVH is built (a file that cannot be loaded leaves
     /// the current scene).
     Scene(SceneSource),
-    /// The scene material that carries the paint instead of the loader's choice
-    /// (`None`: the loader's choice).
-    PaintMaterial(Option<u32>),
+    /// The scene materials that carry the paint instead of the loader's choice
+    /// (`None`: the loader's choice; several: a body split across materials).
+    PaintMaterials(Option<Vec<u32>>),
+    /// Toggles whether the material seen at a point of the image (fractions of
+    /// its width and height from the top left) carries the paint
+    /// ([`crate::render::pick`]); a point on no material changes nothing. The new
+    /// list is reported ([`super::events::EngineEvent::PaintMaterials`]).
+    TogglePaintAt(f32, f32),
     /// The image size, pixels.
     Size(u32, u32),
     /// Turns the view about its target by yaw and pitch, degrees.

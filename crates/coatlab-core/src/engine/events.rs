@@ -17,6 +17,9 @@ pub enum EngineEvent {
     SceneLoaded(SceneInfo),
     /// An environment map was read and now lights the scene.
     MapLoaded(PathBuf),
+    /// The materials that carry the paint now, after a pick toggled one
+    /// ([`super::command::Command::TogglePaintAt`]).
+    PaintMaterials(Vec<u32>),
     /// Something failed; the picture keeps what it had.
     Failed(EngineError),
     /// What a job run on the render thread reported ([`super::EngineThread::run_job`]).
@@ -69,6 +72,9 @@ pub struct SceneInfo {
     pub path: Option<PathBuf>,
     /// Material names, by index.
     pub materials: Vec<String>,
+    /// Each material's surface area, m², by index: what the paint list shows so
+    /// that the body's large panels stand out from trim.
+    pub areas_m2: Vec<f32>,
     /// Materials that carry the paint as the loader chose them.
     pub automatic_paint: Vec<u32>,
     /// Problems that did not stop the load.
@@ -84,6 +90,7 @@ impl SceneInfo {
             name: path.map(file_name).unwrap_or_else(|| "Built-in car".into()),
             path: path.map(Path::to_owned),
             materials: scene.materials.iter().map(|m| m.name.clone()).collect(),
+            areas_m2: scene.materials.iter().map(|m| m.area_m2).collect(),
             automatic_paint: scene.paint_materials.clone(),
             warnings: scene.warnings.clone(),
             cameras: scene.cameras.iter().map(|c| c.name.clone()).collect(),

@@ -19,8 +19,8 @@ pub(super) struct Inputs {
     pub views: Views,
     /// The lighting in use.
     pub lighting: Lighting,
-    /// The scene material painted instead of the loader's choice.
-    pub paint_override: Option<u32>,
+    /// The scene materials painted instead of the loader's choice.
+    pub paint_override: Option<Vec<u32>>,
     /// The quality knobs.
     pub quality: QualityKnobs,
     /// The full image size, pixels.
@@ -47,11 +47,11 @@ impl Inputs {
                 self.views = views;
                 Change::Views { second }
             }
-            Command::PaintMaterial(index) => {
-                if index == self.paint_override {
+            Command::PaintMaterials(chosen) => {
+                if chosen == self.paint_override {
                     return Change::Nothing;
                 }
-                self.paint_override = index;
+                self.paint_override = chosen;
                 Change::PaintMaterials
             }
             Command::Size(width, height) => {
@@ -69,6 +69,7 @@ impl Inputs {
             | Command::OpenMap(_)
             | Command::Scene(_)
             | Command::View(_)
+            | Command::TogglePaintAt(..)
             | Command::Quality(_) => Change::Nothing,
         }
     }
@@ -94,9 +95,8 @@ impl Inputs {
 
     /// The scene materials that carry the paint: the override, else the loader's.
     pub fn paint_materials(&self, automatic: &[u32]) -> Vec<u32> {
-        match self.paint_override {
-            Some(index) => vec![index],
-            None => automatic.to_vec(),
-        }
+        self.paint_override
+            .clone()
+            .unwrap_or_else(|| automatic.to_vec())
     }
 }

@@ -10,6 +10,7 @@ use crate::render::environment::Environment;
 use crate::render::film::DisplaySettings;
 use crate::render::lighting::Lighting;
 use crate::render::material::Shading;
+use crate::render::pick::{pick, toggled};
 use crate::render::reshade::ReshadeError;
 use crate::render::view::ViewChoice;
 
@@ -135,6 +136,7 @@ impl<B: RenderBackend> LiveEngine<B> {
             Command::OpenMap(path) => self.take_map(path, out),
             Command::Quality(knobs) => self.take_quality(knobs, out),
             Command::View(choice) => self.take_view(&choice, out),
+            Command::TogglePaintAt(x, y) => self.take_paint_pick(x, y, out),
             other => self.inputs.take(other),
         };
         if change == Change::Size {
@@ -159,6 +161,20 @@ impl<B: RenderBackend> LiveEngine<B> {
         self.world.info = info.clone();
         out(Output::Event(EngineEvent::SceneLoaded(info)));
         Change::Scene
+    }
+
+    fn take_paint_pick(&mut self, x: f32, y: f32, out: &mut dyn FnMut(Output)) -> Change {
+        let camera = &self.inputs.camera;
+        let (px, py) = (x * camera.width() as f32, y * camera.height() as f32);
+        let Some(hit) = pick(&self.world.scene, camera, px, py) else {
+            return Change::Nothing;
+        };
+        let painted = self
+            .inputs
+            .paint_materials(self.world.scene.paint_materials());
+        let chosen = toggled(&painted, hit.material);
+        out(Output::Event(EngineEvent::PaintMaterials(chosen.clone())));
+        self.inputs.take(Command::PaintMaterials(Some(chosen)))
     }
 
     fn take_view(&mut self, choice: &ViewChoice, out: &mut dyn FnMut(Output)) -> Change {

@@ -217,7 +217,7 @@ fn commands_that_change_nothing_rebuild_nothing() {
         Command::Design(Box::new(design())),
         Command::Views(Views::single(ShadingModel::Paint)),
         Command::Lighting(Lighting::Studio),
-        Command::PaintMaterial(None),
+        Command::PaintMaterials(None),
         Command::Size(SIZE.0, SIZE.1),
         Command::Size(0, 10),
         Command::Orbit(0.0, 0.0),
@@ -478,7 +478,31 @@ fn a_quality_preset_with_another_grid_rebuilds_lighting_tables_and_renders_on_it
 
 #[test]
 fn a_paint_material_change_rebuilds_the_shading() {
-    restarts_coarse(Command::PaintMaterial(Some(0)), retraced(0, 1, 0));
+    restarts_coarse(Command::PaintMaterials(Some(vec![0])), retraced(0, 1, 0));
+}
+
+/// A click at the image centre of the default view is on the body: the pick takes
+/// the body's paint off, a second click puts it back, and each reports the list;
+/// a click on the sky changes nothing.
+#[test]
+fn a_pick_toggles_the_material_under_the_point() {
+    let mut engine = engine();
+    let painted = |outputs: &[Output]| {
+        outputs.iter().find_map(|o| match o {
+            Output::Event(EngineEvent::PaintMaterials(list)) => Some(list.clone()),
+            _ => None,
+        })
+    };
+    let body = crate::scene::car::BODY;
+    assert_eq!(
+        painted(&apply(&mut engine, Command::TogglePaintAt(0.5, 0.5))),
+        Some(vec![])
+    );
+    assert_eq!(
+        painted(&apply(&mut engine, Command::TogglePaintAt(0.5, 0.5))),
+        Some(vec![body])
+    );
+    assert!(apply(&mut engine, Command::TogglePaintAt(0.01, 0.01)).is_empty());
 }
 
 #[test]

@@ -31,6 +31,7 @@ pub mod image_error;
 pub mod integrator;
 pub mod lighting;
 pub mod material;
+pub mod pick;
 pub mod progressive;
 pub mod reshade;
 pub mod view;

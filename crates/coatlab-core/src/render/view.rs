@@ -25,6 +25,14 @@
 //! from just behind, so its camera keeps +Y as up (orbiting from it turns about
 //! the vertical, as from any other view) and the nose is up the image.
 //!
+//! A turntable (`turntable:N`) is N cameras on one orbit: the same centre (the
+//! car's box centre), distance and elevation ([`FRAMING_ELEVATION_DEG`]), at
+//! equal steps of 360°/N in azimuth from the front three-quarter's
+//! ([`FRAMING_AZIMUTH_DEG`]) toward the car's left, so frame 0 looks from where
+//! the default view does and the car turns in place from frame to frame. The
+//! distance is the least at which the car stays within [`FRAMING_FILL`] of the
+//! half-image in every frame. `turntable:N:K` is frame K alone (from 0).
+//!
 //! A named view's distance is the least at which every vertex of the car projects
 //! within [`FRAMING_FILL`] of the half-image in both axes, with the car's projected
 //! box centred in the image; so the car fills 85 % of the tighter axis.
@@ -34,6 +42,7 @@ use std::str::FromStr;
 
 use glam::Vec3;
 
+use crate::names::{UnknownName, by_name};
 use crate::scene::framing::{Bounds, car_triangles};
 use crate::scene::{Scene, SceneCamera};
 
@@ -127,8 +136,8 @@ impl fmt::Display for NamedView {
 /// Text that names no view or camera, or a camera with values out of range.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ViewParseError {
-    #[error("'{0}' is not a view: use front-34, rear-34, side, front, rear, top or closeup")]
-    UnknownView(String),
+    #[error(transparent)]
+    UnknownView(#[from] UnknownName),
     #[error(
         "'{0}' is not a camera: use yaw_deg,pitch_deg,distance_m,fov_deg (e.g. 40,15,9,35) or gltf:N"
     )]
@@ -141,10 +150,114 @@ impl FromStr for NamedView {
     type Err = ViewParseError;
 
     fn from_str(text: &str) -> Result<Self, Self::Err> {
-        NamedView::ALL
-            .into_iter()
-            .find(|v| v.name().eq_ignore_ascii_case(text.trim()))
-            .ok_or_else(|| ViewParseError::UnknownView(text.to_owned()))
+        Ok(by_name(text, "a view", &NamedView::ALL, NamedView::name)?)
+    }
+}
+
+/// The most frames a turntable takes: one a degree.
+pub const MAX_TURNTABLE_FRAMES: u32 = 360;
+
+/// A turn around the car in equal steps of azimuth (see the module's text).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Turntable {
+    frames: u32,
+}
+
+impl Turntable {
+    /// A turntable of `frames` frames, 1 to [`MAX_TURNTABLE_FRAMES`].
+    pub fn new(frames: u32) -> Result<Self, String> {
+        if (1..=MAX_TURNTABLE_FRAMES).contains(&frames) {
+            Ok(Self { frames })
+        } else {
+            Err(format!(
+                "{frames} frames: a turntable takes 1 to {MAX_TURNTABLE_FRAMES}"
+            ))
+        }
+    }
+
+    /// How many frames make the turn.
+    pub fn frames(self) -> u32 {
+        self.frames
+    }
+
+    /// Azimuth of the camera of `frame` (from +Z toward +X), degrees.
+    pub fn azimuth_deg(self, frame: u32) -> f32 {
+        FRAMING_AZIMUTH_DEG + 360.0 * frame as f32 / self.frames as f32
+    }
+}
+
+/// A `--view` value: a named view, a whole turntable, or one frame of one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ViewSpec {
+    Named(NamedView),
+    /// Every frame of the turntable (`turntable:N`).
+    Turntable(Turntable),
+    /// One frame (`turntable:N:K`, K from 0).
+    TurntableFrame(Turntable, u32),
+}
+
+impl ViewSpec {
+    /// The single views this one stands for: a whole turntable's frames in order,
+    /// anything else itself.
+    pub fn frames(self) -> Vec<ViewSpec> {
+        match self {
+            ViewSpec::Turntable(turntable) => (0..turntable.frames)
+                .map(|k| ViewSpec::TurntableFrame(turntable, k))
+                .collect(),
+            single => vec![single],
+        }
+    }
+}
+
+impl fmt::Display for ViewSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ViewSpec::Named(view) => f.write_str(view.name()),
+            ViewSpec::Turntable(t) => write!(f, "turntable:{}", t.frames),
+            ViewSpec::TurntableFrame(t, k) => write!(f, "turntable:{}:{k}", t.frames),
+        }
+    }
+}
+
+impl FromStr for ViewSpec {
+    type Err = ViewParseError;
+
+    /// A view's name, `turntable:N` or `turntable:N:K`.
+    fn from_str(text: &str) -> Result<Self, Self::Err> {
+        let out_of_range = |problem: String| ViewParseError::OutOfRange {
+            text: text.trim().to_owned(),
+            problem,
+        };
+        let Some(rest) = text.trim().strip_prefix("turntable:") else {
+            return text.parse().map(ViewSpec::Named).map_err(|e| match e {
+                ViewParseError::UnknownView(mut unknown) => {
+                    unknown.accepted.push("turntable:N".into());
+                    ViewParseError::UnknownView(unknown)
+                }
+                other => other,
+            });
+        };
+        let whole = |part: &str, what: &str| {
+            part.trim().parse::<u32>().map_err(|_| {
+                out_of_range(format!(
+                    "{what} '{part}' is not a whole number: use turntable:N (N frames, 1 to \
+                     {MAX_TURNTABLE_FRAMES}) or turntable:N:K (frame K of N, from 0)"
+                ))
+            })
+        };
+        let (frames, frame) = match rest.split_once(':') {
+            None => (whole(rest, "N")?, None),
+            Some((frames, frame)) => (whole(frames, "N")?, Some(whole(frame, "K")?)),
+        };
+        let turntable = Turntable::new(frames).map_err(out_of_range)?;
+        match frame {
+            None => Ok(ViewSpec::Turntable(turntable)),
+            Some(k) if k < frames => Ok(ViewSpec::TurntableFrame(turntable, k)),
+            Some(k) => Err(out_of_range(format!(
+                "frame {k} of {frames}: the frames are 0 to {}",
+                frames - 1
+            ))),
+        }
     }
 }
 
@@ -385,6 +498,49 @@ impl SceneFraming {
         fit(&self.points, towards, up, FRAMING_FILL, width, height)
     }
 
+    /// The camera of `frame` of `turntable` (see the module's text); `frame` is
+    /// taken modulo the frame count.
+    pub fn turntable(&self, turntable: Turntable, frame: u32, width: u32, height: u32) -> Camera {
+        let (width, height) = (width.max(1), height.max(1));
+        let centre = self.centre();
+        let fallback = corners(self.bounds_or_point());
+        let points: &[Vec3] = if self.points.is_empty() {
+            &fallback
+        } else {
+            &self.points
+        };
+        let lens = Lens::new(FRAMING_FILL, width, height);
+        let distance = (0..turntable.frames)
+            .map(|k| {
+                let towards = direction(turntable.azimuth_deg(k), FRAMING_ELEVATION_DEG);
+                lens.least_distance(points, centre, -towards, Vec3::Y)
+            })
+            .fold(0.0, f32::max);
+        let towards = direction(
+            turntable.azimuth_deg(frame % turntable.frames),
+            FRAMING_ELEVATION_DEG,
+        );
+        Camera::new(
+            (centre + distance * towards).into(),
+            centre.into(),
+            [0.0, 1.0, 0.0],
+            FRAMING_FOV_DEG,
+            width,
+            height,
+        )
+        .expect("a turntable builds a valid camera from finite points")
+    }
+
+    /// The camera of a single view `spec`: a named view, or one turntable frame (a
+    /// whole turntable gives its frame 0).
+    pub fn view(&self, spec: ViewSpec, width: u32, height: u32) -> Camera {
+        match spec {
+            ViewSpec::Named(view) => self.named(view, width, height),
+            ViewSpec::Turntable(turntable) => self.turntable(turntable, 0, width, height),
+            ViewSpec::TurntableFrame(turntable, k) => self.turntable(turntable, k, width, height),
+        }
+    }
+
     fn bounds_or_point(&self) -> Bounds {
         self.bounds.unwrap_or(([-0.5e-3; 3], [0.5e-3; 3]))
     }
@@ -426,6 +582,49 @@ fn corners((lo, hi): Bounds) -> [Vec3; 8] {
     })
 }
 
+/// The framing lens ([`FRAMING_FOV_DEG`]) at an image's aspect, with the share of
+/// the half-image the points may fill.
+struct Lens {
+    fill: f32,
+    tan_v: f32,
+    tan_h: f32,
+}
+
+impl Lens {
+    fn new(fill: f32, width: u32, height: u32) -> Self {
+        let tan_v = (0.5 * FRAMING_FOV_DEG.to_radians()).tan();
+        Self {
+            fill,
+            tan_v,
+            tan_h: tan_v * width as f32 / height as f32,
+        }
+    }
+
+    /// The least distance from `target` back along `forward` at which every point
+    /// projects within the fill (see [`fit`]), and outside the points' box.
+    fn least_distance(&self, points: &[Vec3], target: Vec3, forward: Vec3, up: Vec3) -> f32 {
+        let forward = forward.normalize();
+        let right = forward.cross(up).normalize();
+        let image_up = right.cross(forward);
+        let (mut d, mut lo, mut hi): (f32, Vec3, Vec3) = (
+            0.0,
+            Vec3::splat(f32::INFINITY),
+            Vec3::splat(f32::NEG_INFINITY),
+        );
+        for p in points {
+            let o = *p - target;
+            let depth = o.dot(forward);
+            d = d
+                .max(o.dot(right).abs() / (self.fill * self.tan_h) - depth)
+                .max(o.dot(image_up).abs() / (self.fill * self.tan_v) - depth);
+            (lo, hi) = (lo.min(*p), hi.max(*p));
+        }
+        let half = (0.5 * (hi - lo)).max(Vec3::splat(0.5e-3));
+        // Stay outside the box whatever the aspect ratio.
+        d.max(1.01 * half.length())
+    }
+}
+
 /// Passes of [`fit`]'s re-centring: each moves the target by the projected box's
 /// offset, and the distance changes with it; after eight the test cars' views
 /// fill their tighter axis to within 1.5 % of [`FRAMING_FILL`] (tests/views.rs).
@@ -445,25 +644,12 @@ fn fit(points: &[Vec3], towards: Vec3, up: Vec3, fill: f32, width: u32, height: 
         (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
         |(lo, hi), p| (lo.min(*p), hi.max(*p)),
     );
-    let half = (0.5 * (hi - lo)).max(Vec3::splat(0.5e-3));
     let mut target = 0.5 * (lo + hi);
     let forward = -towards.normalize();
     let right = forward.cross(up).normalize();
     let image_up = right.cross(forward);
-    let tan_v = (0.5 * FRAMING_FOV_DEG.to_radians()).tan();
-    let tan_h = tan_v * width as f32 / height as f32;
-    let distance_for = |target: Vec3| {
-        let mut d: f32 = 0.0;
-        for p in points {
-            let o = *p - target;
-            let depth = o.dot(forward);
-            d = d
-                .max(o.dot(right).abs() / (fill * tan_h) - depth)
-                .max(o.dot(image_up).abs() / (fill * tan_v) - depth);
-        }
-        // Stay outside the box whatever the aspect ratio.
-        d.max(1.01 * half.length())
-    };
+    let lens = Lens::new(fill, width, height);
+    let distance_for = |target: Vec3| lens.least_distance(points, target, forward, up);
     let mut distance = distance_for(target);
     for _ in 0..CENTRING_PASSES {
         let (mut min, mut max) = (

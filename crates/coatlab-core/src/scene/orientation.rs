@@ -21,6 +21,7 @@ use std::str::FromStr;
 use glam::{DMat3, DVec3};
 
 use super::TriangleMesh;
+use crate::names::{UnknownName, by_name};
 
 /// A principal axis within this of the file's X or Z axis is taken as that axis,
 /// degrees: models authored along an axis stay exactly along it.
@@ -79,17 +80,14 @@ impl fmt::Display for Front {
 
 /// A `--front` value that names no axis.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("'{0}' is not an axis: use +x, -x, +z or -z")]
-pub struct FrontParseError(pub String);
+#[error(transparent)]
+pub struct FrontParseError(#[from] pub UnknownName);
 
 impl FromStr for Front {
     type Err = FrontParseError;
 
     fn from_str(text: &str) -> Result<Self, Self::Err> {
-        Front::ALL
-            .into_iter()
-            .find(|f| f.name().eq_ignore_ascii_case(text.trim()))
-            .ok_or_else(|| FrontParseError(text.to_owned()))
+        Ok(by_name(text, "an axis", &Front::ALL, Front::name)?)
     }
 }
 

@@ -18,7 +18,7 @@ use coatlab_core::render::material::ShadingModel;
 use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
-use coatlab_core::render::view::NamedView;
+use coatlab_core::render::view::{NamedView, ViewSpec};
 
 use crate::cmd::render::{DEFAULT_WAVELENGTHS, parse_model, parse_size};
 
@@ -134,6 +134,8 @@ pub struct Manifest {
     /// A glTF file (resolved), or `None`: the built-in car.
     pub scene: Option<PathBuf>,
     pub designs: Vec<DesignEntry>,
+    /// The `views` entries, canonical (a turntable once, as `turntable:N`);
+    /// [`view_frames`] gives the single views, one task each.
     pub views: Vec<String>,
     pub lighting: Vec<LightingEntry>,
     /// The models with the names they were given (paint, phong-naive, phong-fit).
@@ -194,6 +196,20 @@ impl Manifest {
         })?;
         let folder = path.parent().unwrap_or(Path::new("."));
         let resolve = |p: &str| folder.join(p);
+        // A path in the manifest, resolved, that must name a file: else refused
+        // with the key, the line and the file it was taken for.
+        let existing = |entry: &Spanned<String>, key: &str, what: &str| {
+            let file = resolve(entry.get_ref());
+            if file.is_file() {
+                Ok(file)
+            } else {
+                Err(at(
+                    entry.span(),
+                    key,
+                    format!("'{}': no such {what} ({})", entry.get_ref(), file.display()),
+                ))
+            }
+        };
 
         if raw.format.get_ref() != FORMAT {
             return Err(at(
@@ -223,34 +239,13 @@ impl Manifest {
         let scene = match &raw.scene {
             None => None,
             Some(s) if s.get_ref() == "builtin" => None,
-            Some(s) => {
-                let file = resolve(s.get_ref());
-                if !file.is_file() {
-                    return Err(at(
-                        s.span(),
-                        "scene",
-                        format!("'{}': no such glTF file ({})", s.get_ref(), file.display()),
-                    ));
-                }
-                Some(file)
-            }
+            Some(s) => Some(existing(s, "scene", "glTF file")?),
         };
 
         let designs = non_empty(&raw.designs, "designs", &at)?;
         let mut design_entries = Vec::new();
         for entry in designs {
-            let file = resolve(entry.get_ref());
-            if !file.is_file() {
-                return Err(at(
-                    entry.span(),
-                    "designs",
-                    format!(
-                        "'{}': no such design file ({})",
-                        entry.get_ref(),
-                        file.display()
-                    ),
-                ));
-            }
+            let file = existing(entry, "designs", "design file")?;
             let design = PaintDesign::load(&file)
                 .map_err(|e| at(entry.span(), "designs", format!("{e}")))?;
             design_entries.push((
@@ -278,19 +273,18 @@ impl Manifest {
             None => vec![DEFAULT_VIEW.name().to_owned()],
             Some(views) => {
                 let mut names = Vec::new();
+                let mut frames = Vec::new();
                 for view in non_empty(views, "views", &at)? {
-                    let named = view.get_ref().parse::<NamedView>().map_err(|_| {
-                        let known: Vec<&str> = NamedView::ALL.iter().map(|v| v.name()).collect();
-                        at(
-                            view.span(),
-                            "views",
-                            format!("'{}': not a view ({})", view.get_ref(), known.join(", ")),
-                        )
-                    })?;
-                    names.push((view.span(), named.name().to_owned()));
+                    let spec = view
+                        .get_ref()
+                        .parse::<ViewSpec>()
+                        .map_err(|e| at(view.span(), "views", e.to_string()))?;
+                    names.push(spec.to_string());
+                    frames.extend(spec.frames().iter().map(|f| (view.span(), f.to_string())));
                 }
-                unique(names.iter().cloned(), "views", &at)?;
-                names.into_iter().map(|(_, n)| n).collect()
+                // Two entries that share a frame would write one output twice.
+                unique(frames.into_iter(), "views", &at)?;
+                names
             }
         };
 
@@ -378,17 +372,7 @@ impl Manifest {
         };
         let target = match &raw.target {
             None => None,
-            Some(t) => {
-                let file = resolve(t.get_ref());
-                if !file.is_file() {
-                    return Err(at(
-                        t.span(),
-                        "target",
-                        format!("'{}': no such file ({})", t.get_ref(), file.display()),
-                    ));
-                }
-                Some(file)
-            }
+            Some(t) => Some(existing(t, "target", "file")?),
         };
         if let (None, Some(sample)) = (&target, &raw.target_sample) {
             return Err(at(
@@ -427,7 +411,7 @@ impl Manifest {
     pub fn tasks(&self) -> Vec<Task> {
         let mut tasks = Vec::new();
         for design in &self.designs {
-            for view in &self.views {
+            for view in self.views.iter().flat_map(|v| view_frames(v)) {
                 for lighting in &self.lighting {
                     for (model, shading_model) in &self.models {
                         tasks.push(Task {
@@ -440,7 +424,7 @@ impl Manifest {
                             output: format!(
                                 "{}--{}--{}--{}.{}",
                                 design.slug,
-                                view,
+                                view.replace(':', "-"),
                                 lighting.slug,
                                 model,
                                 self.image.extension()
@@ -451,6 +435,15 @@ impl Manifest {
             }
         }
         tasks
+    }
+}
+
+/// The single views of the manifest's `views` entry `view`: a turntable's
+/// frames (`turntable:N:K`, one task each), or the view itself.
+pub fn view_frames(view: &str) -> Vec<String> {
+    match view.parse::<ViewSpec>() {
+        Ok(spec) => spec.frames().iter().map(ViewSpec::to_string).collect(),
+        Err(_) => vec![view.to_owned()],
     }
 }
 

@@ -24,8 +24,8 @@ use coatlab_core::measurement::{self, Geometry, Standard, interpolate};
 use coatlab_core::paint::model::PaintModel;
 use coatlab_core::target::{Comparison, compare_designs, compare_to_standard};
 
-use super::manifest::{DesignEntry, ImageFormat, Manifest, Task};
-use super::task::{State, state};
+use super::manifest::{DesignEntry, ImageFormat, Manifest, Task, view_frames};
+use super::task::{State, create_output_folder, state};
 use crate::cmd::failure::{Classify, Failure};
 
 /// The deck's file name in the output folder.
@@ -210,14 +210,7 @@ pub fn write_deck(manifest: &Manifest) -> anyhow::Result<DeckSummary> {
         .map(|entry| design_page(manifest, entry, target.as_ref()))
         .collect::<anyhow::Result<Vec<_>>>()?;
     let html = deck_html(manifest, target.as_ref(), &tasks, &states, &pages);
-    std::fs::create_dir_all(&manifest.output)
-        .with_context(|| {
-            format!(
-                "cannot create the output folder {}",
-                manifest.output.display()
-            )
-        })
-        .or_fail(Failure::CantCreate)?;
+    create_output_folder(manifest)?;
     let path = manifest.output.join(DECK_FILE);
     write_bytes_atomically(&path, html.as_bytes()).or_fail(Failure::CantCreate)?;
     let count = |f: fn(&State) -> bool| states.iter().filter(|s| f(s)).count();
@@ -305,6 +298,9 @@ section.design { border-top: 2px solid #bbb; margin-top: 1.5em; }
 table.renders td { vertical-align: top; text-align: center; }
 figure { margin: 0; }
 figure img { max-width: 320px; display: block; background: #000; }
+.strip { display: flex; gap: 2px; overflow-x: auto; max-width: 60vw; }
+.strip figure img { max-width: 160px; }
+.strip figcaption { font-size: 70%; }
 figcaption { font-size: 0.8em; color: #555; }
 .missing { width: 320px; height: 120px; display: flex; align-items: center;
   justify-content: center; background: repeating-linear-gradient(45deg, #eee, #eee 8px, #ddd 8px, #ddd 16px);
@@ -372,6 +368,17 @@ const SCRIPT: &str = r#"
     check.textContent = "images loaded: " + loaded + " of " + images.length;
     check.dataset.loaded = String(loaded);
     check.dataset.total = String(images.length);
+    // A turntable's frames stand in one row, left to right in the order of the turn.
+    document.querySelectorAll(".strip").forEach(function (strip) {
+      var boxes = Array.prototype.map.call(strip.querySelectorAll("figure"), function (f) {
+        return f.getBoundingClientRect();
+      });
+      var inRow = boxes.every(function (b, i) {
+        return i === 0 || (b.top === boxes[0].top && b.left > boxes[i - 1].left);
+      });
+      strip.dataset.frames = String(boxes.length);
+      strip.dataset.inRow = String(inRow);
+    });
   });
 })();
 "#;
@@ -587,16 +594,28 @@ fn renders(
         h.push_str("</tr></thead><tbody>\n");
         for view in &manifest.views {
             let _ = write!(h, "<tr><th>{}</th>", esc(view));
+            let frames = view_frames(view);
             for lighting in &manifest.lighting {
-                let found = tasks.iter().zip(states).find(|(t, _)| {
-                    t.design.slug == page.entry.slug
-                        && &t.view == view
-                        && t.lighting.slug == lighting.slug
-                        && &t.model == model
-                });
+                let found = |frame: &String| {
+                    tasks.iter().zip(states).find(|(t, _)| {
+                        t.design.slug == page.entry.slug
+                            && &t.view == frame
+                            && t.lighting.slug == lighting.slug
+                            && &t.model == model
+                    })
+                };
                 h.push_str("<td>");
-                if let Some((task, state)) = found {
-                    render_cell(h, manifest, task, state);
+                if let [single] = &frames[..] {
+                    if let Some((task, state)) = found(single) {
+                        render_cell(h, manifest, task, state, SINGLE_WIDTH);
+                    }
+                } else {
+                    // A turntable: its frames side by side in the order of the turn.
+                    let _ = write!(h, "<div class=\"strip\" data-view=\"{}\">", esc(view));
+                    for (task, state) in frames.iter().filter_map(found) {
+                        render_cell(h, manifest, task, state, STRIP_WIDTH);
+                    }
+                    h.push_str("</div>");
                 }
                 h.push_str("</td>");
             }
@@ -606,7 +625,12 @@ fn renders(
     }
 }
 
-fn render_cell(h: &mut String, manifest: &Manifest, task: &Task, state: &State) {
+/// The widest a render is shown in the deck, CSS pixels: alone, and as one frame
+/// of a turntable's strip.
+const SINGLE_WIDTH: u32 = 320;
+const STRIP_WIDTH: u32 = 160;
+
+fn render_cell(h: &mut String, manifest: &Manifest, task: &Task, state: &State, widest: u32) {
     let sidecar = match state {
         State::Missing => {
             let _ = write!(
@@ -629,8 +653,8 @@ fn render_cell(h: &mut String, manifest: &Manifest, task: &Task, state: &State) 
             let _ = write!(
                 h,
                 "<a href=\"{file}\"><img src=\"{file}\" alt=\"{file}\" width=\"{}\" height=\"{}\"></a>",
-                manifest.size.0.min(320),
-                (u64::from(manifest.size.1) * u64::from(manifest.size.0.min(320))
+                manifest.size.0.min(widest),
+                (u64::from(manifest.size.1) * u64::from(manifest.size.0.min(widest))
                     / u64::from(manifest.size.0.max(1))),
             );
         }

@@ -111,7 +111,7 @@ pub fn render_args(manifest: &Manifest, task: &Task) -> RenderArgs {
     RenderArgs {
         design: Some(task.design.path.clone()),
         scene: manifest.scene.clone(),
-        paint_material: None,
+        paint_material: Vec::new(),
         environment: task.lighting.argument.clone(),
         model: task.shading_model,
         spp: Some(manifest.quality.samples_per_pixel),
@@ -198,6 +198,18 @@ pub fn state(manifest: &Manifest, task: &Task) -> anyhow::Result<State> {
     Ok(state_of(&image_path(manifest, task), &inputs_sha256))
 }
 
+/// Creates the manifest's output folder (and its parents) if it is missing.
+pub fn create_output_folder(manifest: &Manifest) -> anyhow::Result<()> {
+    std::fs::create_dir_all(&manifest.output)
+        .with_context(|| {
+            format!(
+                "cannot create the output folder {}",
+                manifest.output.display()
+            )
+        })
+        .or_fail(Failure::CantCreate)
+}
+
 /// Runs `task`: skips it if its output is up to date, else renders it.
 pub fn run_task(manifest: &Manifest, task: &Task) -> anyhow::Result<Outcome> {
     let start = Instant::now();
@@ -206,14 +218,7 @@ pub fn run_task(manifest: &Manifest, task: &Task) -> anyhow::Result<Outcome> {
     if matches!(state_of(&image, &inputs_sha256), State::Done(_)) {
         return Ok(Outcome::Skipped);
     }
-    std::fs::create_dir_all(&manifest.output)
-        .with_context(|| {
-            format!(
-                "cannot create the output folder {}",
-                manifest.output.display()
-            )
-        })
-        .or_fail(Failure::CantCreate)?;
+    create_output_folder(manifest)?;
     let args = render_args(manifest, task);
     let spp = manifest.quality.samples_per_pixel;
     let rendered = render_film(&args, 0..spp, None, false)?;

@@ -34,6 +34,7 @@ use coatlab_core::engine::{
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::lighting::Lighting;
 use coatlab_core::render::material::ShadingModel;
+use coatlab_core::render::pick::toggled;
 use coatlab_core::render::view::ViewChoice;
 use egui::{RichText, Ui};
 
@@ -83,7 +84,7 @@ pub struct Preview {
     divider: f32,
     second: Option<(String, PaintDesign)>,
     scene: Option<SceneInfo>,
-    paint_override: Option<u32>,
+    paint_override: Option<Vec<u32>>,
     /// The view chosen last (a scene opens at the default one; orbiting, zooming
     /// and panning move on from it).
     view: ViewChoice,
@@ -181,12 +182,19 @@ impl Preview {
         }
     }
 
-    /// Paints the scene material `index` instead of the loader's choice (`None`).
-    pub fn set_paint_material(&mut self, index: Option<u32>) {
-        if self.paint_override != index {
-            self.paint_override = index;
-            self.send(Command::PaintMaterial(index));
+    /// Paints the scene materials `chosen` instead of the loader's choice (`None`).
+    pub fn set_paint_materials(&mut self, chosen: Option<Vec<u32>>) {
+        if self.paint_override != chosen {
+            self.paint_override = chosen.clone();
+            self.send(Command::PaintMaterials(chosen));
         }
+    }
+
+    /// Paints material `index` too, or no longer (a click on the car, a box in
+    /// the paint list).
+    pub fn toggle_paint_material(&mut self, index: u32) {
+        let chosen = toggled(&self.paint_materials(), index);
+        self.set_paint_materials(Some(chosen));
     }
 
     /// Puts the camera at `view`: sent even when it is the view chosen last, which
@@ -201,9 +209,19 @@ impl Preview {
         self.view
     }
 
-    /// The scene material painted instead of the loader's choice, if any.
-    pub fn paint_material(&self) -> Option<u32> {
-        self.paint_override
+    /// The scene materials that carry the paint: the user's choice, else the
+    /// loader's.
+    pub fn paint_materials(&self) -> Vec<u32> {
+        match (&self.paint_override, &self.scene) {
+            (Some(chosen), _) => chosen.clone(),
+            (None, Some(scene)) => scene.automatic_paint.clone(),
+            (None, None) => Vec::new(),
+        }
+    }
+
+    /// Whether the loader's choice is painted (no user choice).
+    pub fn paint_is_automatic(&self) -> bool {
+        self.paint_override.is_none()
     }
 
     /// Writes the first view (and the second, as NAME-b.EXT, in a comparison): PNG
@@ -354,6 +372,15 @@ impl Preview {
                 self.lighting = Lighting::Map(path.clone());
                 self.map = Some((path.clone(), file_name(&path)));
                 PreviewEvent::Info(format!("Lighting: environment map {}", path.display()))
+            }
+            EngineEvent::PaintMaterials(chosen) => {
+                let names = self
+                    .scene
+                    .as_ref()
+                    .map(|s| panes::names_of(&s.materials, &chosen))
+                    .unwrap_or_default();
+                self.paint_override = Some(chosen);
+                PreviewEvent::Info(format!("Paint on: {names}"))
             }
             EngineEvent::Failed(e) => PreviewEvent::Error(e.to_string()),
             EngineEvent::Report { text, is_error } if is_error => PreviewEvent::Error(text),

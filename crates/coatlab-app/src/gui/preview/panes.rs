@@ -68,7 +68,16 @@ impl Preview {
                     egui::Sense::click_and_drag(),
                 );
                 named(&r, "Preview pane");
-                covered.extend(self.image_ui(ui, 0, rect, None));
+                let shown = self.image_ui(ui, 0, rect, None);
+                // A click (not a drag) on the car toggles its material's paint.
+                if let (true, Some(pos), Some(shown)) =
+                    (r.clicked(), r.interact_pointer_pos(), shown)
+                    && shown.contains(pos)
+                {
+                    let at = (pos - shown.min) / shown.size();
+                    self.send(Command::TogglePaintAt(at.x, at.y));
+                }
+                covered.extend(shown);
                 self.camera_input(ui, &r);
             }
             (true, CompareLayout::SideBySide) => {

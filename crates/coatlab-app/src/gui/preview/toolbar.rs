@@ -10,6 +10,7 @@ use coatlab_core::render::view::{NamedView, ViewChoice};
 use egui::{RichText, Ui};
 
 use super::super::compare::{CompareLayout, CompareMode, SCALES};
+use super::super::paint_materials::paint_materials_ui;
 use super::{Preview, PreviewRequest, panes};
 
 impl Preview {
@@ -246,29 +247,27 @@ impl Preview {
         }
     }
 
-    /// Which of the scene's materials carries the paint, and the load's warnings.
+    /// Which of the scene's materials carry the paint (a list to toggle), and the
+    /// load's warnings.
     fn paint_material_ui(&mut self, ui: &mut Ui) {
         let Some(scene) = self.scene.clone() else {
             return;
         };
-        let automatic = format!(
-            "automatic ({})",
-            panes::names_of(&scene.materials, &scene.automatic_paint)
-        );
-        let selected = match self.paint_override {
-            Some(i) => scene.materials.get(i as usize).cloned().unwrap_or_default(),
-            None => automatic.clone(),
-        };
-        let mut choice = self.paint_override;
-        egui::ComboBox::from_label("Paint material")
-            .selected_text(selected)
-            .show_ui(ui, |ui| {
-                ui.selectable_value(&mut choice, None, &automatic);
-                for (i, m) in scene.materials.iter().enumerate() {
-                    ui.selectable_value(&mut choice, Some(i as u32), m);
-                }
-            });
-        self.set_paint_material(choice);
+        let painted = self.paint_materials();
+        let automatic = self.paint_is_automatic();
+        let mut choice = None;
+        ui.menu_button("Paint materials", |ui| {
+            choice = paint_materials_ui(ui, &scene, &painted, automatic);
+        })
+        .response
+        .on_hover_text(format!(
+            "Painted: {}{}",
+            panes::names_of(&scene.materials, &painted),
+            if automatic { " (automatic)" } else { "" }
+        ));
+        if let Some(choice) = choice {
+            self.set_paint_materials(choice);
+        }
         if !scene.warnings.is_empty() {
             ui.label(
                 RichText::new(format!("{} warning(s)", scene.warnings.len()))

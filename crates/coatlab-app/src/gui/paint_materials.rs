@@ -1,0 +1,47 @@
+//! The paint list: the scene's materials with their surface areas, each toggled
+//! to carry the design or not (a real body is split across materials). The
+//! loader's choice stays until a box is changed; "Automatic" goes back to it.
+//! The list only says what the user chose: the preview sends it to the engine.
+
+use coatlab_core::engine::events::SceneInfo;
+use coatlab_core::render::pick::toggled;
+use egui::Ui;
+
+/// A material's line in the list: its name and area.
+pub fn material_label(name: &str, area_m2: f32) -> String {
+    format!("{name} ({area_m2:.2} m²)")
+}
+
+/// Draws the list of `scene`'s materials, largest first, with `painted` checked
+/// (`automatic`: that is the loader's choice). Returns the choice the user made
+/// this frame: `Some(None)` for the loader's, `Some(Some(list))` for a list.
+pub fn paint_materials_ui(
+    ui: &mut Ui,
+    scene: &SceneInfo,
+    painted: &[u32],
+    automatic: bool,
+) -> Option<Option<Vec<u32>>> {
+    let mut choice = None;
+    if ui
+        .add_enabled(!automatic, egui::Button::new("Automatic"))
+        .on_hover_text("The loader's choice: the largest glossy, coloured material")
+        .clicked()
+    {
+        choice = Some(None);
+    }
+    let mut order: Vec<usize> = (0..scene.materials.len()).collect();
+    let area = |i: usize| scene.areas_m2.get(i).copied().unwrap_or(0.0);
+    order.sort_by(|&a, &b| area(b).total_cmp(&area(a)));
+    egui::ScrollArea::vertical()
+        .max_height(320.0)
+        .show(ui, |ui| {
+            for i in order {
+                let mut on = painted.contains(&(i as u32));
+                let label = material_label(&scene.materials[i], area(i));
+                if ui.checkbox(&mut on, label).changed() {
+                    choice = Some(Some(toggled(painted, i as u32)));
+                }
+            }
+        });
+    choice
+}
