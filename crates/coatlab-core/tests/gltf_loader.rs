@@ -126,10 +126,16 @@ fn toy_car_with_external_bin_is_scaled_up() {
     };
     assert_eq!(paint_names(&scene), ["ToyCar"]);
     assert!(warns_with(&scene, "KHR_materials_clearcoat"));
-    assert!(warns_about(
-        &scene,
-        "'ToyCar': base-colour texture not used"
-    ));
+    // Its textures are decoded (PNG files next to the .gltf), none refused.
+    let toy = scene
+        .materials
+        .iter()
+        .find(|m| m.name == "ToyCar")
+        .expect("the ToyCar material");
+    assert!(toy.base_color_texture.is_some() && toy.normal_texture.is_some());
+    assert!(toy.metallic_roughness_texture.is_some() && toy.emissive_texture.is_some());
+    assert!(!warns_about(&scene, "texture not used"), "{:?}", scene.warnings);
+    assert!(!scene.mesh.texcoords[0].is_empty());
 }
 
 #[test]
