@@ -19,6 +19,10 @@ use coatlab_core::scene::Scene;
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
 use coatlab_core::scene::texture::MAX_TEXTURE_PIXELS;
 
+#[path = "support/gltf_testdata.rs"]
+mod gltf_testdata;
+use gltf_testdata::{base64, glb};
+
 /// A temporary folder, removed when dropped.
 fn folder() -> tempfile::TempDir {
     tempfile::tempdir().expect("a temporary folder")
@@ -65,7 +69,11 @@ fn png_header_only(width: u32, height: u32) -> Vec<u8> {
     // The decoder reads up to the first data chunk before it reports the size;
     // this one holds an empty zlib stream, far short of the pixels claimed.
     let empty_zlib = [0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01];
-    for (kind, data) in [(b"IHDR", &header[..]), (b"IDAT", &empty_zlib[..]), (b"IEND", &[][..])] {
+    for (kind, data) in [
+        (b"IHDR", &header[..]),
+        (b"IDAT", &empty_zlib[..]),
+        (b"IEND", &[][..]),
+    ] {
         let mut chunk = kind.to_vec();
         chunk.extend_from_slice(data);
         out.extend_from_slice(&(data.len() as u32).to_be_bytes());
@@ -90,9 +98,16 @@ fn square_gltf(image: &str, bin_extra: &[u8]) -> (String, Vec<u8>) {
     let uv: [[f32; 2]; 4] = [[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]];
     let indices: [u16; 6] = [0, 1, 2, 0, 2, 3];
     let mut bin = Vec::new();
-    positions.iter().flatten().for_each(|x| bin.extend_from_slice(&x.to_le_bytes()));
-    uv.iter().flatten().for_each(|x| bin.extend_from_slice(&x.to_le_bytes()));
-    indices.iter().for_each(|i| bin.extend_from_slice(&i.to_le_bytes()));
+    positions
+        .iter()
+        .flatten()
+        .for_each(|x| bin.extend_from_slice(&x.to_le_bytes()));
+    uv.iter()
+        .flatten()
+        .for_each(|x| bin.extend_from_slice(&x.to_le_bytes()));
+    indices
+        .iter()
+        .for_each(|i| bin.extend_from_slice(&i.to_le_bytes()));
     let image_offset = bin.len();
     bin.extend_from_slice(bin_extra);
     while !bin.len().is_multiple_of(4) {
@@ -123,25 +138,6 @@ fn square_gltf(image: &str, bin_extra: &[u8]) -> (String, Vec<u8>) {
         bin_len = bin.len(),
     );
     (json, bin)
-}
-
-/// A GLB container around `json` and `bin`.
-fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
-    let mut json = json.as_bytes().to_vec();
-    while !json.len().is_multiple_of(4) {
-        json.push(b' ');
-    }
-    let total = 12 + 8 + json.len() + 8 + bin.len();
-    let mut out = b"glTF".to_vec();
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&(total as u32).to_le_bytes());
-    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&json);
-    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(bin);
-    out
 }
 
 /// Writes the square with `image` as a GLB in `dir` and loads it.
@@ -180,14 +176,21 @@ fn base_colour_at(scene: &Scene, b: [f32; 2]) -> f32 {
 
 fn check_textured(scene: &Scene, what: &str) {
     let material = trim(scene);
-    assert!(material.base_color_texture.is_some(), "{what}: {:?}", scene.warnings);
+    assert!(
+        material.base_color_texture.is_some(),
+        "{what}: {:?}",
+        scene.warnings
+    );
     // Triangle 0 is (0,0,0), (1,0,0), (1,1,0) with u = x: its barycentric u
     // weighs vertex 1 (u = 1), so u = b[0] + b[1].
     let dark = base_colour_at(scene, [0.1, 0.05]);
     let light = base_colour_at(scene, [0.5, 0.3]);
     assert!(dark < 0.02 && light > 0.98, "{what}: {dark} {light}");
     assert!(
-        !scene.warnings.iter().any(|w| w.contains("texture not used")),
+        !scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("texture not used")),
         "{what}: {:?}",
         scene.warnings
     );
@@ -217,23 +220,6 @@ fn images_in_buffer_views_files_and_data_uris_are_decoded() {
         &[],
     );
     check_textured(&scene, "data URI");
-}
-
-fn base64(bytes: &[u8]) -> String {
-    const ALPHABET: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for chunk in bytes.chunks(3) {
-        let b = [chunk[0], *chunk.get(1).unwrap_or(&0), *chunk.get(2).unwrap_or(&0)];
-        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
-        for k in 0..4 {
-            if k <= chunk.len() {
-                out.push(ALPHABET[((n >> (18 - 6 * k)) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
 }
 
 /// Loads the square with a bad image file `name` holding `bytes` (not written
@@ -273,9 +259,17 @@ fn truncated_pngs_and_jpegs_are_warnings() {
     let png = two_tone(image::ImageFormat::Png);
     bad_image("cut.png", Some(&png[..png.len() / 2]), "cannot be decoded");
     let jpeg = two_tone(image::ImageFormat::Jpeg);
-    bad_image("cut.jpg", Some(&jpeg[..jpeg.len() / 2]), "cannot be decoded");
+    bad_image(
+        "cut.jpg",
+        Some(&jpeg[..jpeg.len() / 2]),
+        "cannot be decoded",
+    );
     // A header that promises pixels the file does not have.
-    bad_image("empty.png", Some(&png_header_only(64, 64)), "cannot be decoded");
+    bad_image(
+        "empty.png",
+        Some(&png_header_only(64, 64)),
+        "cannot be decoded",
+    );
 }
 
 #[test]
@@ -320,14 +314,12 @@ fn a_textured_part_renders_with_its_texture() {
     ];
     let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
     let n = n.map(|x| x / len);
-    let geometry = RenderGeometry::new(scene.mesh.clone(), false).expect("geometry");
-    let environment = Environment::studio(&grid);
-    let tracer = PathTracer::new(
-        &geometry,
-        &environment,
-        &shading,
-        IntegratorSettings::default(),
+    let settings = IntegratorSettings::default();
+    let (geometry, environment) = (
+        RenderGeometry::new(scene.mesh.clone(), false).expect("geometry"),
+        Environment::studio(&grid),
     );
+    let tracer = PathTracer::new(&geometry, &environment, &shading, settings);
     let mut buffers = PathBuffers::new(tracer.len());
     let mut out = vec![0.0; tracer.len()];
     // Barycentric points with u = b0 + b1 in [u_from, u_from + 0.3].
@@ -338,15 +330,17 @@ fn a_textured_part_renders_with_its_texture() {
             let [jx, jy] = sampler.next_2d();
             let b1 = 0.1 * jy;
             let b0 = u_from + 0.2 * jx;
-            let p: [f32; 3] =
-                std::array::from_fn(|k| p0[k] + b0 * e1[k] + b1 * e2[k] + 2.0 * n[k]);
+            let p: [f32; 3] = std::array::from_fn(|k| p0[k] + b0 * e1[k] + b1 * e2[k] + 2.0 * n[k]);
             tracer.radiance(p, n.map(|x| -x), &mut sampler, &mut buffers, &mut out);
             let v = f64::from(out.iter().sum::<f32>()) / out.len() as f64;
             sum += v;
             sum2 += v * v;
         }
         let m = sum / f64::from(n_paths);
-        (m, ((sum2 / f64::from(n_paths) - m * m).max(0.0) / f64::from(n_paths)).sqrt())
+        (
+            m,
+            ((sum2 / f64::from(n_paths) - m * m).max(0.0) / f64::from(n_paths)).sqrt(),
+        )
     };
     let (dark, dark_se) = mean(0.05);
     let (light, light_se) = mean(0.65);

@@ -49,8 +49,8 @@ use crate::render::environment::{
 };
 use crate::render::geometry::{BatchScratch, Frame, RenderGeometry, Surface, SurfaceHit, dot};
 use crate::render::material::{Shading, SimpleMaterial, SurfaceExtras};
-use crate::render::texturing::{PIXEL_SPREAD_RAD, TexturePoint, surface_parameters};
 use crate::render::sampler::PixelSampler;
+use crate::render::texturing::{PIXEL_SPREAD_RAD, TexturePoint, surface_parameters};
 
 /// How far and how long paths run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -601,8 +601,7 @@ impl<'a> PathTracer<'a> {
                     lane.alive = false;
                     continue;
                 };
-                let (LookUp::Light(light_sample), Some(plain)) = (found, self.material(hit))
-                else {
+                let (LookUp::Light(light_sample), Some(plain)) = (found, self.material(hit)) else {
                     // The last bounce's hit, or a floor this lighting has not.
                     lane.alive = false;
                     continue;

@@ -15,6 +15,13 @@
 //! | a(λ), diffuse albedo | 1 | [0, 1] | (1 − metallic) × base colour, upsampled |
 //! | F₀(λ), specular colour | 1 | [0, 1] | 0.04 (dielectric) mixed to the base colour by metallic |
 //! | m, lobe exponent | 1 | [0, [`MAX_SIMPLE_EXPONENT`]] | 2/α² − 2 with α = roughness² (the Blinn–Phong equivalent of GGX's α) |
+//! | o, occlusion | 1 | [0, 1] | the occlusion texture (1 without one); multiplies a(λ) |
+//!
+//! A textured material's base colour, metallic, roughness and occlusion are taken
+//! at each hit ([`crate::render::texturing`]) and the material is built there by
+//! [`SimpleMaterial::from_parameters`]; [`Shading::extras`] says which materials
+//! need that, and which emit. What is left out (GGX conductors and dielectrics,
+//! glass, alpha, clear coat on other parts) is listed in `docs/materials.md`.
 //!
 //! Base colours are turned into smooth reflectance spectra by
 //! [`RgbUpsampler::reflectance`]. The lobe's 1/max(cos θi, cos θo) makes it

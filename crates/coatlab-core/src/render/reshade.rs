@@ -93,7 +93,9 @@ pub enum ReshadeError {
     },
     /// A material other than the paint is textured: the replay does not repeat
     /// its texture look-ups.
-    #[error("the scene has textured materials, which re-shading does not replay: its paths must be traced anew")]
+    #[error(
+        "the scene has textured materials, which re-shading does not replay: its paths must be traced anew"
+    )]
     Textured,
 }
 

@@ -146,7 +146,11 @@ impl TriangleFrame {
             let dp_dv = std::array::from_fn(|c| (e2[c] * d1[0] - e1[c] * d2[0]) * r);
             Some(SetFrame {
                 uv,
-                units_per_m: if units_per_m.is_finite() { units_per_m } else { 0.0 },
+                units_per_m: if units_per_m.is_finite() {
+                    units_per_m
+                } else {
+                    0.0
+                },
                 dp_du,
                 dp_dv,
             })
@@ -171,7 +175,11 @@ impl TriangleFrame {
 
     /// The normal a normal-map texel gives.
     fn normal(&self, texture: &TextureRef, texel: [f32; 4]) -> Option<[f32; 3]> {
-        let set = self.sets.get(texture.texcoord as usize).copied().flatten()?;
+        let set = self
+            .sets
+            .get(texture.texcoord as usize)
+            .copied()
+            .flatten()?;
         let n = self.normal;
         // Gram–Schmidt: the tangent across the normal, the bitangent across both.
         let t = normalise(sub(set.dp_du, scale(n, dot(set.dp_du, n))))?;
@@ -245,9 +253,21 @@ mod tests {
     fn two_tone() -> Arc<Texture> {
         // Left half black, right half white (sRGB), 64 × 64.
         let texels = (0..64 * 64)
-            .map(|i| if i % 64 < 32 { [0, 0, 0, 255] } else { [255; 4] })
+            .map(|i| {
+                if i % 64 < 32 {
+                    [0, 0, 0, 255]
+                } else {
+                    [255; 4]
+                }
+            })
             .collect();
-        Arc::new(Texture::from_rgba8("two-tone", 64, 64, texels, TexelEncoding::Srgb))
+        Arc::new(Texture::from_rgba8(
+            "two-tone",
+            64,
+            64,
+            texels,
+            TexelEncoding::Srgb,
+        ))
     }
 
     #[test]

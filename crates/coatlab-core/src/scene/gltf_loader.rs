@@ -1033,26 +1033,16 @@ fn document_materials(
                 pbr.metallic_roughness_texture().map(TexInfo::from_info),
                 TexelEncoding::Linear,
             );
-            let normal_texture = texture(
-                "normal",
-                m.normal_texture().map(|t| TexInfo {
-                    tex_coord: t.tex_coord(),
-                    transform: t.extension_value("KHR_texture_transform").map(json_transform),
-                    scale: t.scale(),
-                    texture: t.texture(),
-                }),
-                TexelEncoding::Linear,
-            );
-            let occlusion_texture = texture(
-                "occlusion",
-                m.occlusion_texture().map(|t| TexInfo {
-                    tex_coord: t.tex_coord(),
-                    transform: t.extension_value("KHR_texture_transform").map(json_transform),
-                    scale: t.strength(),
-                    texture: t.texture(),
-                }),
-                TexelEncoding::Linear,
-            );
+            let normal = m.normal_texture().map(|t| {
+                let transform = t.extension_value(TRANSFORM);
+                TexInfo::scaled(t.texture(), t.tex_coord(), transform, t.scale())
+            });
+            let occlusion = m.occlusion_texture().map(|t| {
+                let transform = t.extension_value(TRANSFORM);
+                TexInfo::scaled(t.texture(), t.tex_coord(), transform, t.strength())
+            });
+            let normal_texture = texture("normal", normal, TexelEncoding::Linear);
+            let occlusion_texture = texture("occlusion", occlusion, TexelEncoding::Linear);
             let emissive_texture = texture(
                 "emissive",
                 m.emissive_texture().map(TexInfo::from_info),
@@ -1109,6 +1099,27 @@ impl<'a> TexInfo<'a> {
     }
 }
 
+impl<'a> TexInfo<'a> {
+    /// A normal or occlusion texture slot, with its scale or strength and its
+    /// transform's JSON (the `gltf` crate types no transform on these slots).
+    fn scaled(
+        texture: gltf::Texture<'a>,
+        tex_coord: u32,
+        transform: Option<&json::Value>,
+        scale: f32,
+    ) -> Self {
+        Self {
+            texture,
+            tex_coord,
+            transform: transform.map(json_transform),
+            scale,
+        }
+    }
+}
+
+/// The texture transform extension's name.
+const TRANSFORM: &str = "KHR_texture_transform";
+
 /// KHR_texture_transform read from its JSON (the normal and occlusion texture
 /// infos, which the `gltf` crate does not type); missing or malformed members
 /// keep their defaults.
@@ -1162,10 +1173,16 @@ impl ImageSource<'_> {
             Some((t, set)) => (t, set.unwrap_or(info.tex_coord)),
             None => (UvTransform::default(), info.tex_coord),
         };
-        let finite = transform.offset.iter().chain(&transform.scale).all(|x| x.is_finite())
+        let finite = transform
+            .offset
+            .iter()
+            .chain(&transform.scale)
+            .all(|x| x.is_finite())
             && transform.rotation_rad.is_finite();
         let result = if tex_coord > 1 {
-            Err(format!("TEXCOORD_{tex_coord} is not read (only sets 0 and 1)"))
+            Err(format!(
+                "TEXCOORD_{tex_coord} is not read (only sets 0 and 1)"
+            ))
         } else if !finite {
             Err("KHR_texture_transform has non-finite values".into())
         } else {
@@ -1185,7 +1202,11 @@ impl ImageSource<'_> {
                     texcoord: tex_coord,
                     transform,
                     wrap: [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())],
-                    scale: if info.scale.is_finite() { info.scale } else { 1.0 },
+                    scale: if info.scale.is_finite() {
+                        info.scale
+                    } else {
+                        1.0
+                    },
                 })
             }
             Err(why) => {
@@ -1211,20 +1232,34 @@ impl ImageSource<'_> {
         result
     }
 
-    fn decode(&self, image: &gltf::Image<'_>, encoding: TexelEncoding) -> Result<Arc<Texture>, String> {
+    fn decode(
+        &self,
+        image: &gltf::Image<'_>,
+        encoding: TexelEncoding,
+    ) -> Result<Arc<Texture>, String> {
         let label = |what: String| match image.name() {
             Some(name) => format!("{what} ('{name}')"),
             None => what,
         };
         let (name, bytes, mime) = match image.source() {
             gltf::image::Source::View { view, mime_type } => {
-                let name = label(format!("image {} (buffer view {})", image.index(), view.index()));
+                let name = label(format!(
+                    "image {} (buffer view {})",
+                    image.index(),
+                    view.index()
+                ));
                 let buffer = self.buffers.get(view.buffer().index());
                 let start = view.offset();
                 let bytes = buffer
                     .and_then(|b| b.get(start..start.checked_add(view.length())?))
-                    .ok_or_else(|| format!("{name}: buffer view {} runs past its buffer", view.index()))?;
-                (name, std::borrow::Cow::Borrowed(bytes), Some(mime_type.to_owned()))
+                    .ok_or_else(|| {
+                        format!("{name}: buffer view {} runs past its buffer", view.index())
+                    })?;
+                (
+                    name,
+                    std::borrow::Cow::Borrowed(bytes),
+                    Some(mime_type.to_owned()),
+                )
             }
             gltf::image::Source::Uri { uri, mime_type } if uri.starts_with("data:") => {
                 let name = label(format!("image {} (data URI)", image.index()));
@@ -1240,8 +1275,13 @@ impl ImageSource<'_> {
                 let dir = self.file.parent().unwrap_or(Path::new(""));
                 let image_path = dir.join(percent_decode(uri));
                 let name = image_path.display().to_string();
-                let bytes = std::fs::read(&image_path).map_err(|e| format!("cannot read {name}: {e}"))?;
-                (name, std::borrow::Cow::Owned(bytes), mime_type.map(str::to_owned))
+                let bytes =
+                    std::fs::read(&image_path).map_err(|e| format!("cannot read {name}: {e}"))?;
+                (
+                    name,
+                    std::borrow::Cow::Owned(bytes),
+                    mime_type.map(str::to_owned),
+                )
             }
         };
         Texture::decode(&name, &bytes, mime.as_deref(), encoding)

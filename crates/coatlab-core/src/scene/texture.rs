@@ -13,8 +13,8 @@
 //! averaged rather than point-sampled and do not alias. glTF's magnification and
 //! minification filters are not followed: every look-up is filtered this way.
 //!
-//! A texture that cannot be used (too large, truncated, missing, a format other
-//! than PNG or JPEG) is a [`TextureError`]; the loader turns it into a warning and
+//! An image that cannot be used (too large, truncated, a format other than PNG or
+//! JPEG) is a [`TextureError`]; the loader turns it into a warning and
 //! the material's factor stands in.
 
 use std::io::Cursor;
@@ -62,28 +62,28 @@ impl WrapMode {
     }
 }
 
-/// Why an image cannot be used as a texture. Each message names the image.
+/// Why an image cannot be used as a texture, naming the image.
 #[derive(Debug, thiserror::Error)]
-pub enum TextureError {
+#[error("image '{image}': {problem}")]
+pub struct TextureError {
+    /// The image's name (its file, or its index and buffer view).
+    pub image: String,
+    /// What is wrong with it.
+    pub problem: TextureProblem,
+}
+
+/// What is wrong with an image.
+#[derive(Debug, thiserror::Error)]
+pub enum TextureProblem {
     /// The header claims more pixels than [`MAX_TEXTURE_PIXELS`].
-    #[error(
-        "image '{image}': its header claims {width} × {height} pixels, more than the limit of {limit}"
-    )]
-    TooLarge {
-        image: String,
-        width: u32,
-        height: u32,
-        limit: u64,
-    },
+    #[error("its header claims {width} × {height} pixels, more than the limit of {limit}")]
+    TooLarge { width: u32, height: u32, limit: u64 },
     /// Not PNG or JPEG.
-    #[error("image '{image}': unsupported format ({details}); PNG and JPEG are supported")]
-    Unsupported { image: String, details: String },
+    #[error("unsupported format ({0}); PNG and JPEG are supported")]
+    Unsupported(String),
     /// Truncated or corrupt data.
-    #[error("image '{image}': cannot be decoded: {details}")]
-    Corrupt { image: String, details: String },
-    /// The file (or buffer view) holding it could not be read.
-    #[error("image '{image}': cannot be read: {details}")]
-    Unreadable { image: String, details: String },
+    #[error("cannot be decoded: {0}")]
+    Corrupt(String),
 }
 
 /// One level of a mip-map chain.
@@ -130,40 +130,33 @@ impl Texture {
         encoding: TexelEncoding,
         limit: u64,
     ) -> Result<Self, TextureError> {
-        let image = || name.to_owned();
+        let fail = |problem| TextureError {
+            image: name.to_owned(),
+            problem,
+        };
         let format = match mime {
             Some("image/png") => image::ImageFormat::Png,
             Some("image/jpeg") => image::ImageFormat::Jpeg,
-            _ => image::guess_format(bytes).map_err(|e| TextureError::Unsupported {
-                image: image(),
-                details: e.to_string(),
-            })?,
+            _ => image::guess_format(bytes)
+                .map_err(|e| fail(TextureProblem::Unsupported(e.to_string())))?,
         };
         if !matches!(format, image::ImageFormat::Png | image::ImageFormat::Jpeg) {
-            return Err(TextureError::Unsupported {
-                image: image(),
-                details: format!("{format:?}"),
-            });
+            return Err(fail(TextureProblem::Unsupported(format!("{format:?}"))));
         }
-        let corrupt = |e: image::ImageError| TextureError::Corrupt {
-            image: image(),
-            details: e.to_string(),
-        };
+        let corrupt = |e: image::ImageError| fail(TextureProblem::Corrupt(e.to_string()));
         let reader = || image::ImageReader::with_format(Cursor::new(bytes), format);
         let (width, height) = reader().into_dimensions().map_err(corrupt)?;
         if u64::from(width) * u64::from(height) > limit {
-            return Err(TextureError::TooLarge {
-                image: image(),
+            return Err(fail(TextureProblem::TooLarge {
                 width,
                 height,
                 limit,
-            });
+            }));
         }
         if width == 0 || height == 0 {
-            return Err(TextureError::Corrupt {
-                image: image(),
-                details: "the image has no pixels".into(),
-            });
+            return Err(fail(TextureProblem::Corrupt(
+                "the image has no pixels".into(),
+            )));
         }
         let mut reader = reader();
         // The decoder's own allocation guard, set to what the header allowed
@@ -191,7 +184,11 @@ impl Texture {
         encoding: TexelEncoding,
     ) -> Self {
         assert!(width > 0 && height > 0, "texture without texels");
-        assert_eq!(texels.len(), width as usize * height as usize, "texel count");
+        assert_eq!(
+            texels.len(),
+            width as usize * height as usize,
+            "texel count"
+        );
         let mut levels = vec![MipLevel {
             width,
             height,
@@ -292,9 +289,9 @@ fn decode_table(encoding: TexelEncoding) -> &'static [f32; 256] {
     static SRGB: OnceLock<[f32; 256]> = OnceLock::new();
     static LINEAR: OnceLock<[f32; 256]> = OnceLock::new();
     match encoding {
-        TexelEncoding::Srgb => SRGB.get_or_init(|| {
-            std::array::from_fn(|i| srgb_to_linear(i as f32 / 255.0))
-        }),
+        TexelEncoding::Srgb => {
+            SRGB.get_or_init(|| std::array::from_fn(|i| srgb_to_linear(i as f32 / 255.0)))
+        }
         TexelEncoding::Linear => LINEAR.get_or_init(|| std::array::from_fn(|i| i as f32 / 255.0)),
     }
 }
@@ -501,11 +498,12 @@ mod tests {
 
     #[test]
     fn bad_images_are_errors_naming_them() {
-        let e = Texture::decode("x.png", b"not an image", None, TexelEncoding::Linear);
-        assert!(matches!(e, Err(TextureError::Unsupported { .. })));
-        assert!(e.unwrap_err().to_string().contains("x.png"));
+        let e = Texture::decode("x.png", b"not an image", None, TexelEncoding::Linear)
+            .expect_err("not an image");
+        assert!(matches!(e.problem, TextureProblem::Unsupported(_)));
+        assert!(e.to_string().contains("x.png"));
         let gif = b"GIF89a\x01\x00\x01\x00\x00\x00\x00;";
-        let e = Texture::decode("y.gif", gif, None, TexelEncoding::Linear);
-        assert!(matches!(e, Err(TextureError::Unsupported { .. })), "{e:?}");
+        let e = Texture::decode("y.gif", gif, None, TexelEncoding::Linear).expect_err("a GIF");
+        assert!(matches!(e.problem, TextureProblem::Unsupported(_)), "{e:?}");
     }
 }
