@@ -9,7 +9,7 @@ use coatlab_core::scene::orientation::Front;
 
 #[path = "support/gltf_testdata.rs"]
 mod gltf_testdata;
-use gltf_testdata::testdata;
+use gltf_testdata::{base64, glb, testdata};
 
 /// Checks that `$result` is an error matching `$pattern` (showing it where not);
 /// the error.
@@ -126,10 +126,20 @@ fn toy_car_with_external_bin_is_scaled_up() {
     };
     assert_eq!(paint_names(&scene), ["ToyCar"]);
     assert!(warns_with(&scene, "KHR_materials_clearcoat"));
-    assert!(warns_about(
-        &scene,
-        "'ToyCar': base-colour texture not used"
-    ));
+    // Its textures are decoded (PNG files next to the .gltf), none refused.
+    let toy = scene
+        .materials
+        .iter()
+        .find(|m| m.name == "ToyCar")
+        .expect("the ToyCar material");
+    assert!(toy.base_color_texture.is_some() && toy.normal_texture.is_some());
+    assert!(toy.metallic_roughness_texture.is_some() && toy.emissive_texture.is_some());
+    assert!(
+        !warns_about(&scene, "texture not used"),
+        "{:?}",
+        scene.warnings
+    );
+    assert!(!scene.mesh.texcoords[0].is_empty());
 }
 
 #[test]
@@ -289,26 +299,6 @@ fn gltf_json(
     )
 }
 
-/// A GLB container around `json` and `bin`.
-fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
-    let mut json = json.as_bytes().to_vec();
-    while !json.len().is_multiple_of(4) {
-        json.push(b' ');
-    }
-    let total = 12 + 8 + json.len() + 8 + bin.len();
-    let mut out = Vec::new();
-    out.extend_from_slice(b"glTF");
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&(total as u32).to_le_bytes());
-    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&json);
-    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(bin);
-    out
-}
-
 /// A unit right triangle in the x-y plane, facing +z.
 const TRIANGLE: [[f32; 3]; 3] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
 
@@ -379,27 +369,6 @@ fn gltf_with_external_and_data_uri_buffers() {
     let path = tmp.write("embedded.gltf", json.as_bytes());
     let scene = load(&path, &LoadOptions::default()).unwrap();
     assert_eq!(scene.mesh.triangle_count(), 1);
-}
-
-fn base64(bytes: &[u8]) -> String {
-    const ABC: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
-        for k in 0..4 {
-            if k <= chunk.len() {
-                out.push(ABC[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
 }
 
 #[test]

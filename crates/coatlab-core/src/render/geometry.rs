@@ -19,6 +19,11 @@ pub struct SurfaceHit {
     pub shading_normal: [f32; 3],
     /// What was hit.
     pub surface: Surface,
+    /// The mesh triangle hit (0 for the floor).
+    pub triangle: u32,
+    /// Barycentric coordinates (u, v) of the triangle's vertices 1 and 2 at the
+    /// hit (0 for the floor), for texture look-ups.
+    pub barycentric: [f32; 2],
 }
 
 /// The kind of surface hit.
@@ -106,6 +111,8 @@ impl RenderGeometry {
                     geometric_normal: [0.0, 1.0, 0.0],
                     shading_normal: [0.0, 1.0, 0.0],
                     surface: Surface::Floor,
+                    triangle: 0,
+                    barycentric: [0.0; 2],
                 });
             }
         }
@@ -210,6 +217,8 @@ impl RenderGeometry {
             surface: Surface::Mesh {
                 material: self.mesh.triangle_material[hit.triangle as usize],
             },
+            triangle: hit.triangle,
+            barycentric: hit.barycentric,
         }
     }
 

@@ -35,6 +35,12 @@
 //!
 //! Surfaces reflect only (no transmission): the car's glass is a dark, glossy
 //! reflector, which is how it reads in a paint preview. Every surface is two-sided.
+//!
+//! Textured materials are evaluated at each hit ([`crate::render::texturing`]: the
+//! parameters there, a normal map's normal) into a BSDF of their own. Emissive
+//! surfaces (lamps) add their radiance where a path shades them, with weight 1: no
+//! light sample aims at them. Paths end at the last bounce's hit without shading
+//! it, so a lamp seen only there is missed, like the rest of that truncation.
 
 use crate::accel::{BATCH_LANES, RayQuery};
 use crate::paint::model::SpectralBsdf;
@@ -42,8 +48,9 @@ use crate::render::environment::{
     DirectionLookUp, EnvSample, Environment, LocatedSample, SampleLookUp,
 };
 use crate::render::geometry::{BatchScratch, Frame, RenderGeometry, Surface, SurfaceHit, dot};
-use crate::render::material::{Shading, SimpleMaterial};
+use crate::render::material::{Shading, SimpleMaterial, SurfaceExtras};
 use crate::render::sampler::PixelSampler;
+use crate::render::texturing::{PIXEL_SPREAD_RAD, TexturePoint, surface_parameters};
 
 /// How far and how long paths run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -185,6 +192,8 @@ struct Lane {
     /// Whether the previous vertex was on the floor (whose escapes count 0 under
     /// [`IntegratorSettings::floor_light_only`]).
     previous_floor: bool,
+    /// Length of the path so far, m (the ray cone's width for texture look-ups).
+    travelled_m: f32,
     bounce: u32,
     alive: bool,
     /// The vertex being shaded, told to the recorder once its shadow ray is known.
@@ -448,6 +457,7 @@ impl<'a> PathTracer<'a> {
             previous_pdf: 0.0,
             previous_delta: true,
             previous_floor: false,
+            travelled_m: 0.0,
             bounce: 0,
             alive: true,
             record: None,
@@ -591,19 +601,63 @@ impl<'a> PathTracer<'a> {
                     lane.alive = false;
                     continue;
                 };
-                let (LookUp::Light(light_sample), Some(material)) = (found, self.material(hit))
-                else {
+                let (LookUp::Light(light_sample), Some(plain)) = (found, self.material(hit)) else {
                     // The last bounce's hit, or a floor this lighting has not.
                     lane.alive = false;
                     continue;
                 };
                 let to_viewer = [-ray_dir[0], -ray_dir[1], -ray_dir[2]];
+                let travelled_m = lane.travelled_m + hit.t;
+                // Textures and emission: the material's parameters at this hit (a
+                // BSDF of its own) and its emitted light, which no light sample
+                // reaches and so counts fully.
+                let textured: SimpleMaterial;
+                let mut mapped_normal = None;
+                let material: &dyn SpectralBsdf = match hit.surface {
+                    Surface::Mesh { material: index } => match self.shading.extras(index) {
+                        None => plain,
+                        Some(SurfaceExtras::Emissive(emission)) => {
+                            add_emission(out, throughput, emission);
+                            plain
+                        }
+                        Some(SurfaceExtras::Textured(scene_material)) => {
+                            let parameters = surface_parameters(
+                                scene_material,
+                                self.geometry.mesh(),
+                                &TexturePoint {
+                                    triangle: hit.triangle,
+                                    barycentric: hit.barycentric,
+                                    shading_normal: hit.shading_normal,
+                                    footprint_m: travelled_m * PIXEL_SPREAD_RAD,
+                                },
+                            );
+                            let upsampler = self.shading.upsampler();
+                            let e = parameters.emission;
+                            if e.red > 0.0 || e.green > 0.0 || e.blue > 0.0 {
+                                upsampler.emission(e, f);
+                                add_emission(out, throughput, f);
+                            }
+                            mapped_normal = parameters.normal;
+                            textured = SimpleMaterial::from_parameters(
+                                parameters.base_color,
+                                parameters.metallic,
+                                parameters.roughness,
+                                parameters.occlusion,
+                                upsampler,
+                                self.shading.channels(),
+                            );
+                            &textured
+                        }
+                    },
+                    Surface::Floor => plain,
+                };
                 // Interpolated normals can face away from the viewer near silhouettes;
-                // shading with them would put ωo below the surface.
-                let normal = if dot(hit.shading_normal, to_viewer) > 0.0 {
-                    hit.shading_normal
-                } else {
-                    hit.geometric_normal
+                // shading with them would put ωo below the surface. So can a normal
+                // map's, which then gives way to the interpolated normal.
+                let normal = match mapped_normal {
+                    Some(n) if dot(n, to_viewer) > 0.0 => n,
+                    _ if dot(hit.shading_normal, to_viewer) > 0.0 => hit.shading_normal,
+                    _ => hit.geometric_normal,
                 };
                 let frame = Frame::from_normal(normal);
                 let wo = frame.to_local(to_viewer);
@@ -699,6 +753,7 @@ impl<'a> PathTracer<'a> {
                 lane.previous_pdf = sample.pdf;
                 lane.previous_delta = sample.delta;
                 lane.previous_floor = on_floor;
+                lane.travelled_m = travelled_m;
                 lane.origin = RenderGeometry::spawn_origin(hit, next_dir);
                 lane.dir = next_dir;
                 lane.bounce += 1;
@@ -829,6 +884,14 @@ fn scale_and_largest(throughput: &mut [f32], weight: &[f32]) -> f32 {
         largest[0] = largest[0].max(*t);
     }
     largest.into_iter().fold(0.0, f32::max)
+}
+
+/// Adds a surface's emitted radiance, seen through the path's throughput.
+#[inline]
+fn add_emission(out: &mut [f32], throughput: &[f32], emission: &[f32]) {
+    for ((o, t), e) in out.iter_mut().zip(throughput).zip(emission) {
+        *o += t * e;
+    }
 }
 
 /// Veach's power heuristic (β = 2) for the strategy with density `a` against `b`.

@@ -15,6 +15,13 @@
 //! | a(λ), diffuse albedo | 1 | [0, 1] | (1 − metallic) × base colour, upsampled |
 //! | F₀(λ), specular colour | 1 | [0, 1] | 0.04 (dielectric) mixed to the base colour by metallic |
 //! | m, lobe exponent | 1 | [0, [`MAX_SIMPLE_EXPONENT`]] | 2/α² − 2 with α = roughness² (the Blinn–Phong equivalent of GGX's α) |
+//! | o, occlusion | 1 | [0, 1] | the occlusion texture (1 without one); multiplies a(λ) |
+//!
+//! A textured material's base colour, metallic, roughness and occlusion are taken
+//! at each hit ([`crate::render::texturing`]) and the material is built there by
+//! [`SimpleMaterial::from_parameters`]; [`Shading::extras`] says which materials
+//! need that, and which emit. What is left out (GGX conductors and dielectrics,
+//! glass, alpha, clear coat on other parts) is listed in `docs/materials.md`.
 //!
 //! Base colours are turned into smooth reflectance spectra by
 //! [`RgbUpsampler::reflectance`]. The lobe's 1/max(cos θi, cos θo) makes it
@@ -132,13 +139,34 @@ impl SimpleMaterial {
         Self::new(albedo, &vec![0.0; albedo.len()], 1.0)
     }
 
-    /// The material of a glTF metallic-roughness description on `channels`.
+    /// The material of a glTF metallic-roughness description on `channels` (its
+    /// factors; textures are applied per hit by [`Self::from_parameters`]).
     pub fn from_scene_material(
         material: &SceneMaterial,
         upsampler: &RgbUpsampler,
         channels: &Channels,
     ) -> Self {
-        let colour = material.base_color;
+        Self::from_parameters(
+            material.base_color,
+            material.metallic,
+            material.roughness,
+            1.0,
+            upsampler,
+            channels,
+        )
+    }
+
+    /// The material of base colour, metallic and roughness (glTF's meanings) and
+    /// an occlusion factor that darkens the diffuse part (1: none).
+    pub fn from_parameters(
+        base_color: LinSrgb<f32>,
+        metallic: f32,
+        roughness: f32,
+        occlusion: f32,
+        upsampler: &RgbUpsampler,
+        channels: &Channels,
+    ) -> Self {
+        let colour = base_color;
         let clamped = LinSrgb::new(
             colour.red.clamp(0.0, 1.0),
             colour.green.clamp(0.0, 1.0),
@@ -146,16 +174,17 @@ impl SimpleMaterial {
         );
         let mut base = vec![0.0; channels.len()];
         upsampler.reflectance(clamped, &mut base);
-        let metallic = material.metallic.clamp(0.0, 1.0);
+        let metallic = metallic.clamp(0.0, 1.0);
+        let occlusion = occlusion.clamp(0.0, 1.0);
         let albedo: Vec<f32> = base
             .iter()
-            .map(|&c| ((1.0 - metallic) * c).clamp(0.0, 1.0))
+            .map(|&c| ((1.0 - metallic) * c * occlusion).clamp(0.0, 1.0))
             .collect();
         let specular: Vec<f32> = base
             .iter()
             .map(|&c| (DIELECTRIC_F0 + metallic * (c - DIELECTRIC_F0)).clamp(0.0, 1.0))
             .collect();
-        let alpha = material.roughness.clamp(0.0, 1.0).powi(2);
+        let alpha = roughness.clamp(0.0, 1.0).powi(2);
         let exponent = if alpha > 0.0 {
             (2.0 / (alpha * alpha) - 2.0).clamp(0.0, MAX_SIMPLE_EXPONENT)
         } else {
@@ -225,6 +254,19 @@ pub struct Shading {
     design: DesignBsdf,
     simple: Vec<SimpleMaterial>,
     painted: Vec<bool>,
+    /// Per scene material: what a hit on it needs beyond `simple` (textures,
+    /// emission); `None` for most, and for every painted one.
+    surfaces: Vec<Option<SurfaceExtras>>,
+    upsampler: RgbUpsampler,
+}
+
+/// What a non-paint material needs per hit besides its BSDF of factors.
+#[derive(Debug, Clone)]
+pub enum SurfaceExtras {
+    /// Its textures are looked up at each hit (and its emission, if any, with them).
+    Textured(Box<SceneMaterial>),
+    /// Untextured, emitting this spectral radiance.
+    Emissive(Vec<f32>),
 }
 
 impl Shading {
@@ -262,13 +304,53 @@ impl Shading {
                 *p = true;
             }
         }
+        let surfaces = materials
+            .iter()
+            .zip(&painted)
+            .map(|(m, &painted)| {
+                if painted {
+                    None
+                } else if m.has_textures() {
+                    Some(SurfaceExtras::Textured(Box::new(m.clone())))
+                } else if m.is_emissive() {
+                    let mut emission = vec![0.0; channels.len()];
+                    upsampler.emission(m.emissive, &mut emission);
+                    Some(SurfaceExtras::Emissive(emission))
+                } else {
+                    None
+                }
+            })
+            .collect();
         Self {
             channels: *channels,
             model,
             design,
             simple,
             painted,
+            surfaces,
+            upsampler,
         }
+    }
+
+    /// What a hit on scene material `material` needs beyond [`Self::material`]:
+    /// `None` for the paint and plain materials.
+    #[inline]
+    pub fn extras(&self, material: u32) -> Option<&SurfaceExtras> {
+        self.surfaces.get(material as usize)?.as_ref()
+    }
+
+    /// Whether a material that does not carry the design is textured (then
+    /// recorded paths cannot be re-shaded: the replay does not look textures up
+    /// again).
+    pub fn has_textures(&self) -> bool {
+        self.surfaces
+            .iter()
+            .any(|s| matches!(s, Some(SurfaceExtras::Textured(_))))
+    }
+
+    /// The spectra of RGB colours on these channels.
+    pub fn upsampler(&self) -> &RgbUpsampler {
+        &self.upsampler
     }
 
     /// What the per-channel values here are for: a wavelength grid, or linear sRGB.
@@ -368,6 +450,7 @@ mod tests {
                 roughness,
                 metallic,
                 area_m2: 1.0,
+                ..SceneMaterial::default()
             };
             let m = SimpleMaterial::from_scene_material(&scene_material, &upsampler, &grid());
             for mu in [1.0f32, 0.5, 0.1] {

@@ -13,6 +13,7 @@
 //! - [`environment`]: what lights the scene (studio, booth, outdoor, image maps);
 //! - [`camera`] and [`film`]: rays from pixels, and accumulation into an image;
 //! - [`material`]: the design as paint or Phong, and the scene's simple materials;
+//! - [`texturing`]: a textured material's parameters at a hit (mip level from a ray cone);
 //! - [`integrator`]: the path tracer;
 //! - [`progressive`]: passes over tiles on all cores, restarts, noise estimates;
 //! - [`adaptive`]: adaptive sampling, a pass's samples spent by each pixel's noise;
@@ -34,4 +35,5 @@ pub mod material;
 pub mod pick;
 pub mod progressive;
 pub mod reshade;
+pub mod texturing;
 pub mod view;

@@ -61,7 +61,7 @@ use crate::render::geometry::Surface;
 use crate::render::integrator::{
     NextRecord, PathRecorder, PathTracer, VertexRecord, power_heuristic,
 };
-use crate::render::material::{Shading, SimpleMaterial};
+use crate::render::material::{Shading, SimpleMaterial, SurfaceExtras};
 
 /// Why a re-shade cannot be done.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -91,6 +91,12 @@ pub enum ReshadeError {
         /// The new shading's exponent.
         wanted: f32,
     },
+    /// A material other than the paint is textured: the replay does not repeat
+    /// its texture look-ups.
+    #[error(
+        "the scene has textured materials, which re-shading does not replay: its paths must be traced anew"
+    )]
+    Textured,
 }
 
 /// One stored path.
@@ -610,6 +616,9 @@ pub fn reshade_prepared(
     if paint_is_mirror(shading) != cache.paint_is_mirror {
         return Err(ReshadeError::DeltaChanged);
     }
+    if shading.has_textures() {
+        return Err(ReshadeError::Textured);
+    }
     // A replayed bounce is weighed by the new BSDF over the density it was sampled
     // from. Where the new lobe is wider, that weight grows without bound away from
     // the old lobe's axis (its second moment diverges once the exponent halves):
@@ -826,7 +835,15 @@ fn replay_path(
     throughput.fill(1.0);
     for vertex in vertices {
         let material: &dyn SpectralBsdf = match (vertex.surface, floor) {
-            (Surface::Mesh { material }, _) => shading.material(material),
+            (Surface::Mesh { material }, _) => {
+                // A lamp adds its light where the path shaded it, as the tracer did.
+                if let Some(SurfaceExtras::Emissive(emission)) = shading.extras(material) {
+                    for ((o, t), e) in out.iter_mut().zip(&*throughput).zip(emission) {
+                        *o += t * e;
+                    }
+                }
+                shading.material(material)
+            }
             (Surface::Floor, Some(floor)) => floor,
             // The recording saw a floor the lighting no longer has: not re-shadeable,
             // but the renderer drops the cache on a lighting change first.

@@ -359,7 +359,7 @@ fn material(name: &str, base_color: LinSrgb<f32>, roughness: f32, metallic: f32)
         base_color,
         roughness,
         metallic,
-        area_m2: 0.0,
+        ..SceneMaterial::default()
     }
 }
 

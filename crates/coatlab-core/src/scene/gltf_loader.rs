@@ -21,6 +21,7 @@
 use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use glam::{DAffine3, DMat3, DVec3};
 use gltf::json;
@@ -28,6 +29,7 @@ use gltf::mesh::Mode;
 use palette::LinSrgb;
 
 use super::orientation::{Front, orient};
+use super::texture::{TexelEncoding, Texture, TextureRef, UvTransform, WrapMode};
 use super::{Scene, SceneCamera, SceneMaterial, TriangleMesh, framing};
 
 /// Length the model is scaled to: its larger horizontal extent, metres (a car's length).
@@ -48,10 +50,6 @@ pub const IGNORED_EXTENSIONS: &[(&str, &str)] = &[
         "clear coat ignored: the designed paint has its own clear coat; other materials render without one",
     ),
     (
-        "KHR_texture_transform",
-        "texture transforms ignored: textures are not used",
-    ),
-    (
         "KHR_materials_sheen",
         "sheen ignored: materials render as base colour and roughness",
     ),
@@ -67,11 +65,12 @@ pub const IGNORED_EXTENSIONS: &[(&str, &str)] = &[
         "KHR_materials_specular",
         "specular ignored: simple materials use the glTF default",
     ),
-    (
-        "KHR_materials_emissive_strength",
-        "emission ignored: the scene is lit by the environment only",
-    ),
 ];
+
+/// Extensions the loader and the tracer model (`docs/materials.md`): allowed in
+/// `extensionsRequired`, used without a warning.
+pub const SUPPORTED_EXTENSIONS: &[&str] =
+    &["KHR_texture_transform", "KHR_materials_emissive_strength"];
 
 /// Substrings (case-insensitive) of a material name that mark the car body.
 pub const PAINT_NAME_HINTS: &[&str] = &[
@@ -201,7 +200,9 @@ fn load_from_bytes(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<S
     // Extensions: refuse what is required and unknown, before anything else reads data.
     let mut warnings = Vec::new();
     for ext in &root.extensions_required {
-        if !IGNORED_EXTENSIONS.iter().any(|(name, _)| name == ext) {
+        if !IGNORED_EXTENSIONS.iter().any(|(name, _)| name == ext)
+            && !SUPPORTED_EXTENSIONS.contains(&ext.as_str())
+        {
             return Err(SceneError::UnsupportedExtension {
                 file,
                 extension: ext.clone(),
@@ -209,6 +210,9 @@ fn load_from_bytes(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<S
         }
     }
     for ext in &root.extensions_used {
+        if SUPPORTED_EXTENSIONS.contains(&ext.as_str()) {
+            continue;
+        }
         match IGNORED_EXTENSIONS.iter().find(|(name, _)| name == ext) {
             Some((_, meaning)) => warnings.push(format!("{ext}: {meaning}")),
             None => warnings.push(format!("{ext}: optional extension not supported, ignored")),
@@ -252,7 +256,14 @@ fn load_from_bytes(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<S
         warnings.push("skins ignored: skinned meshes are shown in their bind pose".into());
     }
 
-    let mut materials = document_materials(document, &mut warnings);
+    let mut materials = {
+        let mut images = ImageSource {
+            file: path,
+            buffers: &buffers,
+            cache: HashMap::new(),
+        };
+        document_materials(document, &mut images, &mut warnings)
+    };
     let mut default_material = None;
     let mut mesh = TriangleMesh::default();
     let mut cache: HashMap<(usize, usize), Option<LocalPrimitive>> = HashMap::new();
@@ -276,10 +287,7 @@ fn load_from_bytes(path: &Path, bytes: &[u8], options: &LoadOptions) -> Result<S
                 None => *default_material.get_or_insert_with(|| {
                     materials.push(SceneMaterial {
                         name: "(glTF default material)".into(),
-                        base_color: LinSrgb::new(1.0, 1.0, 1.0),
-                        roughness: 1.0,
-                        metallic: 1.0,
-                        area_m2: 0.0,
+                        ..SceneMaterial::default()
                     });
                     (materials.len() - 1) as u32
                 }),
@@ -991,7 +999,11 @@ fn decode_elements(
 // ---------------------------------------------------------------------------
 // Materials
 
-fn document_materials(document: &gltf::Document, warnings: &mut Vec<String>) -> Vec<SceneMaterial> {
+fn document_materials(
+    document: &gltf::Document,
+    images: &mut ImageSource<'_>,
+    warnings: &mut Vec<String>,
+) -> Vec<SceneMaterial> {
     document
         .materials()
         .enumerate()
@@ -1000,11 +1012,6 @@ fn document_materials(document: &gltf::Document, warnings: &mut Vec<String>) -> 
                 .name()
                 .map_or_else(|| format!("material {i}"), str::to_owned);
             let pbr = m.pbr_metallic_roughness();
-            if pbr.base_color_texture().is_some() {
-                warnings.push(format!(
-                    "material '{name}': base-colour texture not used, its factor stands in"
-                ));
-            }
             let [r, g, b, _] = pbr.base_color_factor().map(|c| {
                 if c.is_finite() {
                     c.clamp(0.0, 1.0)
@@ -1012,15 +1019,275 @@ fn document_materials(document: &gltf::Document, warnings: &mut Vec<String>) -> 
                     1.0
                 }
             });
+            let mut texture = |slot: &str, info: Option<TexInfo<'_>>, encoding| {
+                let info = info?;
+                images.reference(&name, slot, info, encoding, warnings)
+            };
+            let base_color_texture = texture(
+                "base-colour",
+                pbr.base_color_texture().map(TexInfo::from_info),
+                TexelEncoding::Srgb,
+            );
+            let metallic_roughness_texture = texture(
+                "metallic-roughness",
+                pbr.metallic_roughness_texture().map(TexInfo::from_info),
+                TexelEncoding::Linear,
+            );
+            let normal = m.normal_texture().map(|t| {
+                let transform = t.extension_value(TRANSFORM);
+                TexInfo::scaled(t.texture(), t.tex_coord(), transform, t.scale())
+            });
+            let occlusion = m.occlusion_texture().map(|t| {
+                let transform = t.extension_value(TRANSFORM);
+                TexInfo::scaled(t.texture(), t.tex_coord(), transform, t.strength())
+            });
+            let normal_texture = texture("normal", normal, TexelEncoding::Linear);
+            let occlusion_texture = texture("occlusion", occlusion, TexelEncoding::Linear);
+            let emissive_texture = texture(
+                "emissive",
+                m.emissive_texture().map(TexInfo::from_info),
+                TexelEncoding::Srgb,
+            );
+            let strength = m.emissive_strength().unwrap_or(1.0);
+            let [er, eg, eb] = m.emissive_factor().map(|c| {
+                let e = c * strength;
+                if e.is_finite() { e.max(0.0) } else { 0.0 }
+            });
             SceneMaterial {
                 name,
                 base_color: LinSrgb::new(r, g, b),
                 roughness: finite_unit(pbr.roughness_factor()),
                 metallic: finite_unit(pbr.metallic_factor()),
                 area_m2: 0.0,
+                base_color_texture,
+                metallic_roughness_texture,
+                normal_texture,
+                occlusion_texture,
+                emissive: LinSrgb::new(er, eg, eb),
+                emissive_texture,
             }
         })
         .collect()
+}
+
+/// A material's texture slot as glTF gives it, before its image is decoded.
+struct TexInfo<'a> {
+    texture: gltf::Texture<'a>,
+    tex_coord: u32,
+    /// KHR_texture_transform, with its `texCoord` override.
+    transform: Option<(UvTransform, Option<u32>)>,
+    scale: f32,
+}
+
+impl<'a> TexInfo<'a> {
+    fn from_info(info: gltf::texture::Info<'a>) -> Self {
+        Self {
+            tex_coord: info.tex_coord(),
+            transform: info.texture_transform().map(|t| {
+                (
+                    UvTransform {
+                        offset: t.offset(),
+                        rotation_rad: t.rotation(),
+                        scale: t.scale(),
+                    },
+                    t.tex_coord(),
+                )
+            }),
+            scale: 1.0,
+            texture: info.texture(),
+        }
+    }
+}
+
+impl<'a> TexInfo<'a> {
+    /// A normal or occlusion texture slot, with its scale or strength and its
+    /// transform's JSON (the `gltf` crate types no transform on these slots).
+    fn scaled(
+        texture: gltf::Texture<'a>,
+        tex_coord: u32,
+        transform: Option<&json::Value>,
+        scale: f32,
+    ) -> Self {
+        Self {
+            texture,
+            tex_coord,
+            transform: transform.map(json_transform),
+            scale,
+        }
+    }
+}
+
+/// The texture transform extension's name.
+const TRANSFORM: &str = "KHR_texture_transform";
+
+/// KHR_texture_transform read from its JSON (the normal and occlusion texture
+/// infos, which the `gltf` crate does not type); missing or malformed members
+/// keep their defaults.
+fn json_transform(value: &json::Value) -> (UvTransform, Option<u32>) {
+    let pair = |key: &str, default: [f32; 2]| {
+        value
+            .get(key)
+            .and_then(json::Value::as_array)
+            .and_then(|a| match a.as_slice() {
+                [x, y] => Some([x.as_f64()? as f32, y.as_f64()? as f32]),
+                _ => None,
+            })
+            .unwrap_or(default)
+    };
+    let transform = UvTransform {
+        offset: pair("offset", [0.0; 2]),
+        rotation_rad: value
+            .get("rotation")
+            .and_then(json::Value::as_f64)
+            .unwrap_or(0.0) as f32,
+        scale: pair("scale", [1.0; 2]),
+    };
+    let tex_coord = value
+        .get("texCoord")
+        .and_then(json::Value::as_u64)
+        .map(|t| t.min(u64::from(u32::MAX)) as u32);
+    (transform, tex_coord)
+}
+
+/// Where the images of a file come from, and those decoded so far (per image and
+/// encoding: the same image used as colour and as data is decoded twice; a failure
+/// is kept as its message, so each material that uses the image is told).
+struct ImageSource<'a> {
+    file: &'a Path,
+    buffers: &'a [Vec<u8>],
+    cache: HashMap<(usize, TexelEncoding), Result<Arc<Texture>, String>>,
+}
+
+impl ImageSource<'_> {
+    /// The texture a material's `slot` uses; `None`, with a warning naming the
+    /// material and the image, when it cannot be used (the factor stands in).
+    fn reference(
+        &mut self,
+        material: &str,
+        slot: &str,
+        info: TexInfo<'_>,
+        encoding: TexelEncoding,
+        warnings: &mut Vec<String>,
+    ) -> Option<TextureRef> {
+        let (transform, tex_coord) = match info.transform {
+            Some((t, set)) => (t, set.unwrap_or(info.tex_coord)),
+            None => (UvTransform::default(), info.tex_coord),
+        };
+        let finite = transform
+            .offset
+            .iter()
+            .chain(&transform.scale)
+            .all(|x| x.is_finite())
+            && transform.rotation_rad.is_finite();
+        let result = if tex_coord > 1 {
+            Err(format!(
+                "TEXCOORD_{tex_coord} is not read (only sets 0 and 1)"
+            ))
+        } else if !finite {
+            Err("KHR_texture_transform has non-finite values".into())
+        } else {
+            // Indices were validated with the document, so `source` finds its image.
+            self.decoded(info.texture.source(), encoding)
+        };
+        match result {
+            Ok(texture) => {
+                let wrap = |mode| match mode {
+                    gltf::texture::WrappingMode::ClampToEdge => WrapMode::ClampToEdge,
+                    gltf::texture::WrappingMode::MirroredRepeat => WrapMode::MirroredRepeat,
+                    gltf::texture::WrappingMode::Repeat => WrapMode::Repeat,
+                };
+                let sampler = info.texture.sampler();
+                Some(TextureRef {
+                    texture,
+                    texcoord: tex_coord,
+                    transform,
+                    wrap: [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())],
+                    scale: if info.scale.is_finite() {
+                        info.scale
+                    } else {
+                        1.0
+                    },
+                })
+            }
+            Err(why) => {
+                warnings.push(format!(
+                    "material '{material}': {slot} texture not used, its factor stands in: {why}"
+                ));
+                None
+            }
+        }
+    }
+
+    fn decoded(
+        &mut self,
+        image: gltf::Image<'_>,
+        encoding: TexelEncoding,
+    ) -> Result<Arc<Texture>, String> {
+        let key = (image.index(), encoding);
+        if let Some(found) = self.cache.get(&key) {
+            return found.clone();
+        }
+        let result = self.decode(&image, encoding);
+        self.cache.insert(key, result.clone());
+        result
+    }
+
+    fn decode(
+        &self,
+        image: &gltf::Image<'_>,
+        encoding: TexelEncoding,
+    ) -> Result<Arc<Texture>, String> {
+        let label = |what: String| match image.name() {
+            Some(name) => format!("{what} ('{name}')"),
+            None => what,
+        };
+        let (name, bytes, mime) = match image.source() {
+            gltf::image::Source::View { view, mime_type } => {
+                let name = label(format!(
+                    "image {} (buffer view {})",
+                    image.index(),
+                    view.index()
+                ));
+                let buffer = self.buffers.get(view.buffer().index());
+                let start = view.offset();
+                let bytes = buffer
+                    .and_then(|b| b.get(start..start.checked_add(view.length())?))
+                    .ok_or_else(|| {
+                        format!("{name}: buffer view {} runs past its buffer", view.index())
+                    })?;
+                (
+                    name,
+                    std::borrow::Cow::Borrowed(bytes),
+                    Some(mime_type.to_owned()),
+                )
+            }
+            gltf::image::Source::Uri { uri, mime_type } if uri.starts_with("data:") => {
+                let name = label(format!("image {} (data URI)", image.index()));
+                let bytes = decode_data_uri(uri).map_err(|e| format!("{name}: {e}"))?;
+                let mime = mime_type.map(str::to_owned).or_else(|| {
+                    uri.strip_prefix("data:")
+                        .and_then(|h| h.split([';', ',']).next())
+                        .map(str::to_owned)
+                });
+                (name, std::borrow::Cow::Owned(bytes), mime)
+            }
+            gltf::image::Source::Uri { uri, mime_type } => {
+                let dir = self.file.parent().unwrap_or(Path::new(""));
+                let image_path = dir.join(percent_decode(uri));
+                let name = image_path.display().to_string();
+                let bytes =
+                    std::fs::read(&image_path).map_err(|e| format!("cannot read {name}: {e}"))?;
+                (
+                    name,
+                    std::borrow::Cow::Owned(bytes),
+                    mime_type.map(str::to_owned),
+                )
+            }
+        };
+        Texture::decode(&name, &bytes, mime.as_deref(), encoding)
+            .map(Arc::new)
+            .map_err(|e| e.to_string())
+    }
 }
 
 fn finite_unit(x: f32) -> f32 {
@@ -1116,6 +1383,8 @@ fn collect_instances<'a>(
 struct LocalPrimitive {
     positions: Vec<[f64; 3]>,
     normals: Option<Vec<[f64; 3]>>,
+    /// `TEXCOORD_0` and `TEXCOORD_1`, where present with one pair per vertex.
+    texcoords: [Option<Vec<[f32; 2]>>; 2],
     triangles: Vec<[u32; 3]>,
 }
 
@@ -1169,6 +1438,24 @@ fn read_primitive(
         }
         None => None,
     };
+    let mut texcoords = [None, None];
+    for (set, slot) in texcoords.iter_mut().enumerate() {
+        let Some(acc) = prim.get(&gltf::Semantic::TexCoords(set as u32)) else {
+            continue;
+        };
+        let flat = reader.read(acc.index(), 2, &format!("{label} TEXCOORD_{set}"))?;
+        let uv: Vec<[f32; 2]> = flat
+            .chunks_exact(2)
+            .map(|c| [c[0] as f32, c[1] as f32])
+            .collect();
+        if uv.len() == positions.len() && uv.iter().flatten().all(|x| x.is_finite()) {
+            *slot = Some(uv);
+        } else {
+            warnings.push(format!(
+                "{label}: TEXCOORD_{set} has a wrong count or non-finite values; textures read its texel (0, 0)"
+            ));
+        }
+    }
     let indices = match prim.indices() {
         Some(acc) => reader.read_indices(acc.index())?,
         None => (0..positions.len() as u32).collect(),
@@ -1211,6 +1498,7 @@ fn read_primitive(
     Ok(Some(LocalPrimitive {
         positions,
         normals,
+        texcoords,
         triangles,
     }))
 }
@@ -1231,6 +1519,13 @@ fn append_instance(
             file: file.to_path_buf(),
             details: "more than 2^32 vertices".into(),
         });
+    }
+    for (set, uv) in local.texcoords.iter().enumerate() {
+        if let Some(uv) = uv {
+            // Vertices of earlier primitives without this set read (0, 0).
+            mesh.texcoords[set].resize(base, [0.0; 2]);
+            mesh.texcoords[set].extend_from_slice(uv);
+        }
     }
     for p in &local.positions {
         let w = [0, 1, 2].map(|r| m[0][r] * p[0] + m[1][r] * p[1] + m[2][r] * p[2] + m[3][r]);
@@ -1305,6 +1600,11 @@ fn smooth_normals(mesh: &mut TriangleMesh, vertex_base: usize, triangle_base: us
 
 /// Drops vertices no triangle uses (so the bounds are those of the geometry).
 fn compact_vertices(mesh: &mut TriangleMesh) {
+    for set in &mut mesh.texcoords {
+        if !set.is_empty() {
+            set.resize(mesh.positions.len(), [0.0; 2]);
+        }
+    }
     let mut remap = vec![u32::MAX; mesh.positions.len()];
     let mut next = 0u32;
     for t in &mut mesh.triangles {
@@ -1324,14 +1624,24 @@ fn compact_vertices(mesh: &mut TriangleMesh) {
     }
     let mut positions = vec![[0.0; 3]; next as usize];
     let mut normals = vec![[0.0; 3]; next as usize];
+    let mut texcoords = mesh
+        .texcoords
+        .each_ref()
+        .map(|set| vec![[0.0; 2]; if set.is_empty() { 0 } else { next as usize }]);
     for (old, &new) in remap.iter().enumerate() {
         if new != u32::MAX {
             positions[new as usize] = mesh.positions[old];
             normals[new as usize] = mesh.normals[old];
+            for (out, set) in texcoords.iter_mut().zip(&mesh.texcoords) {
+                if !set.is_empty() {
+                    out[new as usize] = set[old];
+                }
+            }
         }
     }
     mesh.positions = positions;
     mesh.normals = normals;
+    mesh.texcoords = texcoords;
 }
 
 /// Scales uniformly so the larger horizontal extent is [`TARGET_LENGTH_M`], puts
@@ -1392,6 +1702,7 @@ mod tests {
             roughness: 0.5,
             metallic: 0.0,
             area_m2: area,
+            ..SceneMaterial::default()
         };
         let mats = [m("Glass", 10.0), m("CarPaint", 3.0), m("Body_2", 4.0)];
         assert_eq!(choose_paint_material(&mats).unwrap().0, 2);

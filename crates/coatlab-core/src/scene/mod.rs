@@ -10,8 +10,10 @@ pub mod car;
 pub mod framing;
 pub mod gltf_loader;
 pub mod orientation;
+pub mod texture;
 
 use crate::accel::Triangles;
+use texture::TextureRef;
 
 /// Triangle geometry in world space, with smooth (per-vertex) normals.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -24,6 +26,9 @@ pub struct TriangleMesh {
     pub triangles: Vec<[u32; 3]>,
     /// Material of each triangle: an index into [`Scene::materials`].
     pub triangle_material: Vec<u32>,
+    /// Texture coordinates `TEXCOORD_0` and `TEXCOORD_1` per vertex; each either
+    /// empty (no textured material uses the set) or as long as `positions`.
+    pub texcoords: [Vec<[f32; 2]>; 2],
 }
 
 impl TriangleMesh {
@@ -68,7 +73,9 @@ impl<'a> From<&'a TriangleMesh> for Triangles<'a> {
     }
 }
 
-/// A non-paint material as the scene file gives it, rendered as a simple material.
+/// A non-paint material as the scene file gives it: glTF's metallic-roughness
+/// description with its textures, reduced to what the tracer models
+/// (`render::material` and `docs/materials.md` say how each part is rendered).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SceneMaterial {
     /// Name in the file (or a generated one for unnamed materials).
@@ -81,6 +88,65 @@ pub struct SceneMaterial {
     pub metallic: f32,
     /// Total area of the triangles using it in the normalised scene, m².
     pub area_m2: f32,
+    /// Base-colour texture (sRGB-decoded; multiplies `base_color`).
+    pub base_color_texture: Option<TextureRef>,
+    /// Metallic (blue) and roughness (green) texture, multiplying the factors.
+    pub metallic_roughness_texture: Option<TextureRef>,
+    /// Tangent-space normal map; its `scale` scales the x and y of the normal.
+    pub normal_texture: Option<TextureRef>,
+    /// Ambient occlusion (red); its `scale` is glTF's `strength`.
+    pub occlusion_texture: Option<TextureRef>,
+    /// Emitted radiance colour, linear sRGB (`emissiveFactor` × KHR_materials_emissive_strength;
+    /// 1 is the luminance of a white sky of radiance 1).
+    pub emissive: LinSrgb<f32>,
+    /// Emissive texture (sRGB-decoded; multiplies `emissive`).
+    pub emissive_texture: Option<TextureRef>,
+}
+
+/// A glTF material with no properties set: white, metallic 1, roughness 1, no
+/// textures, no emission (the glTF 2.0 defaults), with no area yet.
+impl Default for SceneMaterial {
+    fn default() -> Self {
+        Self {
+            name: String::new(),
+            base_color: LinSrgb::new(1.0, 1.0, 1.0),
+            roughness: 1.0,
+            metallic: 1.0,
+            area_m2: 0.0,
+            base_color_texture: None,
+            metallic_roughness_texture: None,
+            normal_texture: None,
+            occlusion_texture: None,
+            emissive: LinSrgb::new(0.0, 0.0, 0.0),
+            emissive_texture: None,
+        }
+    }
+}
+
+impl SceneMaterial {
+    /// Whether any texture modulates it.
+    pub fn has_textures(&self) -> bool {
+        self.textures().next().is_some()
+    }
+
+    /// The textures it uses.
+    pub fn textures(&self) -> impl Iterator<Item = &TextureRef> {
+        [
+            &self.base_color_texture,
+            &self.metallic_roughness_texture,
+            &self.normal_texture,
+            &self.occlusion_texture,
+            &self.emissive_texture,
+        ]
+        .into_iter()
+        .flatten()
+    }
+
+    /// Whether it emits light.
+    pub fn is_emissive(&self) -> bool {
+        let e = self.emissive;
+        e.red > 0.0 || e.green > 0.0 || e.blue > 0.0
+    }
 }
 
 /// A loaded (or generated) scene.

@@ -42,6 +42,7 @@ pub fn sphere(rings: u32) -> Scene {
             roughness: 0.5,
             metallic: 0.0,
             area_m2: 4.0 * std::f32::consts::PI,
+            ..SceneMaterial::default()
         }],
         paint_materials: vec![0],
         ..Scene::default()
