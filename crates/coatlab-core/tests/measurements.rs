@@ -333,6 +333,9 @@ fn every_malformed_file_is_refused_with_its_place_named() {
     }
 }
 
+/// Text replacements (from, to) that spoil a file.
+type Changes<'a> = &'a [(&'a str, &'a str)];
+
 #[test]
 fn inconsistent_or_out_of_range_content_is_refused() {
     let good = std::fs::read_to_string(path("spectral_fraction_10nm.cgats")).expect("fixture");
@@ -344,7 +347,7 @@ fn inconsistent_or_out_of_range_content_is_refused() {
     // under an illuminant Coatlab lacks, with no spectrum; a CxF colour naming a
     // specification that is not there.
     #[rustfmt::skip]
-    let cases: [(&str, &[(&str, &str)], &[&str]); 7] = [
+    let cases: [(&str, Changes, &[&str]); 7] = [
         (&good, &[("CREATED", "REFLECTANCE_SCALE \"FRACTION\"\nCREATED"), ("0.7999", "79.99")], &["the header says fractions"]),
         (&good, &[("SPECTRAL_NM_380", "SPECTRAL_NM_340")], &["SPECTRAL_NM_340", "line 8"]),
         (&good, &[("SPECTRAL_NM_390", "SPECTRAL_NM_370")], &["SPECTRAL_NM_370"]),
