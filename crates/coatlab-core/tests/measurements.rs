@@ -534,3 +534,58 @@ proptest::proptest! {
         }
     }
 }
+
+#[test]
+fn a_designs_readings_written_as_cgats_read_back_to_the_same_numbers() {
+    use coatlab_core::design::presets;
+    use coatlab_core::measurement::GlossValue;
+    use coatlab_core::measurement::Reflectance;
+    use coatlab_core::measurement::cgats_write::{CgatsWriteError, write_cgats};
+    let design = presets::by_slug("signal-red").expect("preset").design;
+    let model = design
+        .model(coatlab_core::colour::spectrum::WavelengthGrid::reference())
+        .expect("model");
+    let m = coatlab_core::instruments::measure(&model).expect("spectral");
+    let gloss: Vec<GlossValue> = m
+        .gloss
+        .iter()
+        .map(|g| GlossValue {
+            angle_deg: f64::from(u32::from(g.geometry)),
+            gu: g.total_gu,
+        })
+        .collect();
+    let reading = |geometry, factors: &[f64]| Sample {
+        name: "Signal red".to_owned(),
+        id: None,
+        geometry,
+        spectrum: Some(Reflectance::new(m.wavelength_nm.clone(), factors.to_vec()).expect("valid")),
+        colour: None,
+        gloss: gloss.clone(),
+    };
+    let samples: Vec<Sample> = m
+        .angles
+        .iter()
+        .map(|a| {
+            reading(
+                Geometry::directional(45.0, a.aspecular_deg),
+                &a.reflectance_factor,
+            )
+        })
+        .chain(
+            m.sphere
+                .iter()
+                .map(|s| reading(s.geometry, &s.reflectance_factor)),
+        )
+        .collect();
+    let text = write_cgats("coatlab test", &samples).expect("writable");
+    let back = measurement::read(text.as_bytes(), "red.cgats").expect("readable");
+    assert_eq!(back.format, Format::Cgats);
+    assert_eq!(back.samples, samples, "{text}");
+    // What cannot be written is refused by name.
+    let mut unstated = samples.clone();
+    unstated[1].geometry = Geometry::Unspecified;
+    let e = write_cgats("t", &unstated).expect_err("no geometry");
+    assert!(matches!(e, CgatsWriteError::Unwritable { .. }), "{e}");
+    assert!(e.to_string().contains("Signal red"), "{e}");
+    assert_eq!(write_cgats("t", &[]), Err(CgatsWriteError::Empty));
+}

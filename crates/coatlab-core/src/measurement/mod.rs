@@ -11,6 +11,7 @@
 //! `docs/measurements.md`.
 
 pub mod cgats;
+pub mod cgats_write;
 pub mod cxf;
 pub mod geometry;
 
