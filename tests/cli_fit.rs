@@ -1,12 +1,13 @@
 //! End-to-end tests of `coatlab fit`: a preset's own virtual measurement, written as
 //! CGATS and CxF3, fitted back; unreachable and colour-only standards; refusals.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::ffi::OsStr;
+use std::path::Path;
+use std::process::Output;
 
 mod common;
 
-use common::{exit, failure, measured_spectra};
+use common::{exit, failure, json, measured_spectra, preset, run, stdout};
 
 #[path = "../crates/coatlab-core/tests/support/measurement_files.rs"]
 mod measurement_files;
@@ -14,27 +15,18 @@ mod measurement_files;
 use coatlab_core::design::PaintDesign;
 use measurement_files::{Spectra, as_cgats, as_cxf, lab_only_cgats};
 
-fn coatlab() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_coatlab"))
-}
-
-fn preset(slug: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../assets/presets")
-        .join(format!("{slug}.toml"))
-}
-
-fn run(args: &[&std::ffi::OsStr]) -> Output {
-    coatlab().args(args).output().expect("coatlab runs")
-}
-
-fn json(output: &Output) -> serde_json::Value {
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    serde_json::from_slice(&output.stdout).expect("valid JSON")
+/// `coatlab fit --target TARGET --out OUT` and `extra`; the outcome is the
+/// caller's to judge.
+fn fit(target: &Path, out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "fit".as_ref(),
+        "--target".as_ref(),
+        target.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ];
+    args.extend(extra.iter().map(OsStr::new));
+    run(&args)
 }
 
 fn number(v: &serde_json::Value) -> f64 {
@@ -64,16 +56,8 @@ fn a_presets_measurement_is_fitted_back_and_the_fit_passes_measure() {
         let target = dir.path().join(name);
         std::fs::write(&target, text).expect("write");
         let out = dir.path().join(format!("{name}.toml"));
-        let j = json(&run(&[
-            "fit".as_ref(),
-            "--target".as_ref(),
-            target.as_os_str(),
-            "--start".as_ref(),
-            blue.as_os_str(),
-            "--out".as_ref(),
-            out.as_os_str(),
-            "--json".as_ref(),
-        ]));
+        let start = blue.to_str().expect("UTF-8 path");
+        let j = json(&fit(&target, &out, &["--start", start, "--json"]));
         assert_eq!(j["method"], "least_squares");
         assert_eq!(j["smoothness_weight"].as_f64(), Some(1e-3));
         assert_eq!(j["free"], serde_json::json!(["rho"]));
@@ -91,13 +75,12 @@ fn a_presets_measurement_is_fitted_back_and_the_fit_passes_measure() {
         assert_eq!(fitted.name, "Deep blue");
         assert_eq!(fitted.refractive_index, start.refractive_index);
         assert_eq!(fitted.thickness_um, start.thickness_um);
-        let output = run(&[
+        let text = stdout(&run(&[
             "measure".as_ref(),
             out.as_os_str(),
             "--target".as_ref(),
             target.as_os_str(),
-        ]);
-        let text = String::from_utf8_lossy(&output.stdout);
+        ]));
         assert!(text.contains("Result: PASS"), "{text}");
     }
 }
@@ -111,15 +94,7 @@ fn one_geometry_is_inverted_to_the_designs_albedo() {
     let target = dir.path().join("red.cgats");
     std::fs::write(&target, as_cgats("Signal red", &single)).expect("write");
     let out = dir.path().join("fitted.toml");
-    let output = run(&[
-        "fit".as_ref(),
-        "--target".as_ref(),
-        target.as_os_str(),
-        "--out".as_ref(),
-        out.as_os_str(),
-    ]);
-    let text = String::from_utf8_lossy(&output.stdout);
-    assert!(output.status.success(), "{text}");
+    let text = stdout(&fit(&target, &out, &[]));
     assert!(text.contains("closed form"), "{text}");
     assert!(text.contains("Wrote"), "{text}");
     let fitted = PaintDesign::load(&out).expect("design");
@@ -149,17 +124,8 @@ fn an_unreachable_target_is_named_by_wavelength_and_geometry() {
     let target = dir.path().join("too_bright.cgats");
     std::fs::write(&target, as_cgats("White", &single)).expect("write");
     let out = dir.path().join("fitted.toml");
-    let output = run(&[
-        "fit".as_ref(),
-        "--target".as_ref(),
-        target.as_os_str(),
-        "--start".as_ref(),
-        white.as_os_str(),
-        "--out".as_ref(),
-        out.as_os_str(),
-    ]);
-    let text = String::from_utf8_lossy(&output.stdout);
-    assert!(output.status.success(), "{text}");
+    let start = white.to_str().expect("UTF-8 path");
+    let text = stdout(&fit(&target, &out, &["--start", start]));
     assert!(text.contains("cannot be reached at 1 wavelength"), "{text}");
     assert!(
         text.contains("45°as45° at 600 nm: the target reads 1.3000, brighter than ρ = 1"),
@@ -177,14 +143,7 @@ fn a_lab_only_standard_gets_the_smoothest_metamer() {
     )
     .expect("write");
     let out = dir.path().join("teal.toml");
-    let j = json(&run(&[
-        "fit".as_ref(),
-        "--target".as_ref(),
-        target.as_os_str(),
-        "--out".as_ref(),
-        out.as_os_str(),
-        "--json".as_ref(),
-    ]));
+    let j = json(&fit(&target, &out, &["--json"]));
     assert_eq!(j["method"], "smoothest_metamer");
     let a = &j["comparison"]["angles"][0];
     assert_eq!(a["conditions"], "D50/CIE 1931 2°");
@@ -207,39 +166,28 @@ fn bad_arguments_and_files_are_refused_and_nothing_is_written() {
     let target = dir.path().join("red.cgats");
     std::fs::write(&target, as_cgats("Signal red", &(w, angles))).expect("write");
     let out = dir.path().join("out.toml");
-    let fit = |extra: &[&str], target: &Path, out: &Path| {
-        coatlab()
-            .arg("fit")
-            .arg("--target")
-            .arg(target)
-            .arg("--out")
-            .arg(out)
-            .args(extra)
-            .output()
-            .expect("coatlab runs")
-    };
-    let e = failure(&fit(&["--free", "rho,n"], &target, &out), exit::USAGE);
+    let e = failure(&fit(&target, &out, &["--free", "rho,n"]), exit::USAGE);
     assert!(e.contains("--free n: only the pigment"), "{e}");
-    let e = failure(&fit(&["--free", "colour"], &target, &out), exit::USAGE);
+    let e = failure(&fit(&target, &out, &["--free", "colour"]), exit::USAGE);
     assert!(e.contains("unknown parameter"), "{e}");
-    let e = failure(&fit(&[], &red, &out), exit::DATA);
+    let e = failure(&fit(&red, &out, &[]), exit::DATA);
     assert!(e.contains("not a CGATS.17 or CxF3"), "{e}");
     let e = failure(
-        &fit(&[], &dir.path().join("missing.cgats"), &out),
+        &fit(&dir.path().join("missing.cgats"), &out, &[]),
         exit::NO_INPUT,
     );
     assert!(e.contains("missing.cgats"), "{e}");
-    let e = failure(&fit(&["--sample", "Blue"], &target, &out), exit::USAGE);
+    let e = failure(&fit(&target, &out, &["--sample", "Blue"]), exit::USAGE);
     assert!(e.contains("--sample"), "{e}");
     assert!(!out.exists());
     // An output that cannot be created; an existing one is replaced whole.
     let e = failure(
-        &fit(&[], &target, &dir.path().join("no/such/dir/out.toml")),
+        &fit(&target, &dir.path().join("no/such/dir/out.toml"), &[]),
         exit::CANT_CREATE,
     );
     assert!(e.contains("out.toml"), "{e}");
     std::fs::write(&out, "old").expect("write");
-    let output = fit(&[], &target, &out);
+    let output = fit(&target, &out, &[]);
     assert!(output.status.success());
     PaintDesign::load(&out).expect("replaced by a valid design");
 }

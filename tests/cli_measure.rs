@@ -1,11 +1,12 @@
 //! End-to-end tests of `coatlab measure` on the committed presets.
 
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::Output;
 
 mod common;
 
-use common::{exit, failure, measured_spectra};
+use common::{exit, failure, json, measured_spectra, preset, run, stdout};
 
 #[path = "../crates/coatlab-core/tests/support/measurement_files.rs"]
 mod measurement_files;
@@ -22,40 +23,25 @@ use coatlab_core::design::PaintDesign;
 use coatlab_core::paint::gloss::GlossExponent;
 use instrument_reference::{DESIGNS, Readings, disagreements, reference, workspace_root};
 
-fn coatlab() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_coatlab"))
+/// `coatlab measure` with `args`; the outcome is the caller's to judge.
+fn measure(args: &[&OsStr]) -> Output {
+    run(&[&["measure".as_ref()], args].concat())
 }
 
-fn preset(slug: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../assets/presets")
-        .join(format!("{slug}.toml"))
+/// What a successful `coatlab measure` with `args` printed.
+fn measure_text(args: &[&OsStr]) -> String {
+    stdout(&measure(args))
 }
 
-fn json_of(args: &[&str]) -> serde_json::Value {
-    let output = coatlab().args(args).output().expect("coatlab runs");
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    serde_json::from_slice(&output.stdout).expect("valid JSON")
+/// `coatlab measure --json` with `args`, which must succeed.
+fn measure_json(args: &[&OsStr]) -> serde_json::Value {
+    json(&measure(&[&["--json".as_ref()], args].concat()))
 }
 
 #[test]
 fn measure_prints_five_angles_and_three_gloss_readings() {
     let path = preset("signal-red");
-    let output = coatlab()
-        .arg("measure")
-        .arg(&path)
-        .output()
-        .expect("coatlab runs");
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    let text = String::from_utf8_lossy(&output.stdout);
+    let text = measure_text(&[path.as_os_str()]);
     // Each table row against the independent reference, to the printed rounding
     // (2 decimals for L*a*b*, 1 for GU): the aspecular angle, the detector's signed
     // polar angle (45° − aspecular), then the readings.
@@ -104,7 +90,7 @@ fn measure_prints_five_angles_and_three_gloss_readings() {
 #[test]
 fn measure_json_reports_a_red_as_red_and_its_designed_gloss() {
     let path = preset("signal-red");
-    let json = json_of(&["measure", "--json", path.to_str().expect("utf-8 path")]);
+    let json = measure_json(&[path.as_os_str()]);
     let angles = json["measurement"]["angles"].as_array().expect("angles");
     assert_eq!(angles.len(), 5);
     let lab = &angles[2]["lab"];
@@ -166,14 +152,14 @@ fn measure_json_matches_the_independent_reference() {
     let rows = reference();
     for (key, file) in DESIGNS {
         let path = workspace_root().join(file);
-        let json = json_of(&["measure", "--json", path.to_str().expect("utf-8 path")]);
+        let json = measure_json(&[path.as_os_str()]);
         let found = disagreements(&rows, key, &readings_of(&json, &path));
         assert!(found.is_empty(), "{found:#?}");
     }
     // The comparison is sharp enough: the 25° and 45° readings of the red swapped
     // (ΔL* ≈ 8e-3) must fail it.
     let path = preset("signal-red");
-    let mut json = json_of(&["measure", "--json", path.to_str().expect("utf-8 path")]);
+    let mut json = measure_json(&[path.as_os_str()]);
     let angles = json["measurement"]["angles"]
         .as_array_mut()
         .expect("angles");
@@ -189,13 +175,7 @@ fn measure_json_matches_the_independent_reference() {
 
 /// `coatlab measure --json` of `design` against `target`.
 fn measured_against(design: &Path, target: &Path) -> serde_json::Value {
-    json_of(&[
-        "measure",
-        "--json",
-        design.to_str().expect("path"),
-        "--target",
-        target.to_str().expect("path"),
-    ])
+    measure_json(&[design.as_os_str(), "--target".as_ref(), target.as_os_str()])
 }
 
 #[test]
@@ -219,41 +199,23 @@ fn measure_refuses_a_bad_file_with_its_name() {
         .expect("preset")
         .replace("thickness_um = 45", "thickness_um = -45");
     std::fs::write(&bad, text).expect("write");
-    let output = coatlab()
-        .arg("measure")
-        .arg(&bad)
-        .output()
-        .expect("coatlab runs");
+    let output = measure(&[bad.as_os_str()]);
     let err = failure(&output, exit::DATA);
     assert!(err.contains("broken.toml") && err.contains("-45"), "{err}");
-    let missing = coatlab()
-        .arg("measure")
-        .arg(dir.join("nope.toml"))
-        .output()
-        .expect("coatlab runs");
+    let missing = measure(&[dir.join("nope.toml").as_os_str()]);
     assert!(failure(&missing, exit::NO_INPUT).contains("nope.toml"));
     // A target that is bad is bad input too; a design that is not text is bad data.
-    let target = coatlab()
-        .arg("measure")
-        .arg(preset("signal-red"))
-        .arg("--target")
-        .arg(&bad)
-        .output()
-        .expect("coatlab runs");
+    let target = measure(&[
+        preset("signal-red").as_os_str(),
+        "--target".as_ref(),
+        bad.as_os_str(),
+    ]);
     assert!(failure(&target, exit::DATA).contains("broken.toml"));
     let binary = dir.join("binary.toml");
     std::fs::write(&binary, b"\xff\xfe\x00format = 1").expect("write");
-    let output = coatlab()
-        .arg("measure")
-        .arg(&binary)
-        .output()
-        .expect("coatlab runs");
+    let output = measure(&[binary.as_os_str()]);
     assert!(failure(&output, exit::DATA).contains("binary.toml"));
-    let output = coatlab()
-        .args(["measure", "--colour"])
-        .arg(preset("signal-red"))
-        .output()
-        .expect("coatlab runs");
+    let output = measure(&["--colour".as_ref(), preset("signal-red").as_os_str()]);
     failure(&output, exit::USAGE);
     std::fs::remove_dir_all(&dir).ok();
 }
@@ -275,26 +237,11 @@ fn as_cgats(name: &str, spectra: &Spectra) -> String {
     measurement_files::as_cgats(name, spectra).replace("REFLECTANCE_SCALE PERCENT\n", "")
 }
 
-fn measure_json(args: &[&std::ffi::OsStr]) -> serde_json::Value {
-    let output = coatlab()
-        .arg("measure")
-        .arg("--json")
-        .args(args)
-        .output()
-        .expect("coatlab runs");
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    serde_json::from_slice(&output.stdout).expect("valid JSON")
-}
-
 #[test]
 fn a_design_against_its_own_measurement_file_passes_with_zero_difference() {
     let dir = tempfile::tempdir().expect("temp dir");
     let red = preset("signal-red");
-    let json = json_of(&["measure", "--json", red.to_str().expect("path")]);
+    let json = measure_json(&[red.as_os_str()]);
     // Every other wavelength (10 nm, 380–780 nm): the comparison happens on the
     // file's own wavelengths, where the design's values are exact.
     let spectra = measured_spectra(&json, 2);
@@ -337,19 +284,7 @@ fn a_design_against_its_own_measurement_file_passes_with_zero_difference() {
 
     // Another design against the red's file fails, at every angle, in text too.
     let blue = preset("deep-blue");
-    let output = coatlab()
-        .arg("measure")
-        .arg(&blue)
-        .arg("--target")
-        .arg(&cgats)
-        .output()
-        .expect("coatlab runs");
-    let text = String::from_utf8_lossy(&output.stdout);
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
+    let text = measure_text(&[blue.as_os_str(), "--target".as_ref(), cgats.as_os_str()]);
     assert!(text.contains("Against sample \"Signal red\""), "{text}");
     assert_eq!(
         text.lines()
@@ -400,47 +335,60 @@ fn the_tolerance_sets_the_formula_and_the_limit_per_angle() {
     let gloss = c["gloss"].as_array().expect("gloss");
     assert_eq!(gloss.len(), 2);
     assert_eq!(gloss[0]["target_gu"].as_f64(), Some(88.5));
-    let bad = coatlab()
-        .arg("measure")
-        .arg(&red)
-        .args(["--target"])
-        .arg(&target)
-        .args(["--tolerance", "cmc:-1"])
-        .output()
-        .expect("coatlab runs");
+    let bad = measure(&[
+        red.as_os_str(),
+        "--target".as_ref(),
+        target.as_os_str(),
+        "--tolerance".as_ref(),
+        "cmc:-1".as_ref(),
+    ]);
     assert!(failure(&bad, exit::USAGE).contains("-1"));
 }
 
 #[test]
-fn sphere_readings_are_not_comparable_and_45_0_is_the_45_as_45_reading() {
+fn sphere_readings_are_read_by_the_sphere_and_45_0_is_the_45_as_45_reading() {
     let red = preset("signal-red");
-    let json = measure_json(&[
-        red.as_os_str(),
-        "--target".as_ref(),
-        fixture("sphere_and_45_0.cxf").as_os_str(),
-    ]);
+    let json = measured_against(&red, &fixture("sphere_and_45_0.cxf"));
     let c = &json["comparison"];
     let angles = c["angles"].as_array().expect("angles");
-    assert_eq!(angles.len(), 1);
-    assert_eq!(angles[0]["geometry"]["aspecular_deg"].as_f64(), Some(45.0));
-    let not = c["not_comparable"].as_array().expect("listed");
-    assert_eq!(not.len(), 2);
-    assert!(
-        not.iter()
-            .all(|n| n["reason"].as_str().expect("why").contains("sphere"))
+    let kinds: Vec<String> = angles
+        .iter()
+        .map(|a| {
+            let g = &a["geometry"];
+            format!("{} {}", g["kind"], g["specular"])
+        })
+        .collect();
+    assert_eq!(
+        kinds,
+        [
+            "\"sphere\" \"included\"",
+            "\"sphere\" \"excluded\"",
+            "\"directional\" null"
+        ]
     );
-    // The 45:0 reading's design Lab is the instrument's 45as45 Lab under D65/10°
-    // (the comparison sums on the file's 5 nm grid from 360 nm, where the design
-    // is held flat beyond 380–780 nm: agreement to a few thousandths).
-    let table = &json["measurement"]["angles"][2]["lab"];
-    let design = &angles[0]["design_lab"];
-    for k in ["L", "a", "b"] {
-        let (x, y) = (
-            table[k].as_f64().expect("k"),
-            design[k].as_f64().expect("k"),
-        );
-        assert!((x - y).abs() < 0.02, "{k}: {x} vs {y}");
+    assert!(c["not_comparable"].as_array().expect("listed").is_empty());
+    // Each design Lab is the instrument's reading of that geometry under D65/10°:
+    // the sphere's SCI and SCE, the 45:0 reading's the 45as45 one (the comparison
+    // sums on the file's 5 nm grid from 360 nm, where the design is held flat
+    // beyond 380–780 nm: agreement to a few thousandths).
+    let m = &json["measurement"];
+    for (table, a) in [
+        (&m["sphere"][0]["lab"], &angles[0]),
+        (&m["sphere"][1]["lab"], &angles[1]),
+        (&m["angles"][2]["lab"], &angles[2]),
+    ] {
+        let design = &a["design_lab"];
+        for k in ["L", "a", "b"] {
+            let (x, y) = (
+                table[k].as_f64().expect("k"),
+                design[k].as_f64().expect("k"),
+            );
+            assert!((x - y).abs() < 0.02, "{k}: {x} vs {y}");
+        }
     }
+    // With its specular component the sphere reads lighter.
+    let l = |i: usize| m["sphere"][i]["lab"]["L"].as_f64().expect("L");
+    assert!(l(0) > l(1) + 1.0, "SCI {} vs SCE {}", l(0), l(1));
     assert!(
         c["notes"].to_string().contains("held at its end values"),
         "{c}"
@@ -450,15 +398,13 @@ fn sphere_readings_are_not_comparable_and_45_0_is_the_45_as_45_reading() {
 #[test]
 fn a_lab_only_target_is_compared_under_its_own_conditions() {
     let red = preset("signal-red");
-    let output = coatlab()
-        .arg("measure")
-        .arg(&red)
-        .arg("--target")
-        .arg(fixture("lab_only_d50.cgats"))
-        .args(["--sample", "1"])
-        .output()
-        .expect("coatlab runs");
-    let text = String::from_utf8_lossy(&output.stdout);
+    let text = measure_text(&[
+        red.as_os_str(),
+        "--target".as_ref(),
+        fixture("lab_only_d50.cgats").as_os_str(),
+        "--sample".as_ref(),
+        "1".as_ref(),
+    ]);
     // No geometry in the file: nothing to compare, and it says so.
     assert!(text.contains("not comparable"), "{text}");
     assert!(text.contains("Result: nothing to compare"), "{text}");
@@ -487,14 +433,9 @@ fn a_lab_only_target_is_compared_under_its_own_conditions() {
 fn bad_measurement_targets_and_samples_are_refused() {
     let red = preset("signal-red");
     let run = |target: &Path, extra: &[&str]| {
-        coatlab()
-            .arg("measure")
-            .arg(&red)
-            .arg("--target")
-            .arg(target)
-            .args(extra)
-            .output()
-            .expect("coatlab runs")
+        let mut args = vec![red.as_os_str(), "--target".as_ref(), target.as_os_str()];
+        args.extend(extra.iter().map(OsStr::new));
+        measure(&args)
     };
     let e = failure(&run(&fixture("bad_number_of_sets.cgats"), &[]), exit::DATA);
     assert!(e.contains("bad_number_of_sets.cgats, line 13"), "{e}");
@@ -511,12 +452,7 @@ fn bad_measurement_targets_and_samples_are_refused() {
     // --sample means nothing for a design target, or without a target.
     let e = failure(&run(&preset("deep-blue"), &["--sample", "1"]), exit::USAGE);
     assert!(e.contains("--sample"), "{e}");
-    let output = coatlab()
-        .arg("measure")
-        .arg(&red)
-        .args(["--sample", "1"])
-        .output()
-        .expect("coatlab runs");
+    let output = measure(&[red.as_os_str(), "--sample".as_ref(), "1".as_ref()]);
     failure(&output, exit::USAGE);
 }
 
@@ -524,7 +460,7 @@ fn bad_measurement_targets_and_samples_are_refused() {
 fn a_metameric_match_passes_under_d65_and_is_warned_about() {
     let dir = tempfile::tempdir().expect("temp dir");
     let red = preset("signal-red");
-    let json = json_of(&["measure", "--json", red.to_str().expect("path")]);
+    let json = measure_json(&[red.as_os_str()]);
     let (w, angles) = measured_spectra(&json, 2);
     let wiggle: Vec<f64> = w
         .iter()
@@ -537,19 +473,7 @@ fn a_metameric_match_passes_under_d65_and_is_warned_about() {
         .collect();
     let path = dir.path().join("metamer.cgats");
     std::fs::write(&path, as_cgats("Metamer", &(w, metamer))).expect("write");
-    let output = coatlab()
-        .arg("measure")
-        .arg(&red)
-        .arg("--target")
-        .arg(&path)
-        .output()
-        .expect("coatlab runs");
-    let text = String::from_utf8_lossy(&output.stdout);
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
+    let text = measure_text(&[red.as_os_str(), "--target".as_ref(), path.as_os_str()]);
     assert!(text.contains("Result: PASS"), "{text}");
     assert!(text.contains("warning: the pair is metameric"), "{text}");
     let json = measure_json(&[red.as_os_str(), "--target".as_ref(), path.as_os_str()]);
@@ -572,14 +496,7 @@ fn the_design_files_tolerance_is_used_unless_one_is_given() {
     let path = dir.path().join("blue.toml");
     blue.save(&path).expect("save");
     let red = preset("signal-red");
-    let output = coatlab()
-        .arg("measure")
-        .arg(&path)
-        .arg("--target")
-        .arg(&red)
-        .output()
-        .expect("coatlab runs");
-    let text = String::from_utf8_lossy(&output.stdout);
+    let text = measure_text(&[path.as_os_str(), "--target".as_ref(), red.as_os_str()]);
     assert!(text.contains("ΔE00 ≤ 100 (from the design file)"), "{text}");
     assert!(text.contains("Result: PASS"), "{text}");
     // --tolerance wins.

@@ -6,6 +6,7 @@ mod outcome;
 
 use std::ffi::OsStr;
 use std::io::Write;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
 #[allow(unused_imports)] // each test crate uses its own subset
@@ -13,6 +14,26 @@ pub use outcome::{exit, failure, stdout};
 
 pub fn coatlab(args: &[&str], stdin: &str) -> Output {
     coatlab_fed(args, stdin.as_bytes().to_vec())
+}
+
+/// A committed design preset: `signal-red` is `assets/presets/signal-red.toml`.
+pub fn preset(slug: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../assets/presets")
+        .join(format!("{slug}.toml"))
+}
+
+/// `coatlab` with `args` and no input; the outcome is the caller's to judge.
+pub fn run(args: &[impl AsRef<OsStr>]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_coatlab"))
+        .args(args)
+        .output()
+        .expect("coatlab runs")
+}
+
+/// The JSON a successful run printed.
+pub fn json(output: &Output) -> serde_json::Value {
+    serde_json::from_str(&stdout(output)).expect("valid JSON")
 }
 
 /// `coatlab` with `args`, fed `stdin` (any bytes, not only text).

@@ -150,7 +150,7 @@ pub enum FitError {
     #[error("--free {parameter}: unknown parameter (expected rho, gloss, h, k or n)")]
     UnknownParameter { parameter: String },
     #[error(
-        "standard {name:?} has no directional reading with a spectrum or a colour to fit (sphere and unstated geometries have no virtual instrument)"
+        "standard {name:?} has no directional reading with a spectrum or a colour to fit (sphere readings are compared but not fitted; unstated geometries have no instrument)"
     )]
     NothingToFit { name: String },
     #[error("the start design: {0}")]

@@ -10,6 +10,11 @@
 //! reaches these angles). Colour: CIELAB under D65 for the 10° observer, the paint
 //! industry's reporting convention.
 //!
+//! Sphere spectrophotometer d:8° (CIE 15), specular component included or
+//! excluded: [`sphere`]. A measurement file's geometry picks the instrument
+//! ([`reading`]): 45°:0° is the multi-angle instrument's 45°as45° (for the
+//! isotropic paint an annular 45°:0° instrument reads the same).
+//!
 //! Glossmeter (spec 4.3): the simulated ISO 2813 instrument of
 //! [`crate::paint::gloss`], reading specular and body reflection together, each
 //! wavelength weighted by ȳ(λ) under D65 (the standard uses illuminant C; the 2°
@@ -20,11 +25,14 @@ use std::f64::consts::PI;
 use crate::colour::cie::{Colorimeter, Illuminant, Observer};
 use crate::colour::spectrum::WavelengthGrid;
 use crate::colour::{Lab, ciede2000};
+use crate::measurement::{Geometry, SpecularComponent};
 use crate::paint::coat::body_brdf;
 use crate::paint::fresnel::reflectance;
 use crate::paint::gloss::{GlossExponent, GlossGeometry, reading_from_exponent};
 use crate::paint::lobe::{LobeKind, paper_lobe, phong_lobe, phong_normalisation};
 use crate::paint::model::PaintModel;
+
+pub mod sphere;
 
 /// Illumination angle of the multi-angle instrument, degrees from the normal.
 pub const ILLUMINATION_DEG: f64 = 45.0;
@@ -40,6 +48,9 @@ pub enum InstrumentError {
         "the instruments measure spectra, but this paint model is on linear-sRGB channels, which have no wavelengths"
     )]
     NotSpectral,
+    /// A reading whose file does not say how it was measured.
+    #[error("the reading's geometry is not stated, so no instrument can be chosen to read it")]
+    NoGeometry,
 }
 
 fn spectral_grid(model: &PaintModel) -> Result<WavelengthGrid, InstrumentError> {
@@ -84,6 +95,27 @@ pub struct GlossReading {
     pub total_gu: f64,
 }
 
+/// A design read at one measurement geometry: what a file of that geometry holds.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct GeometryReading {
+    pub geometry: Geometry,
+    /// CIELAB, D65/10°.
+    #[serde(serialize_with = "serialize_lab")]
+    pub lab: Lab,
+    /// Reflectance factor per wavelength of the model's grid.
+    pub reflectance_factor: Vec<f64>,
+}
+
+/// The sphere instrument's geometries, in the order of [`Measurement::sphere`].
+pub const SPHERE_GEOMETRIES: [Geometry; 2] = [
+    Geometry::Sphere {
+        specular: SpecularComponent::Included,
+    },
+    Geometry::Sphere {
+        specular: SpecularComponent::Excluded,
+    },
+];
+
 /// Everything the virtual instruments report for a design.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Measurement {
@@ -91,6 +123,8 @@ pub struct Measurement {
     pub wavelength_nm: Vec<f64>,
     /// Multi-angle readings, in the order of [`ASPECULAR_DEG`].
     pub angles: Vec<AngleReading>,
+    /// Sphere (d:8°) readings, SCI then SCE.
+    pub sphere: Vec<GeometryReading>,
     /// Gloss at 20°, 60°, 85°.
     pub gloss: Vec<GlossReading>,
 }
@@ -109,7 +143,7 @@ fn serialize_geometry<S: serde::Serializer>(g: &GlossGeometry, s: S) -> Result<S
     s.serialize_u32(u32::from(*g))
 }
 
-fn in_plane_direction(signed_deg: f64) -> [f64; 3] {
+pub(crate) fn in_plane_direction(signed_deg: f64) -> [f64; 3] {
     let t = signed_deg.to_radians();
     [t.sin(), 0.0, t.cos()]
 }
@@ -122,6 +156,10 @@ pub fn measure(model: &PaintModel) -> Result<Measurement, InstrumentError> {
         .iter()
         .map(|&aspecular| read_directional(model, &colorimeter, ILLUMINATION_DEG, aspecular))
         .collect();
+    let sphere = SPHERE_GEOMETRIES
+        .iter()
+        .map(|&g| read_at(model, &colorimeter, g))
+        .collect::<Result<_, _>>()?;
     let gloss = GlossGeometry::ALL
         .iter()
         .map(|&g| gloss_reading(model, g))
@@ -129,7 +167,40 @@ pub fn measure(model: &PaintModel) -> Result<Measurement, InstrumentError> {
     Ok(Measurement {
         wavelength_nm: grid.wavelengths_nm().collect(),
         angles,
+        sphere,
         gloss,
+    })
+}
+
+/// A design read by the instrument of `geometry`: the multi-angle instrument at a
+/// directional geometry (any illumination and aspecular angle with the detector
+/// above the surface; 45°:0° is 45°as45°), the sphere at d:8°. Errors for a model
+/// that is not spectral and for an unstated geometry.
+pub fn reading(model: &PaintModel, geometry: Geometry) -> Result<GeometryReading, InstrumentError> {
+    let grid = spectral_grid(model)?;
+    let colorimeter = Colorimeter::new(Illuminant::D65, Observer::Cie1964TenDegree, &grid);
+    read_at(model, &colorimeter, geometry)
+}
+
+fn read_at(
+    model: &PaintModel,
+    colorimeter: &Colorimeter,
+    geometry: Geometry,
+) -> Result<GeometryReading, InstrumentError> {
+    let reflectance_factor = match geometry {
+        Geometry::Directional {
+            illumination_deg,
+            aspecular_deg,
+        } => {
+            read_directional(model, colorimeter, illumination_deg, aspecular_deg).reflectance_factor
+        }
+        Geometry::Sphere { specular } => sphere::sphere_reflectance(model, specular),
+        Geometry::Unspecified => return Err(InstrumentError::NoGeometry),
+    };
+    Ok(GeometryReading {
+        geometry,
+        lab: colorimeter.lab(&reflectance_factor),
+        reflectance_factor,
     })
 }
 
@@ -254,12 +325,13 @@ pub fn specular_reading_tabulated(model: &PaintModel, geometry: GlossGeometry) -
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::colour::spectrum::Channels;
     use crate::paint::model::{GlossSetting, PaintParams};
 
-    fn grey(rho: f64, gloss: GlossSetting) -> PaintModel {
+    /// A grey paint on the reference grid: n = 1.5, k = 0.0005, 40 µm, `gloss`.
+    pub(crate) fn grey(rho: f64, gloss: GlossSetting) -> PaintModel {
         PaintModel::new(PaintParams::grey(
             WavelengthGrid::reference(),
             rho,

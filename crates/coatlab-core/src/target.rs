@@ -3,11 +3,11 @@
 //! differences, the total in the chosen formula, pass or fail, and the CIE
 //! metamerism index under A and F11 for a pair matched under D65.
 //!
-//! Geometry: the design is read by the virtual instrument at the measurement's own
-//! geometry. Directional geometries (multi-angle, and 45°:0°, which is 45°as45°)
-//! are read by [`instruments::directional_reading`]; a sphere (d:8°) or an
-//! unstated geometry has no virtual instrument here yet, so those readings are
-//! listed as not comparable rather than compared with numbers of another geometry.
+//! Geometry: the design is read by the virtual instrument of the measurement's own
+//! geometry ([`instruments::reading`]): the multi-angle instrument at directional
+//! geometries (45°:0° is 45°as45°), the sphere at d:8° SCI and SCE. A reading of
+//! unstated geometry is listed as not comparable rather than compared with
+//! numbers of another geometry.
 //!
 //! Colour: a spectral target is compared on its own wavelengths (the design's
 //! reflectance factor interpolated there) under D65 and the 10° observer, the paint
@@ -19,7 +19,7 @@ use crate::colour::cie::{CieError, Illuminant, Observer, summation_weights};
 use crate::colour::tolerance::{
     LabDifference, METAMERIC_DE00, MetamerismIndex, Tolerance, difference, metamerism_index,
 };
-use crate::instruments::{self, AngleReading, InstrumentError};
+use crate::instruments::{self, InstrumentError};
 use crate::measurement::{Geometry, LabSource, SampleColourError, Standard, interpolate};
 use crate::paint::model::PaintModel;
 
@@ -232,34 +232,19 @@ pub fn compare_to_standard(
         design_wavelengths.last().copied().unwrap_or(f64::NAN),
     );
     for sample in &standard.readings {
-        let (illumination_deg, aspecular_deg) = match sample.geometry {
-            Geometry::Directional {
-                illumination_deg,
-                aspecular_deg,
-            } => (illumination_deg, aspecular_deg),
-            Geometry::Sphere { .. } => {
-                not_comparable.push(NotComparable {
-                    geometry: sample.geometry,
-                    reason: "Coatlab has no sphere (d:8°) instrument yet: not comparable"
-                        .to_owned(),
-                });
-                continue;
-            }
-            Geometry::Unspecified => {
-                not_comparable.push(NotComparable {
-                    geometry: sample.geometry,
-                    reason: "the file does not state this reading's geometry: not comparable"
-                        .to_owned(),
-                });
-                continue;
-            }
-        };
+        if sample.geometry == Geometry::Unspecified {
+            not_comparable.push(NotComparable {
+                geometry: sample.geometry,
+                reason: "the file does not state this reading's geometry: not comparable"
+                    .to_owned(),
+            });
+            continue;
+        }
         if sample.spectrum.is_none() && sample.colour.is_none() {
             // Gloss only.
             continue;
         }
-        let reading: AngleReading =
-            instruments::directional_reading(model, illumination_deg, aspecular_deg)?;
+        let reading = instruments::reading(model, sample.geometry)?;
         match &sample.spectrum {
             Some(spectrum) => {
                 let wavelengths = spectrum.wavelengths_nm();
@@ -349,21 +334,13 @@ pub fn compare_to_standard(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::colour::spectrum::WavelengthGrid;
-    use crate::measurement::{Reflectance, Sample, SpecularComponent};
+    use crate::instruments::tests::grey;
+    use crate::measurement::{Reflectance, Sample};
     use crate::paint::gloss::GlossExponent;
-    use crate::paint::model::{GlossSetting, PaintParams};
+    use crate::paint::model::GlossSetting;
 
     fn grey_model(rho: f64) -> PaintModel {
-        PaintModel::new(PaintParams::grey(
-            WavelengthGrid::reference(),
-            rho,
-            1.5,
-            0.0005,
-            40.0,
-            GlossSetting::Exponent(GlossExponent::Finite(300.0)),
-        ))
-        .expect("valid model")
+        grey(rho, GlossSetting::Exponent(GlossExponent::Finite(300.0)))
     }
 
     fn reading(geometry: Geometry, spectrum: Option<Reflectance>) -> Sample {
@@ -389,7 +366,7 @@ mod tests {
     }
 
     #[test]
-    fn a_design_against_its_own_readings_passes_and_a_sphere_is_not_compared() {
+    fn a_design_against_its_own_readings_passes_at_every_stated_geometry() {
         let model = grey_model(0.4);
         let readings = instruments::measure(&model).expect("spectral");
         let w = readings.wavelength_nm.clone();
@@ -403,10 +380,14 @@ mod tests {
                 )
             })
             .collect();
+        samples.extend(readings.sphere.iter().map(|s| {
+            reading(
+                s.geometry,
+                Some(Reflectance::new(w.clone(), s.reflectance_factor.clone()).expect("valid")),
+            )
+        }));
         samples.push(reading(
-            Geometry::Sphere {
-                specular: SpecularComponent::Excluded,
-            },
+            Geometry::Unspecified,
             Some(Reflectance::new(w.clone(), vec![0.4; w.len()]).expect("valid")),
         ));
         let standard = Standard {
@@ -415,8 +396,9 @@ mod tests {
         };
         let c = compare_to_standard(&model, &readings, &standard, &Tolerance::default())
             .expect("comparable");
-        assert_eq!(c.angles.len(), 5);
+        assert_eq!(c.angles.len(), 7);
         assert!(c.angles.iter().all(|a| a.difference.de00 < 1e-12 && a.pass));
+        assert_eq!(c.angles[5].geometry, instruments::SPHERE_GEOMETRIES[0]);
         assert_eq!(c.pass, Some(true));
         assert!(!c.metameric);
         assert_eq!(c.not_comparable.len(), 1);
@@ -433,7 +415,7 @@ mod tests {
             "lighter: ΔL* > 0"
         );
         let passes: Vec<bool> = c.angles.iter().map(|a| a.pass).collect();
-        assert_eq!(passes, [true, false, false, false, false]);
+        assert_eq!(passes, [true, false, false, false, false, false, false]);
         assert_eq!(c.pass, Some(false));
     }
 }

@@ -45,6 +45,14 @@ fn read(text: &str, file: &str) -> measurement::Measurement {
     measurement::read(text.as_bytes(), file).expect("readable")
 }
 
+/// `spectra` written as CGATS and as CxF3 and read back, each with its file name.
+fn in_both_formats(name: &str, spectra: &Spectra) -> [(measurement::Measurement, &'static str); 2] {
+    [
+        (read(&as_cgats(name, spectra), "v.cgats"), "v.cgats"),
+        (read(&as_cxf(name, spectra), "v.cxf"), "v.cxf"),
+    ]
+}
+
 fn only(spectra: &Spectra, aspecular: f64) -> Spectra {
     (
         spectra.0.clone(),
@@ -64,11 +72,7 @@ fn one_geometry_noiseless_is_fitted_back_to_within_1e_4() {
         let (spectra, rho) = virtual_measurement(&design, 1);
         for aspecular in [45.0, 15.0, 110.0] {
             let single = only(&spectra, aspecular);
-            for (text, file) in [
-                (as_cgats(slug, &single), "v.cgats"),
-                (as_cxf(slug, &single), "v.cxf"),
-            ] {
-                let m = read(&text, file);
+            for (m, file) in in_both_formats(slug, &single) {
                 let standard = m.select(None).expect("one standard");
                 let fit = fit_albedo(&design, &standard).expect("fit");
                 assert_eq!(fit.method, Method::ClosedForm);
@@ -95,11 +99,7 @@ fn several_angles_noiseless_fit_within_0_05_de00_at_every_angle() {
         let design = preset(slug);
         // 10 nm steps, as instruments write.
         let (spectra, rho) = virtual_measurement(&design, 2);
-        for (text, file) in [
-            (as_cgats(slug, &spectra), "v.cgats"),
-            (as_cxf(slug, &spectra), "v.cxf"),
-        ] {
-            let m = read(&text, file);
+        for (m, file) in in_both_formats(slug, &spectra) {
             let standard = m.select(None).expect("one standard");
             let fit = fit_albedo(&design, &standard).expect("fit");
             assert_eq!(fit.method, Method::LeastSquares);

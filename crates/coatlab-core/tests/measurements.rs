@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use coatlab_core::colour::cie::{Illuminant, Observer};
 use coatlab_core::measurement::{
-    self, Format, Geometry, LabSource, Measurement, ReflectanceScale, ScaleEvidence,
+    self, Format, Geometry, LabSource, Measurement, ReflectanceScale, Sample, ScaleEvidence,
     SpecularComponent, StatedValue,
 };
 
@@ -67,34 +67,20 @@ fn grid_of(m: &Measurement) -> (f64, f64, usize) {
 
 #[test]
 fn cgats_spectral_variants_read_to_fractions_on_their_own_grids() {
-    // (file, grid, scale, whether the header said it, sample names)
+    // (file, grid): each file's name says its scale (`percent` or fractions) and
+    // whether its header states it (`header`).
     let cases = [
-        (
-            "spectral_fraction_10nm.cgats",
-            (380.0, 10.0, 36),
-            ReflectanceScale::Fraction,
-            false,
-        ),
-        (
-            "spectral_percent_5nm_crlf.txt",
-            (400.0, 5.0, 61),
-            ReflectanceScale::Percent,
-            false,
-        ),
-        (
-            "spectral_r_20nm.cgats",
-            (360.0, 20.0, 20),
-            ReflectanceScale::Fraction,
-            false,
-        ),
-        (
-            "spectral_percent_header.cgats",
-            (400.0, 10.0, 31),
-            ReflectanceScale::Percent,
-            true,
-        ),
+        ("spectral_fraction_10nm.cgats", (380.0, 10.0, 36)),
+        ("spectral_percent_5nm_crlf.txt", (400.0, 5.0, 61)),
+        ("spectral_r_20nm.cgats", (360.0, 20.0, 20)),
+        ("spectral_percent_header.cgats", (400.0, 10.0, 31)),
     ];
-    for (file, grid, scale, from_header) in cases {
+    for (file, grid) in cases {
+        let (scale, from_header) = if file.contains("percent") {
+            (ReflectanceScale::Percent, file.contains("header"))
+        } else {
+            (ReflectanceScale::Fraction, false)
+        };
         let m = read(file);
         assert_eq!(m.format, Format::Cgats, "{file}");
         assert_eq!(grid_of(&m), grid, "{file}");
@@ -347,47 +333,48 @@ fn every_malformed_file_is_refused_with_its_place_named() {
     }
 }
 
+/// Text replacements (from, to) that spoil a file.
+type Changes<'a> = &'a [(&'a str, &'a str)];
+
 #[test]
 fn inconsistent_or_out_of_range_content_is_refused() {
     let good = std::fs::read_to_string(path("spectral_fraction_10nm.cgats")).expect("fixture");
-    // The header says fractions, the data hold percentages.
-    let text = good
-        .replace("CREATED", "REFLECTANCE_SCALE \"FRACTION\"\nCREATED")
-        .replace("0.7999", "79.99");
-    let e = measurement::read(text.as_bytes(), "x.cgats").expect_err("conflict");
-    assert!(e.to_string().contains("the header says fractions"), "{e}");
-    // A wavelength outside the CIE tables.
-    let text = good.replace("SPECTRAL_NM_380", "SPECTRAL_NM_340");
-    let e = measurement::read(text.as_bytes(), "x.cgats").expect_err("range");
-    assert!(
-        e.to_string().contains("SPECTRAL_NM_340") && e.to_string().contains("line 8"),
-        "{e}"
-    );
-    // Wavelength columns out of order.
-    let text = good.replace("SPECTRAL_NM_390", "SPECTRAL_NM_370");
-    assert!(measurement::read(text.as_bytes(), "x.cgats").is_err());
-    // A reflectance far above 1 among fractions... is percent; one negative is refused.
-    let text = good.replacen(" 0.0500 ", " -0.5000 ", 1);
-    let e = measurement::read(text.as_bytes(), "x.cgats").expect_err("negative");
-    assert!(e.to_string().contains("-0.5"), "{e}");
-    // LAB_L without LAB_A and LAB_B.
     let lab = std::fs::read_to_string(path("lab_only_d50.cgats")).expect("fixture");
-    let text = lab.replace(" LAB_A", " LAB_Q");
-    let e = measurement::read(text.as_bytes(), "x.cgats").expect_err("incomplete");
-    assert!(e.to_string().contains("LAB_A is missing"), "{e}");
+    let cxf = std::fs::read_to_string(path("multi_angle.cxf")).expect("fixture");
+    // (the file, the changes that spoil it, what the refusal says): the header says
+    // fractions over percentages; a wavelength outside the CIE tables; wavelength
+    // columns out of order; a negative reflectance; LAB_L without LAB_A; colours
+    // under an illuminant Coatlab lacks, with no spectrum; a CxF colour naming a
+    // specification that is not there.
+    #[rustfmt::skip]
+    let cases: [(&str, Changes, &[&str]); 7] = [
+        (&good, &[("CREATED", "REFLECTANCE_SCALE \"FRACTION\"\nCREATED"), ("0.7999", "79.99")], &["the header says fractions"]),
+        (&good, &[("SPECTRAL_NM_380", "SPECTRAL_NM_340")], &["SPECTRAL_NM_340", "line 8"]),
+        (&good, &[("SPECTRAL_NM_390", "SPECTRAL_NM_370")], &["SPECTRAL_NM_370"]),
+        (&good, &[(" 0.0500 ", " -0.5000 ")], &["-0.5"]),
+        (&lab, &[(" LAB_A", " LAB_Q")], &["LAB_A is missing"]),
+        (&lab, &[("ILLUMINANT, D50", "ILLUMINANT, C")], &["\"ILLUMINANT, C\"", "line 4"]),
+        (&cxf, &[("ColorSpecification=\"CS_45as15\"", "ColorSpecification=\"CS_nope\"")], &["CS_nope"]),
+    ];
+    for (text, changes, wanted) in cases {
+        let mut spoilt = text.to_owned();
+        for (from, to) in changes {
+            spoilt = spoilt.replacen(from, to, 1);
+        }
+        let file = if text == cxf { "x.cxf" } else { "x.cgats" };
+        let e = measurement::read(spoilt.as_bytes(), file)
+            .expect_err(&format!("{changes:?}"))
+            .to_string();
+        for w in wanted {
+            assert!(e.contains(w), "{changes:?}: {e}");
+        }
+    }
     // Nothing at all, and something that is neither format.
     assert!(measurement::read(b"", "e.cgats").is_err());
     let e = measurement::read(b"wavelength_nm,a\n400,0.1\n", "s.csv").expect_err("csv");
     assert!(e.to_string().contains("neither CGATS"), "{e}");
-    // Colours under an illuminant Coatlab lacks, with no spectrum to recompute them.
-    let text = lab.replace("ILLUMINANT, D50", "ILLUMINANT, C");
-    let e = measurement::read(text.as_bytes(), "x.cgats").expect_err("illuminant C");
-    assert!(
-        e.to_string().contains("\"ILLUMINANT, C\"") && e.to_string().contains("line 4"),
-        "{e}"
-    );
-    // With spectra the stated colours are dropped instead (the spectra give them).
-    let cxf = std::fs::read_to_string(path("multi_angle.cxf")).expect("fixture");
+    // With spectra, colours under an unknown illuminant are dropped instead (the
+    // spectra give them).
     let text = cxf.replace(
         "<cc:Illuminant>D65</cc:Illuminant>",
         "<cc:Illuminant>C</cc:Illuminant>",
@@ -404,19 +391,23 @@ fn inconsistent_or_out_of_range_content_is_refused() {
             .iter()
             .all(|s| s.colour.is_none() && s.spectrum.is_some())
     );
-    // A CxF colour naming a specification that is not there.
-    let text = cxf.replacen(
-        "ColorSpecification=\"CS_45as15\"",
-        "ColorSpecification=\"CS_nope\"",
-        1,
-    );
-    let e = measurement::read(text.as_bytes(), "x.cxf").expect_err("unknown spec");
-    assert!(e.to_string().contains("CS_nope"), "{e}");
 }
 
 // ---------------------------------------------------------------------------------
 // Round trips: a measurement written by the test's own small writers (the formats
 // as documented in docs/measurements.md) and read back.
+
+/// The illumination and aspecular angles of a directional reading (the writers
+/// below write no other).
+fn directional(s: &Sample) -> (f64, f64) {
+    match s.geometry {
+        Geometry::Directional {
+            illumination_deg,
+            aspecular_deg,
+        } => (illumination_deg, aspecular_deg),
+        other => panic!("directional readings only, not {other}"),
+    }
+}
 
 fn write_cgats(m: &Measurement, percent: bool) -> String {
     let w = m.samples[0]
@@ -438,13 +429,7 @@ fn write_cgats(m: &Measurement, percent: bool) -> String {
         m.samples.len()
     );
     for s in &m.samples {
-        let Geometry::Directional {
-            illumination_deg,
-            aspecular_deg,
-        } = s.geometry
-        else {
-            panic!("directional readings only");
-        };
+        let (illumination_deg, aspecular_deg) = directional(s);
         text += &format!("\"{}\" {illumination_deg}as{aspecular_deg}", s.name);
         for v in s.spectrum.as_ref().expect("spectrum").factors() {
             text += &format!(" {}", if percent { v * 100.0 } else { *v });
@@ -458,13 +443,7 @@ fn write_cxf(m: &Measurement) -> String {
     let mut specs = String::new();
     let mut objects = String::new();
     for (k, s) in m.samples.iter().enumerate() {
-        let Geometry::Directional {
-            illumination_deg,
-            aspecular_deg,
-        } = s.geometry
-        else {
-            panic!("directional readings only");
-        };
+        let (illumination_deg, aspecular_deg) = directional(s);
         let spectrum = s.spectrum.as_ref().expect("spectrum");
         let w = spectrum.wavelengths_nm();
         specs += &format!(
@@ -554,4 +533,59 @@ proptest::proptest! {
             proptest::prop_assert!(e.to_string().starts_with("damaged"), "{}", e);
         }
     }
+}
+
+#[test]
+fn a_designs_readings_written_as_cgats_read_back_to_the_same_numbers() {
+    use coatlab_core::design::presets;
+    use coatlab_core::measurement::GlossValue;
+    use coatlab_core::measurement::Reflectance;
+    use coatlab_core::measurement::cgats_write::{CgatsWriteError, write_cgats};
+    let design = presets::by_slug("signal-red").expect("preset").design;
+    let model = design
+        .model(coatlab_core::colour::spectrum::WavelengthGrid::reference())
+        .expect("model");
+    let m = coatlab_core::instruments::measure(&model).expect("spectral");
+    let gloss: Vec<GlossValue> = m
+        .gloss
+        .iter()
+        .map(|g| GlossValue {
+            angle_deg: f64::from(u32::from(g.geometry)),
+            gu: g.total_gu,
+        })
+        .collect();
+    let reading = |geometry, factors: &[f64]| Sample {
+        name: "Signal red".to_owned(),
+        id: None,
+        geometry,
+        spectrum: Some(Reflectance::new(m.wavelength_nm.clone(), factors.to_vec()).expect("valid")),
+        colour: None,
+        gloss: gloss.clone(),
+    };
+    let samples: Vec<Sample> = m
+        .angles
+        .iter()
+        .map(|a| {
+            reading(
+                Geometry::directional(45.0, a.aspecular_deg),
+                &a.reflectance_factor,
+            )
+        })
+        .chain(
+            m.sphere
+                .iter()
+                .map(|s| reading(s.geometry, &s.reflectance_factor)),
+        )
+        .collect();
+    let text = write_cgats("coatlab test", &samples).expect("writable");
+    let back = measurement::read(text.as_bytes(), "red.cgats").expect("readable");
+    assert_eq!(back.format, Format::Cgats);
+    assert_eq!(back.samples, samples, "{text}");
+    // What cannot be written is refused by name.
+    let mut unstated = samples.clone();
+    unstated[1].geometry = Geometry::Unspecified;
+    let e = write_cgats("t", &unstated).expect_err("no geometry");
+    assert!(matches!(e, CgatsWriteError::Unwritable { .. }), "{e}");
+    assert!(e.to_string().contains("Signal red"), "{e}");
+    assert_eq!(write_cgats("t", &[]), Err(CgatsWriteError::Empty));
 }

@@ -187,21 +187,32 @@ fn standard(w: &[f64]) -> Vec<f64> {
         .collect()
 }
 
+/// The metamerism index of `trial` against `standard` (matched under D65, 10°)
+/// under `test`.
+fn index_under(
+    test: Illuminant,
+    w: &[f64],
+    standard: &[f64],
+    trial: &[f64],
+) -> coatlab_core::colour::tolerance::MetamerismIndex {
+    metamerism_index(
+        w,
+        standard,
+        trial,
+        Illuminant::D65,
+        test,
+        Observer::Cie1964TenDegree,
+    )
+    .expect("index")
+}
+
 #[test]
 fn a_scaled_copy_has_no_metamerism_after_the_multiplicative_correction() {
     let w = wavelengths();
     let s = standard(&w);
     let trial: Vec<f64> = s.iter().map(|v| v * 1.04).collect();
     for test in [Illuminant::A, Illuminant::F11] {
-        let m = metamerism_index(
-            &w,
-            &s,
-            &trial,
-            Illuminant::D65,
-            test,
-            Observer::Cie1964TenDegree,
-        )
-        .expect("index");
+        let m = index_under(test, &w, &s, &trial);
         assert!(m.de00 < 1e-9 && m.de_ab < 1e-9, "{m:?}");
         assert_eq!(m.illuminant, test);
     }
@@ -222,31 +233,12 @@ fn a_metameric_pair_matches_under_d65_and_not_under_a_or_f11() {
     assert!(same.de00 < 1e-9, "matched under D65: {same:?}");
     let indices: Vec<f64> = [Illuminant::A, Illuminant::F11]
         .into_iter()
-        .map(|test| {
-            metamerism_index(
-                &w,
-                &s,
-                &trial,
-                Illuminant::D65,
-                test,
-                Observer::Cie1964TenDegree,
-            )
-            .expect("index")
-            .de00
-        })
+        .map(|test| index_under(test, &w, &s, &trial).de00)
         .collect();
     assert!(indices.iter().all(|m| *m > METAMERIC_DE00), "{indices:?}");
     // The same wiggle scaled down tenfold is ten times less metameric, to first order.
     let small: Vec<f64> = s.iter().zip(&black).map(|(a, b)| a + 0.1 * b).collect();
-    let m = metamerism_index(
-        &w,
-        &s,
-        &small,
-        Illuminant::D65,
-        Illuminant::A,
-        Observer::Cie1964TenDegree,
-    )
-    .expect("index");
+    let m = index_under(Illuminant::A, &w, &s, &small);
     assert!(
         (m.de00 / indices[0] - 0.1).abs() < 0.01,
         "{} vs {}",

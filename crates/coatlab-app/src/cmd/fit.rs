@@ -166,46 +166,15 @@ pub fn run(args: &FitArgs, out: &mut impl Write) -> anyhow::Result<()> {
             .copied()
             .fold(f64::NEG_INFINITY, f64::max),
     )?;
-    let c = &report.comparison;
-    writeln!(
-        out,
-        "{:<12} {:>7} {:>7} {:>7} {:>7} {:>10}  verdict",
-        "geometry", "ΔL*", "Δa*", "Δb*", "ΔE00", "RMS"
-    )?;
-    for a in &c.angles {
-        let rms = report
+    let from_design = args.tolerance.is_none() && start.tolerance.is_some();
+    super::measure::write_verdicts(out, &report.comparison, from_design)?;
+    if !report.spectral_rms.is_empty() {
+        let cells: Vec<String> = report
             .spectral_rms
             .iter()
-            .find(|(g, _)| *g == a.geometry)
-            .map_or("—".to_owned(), |(_, r)| format!("{r:.6}"));
-        let d = &a.difference;
-        writeln!(
-            out,
-            "{:<12} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>10}  {}",
-            a.geometry.to_string(),
-            d.dl,
-            d.da,
-            d.db,
-            d.de00,
-            rms,
-            if a.pass { "pass" } else { "FAIL" }
-        )?;
-    }
-    for n in &c.not_comparable {
-        writeln!(out, "{:<12} {}", n.geometry.to_string(), n.reason)?;
-    }
-    for a in c.angles.iter().filter(|a| !a.metamerism.is_empty()) {
-        let cells: Vec<String> = a
-            .metamerism
-            .iter()
-            .map(|m| format!("{}: {:.3}", m.illuminant, m.de00))
+            .map(|(g, rms)| format!("{g} {rms:.6}"))
             .collect();
-        writeln!(
-            out,
-            "Metamerism index {} (ΔE00, matched under D65): {}",
-            a.geometry,
-            cells.join(", ")
-        )?;
+        writeln!(out, "Spectral RMS: {}", cells.join(", "))?;
     }
     if !fitted.unreachable.is_empty() {
         writeln!(
@@ -217,7 +186,7 @@ pub fn run(args: &FitArgs, out: &mut impl Write) -> anyhow::Result<()> {
             writeln!(out, "  {u}")?;
         }
     }
-    for note in fitted.notes.iter().chain(&c.notes) {
+    for note in &fitted.notes {
         writeln!(out, "note: {note}")?;
     }
     writeln!(out, "Wrote {}", args.out.display())?;

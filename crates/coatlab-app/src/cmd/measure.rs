@@ -210,12 +210,23 @@ fn write_comparison(
             }
         }
     }
+    write_verdicts(out, c, tolerance_source == "design")
+}
+
+/// The tolerance, the differences per geometry with their verdicts, the overall
+/// result, the metamerism index, the gloss beside the target's and the notes of a
+/// comparison: what `coatlab measure --target` and `coatlab fit` both report.
+pub(super) fn write_verdicts(
+    out: &mut impl Write,
+    c: &Comparison,
+    tolerance_from_design: bool,
+) -> anyhow::Result<()> {
     let t = &c.tolerance;
     let mut limits = format!("{} ≤ {}", t.formula, t.default_limit);
     for (angle, limit) in &t.per_angle {
         limits.push_str(&format!(", {limit} at as{angle}°"));
     }
-    let from = if tolerance_source == "design" {
+    let from = if tolerance_from_design {
         " (from the design file)"
     } else {
         ""

@@ -31,10 +31,10 @@ use std::collections::HashMap;
 
 use super::{
     Format, GlossValue, Measurement, MeasurementError, ReflectanceScale, Sample, StatedColour,
-    StatedValue, decide_scale, parse_geometry, parse_illuminant, parse_observer,
+    StatedValue, decide_scale, parse_geometry, parse_illuminant, parse_number, parse_observer,
 };
 use crate::colour::{Lab, Xyz};
-use crate::measurement::{Geometry, GeometryError, Reflectance, SpectrumProblem};
+use crate::measurement::{Geometry, ReadingProblem, Reflectance};
 
 /// What is wrong at a line of a CGATS file.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -69,25 +69,14 @@ pub enum CgatsProblem {
     },
     #[error("a row has {found} values, but the data format lists {expected} fields")]
     RowLength { found: usize, expected: usize },
-    #[error("{field} is {text:?}, not a number")]
-    NotANumber { field: String, text: String },
     #[error("field {field}: the wavelength {wavelength_nm} nm is outside 360–830 nm")]
     WavelengthOutOfRange { field: String, wavelength_nm: f64 },
     #[error("spectral field {field} does not follow the one before it in increasing wavelength")]
     WavelengthOrder { field: String },
-    #[error("{0}")]
-    Geometry(#[from] GeometryError),
-    #[error("{0}")]
-    Spectrum(#[from] SpectrumProblem),
-    #[error("{0}")]
-    Scale(#[from] super::ScaleConflict),
+    #[error(transparent)]
+    Reading(#[from] ReadingProblem),
     #[error("{field} is missing: {needed}")]
     IncompleteColour { field: String, needed: &'static str },
-    #[error(
-        "the colours are stated under {text:?}, which is not an illuminant Coatlab has \
-         (D65, D50, A, F2, F7, F11), and there are no spectra to compute them from"
-    )]
-    UnknownIlluminant { text: String },
     #[error("{0} appears twice in the data format")]
     DuplicateField(String),
 }
@@ -455,13 +444,7 @@ fn data_format(fields: Vec<String>) -> Result<Table, CgatsProblem> {
 }
 
 fn number(field: &str, text: &str) -> Result<f64, CgatsProblem> {
-    text.parse::<f64>()
-        .ok()
-        .filter(|v| v.is_finite())
-        .ok_or_else(|| CgatsProblem::NotANumber {
-            field: field.to_owned(),
-            text: text.to_owned(),
-        })
+    Ok(parse_number(field, text)?)
 }
 
 /// Splits a trailing geometry off a sample name ("RED_45as15" → "RED", 45as15).
@@ -523,18 +506,19 @@ fn read_row(
         }
     };
     let geometry = if let Some(text) = geometry_text {
-        parse_geometry(&text)?
+        parse_geometry(&text).map_err(ReadingProblem::from)?
     } else if let Some(aspecular_deg) = aspecular {
         let illumination_deg = match illumination {
             Some(v) => v,
             None => header_illumination()?,
         };
-        parse_geometry(&format!("{illumination_deg}as{aspecular_deg}"))?
+        parse_geometry(&format!("{illumination_deg}as{aspecular_deg}"))
+            .map_err(ReadingProblem::from)?
     } else if let Some((stripped, geometry)) = geometry_suffix(&name) {
         name = stripped;
         geometry
     } else if let Some((_, text)) = header.last(&["MEASUREMENT_GEOMETRY", "GEOMETRY"]) {
-        parse_geometry(text)?
+        parse_geometry(text).map_err(ReadingProblem::from)?
     } else {
         Geometry::Unspecified
     };
@@ -591,7 +575,7 @@ fn finish(rows: Vec<Row>, header: &Header) -> Result<Measurement, (usize, CgatsP
     {
         return Err((
             *line,
-            CgatsProblem::UnknownIlluminant { text: text.clone() },
+            ReadingProblem::UnknownIlluminant(text.clone()).into(),
         ));
     }
     // An illuminant Coatlab lacks, with spectra present: the stated colours are dropped
@@ -609,7 +593,7 @@ fn finish(rows: Vec<Row>, header: &Header) -> Result<Measurement, (usize, CgatsP
         let line = stated_scale.as_ref().map_or(1, |(l, _, _)| *l);
         Some(
             decide_scale(stated_scale.map(|(_, s, t)| (s, t)), max)
-                .map_err(|e| (line, e.into()))?,
+                .map_err(|e| (line, ReadingProblem::from(e).into()))?,
         )
     } else {
         None
@@ -631,7 +615,7 @@ fn finish(rows: Vec<Row>, header: &Header) -> Result<Measurement, (usize, CgatsP
                     )
                 })
                 .transpose()
-                .map_err(|e| (row.line, CgatsProblem::Spectrum(e)))?;
+                .map_err(|e| (row.line, ReadingProblem::from(e).into()))?;
             let value = match (row.lab, row.xyz) {
                 (Some([l, a, b]), _) => Some(StatedValue::Lab(Lab::new(l, a, b))),
                 (None, Some([x, y, z])) => Some(StatedValue::Xyz(Xyz::new(x, y, z))),

@@ -24,12 +24,12 @@ use roxmltree::{Document, Node, ParsingOptions};
 
 use super::{
     Format, GlossValue, Measurement, MeasurementError, Sample, StatedColour, StatedValue,
-    decide_scale, parse_illuminant, parse_observer,
+    decide_scale, parse_illuminant, parse_number, parse_observer,
 };
 use crate::colour::cie::{Illuminant, Observer};
 use crate::colour::{Lab, Xyz};
 use crate::measurement::{
-    Geometry, GeometryError, Reflectance, ReflectanceScale, SpectrumProblem, SpecularComponent,
+    Geometry, GeometryError, ReadingProblem, Reflectance, ReflectanceScale, SpecularComponent,
 };
 
 /// The most XML nodes a file may have: ample for thousands of multi-angle
@@ -56,23 +56,12 @@ pub enum CxfProblem {
     MissingChild(&'static str),
     #[error("no ColorSpecification with Id {0:?}")]
     UnknownSpecification(String),
-    #[error("{what} is {text:?}, not a number")]
-    NotANumber { what: String, text: String },
     #[error(
         "unknown geometry element <{0}>: expected SingleAngle, SphereGeometry, MultiAngle or BRDFAngle"
     )]
     UnknownGeometry(String),
-    #[error("{0}")]
-    Geometry(#[from] GeometryError),
-    #[error("{0}")]
-    Spectrum(#[from] SpectrumProblem),
-    #[error("{0}")]
-    Scale(#[from] super::ScaleConflict),
-    #[error(
-        "the colour is stated under illuminant {0:?}, which Coatlab does not have \
-         (D65, D50, A, F2, F7, F11), and there is no spectrum to compute it from"
-    )]
-    UnknownIlluminant(String),
+    #[error(transparent)]
+    Reading(#[from] ReadingProblem),
 }
 
 /// A `ColorSpecification`, as far as it concerns us.
@@ -166,19 +155,7 @@ fn read_document(doc: &Document) -> Result<Measurement, Located> {
         return Err(here(&root, CxfProblem::NotCxf(local(&root))));
     }
     let number = |node: &Node, what: &str, text: &str| -> Result<f64, Located> {
-        text.trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| {
-                here(
-                    node,
-                    CxfProblem::NotANumber {
-                        what: what.to_owned(),
-                        text: text.to_owned(),
-                    },
-                )
-            })
+        parse_number(what, text).map_err(|p| here(node, p.into()))
     };
 
     // Specifications by Id.
@@ -250,6 +227,26 @@ fn read_document(doc: &Document) -> Result<Measurement, Located> {
         spectrum: Option<RawSpectrum>,
         colour: Option<(StatedValue, Option<Specification>)>,
     }
+    /// The reading of `geometry` that still lacks what `lacks` looks for, a new
+    /// one if there is none: a spectrum and a colour of one geometry go together.
+    fn reading_at(
+        readings: &mut Vec<Reading>,
+        geometry: Geometry,
+        lacks: impl Fn(&Reading) -> bool,
+    ) -> &mut Reading {
+        let i = readings
+            .iter()
+            .position(|r| r.geometry == geometry && lacks(r))
+            .unwrap_or_else(|| {
+                readings.push(Reading {
+                    geometry,
+                    spectrum: None,
+                    colour: None,
+                });
+                readings.len() - 1
+            });
+        &mut readings[i]
+    }
     /// An object's name, id, readings and gloss.
     type RawObject = (String, Option<String>, Vec<Reading>, Vec<GlossValue>);
     let mut samples_raw: Vec<RawObject> = Vec::new();
@@ -290,10 +287,11 @@ fn read_document(doc: &Document) -> Result<Measurement, Located> {
                     if step_nm <= 0.0 {
                         return Err(here(
                             &node,
-                            CxfProblem::NotANumber {
+                            ReadingProblem::NotANumber {
                                 what: "Increment (a positive step)".to_owned(),
                                 text: step_nm.to_string(),
-                            },
+                            }
+                            .into(),
                         ));
                     }
                     let values = node
@@ -311,17 +309,8 @@ fn read_document(doc: &Document) -> Result<Measurement, Located> {
                         step_nm,
                         values,
                     };
-                    match readings
-                        .iter_mut()
-                        .find(|r| r.geometry == geometry && r.spectrum.is_none())
-                    {
-                        Some(r) => r.spectrum = Some(raw),
-                        None => readings.push(Reading {
-                            geometry,
-                            spectrum: Some(raw),
-                            colour: None,
-                        }),
-                    }
+                    reading_at(&mut readings, geometry, |r| r.spectrum.is_none()).spectrum =
+                        Some(raw);
                 }
                 "ColorCIELab" | "ColorCIEXYZ" => {
                     let spec = spec_of(&node)?;
@@ -347,23 +336,14 @@ fn read_document(doc: &Document) -> Result<Measurement, Located> {
                         unknown_illuminant.get_or_insert_with(|| {
                             here(
                                 &node,
-                                CxfProblem::UnknownIlluminant(s.illuminant_text.clone()),
+                                ReadingProblem::UnknownIlluminant(s.illuminant_text.clone()).into(),
                             )
                         });
                     }
                     let geometry = spec.map_or(Geometry::Unspecified, |s| s.geometry);
                     let entry = (stated, spec.cloned());
-                    match readings
-                        .iter_mut()
-                        .find(|r| r.geometry == geometry && r.colour.is_none())
-                    {
-                        Some(r) => r.colour = Some(entry),
-                        None => readings.push(Reading {
-                            geometry,
-                            spectrum: None,
-                            colour: Some(entry),
-                        }),
-                    }
+                    reading_at(&mut readings, geometry, |r| r.colour.is_none()).colour =
+                        Some(entry);
                 }
                 "Gloss" => {
                     let angle = node
@@ -396,7 +376,13 @@ fn read_document(doc: &Document) -> Result<Measurement, Located> {
         .flat_map(|s| s.values.iter().copied())
         .fold(f64::NEG_INFINITY, f64::max);
     let scale = if has_spectra {
-        Some(decide_scale(None, max).map_err(|e| (root_line(doc), "CxF".to_owned(), e.into()))?)
+        Some(decide_scale(None, max).map_err(|e| {
+            (
+                root_line(doc),
+                "CxF".to_owned(),
+                ReadingProblem::from(e).into(),
+            )
+        })?)
     } else {
         None
     };
@@ -416,7 +402,7 @@ fn read_document(doc: &Document) -> Result<Measurement, Located> {
                         raw.step_nm,
                         raw.values.iter().map(|v| v / divisor).collect(),
                     )
-                    .map_err(|e| (raw.node_line, raw.element, e.into()))?,
+                    .map_err(|e| (raw.node_line, raw.element, ReadingProblem::from(e).into()))?,
                 ),
                 None => None,
             };
@@ -484,10 +470,11 @@ where
         } else {
             Err(here(
                 &kind,
-                CxfProblem::Geometry(GeometryError::OutOfRange {
+                ReadingProblem::Geometry(GeometryError::OutOfRange {
                     name: name.to_owned(),
                     angle_deg: deg,
-                }),
+                })
+                .into(),
             ))
         }
     };
@@ -524,9 +511,10 @@ where
                 .ok_or_else(|| {
                     here(
                         &kind,
-                        CxfProblem::Geometry(GeometryError::SpecularUnstated(
+                        ReadingProblem::Geometry(GeometryError::SpecularUnstated(
                             "SphereGeometry".to_owned(),
-                        )),
+                        ))
+                        .into(),
                     )
                 })?;
             Ok(Geometry::Sphere {

@@ -11,6 +11,7 @@
 //! `docs/measurements.md`.
 
 pub mod cgats;
+pub mod cgats_write;
 pub mod cxf;
 pub mod geometry;
 
@@ -400,6 +401,38 @@ impl Measurement {
                 names: names(),
             })
     }
+}
+
+/// What is wrong with a reading in a file of any format; the readers place it
+/// (line, element).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ReadingProblem {
+    #[error("{what} is {text:?}, not a number")]
+    NotANumber { what: String, text: String },
+    #[error("{0}")]
+    Geometry(#[from] GeometryError),
+    #[error("{0}")]
+    Spectrum(#[from] SpectrumProblem),
+    #[error("{0}")]
+    Scale(#[from] ScaleConflict),
+    #[error(
+        "the colours are stated under illuminant {0:?}, which Coatlab does not have \
+         (D65, D50, A, F2, F7, F11), and there are no spectra to compute them from"
+    )]
+    UnknownIlluminant(String),
+}
+
+/// `text` (spaces around it allowed) as a finite number; `what` names the value in
+/// the refusal.
+pub(crate) fn parse_number(what: &str, text: &str) -> Result<f64, ReadingProblem> {
+    text.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| ReadingProblem::NotANumber {
+            what: what.to_owned(),
+            text: text.to_owned(),
+        })
 }
 
 /// Why a measurement file is refused; each names the file and where in it.
