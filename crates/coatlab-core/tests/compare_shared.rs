@@ -11,7 +11,7 @@ use coatlab_core::render::film::{DisplaySettings, display_lab_of_xyz};
 use coatlab_core::render::integrator::IntegratorSettings;
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::ProgressiveRender;
-use coatlab_core::render::reshade::ReshadeError;
+use coatlab_core::render::reshade::{ReshadeError, ShadingDifference};
 use coatlab_core::scene::Scene;
 
 #[path = "support/image_stats.rs"]
@@ -120,6 +120,41 @@ fn the_shared_second_pane_matches_an_independent_render_of_its_model() {
         partial.reshade_recorded(&shading(&scene, PHONG)),
         Err(ReshadeError::NotReady { .. })
     ));
+}
+
+/// The comparison's second pane as the engine shows it
+/// (`ShadingDifference::combine`): Phong's own render (same seed as the paint
+/// render, as in the engine) blended with the paint render's recorded paths
+/// re-shaded into Phong, at a fixed sample count (64 spp, 8 recorded), is the
+/// Phong image: [`REPLICAS`] of it against independent Phong renders, X, Y and
+/// Z, every control rejected. The first pane is the paint render's own film.
+/// With more own samples the pane leans more on them (it converges to Phong's
+/// own render).
+#[test]
+fn the_combined_second_pane_is_an_unbiased_image_of_its_own_model() {
+    let weights = car_render::weights();
+    let fresh = car_render::fresh(&red(), PHONG, seed(99), 128);
+    let pane = |i: u64, spp: u32| {
+        let s = seed(500 + i);
+        let (a, scene) = render(ShadingModel::Paint, s, spp, 8);
+        let (b, _) = render(PHONG, s, spp, 0);
+        let reshaded = a
+            .reshade_recorded(&shading(&scene, PHONG))
+            .expect("re-shade");
+        let difference = ShadingDifference::of(&reshaded, a.film(), 8).expect("same size");
+        difference.combine(a.film(), b.film()).expect("same sizes")
+    };
+    let mut own_weights = Vec::new();
+    let combined = Replicas::collect(WIDTH, HEIGHT, REPLICAS, |i| {
+        let (image, w) = pane(i as u64, 64);
+        own_weights.push(w);
+        reshaded_image(&image)
+    });
+    assert_agree_with_controls(&combined, &fresh, &weights, "combined second pane");
+    let early = own_weights.iter().sum::<f64>() / own_weights.len() as f64;
+    let (_, late) = pane(0, 256);
+    println!("own weight: {early:.3} at 64 spp, {late:.3} at 256");
+    assert!(early > 0.0 && late > early, "{early} then {late}");
 }
 
 /// The point of sharing: the difference between the panes has far less noise
