@@ -122,19 +122,17 @@ fn the_shared_second_pane_matches_an_independent_render_of_its_model() {
     ));
 }
 
-/// The comparison's second pane as the engine shows it
-/// (`ShadingDifference::combine`): Phong's own render (same seed as the paint
-/// render, as in the engine) blended with the paint render's recorded paths
-/// re-shaded into Phong, at a fixed sample count (64 spp, 8 recorded), is the
-/// Phong image: [`REPLICAS`] of it against independent Phong renders, X, Y and
-/// Z, every control rejected. The first pane is the paint render's own film.
-/// With more own samples the pane leans more on them (it converges to Phong's
-/// own render).
+/// The comparison's panes as the engine shows them (`ShadingDifference`):
+/// each view's own render (paint and Phong, the same seed, as in the engine)
+/// blended with the other's and the paint render's recorded paths re-shaded
+/// into Phong, at a fixed sample count (64 spp, 8 recorded), is its own model's
+/// image: [`REPLICAS`] of each pane against independent renders of its model,
+/// X, Y and Z, every control rejected. With more own samples the second pane
+/// leans more on them (it converges to Phong's own render).
 #[test]
-fn the_combined_second_pane_is_an_unbiased_image_of_its_own_model() {
+fn each_combined_pane_is_an_unbiased_image_of_its_own_model() {
     let weights = car_render::weights();
-    let fresh = car_render::fresh(&red(), PHONG, seed(99), 128);
-    let pane = |i: u64, spp: u32| {
+    let panes = |i: u64, spp: u32| {
         let s = seed(500 + i);
         let (a, scene) = render(ShadingModel::Paint, s, spp, 8);
         let (b, _) = render(PHONG, s, spp, 0);
@@ -142,17 +140,31 @@ fn the_combined_second_pane_is_an_unbiased_image_of_its_own_model() {
             .reshade_recorded(&shading(&scene, PHONG))
             .expect("re-shade");
         let difference = ShadingDifference::of(&reshaded, a.film(), 8).expect("same size");
-        difference.combine(a.film(), b.film()).expect("same sizes")
+        [
+            difference.combine_first(a.film(), b.film()),
+            difference.combine(a.film(), b.film()),
+        ]
+        .map(|pane| pane.expect("same sizes"))
     };
     let mut own_weights = Vec::new();
-    let combined = Replicas::collect(WIDTH, HEIGHT, REPLICAS, |i| {
-        let (image, w) = pane(i as u64, 64);
+    let mut first = Vec::new();
+    let second = Replicas::collect(WIDTH, HEIGHT, REPLICAS, |i| {
+        let [(a, _), (b, w)] = panes(i as u64, 64);
         own_weights.push(w);
-        reshaded_image(&image)
+        first.push(reshaded_image(&a));
+        reshaded_image(&b)
     });
-    assert_agree_with_controls(&combined, &fresh, &weights, "combined second pane");
+    let first = Replicas::from_images(WIDTH, HEIGHT, &first);
+    let fresh = |which| car_render::fresh(&red(), which, seed(99), 128);
+    assert_agree_with_controls(&second, &fresh(PHONG), &weights, "combined Phong pane");
+    assert_agree_with_controls(
+        &first,
+        &fresh(ShadingModel::Paint),
+        &weights,
+        "combined paint pane",
+    );
     let early = own_weights.iter().sum::<f64>() / own_weights.len() as f64;
-    let (_, late) = pane(0, 256);
+    let [_, (_, late)] = panes(0, 256);
     println!("own weight: {early:.3} at 64 spp, {late:.3} at 256");
     assert!(early > 0.0 && late > early, "{early} then {late}");
 }
