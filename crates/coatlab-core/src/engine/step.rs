@@ -351,7 +351,7 @@ impl<B: RenderBackend> LiveEngine<B> {
             .difference
             .as_ref()
             .is_some_and(|(d, _)| (d.width(), d.height()) == self.views.first.resolution());
-        if (frozen && size_kept) || (!due && size_kept) {
+        if size_kept && (frozen || !due) {
             return;
         }
         let first = &self.views.first;

@@ -341,7 +341,7 @@ impl std::fmt::Display for Exposure {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match *self {
             Exposure::Fixed { stops } => write!(f, "{stops}"),
-            Exposure::Auto { adjust_stops } if adjust_stops == 0.0 => f.write_str("auto"),
+            Exposure::Auto { adjust_stops: 0.0 } => f.write_str("auto"),
             Exposure::Auto { adjust_stops } => write!(f, "auto{adjust_stops:+}"),
         }
     }
