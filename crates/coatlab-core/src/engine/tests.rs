@@ -552,17 +552,23 @@ fn a_comparison_shares_the_first_views_paths_and_switching_it_off_drops_the_seco
     assert_built(&engine, &before, retraced(0, 1, 0));
 }
 
-#[test]
-fn in_a_comparison_edits_are_traced_fresh_and_the_second_view_follows() {
+/// A converged engine told to compare the design with one of a thicker coat
+/// (its lobe is the first's, so the first view's paths re-shade into it), and
+/// that second design.
+fn comparing_a_thicker_coat() -> (LiveEngine, PaintDesign) {
     let (mut engine, _) = converged();
-    // The design with a thicker coat: its lobe is the first's, so the first
-    // view's paths re-shade into it.
     let mut second = design();
     second.thickness_um += 5.0;
     apply(
         &mut engine,
         Command::Views(Views::designs(ShadingModel::Paint, Some(&second))),
     );
+    (engine, second)
+}
+
+#[test]
+fn in_a_comparison_edits_are_traced_fresh_and_the_second_view_follows() {
+    let (mut engine, mut second) = comparing_a_thicker_coat();
     converge(&mut engine);
     assert_eq!(engine.state().pairing, Pairing::Shared);
     // The second design edited: the second shading is built again, the first
@@ -622,13 +628,7 @@ fn a_new_display_shows_the_images_again_without_rendering() {
 /// render of the second design's own, in step.
 #[test]
 fn two_designs_share_paths_and_render_the_second_on_its_own() {
-    let (mut engine, _) = converged();
-    let mut second = design();
-    second.thickness_um += 5.0;
-    apply(
-        &mut engine,
-        Command::Views(Views::designs(ShadingModel::Paint, Some(&second))),
-    );
+    let (mut engine, _) = comparing_a_thicker_coat();
     let before = engine.counters();
     let published = converge(&mut engine);
     assert_eq!(engine.state().pairing, Pairing::Shared);
