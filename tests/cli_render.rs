@@ -336,6 +336,41 @@ fn the_exr_is_the_films_linear_srgb_in_32_bit_floats() {
     assert!(differing > image.rgb.len() / 4, "{differing} pixels differ");
 }
 
+/// The display choice (`--tone-map`, `--exposure`) acts on the PNG only: the
+/// EXR of the same render is the same file, byte for byte, whatever is chosen
+/// (deterministic output: bit-identity is the claim), while the PNGs differ. A
+/// bad name is refused naming it, and automatic exposure cannot go into a .film
+/// part.
+#[test]
+fn the_tone_mapping_and_exposure_leave_the_exr_as_it_is() {
+    let job = ((24, 16), 2, 8, 5);
+    let choices: [&[&str]; 3] = [
+        &[],
+        &["--tone-map", "reinhard", "--exposure", "auto+1.5"],
+        &["--tone-map", "clip", "--exposure", "-2"],
+    ];
+    let mut exrs = Vec::new();
+    let mut pngs = Vec::new();
+    for (i, extra) in choices.iter().enumerate() {
+        for (ext, files) in [("exr", &mut exrs), ("png", &mut pngs)] {
+            let out = out_path(&format!("tone-map-{i}.{ext}"));
+            stdout(&render_seeded(&out, job, extra));
+            files.push(std::fs::read(&out).expect("written"));
+        }
+    }
+    assert!(
+        exrs.iter().all(|e| *e == exrs[0]),
+        "an EXR changed with the display"
+    );
+    assert!(pngs[0] != pngs[1] && pngs[1] != pngs[2] && pngs[0] != pngs[2]);
+    let bad = render_seeded(&out_path("tone-map-bad.png"), job, &["--tone-map", "aces"]);
+    let message = failure(&bad, 2);
+    assert!(message.contains("\"aces\""), "{message}");
+    let part = render_seeded(&out_path("tone-map.film"), job, &["--exposure", "auto"]);
+    let message = failure(&part, 2);
+    assert!(message.contains("--exposure auto"), "{message}");
+}
+
 /// The text attributes of an EXR's header (UTF-8), by name, and its compression.
 fn exr_header(path: &std::path::Path) -> (BTreeMap<String, String>, exr::prelude::Compression) {
     use exr::prelude::MetaData;

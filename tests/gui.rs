@@ -1341,12 +1341,12 @@ fn the_comparison_re_shades_the_first_views_paths() {
     assert!(
         matches!(
             p.second_status().and_then(|s| s.source.clone()),
-            Some(SecondSource::Shared { recorded_spp }) if recorded_spp >= 1
+            Some(SecondSource::Shared { recorded_spp, .. }) if recorded_spp >= 1
         ),
         "{:?}",
         p.second_status()
     );
-    h.get_by_label_contains("Shared samples: the second view re-shades");
+    h.get_by_label_contains("Shared samples: the second view combines");
     let map = preview(h.state()).delta_e_map().expect("map").clone();
     assert!(map.p95 > 0.5, "paint and Phong differ: p95 {}", map.p95);
 

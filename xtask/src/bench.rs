@@ -406,7 +406,7 @@ impl Reference {
             &self.halves[0],
             &self.halves[1],
             &self.masks,
-            &DisplaySettings::default(),
+            &DisplaySettings::MEASURED,
         )
         .unwrap_or(ImageError {
             mean_delta_e: f64::NAN,
@@ -730,7 +730,7 @@ fn tradeoff(args: &TradeoffArgs, out: &mut impl Write) -> Result<(), Failed> {
                 &image,
                 &reference.image,
                 &reference.masks,
-                &DisplaySettings::default(),
+                &DisplaySettings::MEASURED,
             )
             .context("comparing with the reference")?;
             writeln!(

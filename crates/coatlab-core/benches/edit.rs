@@ -170,9 +170,11 @@ fn main() {
         render.path_cache().path_count(),
         render.path_cache().compact_path_count()
     );
+    // The preview's automatic exposure with the mapping the committed edit
+    // figures were measured with.
     let display = DisplaySettings {
         exposure_stops: render.film().auto_exposure(),
-        ..DisplaySettings::default()
+        ..DisplaySettings::MEASURED
     };
 
     let scaled = |spectrum: &TabulatedSpectrum, f: &dyn Fn(f64) -> f64| {

@@ -11,7 +11,7 @@ use coatlab_core::render::film::{DisplaySettings, display_lab_of_xyz};
 use coatlab_core::render::integrator::IntegratorSettings;
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::ProgressiveRender;
-use coatlab_core::render::reshade::ReshadeError;
+use coatlab_core::render::reshade::{ReshadeError, ShadingDifference};
 use coatlab_core::scene::Scene;
 
 #[path = "support/image_stats.rs"]
@@ -120,6 +120,53 @@ fn the_shared_second_pane_matches_an_independent_render_of_its_model() {
         partial.reshade_recorded(&shading(&scene, PHONG)),
         Err(ReshadeError::NotReady { .. })
     ));
+}
+
+/// The comparison's panes as the engine shows them (`ShadingDifference`):
+/// each view's own render (paint and Phong, the same seed, as in the engine)
+/// blended with the other's and the paint render's recorded paths re-shaded
+/// into Phong, at a fixed sample count (64 spp, 8 recorded), is its own model's
+/// image: [`REPLICAS`] of each pane against independent renders of its model,
+/// X, Y and Z, every control rejected. With more own samples the second pane
+/// leans more on them (it converges to Phong's own render).
+#[test]
+fn each_combined_pane_is_an_unbiased_image_of_its_own_model() {
+    let weights = car_render::weights();
+    let panes = |i: u64, spp: u32| {
+        let s = seed(500 + i);
+        let (a, scene) = render(ShadingModel::Paint, s, spp, 8);
+        let (b, _) = render(PHONG, s, spp, 0);
+        let reshaded = a
+            .reshade_recorded(&shading(&scene, PHONG))
+            .expect("re-shade");
+        let difference = ShadingDifference::of(&reshaded, a.film(), 8).expect("same size");
+        [
+            difference.combine_first(a.film(), b.film()),
+            difference.combine(a.film(), b.film()),
+        ]
+        .map(|pane| pane.expect("same sizes"))
+    };
+    let mut own_weights = Vec::new();
+    let mut first = Vec::new();
+    let second = Replicas::collect(WIDTH, HEIGHT, REPLICAS, |i| {
+        let [(a, _), (b, w)] = panes(i as u64, 64);
+        own_weights.push(w);
+        first.push(reshaded_image(&a));
+        reshaded_image(&b)
+    });
+    let first = Replicas::from_images(WIDTH, HEIGHT, &first);
+    let fresh = |which| car_render::fresh(&red(), which, seed(99), 128);
+    assert_agree_with_controls(&second, &fresh(PHONG), &weights, "combined Phong pane");
+    assert_agree_with_controls(
+        &first,
+        &fresh(ShadingModel::Paint),
+        &weights,
+        "combined paint pane",
+    );
+    let early = own_weights.iter().sum::<f64>() / own_weights.len() as f64;
+    let [_, (_, late)] = panes(0, 256);
+    println!("own weight: {early:.3} at 64 spp, {late:.3} at 256");
+    assert!(early > 0.0 && late > early, "{early} then {late}");
 }
 
 /// The point of sharing: the difference between the panes has far less noise

@@ -289,8 +289,10 @@ fn equal_energy_grey_is_neutral_when_adapted_to_e() {
 /// is (255, 255, 255): the table's D65 chromaticity (0.31272, 0.32903) differs from
 /// sRGB's (0.3127, 0.3290) by < 1e-4, under half a code value. Half the luminance
 /// with one stop more is the same white; D65 at Y = 0.5 without it encodes to 188
-/// (sRGB of 0.5 = 0.7354 → 187.5), ±1. With the default Reinhard (white 4), Y = 4
-/// maps to 255 and Y = 1 to L' = (1 + 1/16)/2 = 0.53125 → 192 ± 1.
+/// (sRGB of 0.5 = 0.7354 → 187.5), ±1. With Reinhard (white 4), Y = 4 maps to 255
+/// and Y = 1 to L' = (1 + 1/16)/2 = 0.53125 → 192 ± 1. With the default PBR
+/// Neutral, Y = 1 is compressed to 0.869 09 (→ 240 ± 1) and the half white, in
+/// the range it keeps, shows as 0.5 − 0.04 = 0.46 (→ 181 ± 1).
 #[test]
 fn d65_white_maps_to_full_white_without_tone_mapping() {
     let grid = WavelengthGrid::reference();
@@ -316,8 +318,14 @@ fn d65_white_maps_to_full_white_without_tone_mapping() {
     });
     assert_eq!(adapted[0], [255, 255, 255, 255]);
 
-    let reinhard = DisplaySettings {
+    let neutral = film.to_display(&DisplaySettings {
         tone_mapping: ToneMapping::default(),
+        ..CLIP
+    });
+    assert_grey(neutral[0], 240);
+    assert_grey(neutral[1], 181);
+    let reinhard = DisplaySettings {
+        tone_mapping: ToneMapping::REINHARD,
         ..CLIP
     };
     let tone_mapped = film.to_display(&reinhard);

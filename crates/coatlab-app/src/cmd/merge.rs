@@ -7,11 +7,11 @@ use std::path::PathBuf;
 
 use coatlab_core::io::exr_write::{ExrCompression, ExrPrecision};
 use coatlab_core::render::film::part::merge_parts;
-use coatlab_core::render::film::{DisplaySettings, RenderRecord};
+use coatlab_core::render::film::{DisplaySettings, RenderRecord, ToneMapping};
 
 use super::failure::Failure;
 use super::render::{
-    ImageOutput, out_extension, parse_exr_compression, parse_exr_precision, program,
+    ImageOutput, out_extension, parse_exr_compression, parse_exr_precision, parse_tone_map, program,
 };
 
 #[derive(clap::Args, Debug)]
@@ -30,6 +30,10 @@ pub struct MergeArgs {
     /// EXR output only: none, rle, zips, zip or piz [default: zip].
     #[arg(long, value_parser = parse_exr_compression)]
     pub exr_compression: Option<ExrCompression>,
+    /// PNG output only: neutral, reinhard or clip, as `coatlab render --tone-map`
+    /// (the exposure is the parts' own).
+    #[arg(long, default_value = "neutral", value_parser = parse_tone_map)]
+    pub tone_map: ToneMapping,
 }
 
 pub fn run(args: &MergeArgs, out: &mut impl Write) -> anyhow::Result<()> {
@@ -57,7 +61,8 @@ pub fn run(args: &MergeArgs, out: &mut impl Write) -> anyhow::Result<()> {
     };
     let display = DisplaySettings {
         exposure_stops: header.exposure_stops,
-        ..DisplaySettings::default()
+        adapt_white: None,
+        tone_mapping: args.tone_map,
     };
     ImageOutput {
         path: &args.out,

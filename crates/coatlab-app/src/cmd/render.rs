@@ -18,7 +18,9 @@ use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::adaptive::{AdaptiveError, AdaptiveSampling};
 use coatlab_core::render::environment::Environment;
 use coatlab_core::render::film::part::{Identity, PartHeader, write_part};
-use coatlab_core::render::film::{DisplaySettings, ExrOutput, Film, RenderRecord};
+use coatlab_core::render::film::{
+    DisplayChoice, DisplaySettings, Exposure, ExrOutput, Film, RenderRecord, ToneMapping,
+};
 use coatlab_core::render::lighting::Lighting;
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{
@@ -88,9 +90,16 @@ pub struct RenderArgs {
     /// Seed of the random numbers: the same seed gives the same image.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Exposure in stops (the lighting setups are normalised so 0 suits them all).
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    pub exposure: f32,
+    /// Exposure of the PNG: stops (the lighting setups are normalised so 0 suits
+    /// them all), or auto (the image's log-average luminance to middle grey),
+    /// adjusted as auto+STOPS or auto-STOPS. Not applied to an EXR.
+    #[arg(long, default_value = "0", value_parser = parse_exposure, allow_hyphen_values = true)]
+    pub exposure: Exposure,
+    /// Tone mapping of the PNG: neutral (Khronos PBR Neutral: colours that fit the
+    /// display stay as they are), reinhard (extended Reinhard on luminance, the
+    /// earlier default) or clip. Not applied to an EXR.
+    #[arg(long, default_value = "neutral", value_parser = parse_tone_map)]
+    pub tone_map: ToneMapping,
     /// Adaptive sampling: after the first uniform samples, each pass spends its
     /// samples on the pixels by their noise (on or off); --spp is then the mean
     /// over the image.
@@ -169,6 +178,25 @@ fn wavelengths_help() -> String {
 
 /// `--adaptive` unless given: see docs/tradeoff.md, "Adaptive sampling".
 pub const DEFAULT_ADAPTIVE: &str = "off";
+
+fn parse_exposure(text: &str) -> Result<Exposure, String> {
+    Exposure::parse(text).map_err(|e| e.to_string())
+}
+
+pub fn parse_tone_map(text: &str) -> Result<ToneMapping, String> {
+    ToneMapping::parse(text).map_err(|e| e.to_string())
+}
+
+impl RenderArgs {
+    /// How the PNG of `film` is shown: `--tone-map` and `--exposure`.
+    pub fn display_for(&self, film: &Film) -> DisplaySettings {
+        DisplayChoice {
+            tone_mapping: self.tone_map,
+            exposure: self.exposure,
+        }
+        .settings_for(film)
+    }
+}
 
 fn parse_on_off(text: &str) -> Result<bool, String> {
     match text {
@@ -400,10 +428,7 @@ fn write_render(
         )?;
         return Ok(());
     }
-    let display = DisplaySettings {
-        exposure_stops: args.exposure,
-        ..DisplaySettings::default()
-    };
+    let display = args.display_for(render.film());
     let samples_per_pixel = if args.adaptive {
         format!("{} mean, adaptive", render.samples_per_pixel())
     } else {
@@ -812,7 +837,15 @@ fn part_header(
         design: inputs.design,
         lighting: inputs.lighting,
         settings: inputs.settings,
-        exposure_stops: args.exposure,
+        exposure_stops: match args.exposure {
+            Exposure::Fixed { stops } => stops,
+            Exposure::Auto { .. } => {
+                return Err(Failure::Usage.error(
+                    "--exposure auto: a .film part holds only some of the samples, so the \
+                     image's exposure is not known yet; give stops (the merged PNG is shown at them)",
+                ));
+            }
+        },
     })
 }
 

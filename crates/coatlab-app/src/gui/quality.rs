@@ -314,7 +314,7 @@ mod tests {
         let masks =
             RegionMasks::from_scene(&scene, &Camera::framing(scene.bounds(), size.0, size.1));
         let error = |a: &XyzImage, b: &XyzImage| {
-            image_error(a, b, &masks, &DisplaySettings::default())
+            image_error(a, b, &masks, &DisplaySettings::MEASURED)
                 .expect("same sizes")
                 .mean_delta_e
         };

@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use crate::design::PaintDesign;
 use crate::paint::phong::PhongVariant;
+use crate::render::film::DisplayChoice;
 use crate::render::lighting::Lighting;
 use crate::render::material::ShadingModel;
 use crate::render::view::ViewChoice;
@@ -48,6 +49,9 @@ pub enum Command {
     View(ViewChoice),
     /// The quality knobs: wavelengths, sample target, resolution divisor.
     Quality(QualityKnobs),
+    /// How the images are shown: the tone mapping and the exposure (automatic
+    /// with an adjustment, or fixed). Re-shows the images; renders nothing again.
+    Display(DisplayChoice),
 }
 
 impl Command {

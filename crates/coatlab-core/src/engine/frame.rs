@@ -1,7 +1,7 @@
 //! The images the live engine publishes: display pixels of each view with what
 //! they show, and the ΔE00 map between the views.
 
-use crate::render::film::{DisplaySettings, display_xyz};
+use crate::render::film::{DisplayChoice, DisplaySettings, display_xyz};
 use crate::render::progressive::PassStats;
 use crate::render::reshade::Reshaded;
 
@@ -39,11 +39,13 @@ pub struct Frame {
 /// How the second view of a comparison is made.
 #[derive(Debug, Clone, PartialEq)]
 pub enum SecondSource {
-    /// Re-shaded from the first view's recorded paths (this many samples per
-    /// pixel): both panes show the same samples.
+    /// Its own render combined with the first view's recorded paths (this many
+    /// samples per pixel) re-shaded into it: the panes share those samples.
     Shared {
         /// Samples per pixel recorded.
         recorded_spp: u32,
+        /// The weight (0–1) its own render carries in the pane.
+        own_weight: f64,
     },
     /// Rendered on its own (same camera and seed), for the reason given.
     Independent {
@@ -87,12 +89,10 @@ impl ViewsUpdate {
 }
 
 /// One display setting for both views, so neither hides nor invents a
-/// difference: the first view's automatic exposure.
-pub(super) fn display_of(first: &impl BackendView) -> DisplaySettings {
-    DisplaySettings {
-        exposure_stops: first.film().auto_exposure(),
-        ..DisplaySettings::default()
-    }
+/// difference: the viewer's choice, an automatic exposure taken from the first
+/// view's film.
+pub(super) fn display_of(first: &impl BackendView, choice: &DisplayChoice) -> DisplaySettings {
+    choice.settings_for(first.film())
 }
 
 /// Whether the ΔE00 map is made after a pass: it costs about as much as a pass
@@ -157,45 +157,45 @@ pub(super) fn edit_update(
     })
 }
 
-/// Both views of a comparison made from the first view's paths: `ra` and `rb`
-/// are those paths re-shaded with each view's shading (the first is the film
-/// itself up to rounding), so where the two shadings agree the panes are equal,
-/// and the ΔE00 map shows the models, not noise.
+/// Both views of a shared comparison: each pane its own film combined with
+/// the other view's film and the difference of the first view's recorded paths
+/// re-shaded (with its own film's weight); the map between the two when due.
 pub(super) fn shared_update(
-    first: &impl BackendView,
-    [ra, rb]: [&Reshaded; 2],
-    stats: PassStats,
+    [a, b]: [&impl BackendView; 2],
+    [(pane_a, _), (pane_b, own_weight)]: &[(Reshaded, f64); 2],
+    [stats_a, stats_b]: [PassStats; 2],
     display: &DisplaySettings,
-    coarse: bool,
+    (coarse, map_due): (bool, bool),
 ) -> ViewsUpdate {
-    let spp = first.samples_per_pixel();
-    let recorded_spp = first.recorded_samples();
-    let noise = if coarse {
-        None
-    } else {
-        first.noise_estimate(display).map(|n| n.mean_delta_e)
+    let first = Frame {
+        pixels: display_xyz(&pane_a.xyz, display),
+        ..film_frame(a, stats_a, display, coarse)
     };
-    let frame = |image: &Reshaded, source: Option<SecondSource>| Frame {
-        width: image.width,
-        height: image.height,
-        pixels: display_xyz(&image.xyz, display),
-        samples_per_pixel: spp,
-        samples_per_second: stats.samples_per_second(),
-        noise_delta_e: noise,
-        coarse,
-        reshaded: None,
-        epoch: 0,
-        source,
+    let second = Frame {
+        pixels: display_xyz(&pane_b.xyz, display),
+        source: Some(SecondSource::Shared {
+            recorded_spp: a.recorded_samples(),
+            own_weight: *own_weight,
+        }),
+        ..film_frame(b, stats_b, display, coarse)
     };
-    let map =
-        DeltaEMap::between_xyz(ra.width, ra.height, &ra.xyz, &rb.xyz, display).map(|m| DeltaEMap {
-            samples_per_pixel: spp,
+    let map = map_due.then(|| {
+        DeltaEMap::between_xyz(
+            pane_a.width,
+            pane_a.height,
+            &pane_a.xyz,
+            &pane_b.xyz,
+            display,
+        )
+        .map(|m| DeltaEMap {
+            samples_per_pixel: a.samples_per_pixel(),
             ..m
-        });
+        })
+    });
     ViewsUpdate {
-        first: frame(ra, None),
-        second: SecondUpdate::Set(frame(rb, Some(SecondSource::Shared { recorded_spp }))),
-        map: Some(map),
+        first,
+        second: SecondUpdate::Set(second),
+        map: map.flatten().map(Some),
     }
 }
 

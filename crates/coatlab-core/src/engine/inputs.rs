@@ -3,6 +3,7 @@
 
 use crate::design::PaintDesign;
 use crate::render::camera::Camera;
+use crate::render::film::DisplayChoice;
 use crate::render::lighting::Lighting;
 use crate::render::view::ViewChoice;
 
@@ -23,6 +24,8 @@ pub(super) struct Inputs {
     pub paint_override: Option<Vec<u32>>,
     /// The quality knobs.
     pub quality: QualityKnobs,
+    /// How the images are shown.
+    pub display: DisplayChoice,
     /// The full image size, pixels.
     pub size: (u32, u32),
     /// The view; its resolution follows the pass being rendered (coarse or full).
@@ -34,7 +37,7 @@ pub(super) struct Inputs {
 
 impl Inputs {
     /// Takes a command that needs nothing loaded or built (design, views, paint
-    /// material, size, camera) and says what it changed. Other commands are
+    /// material, size, camera, display) and says what it changed. Other commands are
     /// [`Change::Nothing`] here: the engine takes them itself.
     pub fn take(&mut self, command: Command) -> Change {
         match command {
@@ -61,6 +64,13 @@ impl Inputs {
                 }
                 self.size = (width, height);
                 Change::Size
+            }
+            Command::Display(choice) => {
+                if choice == self.display {
+                    return Change::Nothing;
+                }
+                self.display = choice;
+                Change::Display
             }
             Command::Orbit(yaw, pitch) => self.move_camera(|c| c.orbit(yaw, pitch)),
             Command::Zoom(factor) => self.move_camera(|c| c.zoom(factor)),

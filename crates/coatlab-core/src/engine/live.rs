@@ -7,7 +7,7 @@ use std::sync::Arc;
 use crate::colour::spectrum::WavelengthGrid;
 use crate::design::PaintDesign;
 use crate::render::environment::Environment;
-use crate::render::film::DisplaySettings;
+use crate::render::film::{DisplayChoice, DisplaySettings};
 use crate::render::lighting::Lighting;
 use crate::render::material::Shading;
 use crate::render::pick::{pick, toggled};
@@ -88,6 +88,7 @@ impl<B: RenderBackend> LiveEngine<B> {
             lighting: Lighting::Studio,
             paint_override: None,
             quality: QualityKnobs::default(),
+            display: DisplayChoice::default(),
             size: INITIAL_SIZE,
         };
         let scene = world.scene.clone();
@@ -295,6 +296,25 @@ impl<B: RenderBackend> LiveEngine<B> {
     /// The second view's image, for an export (a re-shaded one is made now).
     pub fn second_image(&self) -> SecondImage<'_> {
         self.views.second_image()
+    }
+
+    /// The first view's picture as its pane shows it (mean XYZ, row major): in
+    /// a shared comparison its film combined with the second view's, else its
+    /// film's means.
+    pub fn first_image(&self) -> Result<Vec<[f32; 3]>, ReshadeError> {
+        match self.views.shared_panes() {
+            Some(panes) => panes.map(|[(image, _), _]| image.xyz),
+            None => {
+                let film = self.views.first.film();
+                Ok((0..film.height())
+                    .flat_map(|y| (0..film.width()).map(move |x| (x, y)))
+                    .map(|(x, y)| {
+                        let m = film.mean_xyz(x, y);
+                        [m.x as f32, m.y as f32, m.z as f32]
+                    })
+                    .collect())
+            }
+        }
     }
 
     /// The display settings of the last published images: what they were shown in.

@@ -20,6 +20,7 @@
 //! | `Lighting` | `Coarse` | unchanged | lighting (when taken); retrace |
 //! | `Grid` | `Coarse` | `Fitting` if two views | lighting (when taken), tables from scratch, shading, second shading, renders; retrace |
 //! | `Camera`, `Size`, `Target` | `Coarse` | unchanged | nothing; retrace |
+//! | `Display` | unchanged | unchanged | nothing; the images shown again |
 //!
 //! | outcome | from | to |
 //! |---|---|---|
@@ -30,7 +31,7 @@
 //! | `EditRefined` | `EditShown` | `Refining` |
 //! | `DesignInvalid` | any | `Refining` or `Converged` (the last image stays) |
 //! | `SecondShared` / `SecondIndependent` / `SecondInvalid` | `Fitting` | `Shared` / `Independent` / `Failed` |
-//! | `SharedFailed` | `Shared` | `Independent`, phase `Coarse`, retrace |
+//! | `SharedFailed` | `Shared` | `Independent` (the second view's own render goes on) |
 //! | `OutOfStep` (a second view's pass cancelled or behind) | any | phase `Coarse`, retrace |
 
 /// Where the first view's picture stands.
@@ -60,8 +61,11 @@ pub enum Pairing {
     /// The second view's shading is being built on a thread of its own; the
     /// first pass of the first view decides how the second is made.
     Fitting,
-    /// The second view is the first view's recorded paths re-shaded with the
-    /// second shading: both panes hold the same samples.
+    /// The second view is rendered on its own, one pass of each in turn, and
+    /// its pane combines that render with the first view's recorded paths
+    /// re-shaded with the second shading: the panes share samples (the
+    /// difference shows the models, not noise) and each converges to its own
+    /// model's image.
     Shared,
     /// The second view is rendered on its own (same scene, lighting, camera and
     /// seed), one pass of each in turn.
@@ -134,6 +138,9 @@ pub enum Change {
     Size,
     /// The sample target or the resolution divisor.
     Target,
+    /// How the images are shown (tone mapping, exposure): nothing is rendered
+    /// again.
+    Display,
 }
 
 /// What happens to the first view's derived tables (the paint model).
@@ -192,6 +199,8 @@ pub struct Actions {
     pub rescene: bool,
     /// How the first view's samples start again.
     pub restart: Restart,
+    /// Show the images again (the display changed), when no pass will.
+    pub republish: bool,
 }
 
 impl Actions {
@@ -204,6 +213,7 @@ impl Actions {
         relight: false,
         rescene: false,
         restart: Restart::Keep,
+        republish: false,
     };
 
     /// Only a restart from nothing.
@@ -227,6 +237,7 @@ impl Actions {
             relight: self.relight || later.relight,
             rescene: self.rescene || later.rescene,
             restart: self.restart.max(later.restart),
+            republish: self.republish || later.republish,
         }
     }
 
@@ -309,6 +320,13 @@ pub fn transition(state: State, change: Change) -> (State, Actions) {
             },
         ),
         Change::Camera | Change::Size | Change::Target => (coarse, Actions::RETRACE),
+        Change::Display => (
+            state,
+            Actions {
+                republish: true,
+                ..Actions::NONE
+            },
+        ),
     }
 }
 
@@ -376,8 +394,8 @@ pub enum Outcome {
     SecondIndependent,
     /// The second design could not be modelled.
     SecondInvalid,
-    /// Re-shading the shared second view failed: it is rendered on its own from now
-    /// on, and both start again.
+    /// Re-shading the first view's paths into the second view failed: its own
+    /// render alone is shown from now on.
     SharedFailed,
     /// The second view fell out of step with the first (a pass of it was cancelled):
     /// both start again.
@@ -412,12 +430,6 @@ pub fn advance(state: State, outcome: Outcome) -> (State, Actions) {
         Outcome::SecondShared => pair(Pairing::Shared),
         Outcome::SecondIndependent => pair(Pairing::Independent),
         Outcome::SecondInvalid => pair(Pairing::Failed),
-        Outcome::SharedFailed => (
-            State {
-                phase: Phase::Coarse,
-                pairing: Pairing::Independent,
-            },
-            Actions::RETRACE,
-        ),
+        Outcome::SharedFailed => pair(Pairing::Independent),
     }
 }

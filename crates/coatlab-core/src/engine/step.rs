@@ -7,6 +7,7 @@ use std::sync::atomic::AtomicBool;
 
 use crate::render::material::Shading;
 use crate::render::progressive::{EditOutcome, PassStats};
+use crate::render::reshade::{ReshadeError, ShadingDifference};
 
 use super::backend::{BackendView, RenderBackend, ViewSetup};
 use super::events::{EngineError, EngineEvent};
@@ -42,6 +43,15 @@ impl<B: RenderBackend> LiveEngine<B> {
         if actions.any() && self.execute(actions, out).is_break() {
             return Progress::Stepped;
         }
+        // A new display with nothing to render: shown again at once (otherwise
+        // the next pass shows it).
+        if actions.republish
+            && actions.restart == Restart::Keep
+            && self.state.phase == Phase::Converged
+        {
+            self.republish(out);
+            return Progress::Stepped;
+        }
         if self.state.phase == Phase::Converged {
             return Progress::Idle;
         }
@@ -59,6 +69,7 @@ impl<B: RenderBackend> LiveEngine<B> {
         let Some(stats) = self.views.first.render_pass(cancel) else {
             return Progress::Cancelled;
         };
+        self.views.last_stats = [stats, self.views.last_stats[1]];
         self.counters.passes += 1;
         let converged = self.views.first.samples_per_pixel() >= self.inputs.quality.max_spp;
         self.advance(if coarse {
@@ -282,10 +293,6 @@ impl<B: RenderBackend> LiveEngine<B> {
             let shading = job.join().ok().flatten();
             self.take_second_shading(shading, out);
         }
-        if let Some(shading) = self.views.shared.clone() {
-            self.publish_shared(&shading, stats, coarse, out);
-            return Progress::Stepped;
-        }
         if self.views.second.is_some() {
             return self.step_second(first, cancel, out);
         }
@@ -309,21 +316,62 @@ impl<B: RenderBackend> LiveEngine<B> {
             return;
         };
         self.counters.pane_reshades += 1;
-        match self.views.first.reshade_recorded(&shading) {
-            Ok(_) => {
-                self.views.shared = Some(shading);
-                self.views.second = None;
-                self.advance(Outcome::SecondShared);
-            }
+        let shared = match self.views.first.reshade_recorded(&shading) {
+            Ok(_) => true,
             Err(e) => {
                 self.views.reason = independent_reason(&e);
-                let existing = self.views.second.take();
-                self.views.second = self.second_view(existing, shading, out);
-                self.advance(if self.views.second.is_some() {
-                    Outcome::SecondIndependent
-                } else {
-                    Outcome::SecondInvalid
-                });
+                false
+            }
+        };
+        // Either way the second view has a render of its own, so its pane
+        // converges to its own model's image.
+        let existing = self.views.second.take();
+        self.views.second = self.second_view(existing, shading.clone(), out);
+        self.views.difference = None;
+        self.views.shared = shared.then_some(shading);
+        self.advance(match (self.views.second.is_some(), shared) {
+            (false, _) => Outcome::SecondInvalid,
+            (true, true) => Outcome::SecondShared,
+            (true, false) => Outcome::SecondIndependent,
+        });
+    }
+
+    /// The difference the second shading makes, re-shaded from the first view's
+    /// recorded paths when the map is due and the recording may still have grown
+    /// (once it stopped, the difference is final). A re-shade that cannot be done
+    /// yet keeps the last difference; one that cannot be done at all leaves the
+    /// second view's own render alone.
+    fn update_difference(&mut self, due: bool) {
+        let Some(shading) = self.views.shared.clone() else {
+            return;
+        };
+        let frozen = matches!(self.views.difference, Some((_, true)));
+        let size_kept = self
+            .views
+            .difference
+            .as_ref()
+            .is_some_and(|(d, _)| (d.width(), d.height()) == self.views.first.resolution());
+        if size_kept && (frozen || !due) {
+            return;
+        }
+        let first = &self.views.first;
+        let recorded = first.recorded_samples();
+        self.counters.pane_reshades += 1;
+        let difference = first
+            .reshade_recorded(&shading)
+            .and_then(|image| ShadingDifference::of(&image, first.film(), recorded));
+        match difference {
+            Ok(d) => {
+                // The recording stopped short of the samples taken: final.
+                let frozen = recorded < first.samples_per_pixel();
+                self.views.difference = Some((d, frozen));
+            }
+            Err(ReshadeError::NotReady { .. }) => {}
+            Err(e) => {
+                self.views.reason = independent_reason(&e);
+                self.views.shared = None;
+                self.views.difference = None;
+                self.advance(Outcome::SharedFailed);
             }
         }
     }
@@ -349,41 +397,6 @@ impl<B: RenderBackend> LiveEngine<B> {
             }
         };
         result.map_err(|e| failed(out, e.into())).ok()
-    }
-
-    /// Both panes from the first view's paths, re-shaded (two replays) when the
-    /// map is due; the first view alone in between.
-    fn publish_shared(
-        &mut self,
-        second: &Arc<Shading>,
-        stats: PassStats,
-        coarse: bool,
-        out: &mut dyn FnMut(Output),
-    ) {
-        let spp = self.views.first.samples_per_pixel();
-        if !map_due(coarse, spp, self.inputs.quality.max_spp) {
-            self.publish_first_only(stats, coarse, out);
-            return;
-        }
-        let first = &self.views.first;
-        self.counters.pane_reshades += 2;
-        match (
-            first.reshade_recorded(first.shading()),
-            first.reshade_recorded(second),
-        ) {
-            (Ok(ra), Ok(rb)) => {
-                let display = self.take_display();
-                let update = shared_update(&self.views.first, [&ra, &rb], stats, &display, coarse);
-                out(Output::Views(update));
-            }
-            (Err(e), _) | (_, Err(e)) => {
-                self.views.reason = independent_reason(&e);
-                self.views.shared = None;
-                self.views.second = self.second_view(None, second.clone(), out);
-                let retrace = self.advance(Outcome::SharedFailed);
-                self.pending = self.pending.merge(retrace);
-            }
-        }
     }
 
     /// The second view rendered apart: kept on the first view's camera and
@@ -415,20 +428,54 @@ impl<B: RenderBackend> LiveEngine<B> {
             return Progress::Cancelled;
         };
         self.counters.second_passes += 1;
-        let display = self.take_display();
+        self.views.last_stats = [stats_a, stats_b];
         let due = map_due(coarse, spp, self.inputs.quality.max_spp);
-        let Some(second) = &self.views.second else {
-            return Progress::Stepped;
-        };
-        let update = pair_update(
-            [&self.views.first, second],
-            [stats_a, stats_b],
-            &self.views.reason,
-            &display,
-            (coarse, due),
-        );
-        out(Output::Views(update));
+        self.update_difference(due);
+        self.publish_pair(coarse, due, out);
         Progress::Stepped
+    }
+
+    /// Both views of a comparison: the second view's pane shared (combined
+    /// with the first view's paths) where it can be, else its own film.
+    fn publish_pair(&mut self, coarse: bool, due: bool, out: Out) {
+        let display = self.take_display();
+        let Some(second) = &self.views.second else {
+            return;
+        };
+        let stats = self.views.last_stats;
+        let update = match self.views.shared_panes() {
+            Some(Ok(panes)) => shared_update(
+                [&self.views.first, second],
+                &panes,
+                stats,
+                &display,
+                (coarse, due),
+            ),
+            // Not re-shaded yet at this size, or not shared: its own film.
+            _ => pair_update(
+                [&self.views.first, second],
+                stats,
+                &self.views.reason,
+                &display,
+                (coarse, due),
+            ),
+        };
+        out(Output::Views(update));
+    }
+
+    /// The images shown again (the display changed) without a pass: what the
+    /// last pass published, in the new display.
+    pub(super) fn republish(&mut self, out: Out) {
+        if self.views.second.is_some() {
+            self.publish_pair(false, true, out);
+        } else if self.views.first.is_reshaded() {
+            self.take_display();
+            self.publish_edit(self.views.last_stats[0], out);
+        } else {
+            let display = self.take_display();
+            let first = film_frame(&self.views.first, self.views.last_stats[0], &display, false);
+            publish(out, first, SecondUpdate::Clear, Some(None));
+        }
     }
 
     fn out_of_step(&mut self) {
@@ -439,7 +486,7 @@ impl<B: RenderBackend> LiveEngine<B> {
     /// The display settings for the images about to be published, kept for an
     /// export: one for both views, from the first view's film.
     fn take_display(&mut self) -> crate::render::film::DisplaySettings {
-        self.views.display = display_of(&self.views.first);
+        self.views.display = display_of(&self.views.first, &self.inputs.display);
         self.views.display
     }
 

@@ -505,6 +505,10 @@ fn a_pick_toggles_the_material_under_the_point() {
     assert!(apply(&mut engine, Command::TogglePaintAt(0.01, 0.01)).is_empty());
 }
 
+/// A comparison shares the first view's paths and gives the second view a
+/// render of its own (one render built, a pass of it for every pass of the
+/// first); its pane says how much its own samples weigh, and that weight grows
+/// with them (the pane converges to its own model's image).
 #[test]
 fn a_comparison_shares_the_first_views_paths_and_switching_it_off_drops_the_second() {
     let (mut engine, before) = converged();
@@ -522,16 +526,40 @@ fn a_comparison_shares_the_first_views_paths_and_switching_it_off_drops_the_seco
     let published = converge(&mut engine);
     assert_eq!(engine.state().pairing, Pairing::Shared);
     assert_eq!(engine.recording_target(), COMPARE_CACHE_SAMPLES);
-    let last = published.last().expect("images");
-    assert!(matches!(
-        &last.second,
-        SecondUpdate::Set(Frame {
-            source: Some(SecondSource::Shared { .. }),
-            ..
+    let weights: Vec<(u32, f64)> = published
+        .iter()
+        .filter_map(|u| match &u.second {
+            SecondUpdate::Set(Frame {
+                source: Some(SecondSource::Shared { own_weight, .. }),
+                samples_per_pixel,
+                coarse: false,
+                ..
+            }) => Some((*samples_per_pixel, *own_weight)),
+            _ => None,
         })
-    ));
+        .collect();
+    println!("own weight by spp: {weights:?}");
+    let (&(last_spp, last_weight), &(_, first_weight)) = (
+        weights.last().expect("shared panes"),
+        weights.first().expect("shared panes"),
+    );
+    assert_eq!(last_spp, TARGET);
+    assert!(
+        first_weight < 0.5 && last_weight > first_weight,
+        "{weights:?}"
+    );
+    let last = published.last().expect("images");
     assert!(matches!(&last.map, Some(Some(map)) if map.samples_per_pixel == TARGET));
-    assert_built(&engine, &before, retraced(0, 1, 1));
+    let done = engine.counters().since(&before);
+    assert_eq!(done.second_passes, done.passes);
+    assert_built(
+        &engine,
+        &before,
+        EngineCounters {
+            render_builds: 1,
+            ..retraced(0, 1, 1)
+        },
+    );
     let before = engine.counters();
     apply(
         &mut engine,
@@ -548,17 +576,23 @@ fn a_comparison_shares_the_first_views_paths_and_switching_it_off_drops_the_seco
     assert_built(&engine, &before, retraced(0, 1, 0));
 }
 
-#[test]
-fn in_a_comparison_edits_are_traced_fresh_and_the_second_view_follows() {
+/// A converged engine told to compare the design with one of a thicker coat
+/// (its lobe is the first's, so the first view's paths re-shade into it), and
+/// that second design.
+fn comparing_a_thicker_coat() -> (LiveEngine, PaintDesign) {
     let (mut engine, _) = converged();
-    // The design with a thicker coat: its lobe is the first's, so the first
-    // view's paths re-shade into it.
     let mut second = design();
     second.thickness_um += 5.0;
     apply(
         &mut engine,
         Command::Views(Views::designs(ShadingModel::Paint, Some(&second))),
     );
+    (engine, second)
+}
+
+#[test]
+fn in_a_comparison_edits_are_traced_fresh_and_the_second_view_follows() {
+    let (mut engine, mut second) = comparing_a_thicker_coat();
     converge(&mut engine);
     assert_eq!(engine.state().pairing, Pairing::Shared);
     // The second design edited: the second shading is built again, the first
@@ -585,6 +619,57 @@ fn in_a_comparison_edits_are_traced_fresh_and_the_second_view_follows() {
     );
     converge(&mut engine);
     assert_built(&engine, &before, retraced(1, 1, 1));
+}
+
+/// The display (tone mapping, exposure adjustment) shows the images again at
+/// once, also when converged: nothing rebuilt, no retrace, no pass; the same
+/// choice again does nothing; the exposure's adjustment brightens the image.
+#[test]
+fn a_new_display_shows_the_images_again_without_rendering() {
+    use crate::render::film::{DisplayChoice, Exposure, ToneMapping};
+    let (mut engine, before) = converged();
+    let brighter = DisplayChoice {
+        tone_mapping: ToneMapping::REINHARD,
+        exposure: Exposure::Auto { adjust_stops: 1.0 },
+    };
+    let old = engine.display();
+    apply(&mut engine, Command::Display(brighter));
+    let (progress, outputs) = step(&mut engine);
+    assert_eq!(progress, Progress::Stepped);
+    let shown = updates(outputs);
+    assert_eq!(shown.len(), 1);
+    assert_eq!(engine.display().tone_mapping, ToneMapping::REINHARD);
+    assert!((engine.display().exposure_stops - old.exposure_stops - 1.0).abs() < 1e-4);
+    assert_eq!(shown[0].first.samples_per_pixel, TARGET);
+    let done = engine.counters().since(&before);
+    assert_eq!(done, ZERO, "a display change rendered or built: {done:?}");
+    assert_eq!(step(&mut engine).0, Progress::Idle);
+    apply(&mut engine, Command::Display(brighter));
+    assert!(engine.is_idle());
+}
+
+/// Two designs are compared as paint against Phong is: shared paths and a
+/// render of the second design's own, in step.
+#[test]
+fn two_designs_share_paths_and_render_the_second_on_its_own() {
+    let (mut engine, _) = comparing_a_thicker_coat();
+    let before = engine.counters();
+    let published = converge(&mut engine);
+    assert_eq!(engine.state().pairing, Pairing::Shared);
+    let last = published.last().expect("images");
+    let SecondUpdate::Set(pane) = &last.second else {
+        panic!("no second image: {:?}", last.second);
+    };
+    assert!(
+        matches!(pane.source, Some(SecondSource::Shared { own_weight, .. }) if own_weight > 0.0)
+    );
+    assert_eq!(pane.samples_per_pixel, TARGET);
+    let done = engine.counters().since(&before);
+    assert_eq!(done.second_passes, done.passes);
+    assert!(matches!(
+        engine.second_image(),
+        SecondImage::Reshaded(Ok(_))
+    ));
 }
 
 /// A mirror paint cannot be re-shaded into Phong: the second view is rendered

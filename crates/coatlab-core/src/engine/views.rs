@@ -1,6 +1,6 @@
 //! The one or two views the engine renders: the first view's render, and the
-//! second view of a comparison, either re-shaded from the first view's paths
-//! (its shading alone) or rendered apart (a render of its own).
+//! second view of a comparison, a render of its own, shown either combined with
+//! the first view's paths re-shaded into it (shared) or alone (rendered apart).
 
 use std::sync::Arc;
 use std::thread::JoinHandle;
@@ -9,7 +9,8 @@ use crate::colour::spectrum::WavelengthGrid;
 use crate::design::PaintDesign;
 use crate::render::film::DisplaySettings;
 use crate::render::material::{Shading, ShadingModel};
-use crate::render::reshade::{ReshadeError, Reshaded};
+use crate::render::progressive::PassStats;
+use crate::render::reshade::{ReshadeError, Reshaded, ShadingDifference};
 use crate::scene::SceneMaterial;
 
 use super::ThreadHook;
@@ -19,10 +20,14 @@ use super::backend::BackendView;
 pub(super) struct ViewSet<V> {
     /// The first view's render.
     pub first: V,
-    /// The second view's render, when it is rendered apart.
+    /// The second view's own render.
     pub second: Option<V>,
-    /// The second view's shading, when it is re-shaded from the first view's paths.
+    /// The second view's shading, when the first view's paths re-shade into it:
+    /// its pane then combines its own render with them.
     pub shared: Option<Arc<Shading>>,
+    /// The difference the second shading makes, from the first view's recorded
+    /// paths; `frozen` once the recording stopped (it cannot change any more).
+    pub difference: Option<(ShadingDifference, bool)>,
     /// The second view's shading being built; `None` inside: the design is invalid.
     pub job: Option<JoinHandle<Option<Arc<Shading>>>>,
     /// Why the second view is rendered apart, as the user reads it.
@@ -31,6 +36,9 @@ pub(super) struct ViewSet<V> {
     pub cache_samples: u32,
     /// The display settings of the last published images (what an export writes).
     pub display: DisplaySettings,
+    /// The last passes of the first and the second view (their speed is shown
+    /// again with the images).
+    pub last_stats: [PassStats; 2],
 }
 
 impl<V: BackendView> ViewSet<V> {
@@ -41,10 +49,12 @@ impl<V: BackendView> ViewSet<V> {
             first,
             second: None,
             shared: None,
+            difference: None,
             job: None,
             reason: String::new(),
             cache_samples,
             display: DisplaySettings::default(),
+            last_stats: [PassStats::default(); 2],
         }
     }
 
@@ -61,15 +71,31 @@ impl<V: BackendView> ViewSet<V> {
     pub fn drop_second(&mut self) {
         self.second = None;
         self.shared = None;
+        self.difference = None;
         self.job = None;
+    }
+
+    /// Both panes of a shared comparison: each view's own film combined with
+    /// the other's and the difference, with its own film's weight.
+    pub fn shared_panes(&self) -> Option<Result<[(Reshaded, f64); 2], ReshadeError>> {
+        let (second, (difference, _)) = (self.second.as_ref()?, self.difference.as_ref()?);
+        self.shared.as_ref()?;
+        let (a, b) = (self.first.film(), second.film());
+        Some(
+            difference
+                .combine_first(a, b)
+                .and_then(|first| Ok([first, difference.combine(a, b)?])),
+        )
     }
 
     /// The second view's image for an export.
     pub fn second_image(&self) -> SecondImage<'_> {
-        match (&self.second, &self.shared) {
-            (Some(render), _) => SecondImage::Film(render.film()),
-            (None, Some(shading)) => SecondImage::Reshaded(self.first.reshade_recorded(shading)),
-            (None, None) => SecondImage::None,
+        if let Some(panes) = self.shared_panes() {
+            return SecondImage::Reshaded(panes.map(|[_, (image, _)]| image));
+        }
+        match &self.second {
+            Some(render) => SecondImage::Film(render.film()),
+            None => SecondImage::None,
         }
     }
 }
@@ -81,7 +107,8 @@ pub enum SecondImage<'a> {
     None,
     /// Rendered apart: its film.
     Film(&'a crate::render::film::Film),
-    /// Re-shaded from the first view's paths: that image (it has no film).
+    /// Its own film combined with the first view's paths re-shaded into it:
+    /// that image (it has no film).
     Reshaded(Result<Reshaded, ReshadeError>),
 }
 

@@ -58,8 +58,14 @@
 //! the result is bit-for-bit deterministic.
 //!
 //! # Tone mapping
-//! See [`ToneMapping`]: extended Reinhard on luminance, which keeps the chromaticity
-//! of every pixel, or a plain clip for colorimetric checks.
+//! See [`ToneMapping`]: Khronos PBR Neutral by default, which shows every colour
+//! that fits the display as it is (less the 4 % of a clear coat's reflection) and
+//! compresses only highlights, without changing any hue; extended Reinhard on
+//! luminance (the mapping before it, and the one measurements keep:
+//! [`DisplaySettings::MEASURED`]); or a plain clip for colorimetric checks. The
+//! exposure is the film's automatic one plus the viewer's adjustment, or fixed
+//! ([`Exposure`]). Neither touches the film's sums or its EXR, which stay the
+//! unbiased linear means.
 
 pub mod part;
 
@@ -167,9 +173,27 @@ pub struct ExrOutput {
     pub record: RenderRecord,
 }
 
-/// How linear sRGB is compressed into the displayable [0, 1].
+/// How linear sRGB is compressed into the displayable [0, 1]. The film and its
+/// EXR never see it: it acts on the displayed image only (`docs/display.md`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ToneMapping {
+    /// The Khronos PBR Neutral tone mapper (the default), from its specification
+    /// (KhronosGroup/ToneMapping, `PBR_Neutral/README.md`): with F90 = 0.04,
+    /// K_s = 0.8 − F90 and K_d = 0.15, x = min(R, G, B), the offset
+    /// f = x − x²/(4 F90) for x ≤ 2 F90 and F90 above, p = max(c − f);
+    /// c_out = c − f while p ≤ K_s; above it the peak is compressed to
+    /// p_n = 1 − (1 − K_s)² / (p + 1 − 2 K_s) and the colour blended towards the
+    /// grey of p_n by 1 − g, g = 1 / (K_d (p − p_n) + 1).
+    ///
+    /// Why this one for product colour: every colour whose channels lie in
+    /// [0.08, 0.8] is shown as itself less 0.04 — the 4 % a clear coat reflects of
+    /// a uniform white surround — so a paint's body colour seen face-on under even
+    /// light is shown as designed, not brightened, desaturated or hue-shifted as
+    /// filmic curves do; brighter colours (highlights) are compressed towards
+    /// white without any change of hue (only within the plane of the colour and
+    /// the grey axis). Negative channels (colours outside the sRGB gamut) are
+    /// clipped to 0 first: the specification is for non-negative input.
+    PbrNeutral,
     /// None: values above 1 (and below 0) are clipped per channel. For colorimetric
     /// checks, where a white of Y = 1 must show as 255.
     Clip,
@@ -177,25 +201,64 @@ pub enum ToneMapping {
     /// L' = L (1 + L / L_white²) / (1 + L), and the linear RGB scaled by L' / L, so
     /// every pixel keeps its chromaticity; a colour still above 1 in some channel
     /// after that is scaled down until its largest channel is 1 (hue kept, the
-    /// colour darkens rather than shifting).
-    ///
-    /// Why this one: a paint designer judges hue and chroma. Per-channel filmic
-    /// curves (e.g. Narkowicz's ACES fit) compress each channel separately, which
-    /// turns a bright saturated red toward orange and washes highlights out to white
-    /// — attractive in a photograph, misleading for a paint colour. Here only
-    /// lightness is compressed, and luminance `white_luminance` maps to 1.
+    /// colour darkens rather than shifting). The display before PBR Neutral, and
+    /// the one the quality presets and adaptive sampling were measured with
+    /// ([`DisplaySettings::MEASURED`]).
     ReinhardLuminance { white_luminance: f32 },
 }
 
 impl Default for ToneMapping {
-    /// Reinhard on luminance with the white at 4 (two stops above a diffuse white
-    /// at Y = 1, room for specular highlights).
+    /// Khronos PBR Neutral: the colours that fit the display stay as they are.
     fn default() -> Self {
-        ToneMapping::ReinhardLuminance {
-            white_luminance: 4.0,
-        }
+        ToneMapping::PbrNeutral
     }
 }
+
+impl ToneMapping {
+    /// Reinhard on luminance with the white at 4 (two stops above a diffuse white
+    /// at Y = 1, room for specular highlights): the mapping before PBR Neutral.
+    pub const REINHARD: ToneMapping = ToneMapping::ReinhardLuminance {
+        white_luminance: 4.0,
+    };
+
+    /// The mappings a user chooses from, the default first.
+    pub const CHOICES: [ToneMapping; 3] = [
+        ToneMapping::PbrNeutral,
+        ToneMapping::REINHARD,
+        ToneMapping::Clip,
+    ];
+
+    /// The name on the command line (`--tone-map`).
+    pub fn name(self) -> &'static str {
+        match self {
+            ToneMapping::PbrNeutral => "neutral",
+            ToneMapping::ReinhardLuminance { .. } => "reinhard",
+            ToneMapping::Clip => "clip",
+        }
+    }
+
+    /// The name a user reads.
+    pub fn label(self) -> &'static str {
+        match self {
+            ToneMapping::PbrNeutral => "PBR Neutral",
+            ToneMapping::ReinhardLuminance { .. } => "Reinhard",
+            ToneMapping::Clip => "Clip",
+        }
+    }
+
+    /// The mapping named `name` ([`Self::name`]: neutral, reinhard or clip).
+    pub fn parse(name: &str) -> Result<ToneMapping, UnknownToneMapping> {
+        Self::CHOICES
+            .into_iter()
+            .find(|t| t.name() == name)
+            .ok_or_else(|| UnknownToneMapping(name.to_owned()))
+    }
+}
+
+/// A tone mapping name [`ToneMapping::parse`] does not know.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[error("unknown tone mapping \"{0}\" (expected neutral, reinhard or clip)")]
+pub struct UnknownToneMapping(pub String);
 
 /// How [`Film::to_display`] turns XYZ into pixels.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -209,6 +272,107 @@ pub struct DisplaySettings {
     pub adapt_white: Option<Xyz>,
     /// The tone mapping after exposure.
     pub tone_mapping: ToneMapping,
+}
+
+impl DisplaySettings {
+    /// The display the quality presets' errors (`docs/tradeoff.md`), the
+    /// reference noise of the bench and adaptive sampling's noise were measured
+    /// and tuned with: exposure 0, no adaptation, Reinhard on luminance. Those
+    /// measurements keep it whatever a viewer chooses, so their figures stay
+    /// comparable with the committed ones.
+    pub const MEASURED: DisplaySettings = DisplaySettings {
+        exposure_stops: 0.0,
+        adapt_white: None,
+        tone_mapping: ToneMapping::REINHARD,
+    };
+}
+
+/// How the exposure of a display is chosen: from the image, or fixed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Exposure {
+    /// [`Film::auto_exposure`] (the log-average luminance to middle grey) plus
+    /// `adjust_stops`.
+    Auto {
+        /// The user's adjustment, stops.
+        adjust_stops: f32,
+    },
+    /// This many stops, whatever the image.
+    Fixed {
+        /// Exposure, stops.
+        stops: f32,
+    },
+}
+
+impl Default for Exposure {
+    /// Automatic, unadjusted.
+    fn default() -> Self {
+        Exposure::Auto { adjust_stops: 0.0 }
+    }
+}
+
+impl Exposure {
+    /// The exposure in stops for `film`'s image.
+    pub fn stops(self, film: &Film) -> f32 {
+        match self {
+            Exposure::Auto { adjust_stops } => film.auto_exposure() + adjust_stops,
+            Exposure::Fixed { stops } => stops,
+        }
+    }
+
+    /// Parses `auto`, `auto+STOPS`, `auto-STOPS` or a number of stops.
+    pub fn parse(text: &str) -> Result<Exposure, BadExposure> {
+        let bad = || BadExposure(text.to_owned());
+        let number = |t: &str| t.parse::<f32>().ok().filter(|v| v.is_finite());
+        match text.strip_prefix("auto") {
+            Some("") => Ok(Exposure::default()),
+            Some(rest) if rest.starts_with(['+', '-']) => number(rest)
+                .map(|adjust_stops| Exposure::Auto { adjust_stops })
+                .ok_or_else(bad),
+            Some(_) => Err(bad()),
+            None => number(text)
+                .map(|stops| Exposure::Fixed { stops })
+                .ok_or_else(bad),
+        }
+    }
+}
+
+impl std::fmt::Display for Exposure {
+    /// As [`Exposure::parse`] reads it: "0", "-1.5", "auto", "auto+1".
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            Exposure::Fixed { stops } => write!(f, "{stops}"),
+            Exposure::Auto { adjust_stops: 0.0 } => f.write_str("auto"),
+            Exposure::Auto { adjust_stops } => write!(f, "auto{adjust_stops:+}"),
+        }
+    }
+}
+
+/// An exposure [`Exposure::parse`] cannot read.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[error(
+    "bad exposure \"{0}\" (expected stops such as 0 or -1.5, auto, or auto+STOPS / auto-STOPS)"
+)]
+pub struct BadExposure(pub String);
+
+/// What a viewer chooses of a display: the tone mapping and the exposure; the
+/// exposure's stops follow the image ([`Self::settings_for`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DisplayChoice {
+    /// The tone mapping.
+    pub tone_mapping: ToneMapping,
+    /// The exposure.
+    pub exposure: Exposure,
+}
+
+impl DisplayChoice {
+    /// The settings that show `film` as chosen (no adaptation).
+    pub fn settings_for(&self, film: &Film) -> DisplaySettings {
+        DisplaySettings {
+            exposure_stops: self.exposure.stops(film),
+            adapt_white: None,
+            tone_mapping: self.tone_mapping,
+        }
+    }
 }
 
 /// Per-channel XYZ weights, shared by a film and its tiles.
@@ -1041,6 +1205,7 @@ fn display_matrix(adapt_white: Option<Xyz>, exposure_stops: f32) -> Mat3f {
 fn tone_map(rgb: [f32; 3], tone_mapping: ToneMapping) -> [f32; 3] {
     match tone_mapping {
         ToneMapping::Clip => rgb,
+        ToneMapping::PbrNeutral => pbr_neutral(rgb.map(|v| v.max(0.0))),
         ToneMapping::ReinhardLuminance { white_luminance } => {
             let luminance = SRGB_LUMINANCE[0] * rgb[0]
                 + SRGB_LUMINANCE[1] * rgb[1]
@@ -1061,6 +1226,41 @@ fn tone_map(rgb: [f32; 3], tone_mapping: ToneMapping) -> [f32; 3] {
             }
         }
     }
+}
+
+/// F90 of the PBR Neutral specification: the normal-incidence reflectance of an
+/// index-1.5 dielectric, the offset taken off every colour.
+pub const PBR_NEUTRAL_F90: f32 = 0.04;
+/// K_s: the peak above which PBR Neutral compresses.
+pub const PBR_NEUTRAL_START_COMPRESSION: f32 = 0.8 - PBR_NEUTRAL_F90;
+/// K_d: how fast PBR Neutral desaturates compressed highlights.
+pub const PBR_NEUTRAL_DESATURATION: f32 = 0.15;
+
+/// The Khronos PBR Neutral mapping of a non-negative linear sRGB colour (see
+/// [`ToneMapping::PbrNeutral`]; the specification's symbols).
+#[inline]
+fn pbr_neutral(c: [f32; 3]) -> [f32; 3] {
+    const F90: f32 = PBR_NEUTRAL_F90;
+    const KS: f32 = PBR_NEUTRAL_START_COMPRESSION;
+    const KD: f32 = PBR_NEUTRAL_DESATURATION;
+    let x = c[0].min(c[1]).min(c[2]);
+    // The offset fades in quadratically below 2 F90, so black stays black.
+    let f = if x <= 2.0 * F90 {
+        x - x * x / (4.0 * F90)
+    } else {
+        F90
+    };
+    let shifted = c.map(|v| v - f);
+    let p = shifted[0].max(shifted[1]).max(shifted[2]);
+    // NaN fails the comparison too: NaN goes through, and encodes as black.
+    if p <= KS || p.is_nan() {
+        return shifted;
+    }
+    let p_n = 1.0 - (1.0 - KS) * (1.0 - KS) / (p + 1.0 - 2.0 * KS);
+    let g = 1.0 / (KD * (p - p_n) + 1.0);
+    let scale = p_n / p * g;
+    let grey = p_n * (1.0 - g);
+    shifted.map(|v| v * scale + grey)
 }
 
 /// The displayable pixels (RGBA8, sRGB-encoded, as GPU textures take them) of
@@ -1349,6 +1549,114 @@ mod tests {
             flat.add_sample(0, 0, &vec![0.3; grid.len()]);
         }
         assert_eq!(flat.noise_estimate(&display, 1).unwrap().mean_delta_e, 0.0);
+    }
+
+    /// Input/output pairs of the Khronos PBR Neutral specification's equations,
+    /// evaluated apart in f64: the range where only the offset acts (a colour in
+    /// [0.08, 0.8] less F90), the quadratic offset below 2 F90, the compressed
+    /// white (1 → 0.869 09, 10 → 0.993 90) and saturated highlights.
+    #[test]
+    fn pbr_neutral_matches_the_specification_at_reference_points() {
+        let pairs: [([f32; 3], [f32; 3]); 8] = [
+            ([0.0, 0.0, 0.0], [0.0, 0.0, 0.0]),
+            ([0.5, 0.3, 0.2], [0.46, 0.26, 0.16]),
+            ([0.8, 0.8, 0.8], [0.76, 0.76, 0.76]),
+            ([0.02, 0.5, 0.5], [0.0025, 0.4825, 0.4825]),
+            ([1.0, 1.0, 1.0], [0.869_090_9; 3]),
+            ([10.0, 10.0, 10.0], [0.993_898_3; 3]),
+            ([2.0, 1.0, 0.5], [0.96, 0.534_090_5, 0.321_135_8]),
+            ([4.0, 0.2, 0.1], [0.983_255_8, 0.330_977_4, 0.313_812_2]),
+        ];
+        for (input, expected) in pairs {
+            let out = tone_map(input, ToneMapping::PbrNeutral);
+            for c in 0..3 {
+                assert!(
+                    (out[c] - expected[c]).abs() < 2e-6,
+                    "{input:?} → {out:?}, the specification gives {expected:?}"
+                );
+            }
+        }
+        // Out-of-gamut (negative) channels are clipped first, as for black.
+        assert_eq!(
+            tone_map([-0.5, 0.0, -1.0], ToneMapping::PbrNeutral),
+            [0.0; 3]
+        );
+    }
+
+    /// The specification's guarantee: every colour with all channels in
+    /// [0.08, 0.8] (below the compression start once offset) is shown as itself
+    /// less F90 = 0.04, exactly up to f32 rounding; the compression start is
+    /// where the peak passes K_s. And for every colour the hue is kept: the output
+    /// lies in the plane of the input and the grey axis, on the input's side.
+    #[test]
+    fn pbr_neutral_keeps_colours_below_the_compression_start_and_every_hue() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(18);
+        for _ in 0..10_000 {
+            let c: [f32; 3] = std::array::from_fn(|_| rng.random_range(0.08f32..=0.8));
+            let out = tone_map(c, ToneMapping::PbrNeutral);
+            for k in 0..3 {
+                assert!(
+                    (out[k] - (c[k] - PBR_NEUTRAL_F90)).abs() < 1e-6,
+                    "{c:?} → {out:?}"
+                );
+            }
+        }
+        // Just above the start the peak is compressed (less than c − F90).
+        let above = tone_map([0.81, 0.5, 0.3], ToneMapping::PbrNeutral);
+        assert!(
+            above[0] < 0.81 - PBR_NEUTRAL_F90 && above[0] > 0.76,
+            "{above:?}"
+        );
+        for _ in 0..10_000 {
+            let scale = 10f32.powf(rng.random_range(-2.0f32..2.0));
+            let c: [f32; 3] = std::array::from_fn(|_| scale * rng.random::<f32>());
+            let out = tone_map(c, ToneMapping::PbrNeutral);
+            assert!(
+                out.iter().all(|v| (0.0..=1.0).contains(v)),
+                "{c:?} → {out:?}"
+            );
+            // Chroma vectors (off the grey axis) are parallel and alike in sign.
+            let chroma = |v: [f32; 3]| {
+                let m = (v[0] + v[1] + v[2]) / 3.0;
+                v.map(|x| f64::from(x - m))
+            };
+            let (a, b) = (chroma(c), chroma(out));
+            let dot: f64 = (0..3).map(|k| a[k] * b[k]).sum();
+            let norms = (0..3).map(|k| a[k] * a[k]).sum::<f64>().sqrt()
+                * (0..3).map(|k| b[k] * b[k]).sum::<f64>().sqrt();
+            if norms > 1e-9 {
+                assert!(dot / norms > 1.0 - 1e-4, "{c:?} → {out:?}: hue moved");
+            }
+        }
+    }
+
+    #[test]
+    fn exposure_and_tone_mapping_names_round_trip_and_bad_ones_are_named() {
+        for text in ["0", "-1.5", "auto", "auto+1", "auto-0.5"] {
+            let exposure = Exposure::parse(text).unwrap();
+            assert_eq!(exposure.to_string(), text);
+        }
+        assert_eq!(
+            Exposure::parse("auto+2"),
+            Ok(Exposure::Auto { adjust_stops: 2.0 })
+        );
+        for bad in ["", "auto2", "autox", "NaN", "inf", "auto+inf", "1e39"] {
+            let e = Exposure::parse(bad).unwrap_err();
+            assert!(e.to_string().contains(&format!("\"{bad}\"")), "{e}");
+        }
+        for t in ToneMapping::CHOICES {
+            assert_eq!(ToneMapping::parse(t.name()), Ok(t));
+        }
+        assert_eq!(ToneMapping::CHOICES[0], ToneMapping::default());
+        let e = ToneMapping::parse("aces").unwrap_err();
+        assert!(e.to_string().contains("\"aces\""), "{e}");
+        // Automatic exposure follows the film; the adjustment adds to it.
+        let mut film = Film::new(1, 1, Channels::LinearSrgb);
+        film.add_sample(0, 0, &[2.0; 3]);
+        let auto = Exposure::Auto { adjust_stops: 1.0 }.stops(&film);
+        assert!((auto - film.auto_exposure() - 1.0).abs() < 1e-6);
+        assert_eq!(Exposure::Fixed { stops: -2.0 }.stops(&film), -2.0);
     }
 
     #[test]

@@ -778,9 +778,11 @@ impl ProgressiveRender {
             None => true,
         };
         if stale {
-            // The noise as the default display shows it: the render does not know
-            // the viewer's exposure, and the defaults suit every lighting setup.
-            let weights = adaptive.weights(&self.film, &DisplaySettings::default());
+            // The noise as the display adaptive sampling was tuned with shows it
+            // (exposure 0, Reinhard): the render does not know the viewer's
+            // exposure, exposure 0 suits every lighting setup, and the tuning's
+            // figures (docs/rendering.md) stay valid.
+            let weights = adaptive.weights(&self.film, &DisplaySettings::MEASURED);
             self.adaptive_weights = Some((spp, weights));
         }
         let (_, weights) = self.adaptive_weights.as_ref()?;

@@ -80,6 +80,10 @@ pub enum ReshadeError {
     /// A recorded mirror (delta) bounce meets a BSDF without a mirror.
     #[error("the paint changed to or from an ideal mirror: its paths must be traced anew")]
     DeltaChanged,
+    /// The images to combine are of different sizes (a view was resized since
+    /// the paths were re-shaded).
+    #[error("the image size changed since the paths were re-shaded")]
+    SizeChanged,
     /// The paint's specular lobe is wider than the one the paths were sampled
     /// from (a gloss edit, or an index edit under a gloss reading).
     #[error(
@@ -718,6 +722,177 @@ pub fn reshade_prepared(
         variance_y,
     })
 }
+
+/// The difference a second shading makes to a render's picture, estimated from
+/// the render's recorded paths: per pixel the mean over the recorded samples of
+/// c_B − c_A (the paths evaluated with the second shading less their own
+/// value) and the variance of that mean's Y. It is fixed once the recording
+/// stops, while the render's own film keeps refining; what a comparison's
+/// second pane is made of ([`Self::combine`]).
+#[derive(Debug, Clone)]
+pub struct ShadingDifference {
+    width: u32,
+    height: u32,
+    xyz: Vec<[f32; 3]>,
+    variance_y: Vec<f32>,
+    samples: u32,
+}
+
+impl ShadingDifference {
+    /// The difference in `reshaded` (the recorded paths of the render whose
+    /// film is `film` re-shaded with the second shading, from `samples` recorded
+    /// samples per pixel) less the film's means and variances as they were when
+    /// it was re-shaded.
+    pub fn of(reshaded: &Reshaded, film: &Film, samples: u32) -> Result<Self, ReshadeError> {
+        if (reshaded.width, reshaded.height) != (film.width(), film.height()) {
+            return Err(ReshadeError::SizeChanged);
+        }
+        let base = BaseImage::of(film);
+        let xyz = reshaded
+            .xyz
+            .iter()
+            .zip(&base.xyz)
+            .map(|(r, b)| std::array::from_fn(|c| r[c] - b[c]))
+            .collect();
+        let variance_y = reshaded
+            .variance_y
+            .iter()
+            .zip(&base.variance_y)
+            .map(|(r, b)| if b.is_finite() { (r - b).max(0.0) } else { *r })
+            .collect();
+        Ok(Self {
+            width: reshaded.width,
+            height: reshaded.height,
+            xyz,
+            variance_y,
+            samples,
+        })
+    }
+
+    /// Recorded samples per pixel the difference was estimated from.
+    pub fn samples(&self) -> u32 {
+        self.samples
+    }
+
+    /// Width, pixels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height, pixels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// The second shading's picture from two unbiased estimates of it: the
+    /// shared one, `first`'s film (the recording render, which keeps refining)
+    /// plus this difference, and `own`, a film of the second shading rendered
+    /// on its own. Per pixel they are blended as (1 − w)·shared + w·own with
+    /// w = V_S / (V_S + V_O), V the sums of each estimate's variance of Y over
+    /// the pixel's block of [`COMBINE_BLOCK`]² pixels *leaving the pixel itself
+    /// out*: a pixel's samples are independent of its neighbours', so its
+    /// weight is independent of both its estimates and the blend is exactly
+    /// unbiased, while the weight still follows where the difference is noisy
+    /// (a highlight one model samples poorly with the other's paths: own
+    /// samples) and where it is clean (the shared samples, which keep the
+    /// panes' difference free of noise). While `own` has fewer than two samples
+    /// (no variance), w = 0. The difference's noise stays that of its recorded
+    /// samples while `own`'s falls, so w → 1 and the picture converges to the
+    /// second shading's own render. Returns the picture with the mean of w.
+    pub fn combine(&self, first: &Film, own: &Film) -> Result<(Reshaded, f64), ReshadeError> {
+        self.blend(first, 1.0, own)
+    }
+
+    /// The first shading's picture the same way: its own film `first` blended
+    /// with `second` (a film of the second shading) less this difference, an
+    /// unbiased estimate of the first shading's image too. Where the weights of
+    /// both panes are alike, the panes' difference is this difference alone,
+    /// free of either film's noise.
+    pub fn combine_first(
+        &self,
+        first: &Film,
+        second: &Film,
+    ) -> Result<(Reshaded, f64), ReshadeError> {
+        self.blend(second, -1.0, first)
+    }
+
+    /// `own` blended with `base` + `sign` × this difference, as [`Self::combine`]
+    /// describes.
+    fn blend(&self, base: &Film, sign: f64, own: &Film) -> Result<(Reshaded, f64), ReshadeError> {
+        let (first, size) = (base, (self.width, self.height));
+        if (first.width(), first.height()) != size || (own.width(), own.height()) != size {
+            return Err(ReshadeError::SizeChanged);
+        }
+        let (width, height) = (self.width as usize, self.height as usize);
+        // Per pixel: the shared estimate, its variance of Y, the own estimate
+        // and its variance (0 where not finite, so it drops out of the sums).
+        let pixels: Vec<([f64; 3], f64, [f64; 3], f64)> = (0..height * width)
+            .into_par_iter()
+            .map(|i| {
+                let (x, y) = ((i % width) as u32, (i / width) as u32);
+                let m = first.mean_xyz(x, y);
+                let d = self.xyz[i].map(|v| sign * f64::from(v));
+                let finite = |v: f64| if v.is_finite() { v } else { 0.0 };
+                let vs =
+                    finite(first.variance_of_mean_xyz(x, y)[1]) + f64::from(self.variance_y[i]);
+                let o = own.mean_xyz(x, y);
+                let vo = finite(own.variance_of_mean_xyz(x, y)[1]);
+                (
+                    [m.x + d[0], m.y + d[1], m.z + d[2]],
+                    vs,
+                    [o.x, o.y, o.z],
+                    vo,
+                )
+            })
+            .collect();
+        let blocks_x = width.div_ceil(COMBINE_BLOCK);
+        let block_of =
+            |i: usize| (i / width / COMBINE_BLOCK) * blocks_x + (i % width) / COMBINE_BLOCK;
+        let mut sums = vec![[0.0f64; 2]; blocks_x * height.div_ceil(COMBINE_BLOCK)];
+        for (i, p) in pixels.iter().enumerate() {
+            let b = &mut sums[block_of(i)];
+            b[0] += p.1;
+            b[1] += p.3;
+        }
+        let with_own = own.samples_per_pixel() >= 2;
+        let mut weight_sum = 0.0;
+        let (mut xyz, mut variance_y) = (Vec::with_capacity(pixels.len()), Vec::new());
+        variance_y.reserve(pixels.len());
+        for (i, (s, vs, o, vo)) in pixels.into_iter().enumerate() {
+            let b = sums[block_of(i)];
+            let (rest_s, rest_o) = ((b[0] - vs).max(0.0), (b[1] - vo).max(0.0));
+            let w = if !with_own {
+                0.0
+            } else if rest_s + rest_o > 0.0 {
+                rest_s / (rest_s + rest_o)
+            } else {
+                // No neighbour has any noise (the sky): its own samples, as
+                // the pixel's own variances must not choose.
+                1.0
+            };
+            weight_sum += w;
+            let keep = 1.0 - w;
+            xyz.push(std::array::from_fn(|c| (keep * s[c] + w * o[c]) as f32));
+            variance_y.push((keep * keep * vs + w * w * vo) as f32);
+        }
+        let mean_weight = weight_sum / xyz.len().max(1) as f64;
+        Ok((
+            Reshaded {
+                width: self.width,
+                height: self.height,
+                xyz,
+                variance_y,
+            },
+            mean_weight,
+        ))
+    }
+}
+
+/// Side of the blocks of pixels whose variances set the weights of
+/// [`ShadingDifference::combine`]: small enough to follow a highlight, large
+/// enough (64 pixels) that the sum of a block's other pixels is a steady
+/// estimate.
+pub const COMBINE_BLOCK: usize = 8;
 
 /// Whether the designed paint of `shading` is an ideal mirror (has a delta lobe).
 pub(crate) fn paint_is_mirror(shading: &Shading) -> bool {

@@ -18,7 +18,7 @@ use coatlab_core::instruments::measure;
 use coatlab_core::io::atomic::write_bytes_atomically;
 use coatlab_core::render::adaptive::AdaptiveSampling;
 use coatlab_core::render::film::part::{Identity, sha256_hex};
-use coatlab_core::render::film::{DisplaySettings, RenderRecord};
+use coatlab_core::render::film::{Exposure, RenderRecord, ToneMapping};
 use serde::Serialize;
 
 use super::manifest::{Manifest, Task};
@@ -119,7 +119,8 @@ pub fn render_args(manifest: &Manifest, task: &Task) -> RenderArgs {
         size: manifest.size,
         wavelengths: manifest.quality.wavelengths,
         seed: manifest.seed,
-        exposure: 0.0,
+        exposure: Exposure::Fixed { stops: 0.0 },
+        tone_map: ToneMapping::default(),
         adaptive: false,
         adaptive_uniform_spp: defaults.uniform_samples,
         adaptive_floor: defaults.floor,
@@ -222,10 +223,7 @@ pub fn run_task(manifest: &Manifest, task: &Task) -> anyhow::Result<Outcome> {
     let args = render_args(manifest, task);
     let spp = manifest.quality.samples_per_pixel;
     let rendered = render_film(&args, 0..spp, None, false)?;
-    let display = DisplaySettings {
-        exposure_stops: args.exposure,
-        ..DisplaySettings::default()
-    };
+    let display = args.display_for(rendered.render.film());
     let record = RenderRecord {
         design: Some(design.name.clone()),
         samples_per_pixel: Some(spp.to_string()),
@@ -282,7 +280,7 @@ pub fn run_task(manifest: &Manifest, task: &Task) -> anyhow::Result<Outcome> {
             quality: manifest.quality.label.clone(),
             size: format!("{}x{}", manifest.size.0, manifest.size.1),
             wavelengths: manifest.quality.wavelengths,
-            exposure_stops: args.exposure,
+            exposure_stops: display.exposure_stops,
         },
         seed: manifest.seed,
         samples_per_pixel: spp,

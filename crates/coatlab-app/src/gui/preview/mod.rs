@@ -32,6 +32,7 @@ use coatlab_core::engine::{
     file_name,
 };
 use coatlab_core::paint::phong::PhongVariant;
+use coatlab_core::render::film::DisplayChoice;
 use coatlab_core::render::lighting::Lighting;
 use coatlab_core::render::material::ShadingModel;
 use coatlab_core::render::pick::toggled;
@@ -96,6 +97,9 @@ pub struct Preview {
     events: Vec<PreviewEvent>,
     /// The quality preset and the knobs it set (see [`super::quality`]).
     quality: QualitySelector,
+    /// How the images are shown: tone mapping, exposure adjustment (a setting
+    /// of the session, not of the design).
+    display: DisplayChoice,
     /// Where the last frame drew opaque images (the panels behind need no fill there).
     opaque: Vec<egui::Rect>,
 }
@@ -133,6 +137,7 @@ impl Preview {
             last_latency: None,
             events: Vec::new(),
             quality: QualitySelector::default(),
+            display: DisplayChoice::default(),
             opaque: Vec::new(),
         }
     }
@@ -207,6 +212,20 @@ impl Preview {
     /// The view chosen last.
     pub fn view(&self) -> ViewChoice {
         self.view
+    }
+
+    /// Shows the images with `display` (tone mapping, exposure); nothing is
+    /// rendered again.
+    pub fn set_display(&mut self, display: DisplayChoice) {
+        if display != self.display {
+            self.display = display;
+            self.send(Command::Display(display));
+        }
+    }
+
+    /// How the images are shown.
+    pub fn display(&self) -> DisplayChoice {
+        self.display
     }
 
     /// The scene materials that carry the paint: the user's choice, else the
@@ -514,9 +533,14 @@ fn upload_frames(
 /// The line the preview shows under a comparison: how its second view is made.
 pub fn second_source_label(source: &SecondSource) -> String {
     match source {
-        SecondSource::Shared { recorded_spp } => format!(
-            "Shared samples: the second view re-shades the first view's paths \
-             ({recorded_spp} spp recorded), so the difference shows the models, not noise"
+        SecondSource::Shared {
+            recorded_spp,
+            own_weight,
+        } => format!(
+            "Shared samples: the second view combines the first view's paths re-shaded \
+             into it ({recorded_spp} spp recorded), so the difference shows the models, \
+             not noise, with its own samples (weight {:.0} %), so it converges to its own model",
+            own_weight * 100.0
         ),
         SecondSource::Independent { reason } => {
             format!("Independent renders (same camera and seed): {reason}")

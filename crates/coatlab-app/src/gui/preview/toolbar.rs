@@ -4,6 +4,7 @@
 
 use coatlab_core::design::presets::Preset;
 use coatlab_core::paint::phong::PhongVariant;
+use coatlab_core::render::film::{Exposure, ToneMapping};
 use coatlab_core::render::lighting::Lighting;
 use coatlab_core::render::material::ShadingModel;
 use coatlab_core::render::view::{NamedView, ViewChoice};
@@ -192,6 +193,7 @@ impl Preview {
                 self.built_in_scene();
             }
             self.view_ui(ui);
+            self.display_ui(ui);
             self.paint_material_ui(ui);
             ui.separator();
             request_button(
@@ -245,6 +247,41 @@ impl Preview {
         if let Some(choice) = picked {
             self.set_view(choice);
         }
+    }
+
+    /// The tone mapping and the exposure: automatic, adjusted in stops.
+    fn display_ui(&mut self, ui: &mut Ui) {
+        let mut display = self.display();
+        egui::ComboBox::from_label("Tone map")
+            .selected_text(display.tone_mapping.label())
+            .show_ui(ui, |ui| {
+                for t in ToneMapping::CHOICES {
+                    ui.selectable_value(&mut display.tone_mapping, t, t.label());
+                }
+            })
+            .response
+            .on_hover_text(
+                "PBR Neutral keeps the colours that fit the display as they are and \
+                 compresses only highlights; Reinhard is the earlier mapping; Clip shows \
+                 the values as they are",
+            );
+        let mut adjust = match display.exposure {
+            Exposure::Auto { adjust_stops } => adjust_stops,
+            Exposure::Fixed { stops } => stops,
+        };
+        ui.add(
+            egui::DragValue::new(&mut adjust)
+                .range(-8.0..=8.0)
+                .speed(0.05)
+                .fixed_decimals(1)
+                .prefix("exposure auto ")
+                .suffix(" stops"),
+        )
+        .on_hover_text("The automatic exposure (the image's log-average to middle grey), adjusted");
+        display.exposure = Exposure::Auto {
+            adjust_stops: adjust,
+        };
+        self.set_display(display);
     }
 
     /// Which of the scene's materials carry the paint (a list to toggle), and the
