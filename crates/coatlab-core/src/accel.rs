@@ -351,7 +351,7 @@ impl Accel {
         }
         let sheared = ShearedRay::new(origin, dir);
         if let Tree::Simd8(tree) = &self.bvh.tree {
-            let box_ray = BoxRay::new::<ISA>(origin, dir);
+            let box_ray = BoxRay::new(origin, dir);
             let mut best = None;
             tree.closest::<ISA>(
                 &box_ray,
@@ -476,7 +476,7 @@ impl Accel {
                     traversal.start(query.t_max);
                     return Some(Lane {
                         index,
-                        box_ray: BoxRay::new::<ISA>(query.origin, query.dir),
+                        box_ray: BoxRay::new(query.origin, query.dir),
                         sheared: ShearedRay::new(query.origin, query.dir),
                         best: None,
                     });
@@ -558,7 +558,7 @@ impl Accel {
         }
         let sheared = ShearedRay::new(origin, dir);
         if let Tree::Simd8(tree) = &self.bvh.tree {
-            let box_ray = BoxRay::new::<ISA>(origin, dir);
+            let box_ray = BoxRay::new(origin, dir);
             return tree.any::<ISA>(
                 &box_ray,
                 t_max,

@@ -62,8 +62,8 @@ impl SimdPath {
     pub fn is_available(self) -> bool {
         match self {
             SimdPath::Portable => true,
-            SimdPath::Avx2 => avx2_detected(),
-            SimdPath::Avx512 => avx2_detected() && avx512_detected(),
+            SimdPath::Avx2 => detected(false),
+            SimdPath::Avx512 => detected(true),
         }
     }
 
@@ -117,36 +117,25 @@ impl SimdPath {
 }
 
 /// AVX2 and FMA (and the bit-manipulation instructions that x86-64-v3 adds, which
-/// the AVX2 path is compiled with).
-fn avx2_detected() -> bool {
+/// the AVX2 path is compiled with), and with `avx512` AVX-512 F, VL, BW and DQ too
+/// (the AVX-512 path's).
+fn detected(avx512: bool) -> bool {
     #[cfg(target_arch = "x86_64")]
     {
-        std::arch::is_x86_feature_detected!("avx")
-            && std::arch::is_x86_feature_detected!("avx2")
-            && std::arch::is_x86_feature_detected!("fma")
-            && std::arch::is_x86_feature_detected!("bmi1")
-            && std::arch::is_x86_feature_detected!("bmi2")
-            && std::arch::is_x86_feature_detected!("lzcnt")
-            && std::arch::is_x86_feature_detected!("popcnt")
+        use std::arch::is_x86_feature_detected as has;
+        let avx2 = has!("avx")
+            && has!("avx2")
+            && has!("fma")
+            && has!("bmi1")
+            && has!("bmi2")
+            && has!("lzcnt")
+            && has!("popcnt");
+        avx2 && (!avx512
+            || (has!("avx512f") && has!("avx512vl") && has!("avx512bw") && has!("avx512dq")))
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        false
-    }
-}
-
-/// AVX-512 F, VL, BW and DQ, which the AVX-512 path is compiled with besides
-/// AVX2's features.
-fn avx512_detected() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx512f")
-            && std::arch::is_x86_feature_detected!("avx512vl")
-            && std::arch::is_x86_feature_detected!("avx512bw")
-            && std::arch::is_x86_feature_detected!("avx512dq")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
+        let _ = avx512;
         false
     }
 }
@@ -190,35 +179,21 @@ macro_rules! dispatch {
         );
         match path {
             #[cfg(target_arch = "x86_64")]
-            $crate::simd_path::SimdPath::Avx512 => {
-                #[allow(dead_code)]
-                const $isa: u8 = $crate::simd_path::isa::AVX512;
-                // SAFETY: the CPU has the path's features (the macro's contract).
-                unsafe {
-                    $crate::simd_path::on_avx512(
-                        #[inline(always)]
-                        || $body,
-                    )
-                }
-            }
+            $crate::simd_path::SimdPath::Avx512 => $crate::simd_path::dispatch!(@on on_avx512, AVX512, $isa => $body),
             #[cfg(target_arch = "x86_64")]
-            $crate::simd_path::SimdPath::Avx2 => {
-                #[allow(dead_code)]
-                const $isa: u8 = $crate::simd_path::isa::AVX2;
-                // SAFETY: as above.
-                unsafe {
-                    $crate::simd_path::on_avx2(
-                        #[inline(always)]
-                        || $body,
-                    )
-                }
-            }
+            $crate::simd_path::SimdPath::Avx2 => $crate::simd_path::dispatch!(@on on_avx2, AVX2, $isa => $body),
             _ => {
                 #[allow(dead_code)]
                 const $isa: u8 = $crate::simd_path::isa::PORTABLE;
                 $body
             }
         }
+    }};
+    (@on $run:ident, $number:ident, $isa:tt => $body:expr) => {{
+        #[allow(dead_code)]
+        const $isa: u8 = $crate::simd_path::isa::$number;
+        // SAFETY: the CPU has the path's features (the macro's contract).
+        unsafe { $crate::simd_path::$run(#[inline(always)] || $body) }
     }};
 }
 pub(crate) use dispatch;

@@ -264,7 +264,7 @@ fn simd8_closest<F: FnMut(&Ray, usize) -> f32>(
     mut ray: Ray,
     mut intersect: F,
 ) -> Option<(usize, f32)> {
-    let box_ray = BoxRay::new::<PORTABLE>(ray.origin.into(), ray.direction.into());
+    let box_ray = BoxRay::new(ray.origin.into(), ray.direction.into());
     let mut best = None;
     // The box layer's generic queries (tests, picking) run the portable code: the
     // caller's closure is not compiled for a SIMD path.
@@ -291,7 +291,7 @@ fn simd8_closest<F: FnMut(&Ray, usize) -> f32>(
 
 /// [`Bvh::any`] on the `Simd8` tree, one slot at a time.
 fn simd8_any<F: FnMut(&Ray, usize) -> f32>(tree: &WideBvh, ray: Ray, mut intersect: F) -> bool {
-    let box_ray = BoxRay::new::<PORTABLE>(ray.origin.into(), ray.direction.into());
+    let box_ray = BoxRay::new(ray.origin.into(), ray.direction.into());
     tree.any::<PORTABLE>(
         &box_ray,
         ray.tmax,

@@ -161,12 +161,6 @@ pub(super) struct WideBvh {
 /// A ray prepared for the slab tests.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct BoxRay {
-    /// For the AVX-512 slab test, per axis: `1/dir` in lanes 0–7 (near planes)
-    /// and `−1/dir` in lanes 8–15 (far planes), so that one maximum over the axes
-    /// gives the entry distances and the negated exit distances (zeros on the
-    /// other paths, which do not read it).
-    #[cfg(target_arch = "x86_64")]
-    scale: [Lanes16; 3],
     origin: [f32; 3],
     inv_dir: [f32; 3],
     /// Per axis, 1 where the direction is negative: the ray enters a box by its
@@ -177,15 +171,15 @@ pub(super) struct BoxRay {
 }
 
 /// 16 f32 lanes, aligned for one AVX-512 load.
+#[cfg(target_arch = "x86_64")]
 #[derive(Debug, Clone, Copy)]
 #[repr(C, align(64))]
 struct Lanes16([f32; 16]);
 
 impl BoxRay {
-    /// For a finite origin and a finite, non-zero direction, to be tested on the
-    /// path `ISA`.
+    /// For a finite origin and a finite, non-zero direction.
     #[inline(always)]
-    pub fn new<const ISA: u8>(origin: [f32; 3], dir: [f32; 3]) -> BoxRay {
+    pub fn new(origin: [f32; 3], dir: [f32; 3]) -> BoxRay {
         let inv_dir = dir.map(|d| {
             // ±0 and subnormals would give ±∞ and then 0 · ∞ = NaN for a plane
             // through the origin; 1/MIN_POSITIVE is finite.
@@ -197,14 +191,6 @@ impl BoxRay {
             1.0 / d
         });
         BoxRay {
-            #[cfg(target_arch = "x86_64")]
-            scale: inv_dir.map(|r| {
-                Lanes16(std::array::from_fn(|i| match (ISA == AVX512, i < WIDTH) {
-                    (false, _) => 0.0,
-                    (true, true) => r,
-                    (true, false) => -r,
-                }))
-            }),
             origin,
             inv_dir,
             negative: inv_dir.map(|r| usize::from(r < 0.0)),
@@ -279,27 +265,30 @@ fn hit_mask_portable(entry: &[f32; WIDTH], limit: &[f32; WIDTH]) -> u32 {
 }
 
 /// The slab test of [`BoxRay::hit_children`] with AVX-512: per axis, the near
-/// and far planes of the 8 children in one 16-lane register (`(plane − origin) ·
-/// scale`, the far half negated by the scale), one maximum over the axes for the
-/// entry and the negated exit distances together, and the mask compare into a
-/// mask register. Lane by lane the portable code's operations: `max(−a, −b)` is
-/// `−min(a, b)` exactly (the maximum and minimum of those functions take the
-/// second operand on ties, as `maxps`/`minps` do), `−x · −w` is `x · w`, and no
-/// NaN arises (module documentation).
+/// and far planes of the 8 children in one 16-lane register, `(plane − origin) ·
+/// (1/dir)` for both at once; then over the axes the maximum in the near lanes and
+/// the minimum in the far lanes (a maximum, then a masked minimum), and the
+/// compare into a mask register. Lane by lane the portable code's operations in
+/// its order (`maxps`/`minps` take the second operand on ties, as its `max`/`min`
+/// do, and no NaN arises: module documentation), so the same bits.
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
     use std::arch::x86_64::{
-        _CMP_LE_OQ, _mm256_cmp_ps_mask, _mm256_loadu_ps, _mm256_min_ps, _mm256_mul_ps,
+        __m512, _CMP_LE_OQ, _mm256_cmp_ps_mask, _mm256_loadu_ps, _mm256_min_ps, _mm256_mul_ps,
         _mm256_set1_ps, _mm256_storeu_ps, _mm512_castps256_ps512, _mm512_castps512_ps256,
-        _mm512_extractf32x8_ps, _mm512_insertf32x8, _mm512_load_ps, _mm512_max_ps, _mm512_mul_ps,
-        _mm512_set1_ps, _mm512_sub_ps,
+        _mm512_extractf32x8_ps, _mm512_insertf32x8, _mm512_load_ps, _mm512_mask_min_ps,
+        _mm512_max_ps, _mm512_mul_ps, _mm512_set1_ps, _mm512_sub_ps,
     };
 
-    use super::{BoxRay, EXIT_WIDEN, Node, WIDTH};
+    use super::{BoxRay, EXIT_WIDEN, Lanes16, Node, WIDTH};
 
-    /// Lanes 0–7 zero (the entry distance is at least 0), lanes 8–15 −∞ (no
-    /// bound on the negated exit distance).
-    static FLOOR: super::Lanes16 = super::Lanes16([
+    /// The far lanes, 8–15.
+    const FAR: u16 = 0xff00;
+
+    /// Lanes 0–7 zero (the entry distance is at least 0), lanes 8–15 +∞ (no bound
+    /// on the exit distance): the portable code's `max(tnz, 0.0)`, and a no-op
+    /// `min(tfz, ∞)` that keeps the two halves' operations together.
+    static FLOOR: Lanes16 = Lanes16([
         0.0,
         0.0,
         0.0,
@@ -308,15 +297,22 @@ mod avx512 {
         0.0,
         0.0,
         0.0,
-        f32::NEG_INFINITY,
-        f32::NEG_INFINITY,
-        f32::NEG_INFINITY,
-        f32::NEG_INFINITY,
-        f32::NEG_INFINITY,
-        f32::NEG_INFINITY,
-        f32::NEG_INFINITY,
-        f32::NEG_INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
     ]);
+
+    /// The maximum of `a` and `b` in the near lanes, their minimum in the far ones.
+    #[inline(always)]
+    unsafe fn near_max_far_min(a: __m512, b: __m512) -> __m512 {
+        // SAFETY: as in `hit_children`.
+        unsafe { _mm512_mask_min_ps(_mm512_max_ps(a, b), FAR, a, b) }
+    }
 
     /// To be called only where the CPU has AVX-512 F, VL and DQ, and inlined only
     /// into code compiled with them (`ISA` = AVX512).
@@ -327,11 +323,11 @@ mod avx512 {
         t_max: f32,
     ) -> (u32, [f32; WIDTH]) {
         // SAFETY: the intrinsics need the features the caller guarantees; the loads
-        // read `node.bounds` rows (8 f32 each), `ray.scale` and `FLOOR` (16 f32,
-        // 64-byte aligned), all in bounds.
+        // read `node.bounds` rows (8 f32 each) and `FLOOR` (16 f32, 64-byte
+        // aligned), all in bounds.
         unsafe {
             let b = &node.bounds;
-            // Axis `axis`: [near planes, far planes] − origin, times the scale.
+            // Axis `axis`: [near planes, far planes] − origin, times 1/dir.
             let axis = |axis: usize| {
                 // The near row in lanes 0–7, the far one in 8–15, chosen by
                 // index as in the portable code (no branch on the ray's signs).
@@ -339,19 +335,18 @@ mod avx512 {
                 let near = _mm256_loadu_ps(b[2 * axis + negative].as_ptr());
                 let far = _mm256_loadu_ps(b[2 * axis + (1 - negative)].as_ptr());
                 let planes = _mm512_insertf32x8::<1>(_mm512_castps256_ps512(near), far);
-                let origin = _mm512_set1_ps(ray.origin[axis]);
                 _mm512_mul_ps(
-                    _mm512_sub_ps(planes, origin),
-                    _mm512_load_ps(ray.scale[axis].0.as_ptr()),
+                    _mm512_sub_ps(planes, _mm512_set1_ps(ray.origin[axis])),
+                    _mm512_set1_ps(ray.inv_dir[axis]),
                 )
             };
             let (x, y, z) = (axis(0), axis(1), axis(2));
             let floor = _mm512_load_ps(FLOOR.0.as_ptr());
-            let both = _mm512_max_ps(_mm512_max_ps(x, y), _mm512_max_ps(z, floor));
+            let both = near_max_far_min(near_max_far_min(x, y), near_max_far_min(z, floor));
             let entry = _mm512_castps512_ps256(both);
             let exit = _mm256_mul_ps(
                 _mm512_extractf32x8_ps::<1>(both),
-                _mm256_set1_ps(-EXIT_WIDEN),
+                _mm256_set1_ps(EXIT_WIDEN),
             );
             let limit = _mm256_min_ps(exit, _mm256_set1_ps(t_max));
             let mask = _mm256_cmp_ps_mask::<_CMP_LE_OQ>(entry, limit);

@@ -1,8 +1,9 @@
 //! Unit tests of the 8-wide tree's private parts: a given top is kept, the AVX
 //! hit mask agrees with the portable one, and so does the AVX-512 slab test.
 
-use super::super::test_support::{XorShift, slivers};
+use super::super::test_support::{XorShift, on_path, slivers};
 use super::*;
+use crate::simd_path::SimdPath;
 
 /// A given top of the tree is kept: with the boxes' first and second halves as
 /// its two leaves, the root's children hold exactly those halves, and the tree
@@ -40,12 +41,7 @@ fn a_given_top_is_the_top_of_the_tree() {
 /// pairs, infinities and NaN (where the CPU has AVX).
 #[test]
 fn hit_mask_agrees_with_the_portable_mask() {
-    if !crate::simd_path::SimdPath::Avx2.is_available() {
-        println!("no AVX2 on this CPU: only the portable mask exists");
-        return;
-    }
-    // SAFETY: the CPU has AVX2.
-    unsafe { crate::simd_path::on_avx2(hit_mask_agrees) };
+    on_path(SimdPath::Avx2, hit_mask_agrees);
 }
 
 #[inline(always)]
@@ -88,19 +84,13 @@ fn hit_mask_agrees() {
     assert_eq!(seen, [true, true]);
 }
 
-/// The AVX-512 slab test (near and far planes in one register, exit distances
-/// negated) gives the portable one's mask, and its entry distances bit for bit
+/// The AVX-512 slab test (near and far planes in one register) gives the portable one's mask, and its entry distances bit for bit
 /// on the children hit, for rays in all octants, with zero and subnormal
 /// direction components, origins on box planes, empty child slots and `t_max`
 /// from 0 to ∞ (where the CPU has AVX-512).
 #[test]
 fn avx512_slab_test_agrees_with_the_portable_one() {
-    if !crate::simd_path::SimdPath::Avx512.is_available() {
-        println!("no AVX-512 on this CPU: only the portable and AVX2 slab tests exist");
-        return;
-    }
-    // SAFETY: the CPU has AVX-512.
-    unsafe { crate::simd_path::on_avx512(slab_tests_agree) };
+    on_path(SimdPath::Avx512, slab_tests_agree);
 }
 
 #[inline(always)]
@@ -139,8 +129,8 @@ fn slab_tests_agree() {
             continue;
         }
         let t_max = [f32::INFINITY, 0.0, 0.5, 3.0][round % 4];
-        let portable = BoxRay::new::<PORTABLE>(origin, dir).hit_children::<PORTABLE>(&node, t_max);
-        let wide = BoxRay::new::<AVX512>(origin, dir).hit_children::<AVX512>(&node, t_max);
+        let portable = BoxRay::new(origin, dir).hit_children::<PORTABLE>(&node, t_max);
+        let wide = BoxRay::new(origin, dir).hit_children::<AVX512>(&node, t_max);
         assert_eq!(wide.0, portable.0, "{origin:?} {dir:?} {t_max}");
         for i in (0..WIDTH).filter(|&i| portable.0 & (1 << i) != 0) {
             assert_eq!(wide.1[i], portable.1[i], "child {i}: {origin:?} {dir:?}");
