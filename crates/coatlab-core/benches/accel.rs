@@ -40,8 +40,10 @@
 //!   each `ReferenceSplits` setting (with the build's CPU time).
 //! - `ACCEL_CPU=1 …/accel-<hash>` (the bench binary itself, two builds of it in
 //!   turn): the default tree's incoherent and image-order bounce rays through
-//!   `closest_hits` on one thread, M rays per CPU-second and per wall-clock second
-//!   (best of 15 each): A/B comparisons of traversal changes on a noisy machine.
+//!   `closest_hits` on one thread, on each SIMD path the CPU has, interleaved, M
+//!   rays per CPU-second and per wall-clock second (best of 15 each) and the
+//!   paths' ratios: A/B comparisons of traversal changes and of the SIMD paths on a
+//!   noisy machine.
 //! - `ACCEL_ONCE=1` traces 2¹⁶ rays once, for instruction counts under callgrind.
 //! - `ACCEL_DUMP=DIR` writes each mesh and its rays to `DIR/<mesh>.bin` for other
 //!   ray tracers (`benches/embree/`: Intel Embree 4 on the same rays).
@@ -57,6 +59,7 @@ use coatlab_core::accel::{
 use coatlab_core::scene::TriangleMesh;
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
+use coatlab_core::simd_path::SimdPath;
 use criterion::{BenchmarkId, Criterion, Throughput};
 use glam::Vec3;
 use rand::{RngExt, SeedableRng};
@@ -697,15 +700,24 @@ fn queries(mesh: &TriangleMesh, which: &str) -> Vec<RayQuery> {
         .collect()
 }
 
-/// `ACCEL_CPU`: for comparing two builds of this bench run in turn: each mesh's
-/// default tree (built on one thread), then its incoherent rays and its image-order
-/// bounces through `closest_hits` in chunks of 4096 on this thread, 15 times each
-/// in turn; M rays per second of this thread's CPU time and of wall-clock time, each
-/// the best of the 15. (The thread's CPU time, read from `/proc`, advances by
-/// scheduler ticks, so runs of well over 100 ms are needed; other processes on a
-/// shared machine slow single runs by tens of per cent, which the best of many
-/// filters out.)
+/// `ACCEL_CPU`: for comparing two builds of this bench run in turn, and the SIMD
+/// paths of one build: each mesh's default tree (built on one thread), then its
+/// incoherent rays and its image-order bounces through `closest_hits_on` in chunks
+/// of 4096 on this thread, on each SIMD path the CPU has (or only `COATLAB_SIMD`'s
+/// where it is set), 15 rounds of every set on every path in turn; M rays per
+/// second of this thread's CPU time and of wall-clock time, each the best of the
+/// 15, and each path's CPU rate as a ratio to the first path's. (The thread's CPU
+/// time, read from `/proc`, advances by scheduler ticks, so runs of well over
+/// 100 ms are needed; other processes on a shared machine slow single runs by tens
+/// of per cent, which the best of many and the interleaving filter out.)
 fn cpu_rates() {
+    let paths: Vec<SimdPath> = match SimdPath::from_env() {
+        Ok(Some(path)) => vec![path],
+        _ => SimdPath::ALL
+            .into_iter()
+            .filter(|p| p.is_available())
+            .collect(),
+    };
     for (name, mesh) in meshes() {
         let accel = Accel::build_with(
             &mesh,
@@ -717,29 +729,37 @@ fn cpu_rates() {
         .expect("build");
         let sets = [queries(&mesh, "incoherent"), queries(&mesh, "bounce")];
         let mut hits: Vec<Vec<Option<Hit>>> = sets.iter().map(|s| vec![None; s.len()]).collect();
-        // Best CPU and wall time for each set.
-        let mut best = [[Duration::MAX; 2]; 2];
+        // Best CPU and wall time for each path and set.
+        let mut best = vec![[[Duration::MAX; 2]; 2]; paths.len()];
         for _ in 0..15 {
-            for (k, rays) in sets.iter().enumerate() {
-                let (cpu, wall) = (thread_cpu_time(), Instant::now());
-                for (q, h) in rays.chunks(4096).zip(hits[k].chunks_mut(4096)) {
-                    accel.closest_hits(q, h);
+            for (p, &path) in paths.iter().enumerate() {
+                for (k, rays) in sets.iter().enumerate() {
+                    let (cpu, wall) = (thread_cpu_time(), Instant::now());
+                    for (q, h) in rays.chunks(4096).zip(hits[k].chunks_mut(4096)) {
+                        accel.closest_hits_on(path, q, h);
+                    }
+                    best[p][k][0] = best[p][k][0].min(thread_cpu_time() - cpu);
+                    best[p][k][1] = best[p][k][1].min(wall.elapsed());
+                    black_box(&hits[k]);
                 }
-                best[k][0] = best[k][0].min(thread_cpu_time() - cpu);
-                best[k][1] = best[k][1].min(wall.elapsed());
-                black_box(&hits[k]);
             }
         }
-        let rate = |k: usize, i: usize| sets[k].len() as f64 / best[k][i].as_secs_f64() / 1e6;
-        println!(
-            "{name}: M rays/s of CPU, wall: incoherent {:.3}, {:.3}; image-order bounce \
-             {:.3}, {:.3} (load {})",
-            rate(0, 0),
-            rate(0, 1),
-            rate(1, 0),
-            rate(1, 1),
-            load_average()
-        );
+        let rate =
+            |p: usize, k: usize, i: usize| sets[k].len() as f64 / best[p][k][i].as_secs_f64() / 1e6;
+        for (p, path) in paths.iter().enumerate() {
+            println!(
+                "{name} [{}]: M rays/s of CPU, wall: incoherent {:.3}, {:.3} (×{:.3}); \
+                 image-order bounce {:.3}, {:.3} (×{:.3}) (load {})",
+                path.name(),
+                rate(p, 0, 0),
+                rate(p, 0, 1),
+                rate(p, 0, 0) / rate(0, 0, 0),
+                rate(p, 1, 0),
+                rate(p, 1, 1),
+                rate(p, 1, 0) / rate(0, 1, 0),
+                load_average()
+            );
+        }
     }
 }
 

@@ -93,7 +93,8 @@ use bvh::Tree;
 use triangle::{ShearedRay, TrianglePack};
 use wide::{BoxRay, PACK, Traversal, prefetch};
 
-use crate::simd_path::SimdPath;
+use crate::simd_path::isa::PORTABLE;
+use crate::simd_path::{SimdPath, dispatch};
 pub use boxes::Bounds;
 pub use bvh::{AccelError, Bvh, Ray};
 pub use options::{BuildOptions, BuildQuality, BvhLayout, ReferenceSplits};
@@ -333,25 +334,13 @@ impl Accel {
         dir: [f32; 3],
         t_max: f32,
     ) -> Option<Hit> {
-        #[cfg(target_arch = "x86_64")]
-        if path == SimdPath::Avx2 {
-            // SAFETY: the CPU has the features the function is compiled with.
-            return unsafe { self.closest_hit_avx2(origin, dir, t_max) };
-        }
-        let _ = path;
-        self.closest_hit_with::<false>(origin, dir, t_max)
+        dispatch!(path, ISA => self.closest_hit_with::<ISA>(origin, dir, t_max))
     }
 
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-    fn closest_hit_avx2(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> Option<Hit> {
-        self.closest_hit_with::<true>(origin, dir, t_max)
-    }
-
-    /// [`Accel::closest_hit`] instantiated for one path (`AVX`: see
+    /// [`Accel::closest_hit`] instantiated for one path (`ISA`: see
     /// `accel/triangle.rs`).
     #[inline(always)]
-    fn closest_hit_with<const AVX: bool>(
+    fn closest_hit_with<const ISA: u8>(
         &self,
         origin: [f32; 3],
         dir: [f32; 3],
@@ -364,11 +353,11 @@ impl Accel {
         if let Tree::Simd8(tree) = &self.bvh.tree {
             let box_ray = BoxRay::new(origin, dir);
             let mut best = None;
-            tree.closest::<AVX>(
+            tree.closest::<ISA>(
                 &box_ray,
                 t_max,
                 #[inline(always)]
-                |pack, _, t_max| match sheared.intersect_pack::<AVX, PACK>(&self.packs[pack], t_max)
+                |pack, _, t_max| match sheared.intersect_pack::<ISA, PACK>(&self.packs[pack], t_max)
                 {
                     Some(hit) => {
                         best = Some((pack, hit));
@@ -430,19 +419,7 @@ impl Accel {
 
     /// [`Accel::closest_hits`] on `path`, which this CPU has.
     fn closest_hits_checked(&self, path: SimdPath, rays: &[RayQuery], hits: &mut [Option<Hit>]) {
-        #[cfg(target_arch = "x86_64")]
-        if path == SimdPath::Avx2 {
-            // SAFETY: the CPU has the features the function is compiled with.
-            return unsafe { self.closest_hits_avx2(rays, hits) };
-        }
-        let _ = path;
-        self.closest_hits_with_lanes::<false, BATCH_LANES>(rays, hits);
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-    fn closest_hits_avx2(&self, rays: &[RayQuery], hits: &mut [Option<Hit>]) {
-        self.closest_hits_with_lanes::<true, BATCH_LANES>(rays, hits);
+        dispatch!(path, ISA => self.closest_hits_with_lanes::<ISA, BATCH_LANES>(rays, hits));
     }
 
     /// [`Accel::closest_hits`] with `LANES` rays in flight instead of
@@ -454,28 +431,13 @@ impl Accel {
         rays: &[RayQuery],
         hits: &mut [Option<Hit>],
     ) {
-        #[cfg(target_arch = "x86_64")]
-        if SimdPath::current() == SimdPath::Avx2 {
-            // SAFETY: the current path is one the CPU has.
-            return unsafe { self.closest_hits_in_lanes_avx2::<LANES>(rays, hits) };
-        }
-        self.closest_hits_with_lanes::<false, LANES>(rays, hits);
+        dispatch!(SimdPath::current(), ISA => self.closest_hits_with_lanes::<ISA, LANES>(rays, hits));
     }
 
-    #[cfg(all(feature = "bvh-experiments", target_arch = "x86_64"))]
-    #[target_feature(enable = "avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-    fn closest_hits_in_lanes_avx2<const LANES: usize>(
-        &self,
-        rays: &[RayQuery],
-        hits: &mut [Option<Hit>],
-    ) {
-        self.closest_hits_with_lanes::<true, LANES>(rays, hits);
-    }
-
-    /// The batch traversal, instantiated for one path (`AVX`: see
+    /// The batch traversal, instantiated for one path (`ISA`: see
     /// `accel/triangle.rs`).
     #[inline(always)]
-    fn closest_hits_with_lanes<const AVX: bool, const LANES: usize>(
+    fn closest_hits_with_lanes<const ISA: u8, const LANES: usize>(
         &self,
         rays: &[RayQuery],
         hits: &mut [Option<Hit>],
@@ -538,7 +500,7 @@ impl Accel {
                     ..
                 } = lane;
                 let mut leaf = |pack: usize, _, t_max: f32| match sheared
-                    .intersect_pack::<AVX, PACK>(&packs[pack], t_max)
+                    .intersect_pack::<ISA, PACK>(&packs[pack], t_max)
                 {
                     Some(hit) => {
                         *best = Some((pack, hit));
@@ -546,7 +508,7 @@ impl Accel {
                     }
                     None => t_max,
                 };
-                if tree.closest_step::<AVX>(box_ray, traversal, &mut leaf, &fetch_leaf) {
+                if tree.closest_step::<ISA>(box_ray, traversal, &mut leaf, &fetch_leaf) {
                     continue;
                 }
                 // This ray is done: its result, then the next ray in its place.
@@ -585,35 +547,23 @@ impl Accel {
         dir: [f32; 3],
         t_max: f32,
     ) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        if path == SimdPath::Avx2 {
-            // SAFETY: the CPU has the features the function is compiled with.
-            return unsafe { self.occluded_avx2(origin, dir, t_max) };
-        }
-        let _ = path;
-        self.occluded_with::<false>(origin, dir, t_max)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-    fn occluded_avx2(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
-        self.occluded_with::<true>(origin, dir, t_max)
+        dispatch!(path, ISA => self.occluded_with::<ISA>(origin, dir, t_max))
     }
 
     /// [`Accel::occluded`] instantiated for one path.
     #[inline(always)]
-    fn occluded_with<const AVX: bool>(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
+    fn occluded_with<const ISA: u8>(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
         if !usable_ray(origin, dir, t_max) {
             return false;
         }
         let sheared = ShearedRay::new(origin, dir);
         if let Tree::Simd8(tree) = &self.bvh.tree {
             let box_ray = BoxRay::new(origin, dir);
-            return tree.any::<AVX>(
+            return tree.any::<ISA>(
                 &box_ray,
                 t_max,
                 #[inline(always)]
-                |pack, _| sheared.any_in_pack::<AVX, PACK>(&self.packs[pack], t_max),
+                |pack, _| sheared.any_in_pack::<ISA, PACK>(&self.packs[pack], t_max),
                 #[inline(always)]
                 |pack, _| self.fetch_pack(pack),
             );
@@ -774,7 +724,7 @@ impl Accel {
             .bvh
             .closest(ray, |ray, slot| self.slot_distance(sheared, ray, slot))?;
         // Barycentrics only for the winner.
-        let hit = sheared.intersect_pack::<false, 1>(&single(&self.triangles[slot]), t_max)?;
+        let hit = sheared.intersect_pack::<PORTABLE, 1>(&single(&self.triangles[slot]), t_max)?;
         Some(Hit {
             t: hit.t,
             triangle: self.mesh_triangle[slot],
@@ -800,7 +750,7 @@ impl Accel {
     #[inline(always)]
     fn slot_distance(&self, sheared: &ShearedRay, ray: &Ray, slot: usize) -> f32 {
         sheared
-            .intersect_pack::<false, 1>(&single(&self.triangles[slot]), ray.tmax)
+            .intersect_pack::<PORTABLE, 1>(&single(&self.triangles[slot]), ray.tmax)
             .map_or(f32::INFINITY, |hit| hit.t)
     }
 
@@ -855,7 +805,7 @@ pub fn intersect_triangle(
     let mut pack = TrianglePack::<1>::empty();
     pack.set(0, vertices, 0);
     ShearedRay::new(origin, dir)
-        .intersect_pack::<false, 1>(&pack, t_max)
+        .intersect_pack::<PORTABLE, 1>(&pack, t_max)
         .map(|hit| (hit.t, hit.barycentric))
 }
 

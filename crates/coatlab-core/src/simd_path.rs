@@ -3,17 +3,21 @@
 //! The library is compiled for baseline x86-64 (SSE2), so one binary runs on every
 //! x86-64 CPU; the hot kernels, the ray traversal ([`crate::accel::Accel`]'s
 //! queries) and the paint's spectral evaluation
-//! ([`crate::paint::model::SpectralPaint`]), are compiled twice, once as is and once
-//! with AVX2 and FMA enabled (`#[target_feature]`), and each call takes the path
-//! chosen here. Both paths do the same floating-point operations in the same order
-//! (Rust fuses no multiply–adds and reorders no sums), so they give the same
-//! results, bit for bit; the tests (`tests/accel.rs`, `tests/paint_model.rs`) check
-//! that. (There is no AVX-512 path: no kernel here is written for it.)
+//! ([`crate::paint::model::SpectralPaint`]), are compiled three times: as is, with
+//! AVX2 and FMA enabled, and with AVX-512 (F, VL, BW, DQ) enabled on top
+//! (`#[target_feature]`, through [`dispatch!`]), and each call takes the path
+//! chosen here. The traversal's AVX-512 copy tests a node's 8 child boxes with
+//! 16-lane registers (near and far planes together) and reduces with mask
+//! registers; the paint's is its AVX2 code compiled with AVX-512 enabled. Every
+//! path does the same floating-point operations in the same order (Rust fuses no
+//! multiply–adds and reorders no sums; the AVX-512 box test's negations are
+//! exact), so they give the same results, bit for bit; the tests
+//! (`tests/accel.rs`, `tests/paint_model.rs`) check that.
 //!
-//! The choice: the best path the CPU has (`is_x86_feature_detected!`), unless the
+//! The choice: AVX2 where the CPU has it (`is_x86_feature_detected!`; AVX-512 measured slower, [`SimdPath::best`]), unless the
 //! environment variable `COATLAB_SIMD` names another one that it has (`portable`,
-//! `avx2`), for tests and measurements; [`SimdPath::from_env`] says when it names
-//! none, so that the app can refuse it at start-up.
+//! `avx2`, `avx512`), for tests and measurements; [`SimdPath::from_env`] says when
+//! it names none, so that the app can refuse it at start-up.
 
 use std::sync::OnceLock;
 
@@ -24,12 +28,15 @@ pub enum SimdPath {
     Portable,
     /// x86-64 with AVX2 and FMA (x86-64-v3's vector features).
     Avx2,
+    /// AVX2's features and AVX-512 F, VL, BW and DQ (x86-64-v4's vector features
+    /// but CD, which nothing here uses).
+    Avx512,
 }
 
 /// `COATLAB_SIMD` names no path this CPU has.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum SimdPathError {
-    #[error("COATLAB_SIMD={0:?}: expected one of `portable`, `avx2`")]
+    #[error("COATLAB_SIMD={0:?}: expected one of `portable`, `avx2`, `avx512`")]
     Unknown(String),
     #[error("COATLAB_SIMD={0}: this CPU lacks the instructions of that path")]
     Unavailable(&'static str),
@@ -40,13 +47,14 @@ pub const SIMD_PATH_VARIABLE: &str = "COATLAB_SIMD";
 
 impl SimdPath {
     /// Every path, slowest first.
-    pub const ALL: [SimdPath; 2] = [SimdPath::Portable, SimdPath::Avx2];
+    pub const ALL: [SimdPath; 3] = [SimdPath::Portable, SimdPath::Avx2, SimdPath::Avx512];
 
     /// The name in `COATLAB_SIMD`, `coatlab --version` and the render's last line.
     pub fn name(self) -> &'static str {
         match self {
             SimdPath::Portable => "portable",
             SimdPath::Avx2 => "avx2",
+            SimdPath::Avx512 => "avx512",
         }
     }
 
@@ -54,7 +62,8 @@ impl SimdPath {
     pub fn is_available(self) -> bool {
         match self {
             SimdPath::Portable => true,
-            SimdPath::Avx2 => avx2_detected(),
+            SimdPath::Avx2 => detected(false),
+            SimdPath::Avx512 => detected(true),
         }
     }
 
@@ -68,7 +77,10 @@ impl SimdPath {
         }
     }
 
-    /// The fastest path this CPU has.
+    /// The path taken by default: AVX2 where the CPU has it, else the portable
+    /// one. AVX-512 is taken only when `COATLAB_SIMD=avx512` asks for it: on the
+    /// Xeon (Sapphire Rapids) it was measured on, its traversal traced 4–15 % fewer
+    /// rays per CPU-second than the AVX2 one (`ACCEL_CPU=1` of `benches/accel.rs`).
     pub fn best() -> SimdPath {
         if SimdPath::Avx2.is_available() {
             SimdPath::Avx2
@@ -108,23 +120,86 @@ impl SimdPath {
 }
 
 /// AVX2 and FMA (and the bit-manipulation instructions that x86-64-v3 adds, which
-/// the AVX2 path is compiled with).
-fn avx2_detected() -> bool {
+/// the AVX2 path is compiled with), and with `avx512` AVX-512 F, VL, BW and DQ too
+/// (the AVX-512 path's).
+fn detected(avx512: bool) -> bool {
     #[cfg(target_arch = "x86_64")]
     {
-        std::arch::is_x86_feature_detected!("avx")
-            && std::arch::is_x86_feature_detected!("avx2")
-            && std::arch::is_x86_feature_detected!("fma")
-            && std::arch::is_x86_feature_detected!("bmi1")
-            && std::arch::is_x86_feature_detected!("bmi2")
-            && std::arch::is_x86_feature_detected!("lzcnt")
-            && std::arch::is_x86_feature_detected!("popcnt")
+        use std::arch::is_x86_feature_detected as has;
+        let avx2 = has!("avx")
+            && has!("avx2")
+            && has!("fma")
+            && has!("bmi1")
+            && has!("bmi2")
+            && has!("lzcnt")
+            && has!("popcnt");
+        avx2 && (!avx512
+            || (has!("avx512f") && has!("avx512vl") && has!("avx512bw") && has!("avx512dq")))
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
+        let _ = avx512;
         false
     }
 }
+
+/// The paths as numbers, for the kernels' const parameter `ISA` (a const generic
+/// cannot be an enum on stable Rust). Ordered: `ISA >= AVX2` holds on every path
+/// that has AVX2's instructions.
+pub(crate) mod isa {
+    pub const PORTABLE: u8 = 0;
+    pub const AVX2: u8 = 1;
+    pub const AVX512: u8 = 2;
+}
+
+/// Runs `kernel` in a function compiled with AVX2's features; `kernel` (an
+/// `#[inline(always)]` closure) and what it inlines are compiled with them too.
+/// Calls from code without those features are `unsafe`: the CPU must have them.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+pub(crate) fn on_avx2<R>(kernel: impl FnOnce() -> R) -> R {
+    kernel()
+}
+
+/// [`on_avx2`] with AVX-512's features as well.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,avx512f,avx512vl,avx512bw,avx512dq")]
+pub(crate) fn on_avx512<R>(kernel: impl FnOnce() -> R) -> R {
+    kernel()
+}
+
+/// `dispatch!(path, ISA => expression)`: the expression compiled once per path,
+/// with `ISA` the path's number ([`isa`]; `_` where the expression does not use
+/// it), and evaluated on `path`, which must be one this CPU has
+/// ([`SimdPath::current`], [`SimdPath::or_portable`]). The one place where the
+/// kernels' entry points meet the target features.
+macro_rules! dispatch {
+    ($path:expr, $isa:tt => $body:expr) => {{
+        let path: $crate::simd_path::SimdPath = $path;
+        debug_assert!(
+            path.is_available(),
+            "{path:?} dispatched on a CPU without it"
+        );
+        match path {
+            #[cfg(target_arch = "x86_64")]
+            $crate::simd_path::SimdPath::Avx512 => $crate::simd_path::dispatch!(@on on_avx512, AVX512, $isa => $body),
+            #[cfg(target_arch = "x86_64")]
+            $crate::simd_path::SimdPath::Avx2 => $crate::simd_path::dispatch!(@on on_avx2, AVX2, $isa => $body),
+            _ => {
+                #[allow(dead_code)]
+                const $isa: u8 = $crate::simd_path::isa::PORTABLE;
+                $body
+            }
+        }
+    }};
+    (@on $run:ident, $number:ident, $isa:tt => $body:expr) => {{
+        #[allow(dead_code)]
+        const $isa: u8 = $crate::simd_path::isa::$number;
+        // SAFETY: the CPU has the path's features (the macro's contract).
+        unsafe { $crate::simd_path::$run(#[inline(always)] || $body) }
+    }};
+}
+pub(crate) use dispatch;
 
 #[cfg(test)]
 mod tests {

@@ -380,12 +380,14 @@ fn default_build_is_the_simd8_layout_with_the_fast_preset_and_spatial_splits() {
     );
 }
 
-/// The traversal's SIMD paths (`accel/simd_path.rs`: portable, and AVX2 where the
-/// CPU has it) do the same f32 operations, so every query gives the same result on
-/// each, bit for bit: closest hits (single and batch), and any hits, on the
-/// Lamborghini (its slivers and spatial splits) and the default car, for camera-like
-/// and bounce rays. On a CPU without AVX2 only the portable path exists and the
-/// comparison is with itself (it says so).
+/// The traversal's SIMD paths (`src/simd_path.rs`: portable, and AVX2 and AVX-512
+/// where the CPU has them) do the same f32 operations, so every query gives the
+/// same result on each, bit for bit: closest hits (single and batch), and any
+/// hits, on the Lamborghini (its slivers and spatial splits) and the default car,
+/// for camera-like and bounce rays, and axis-aligned rays through vertices (zero
+/// direction components, which the slab tests replace by ±`f32::MIN_POSITIVE`,
+/// and origins in box planes). On a CPU without AVX2 only the portable path exists
+/// and the comparison is with itself (it says so).
 #[test]
 fn every_simd_path_gives_the_same_hits_bit_for_bit() {
     let paths: Vec<SimdPath> = SimdPath::ALL
@@ -403,6 +405,7 @@ fn every_simd_path_gives_the_same_hits_bit_for_bit() {
         let accel = Accel::build(mesh).expect("build");
         let mut rays = random_rays(mesh, 3000, 41);
         rays.extend(bounce_rays(mesh, 3000, 43, false));
+        rays.extend(axis_rays_through_vertices(mesh, 600));
         let queries: Vec<RayQuery> = rays
             .iter()
             .map(|&(origin, dir, t_max)| RayQuery { origin, dir, t_max })
@@ -461,8 +464,28 @@ fn every_simd_path_gives_the_same_hits_bit_for_bit() {
     }
 }
 
+/// Rays along ±x, ±y and ±z through every `mesh.positions.len() / count`-th
+/// vertex, starting a metre before it, `t_max` ∞.
+fn axis_rays_through_vertices(mesh: &TriangleMesh, count: usize) -> Vec<([f32; 3], [f32; 3], f32)> {
+    let step = (mesh.positions.len() / count).max(1);
+    mesh.positions
+        .iter()
+        .step_by(step)
+        .enumerate()
+        .map(|(i, p)| {
+            let axis = i % 3;
+            let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+            let mut dir = [0.0; 3];
+            dir[axis] = sign;
+            let mut origin = *p;
+            origin[axis] -= sign;
+            (origin, dir, f32::INFINITY)
+        })
+        .collect()
+}
+
 /// CI names the path it means each test run to take in `COATLAB_EXPECT_SIMD_PATH`
-/// (`portable` or `avx2`, forced with `COATLAB_SIMD` or detected), so that a forcing
+/// (`portable`, `avx2` or `avx512`, forced with `COATLAB_SIMD` or detected), so that a forcing
 /// that does not take effect fails here instead of testing the other path.
 #[test]
 fn the_simd_path_running_is_the_one_asked_for() {

@@ -45,6 +45,7 @@ fn panel() -> Scene {
             roughness: 0.1,
             metallic: 0.0,
             area_m2: 4.0,
+            ..SceneMaterial::default()
         }],
         paint_materials: vec![0],
         ..Scene::default()

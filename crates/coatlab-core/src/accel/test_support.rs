@@ -37,3 +37,12 @@ pub(super) fn slivers(count: usize) -> (Vec<[[f32; 3]; 3]>, Vec<Bounds>) {
         .collect();
     (triangles, boxes)
 }
+
+/// Runs `check` compiled for `path` where the CPU has it, else says it is skipped.
+pub(super) fn on_path(path: crate::simd_path::SimdPath, check: fn()) {
+    if !path.is_available() {
+        println!("no {} on this CPU: skipped", path.name());
+        return;
+    }
+    crate::simd_path::dispatch!(path, _ => check());
+}

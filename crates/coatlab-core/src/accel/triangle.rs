@@ -11,12 +11,15 @@
 //! `unsafe` where it is compiled with AVX enabled.
 //!
 //! The crate is built for baseline x86-64; the traversal runs on the path chosen at
-//! start-up (`crate::simd_path`). The const parameter `AVX` of the routines here
-//! says which code they are instantiated for: `true` only inside the traversal's
-//! entry points compiled with AVX2 and FMA enabled (`#[target_feature]`), which are
-//! called only where the CPU has them; there the reductions use AVX intrinsics.
-//! Both instantiations do the same f32 operations, so their results are the same,
-//! bit for bit.
+//! start-up (`crate::simd_path`). The const parameter `ISA` of the routines here
+//! says which code they are instantiated for (`crate::simd_path::isa`): `AVX2` or
+//! `AVX512` only inside the traversal's entry points compiled with those features
+//! enabled (`#[target_feature]`), which are called only where the CPU has them;
+//! there the reductions use AVX intrinsics, with AVX-512 compares into mask
+//! registers. Every instantiation does the same f32 operations, so their results
+//! are the same, bit for bit.
+
+use crate::simd_path::isa::{AVX2, AVX512};
 
 /// Triangles per leaf block of the 8-wide tree: 8, one AVX register per coordinate.
 /// (Measured against 4 with leaves of up to 4 or 8: see docs/benchmarks.md.)
@@ -106,7 +109,7 @@ impl ShearedRay {
     /// barycentrics, or `t = ∞` for a miss (zero-area triangles, NaN and unused lanes
     /// never hit).
     #[inline(always)]
-    fn lanes<const AVX: bool, const N: usize>(
+    fn lanes<const ISA: u8, const N: usize>(
         &self,
         pack: &TrianglePack<N>,
         t_max: f32,
@@ -140,7 +143,7 @@ impl ShearedRay {
         // An exact zero (the ray through an edge or vertex, to f32 precision) is
         // decided in f64, where the products are exact: this is what makes shared
         // edges watertight. Rare, so a scalar loop.
-        if any_zero::<AVX, N>(&u, &v, &w) {
+        if any_zero::<ISA, N>(&u, &v, &w) {
             let f = |p: f32, q: f32, r: f32, s: f32| {
                 (f64::from(p) * f64::from(q) - f64::from(r) * f64::from(s)) as f32
             };
@@ -217,14 +220,14 @@ impl ShearedRay {
     /// The nearest hit in the pack with `t` in `(0, t_max)`; on equal distances the
     /// lowest lane.
     #[inline(always)]
-    pub fn intersect_pack<const AVX: bool, const N: usize>(
+    pub fn intersect_pack<const ISA: u8, const N: usize>(
         &self,
         pack: &TrianglePack<N>,
         t_max: f32,
     ) -> Option<LaneHit> {
-        let (mut t, bu, bv) = self.lanes::<AVX, N>(pack, t_max);
+        let (mut t, bu, bv) = self.lanes::<ISA, N>(pack, t_max);
         loop {
-            let best = nearest_lane::<AVX, N>(&t)?;
+            let best = nearest_lane::<ISA, N>(&t)?;
             let checked = self.checked_distance(pack, best, t[best], t_max);
             if checked.to_bits() == t[best].to_bits() {
                 return Some(LaneHit {
@@ -269,13 +272,13 @@ impl ShearedRay {
 
     /// Whether some triangle of the pack is hit with `t` in `(0, t_max)`.
     #[inline(always)]
-    pub fn any_in_pack<const AVX: bool, const N: usize>(
+    pub fn any_in_pack<const ISA: u8, const N: usize>(
         &self,
         pack: &TrianglePack<N>,
         t_max: f32,
     ) -> bool {
-        let (mut t, _, _) = self.lanes::<AVX, N>(pack, t_max);
-        while let Some(best) = nearest_lane::<AVX, N>(&t) {
+        let (mut t, _, _) = self.lanes::<ISA, N>(pack, t_max);
+        while let Some(best) = nearest_lane::<ISA, N>(&t) {
             if self.checked_distance(pack, best, t[best], t_max) < f32::INFINITY {
                 return true;
             }
@@ -340,12 +343,20 @@ fn certain_distance(corners: [[f32; 3]; 3], t: f32, t_max: f32) -> f32 {
 
 /// Whether some lane of `u`, `v` or `w` is exactly zero (either sign).
 #[inline(always)]
-fn any_zero<const AVX: bool, const N: usize>(u: &[f32; N], v: &[f32; N], w: &[f32; N]) -> bool {
+fn any_zero<const ISA: u8, const N: usize>(u: &[f32; N], v: &[f32; N], w: &[f32; N]) -> bool {
     #[cfg(target_arch = "x86_64")]
-    if AVX && let (Ok(u), Ok(v), Ok(w)) = (u[..].try_into(), v[..].try_into(), w[..].try_into()) {
-        // SAFETY: `AVX` is true only where AVX is enabled and the CPU has it (see
-        // the module documentation).
-        return unsafe { avx::any_zero(u, v, w) };
+    if ISA >= AVX2
+        && let (Ok(u), Ok(v), Ok(w)) = (u[..].try_into(), v[..].try_into(), w[..].try_into())
+    {
+        // SAFETY: `ISA` is AVX2 (AVX512) only where AVX2 (AVX-512) is enabled and
+        // the CPU has it (see the module documentation).
+        return unsafe {
+            if ISA == AVX512 {
+                avx512::any_zero(u, v, w)
+            } else {
+                avx::any_zero(u, v, w)
+            }
+        };
     }
     any_zero_portable(u, v, w)
 }
@@ -360,11 +371,19 @@ fn any_zero_portable<const N: usize>(u: &[f32; N], v: &[f32; N], w: &[f32; N]) -
 /// The lane of the smallest `t` below ∞, the lowest such lane on ties; `None` when
 /// every lane is ∞ (no lane holds NaN: the test writes ∞ for every miss).
 #[inline(always)]
-fn nearest_lane<const AVX: bool, const N: usize>(t: &[f32; N]) -> Option<usize> {
+fn nearest_lane<const ISA: u8, const N: usize>(t: &[f32; N]) -> Option<usize> {
     #[cfg(target_arch = "x86_64")]
-    if AVX && let Ok(t) = t[..].try_into() {
+    if ISA >= AVX2
+        && let Ok(t) = t[..].try_into()
+    {
         // SAFETY: as in `any_zero`.
-        return unsafe { avx::nearest_lane(t) };
+        return unsafe {
+            if ISA == AVX512 {
+                avx512::nearest_lane(t)
+            } else {
+                avx::nearest_lane(t)
+            }
+        };
     }
     nearest_lane_portable(t)
 }
@@ -397,7 +416,7 @@ mod avx {
     // only (no memory access).
 
     #[inline(always)]
-    unsafe fn vector(a: &[f32; 8]) -> __m256 {
+    pub(super) unsafe fn vector(a: &[f32; 8]) -> __m256 {
         // SAFETY: see above.
         unsafe { _mm256_setr_ps(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]) }
     }
@@ -412,16 +431,59 @@ mod avx {
         }
     }
 
+    /// The minimum of the 8 lanes, in every lane: pairs, then quads, then the two
+    /// halves.
+    #[inline(always)]
+    pub(super) unsafe fn minimum(t: __m256) -> __m256 {
+        // SAFETY: see above.
+        unsafe {
+            let pairs = _mm256_min_ps(t, _mm256_permute_ps::<0b10_11_00_01>(t));
+            let quads = _mm256_min_ps(pairs, _mm256_permute_ps::<0b01_00_11_10>(pairs));
+            _mm256_min_ps(quads, _mm256_permute2f128_ps::<1>(quads, quads))
+        }
+    }
+
     #[inline(always)]
     pub(super) unsafe fn nearest_lane(t: &[f32; 8]) -> Option<usize> {
         // SAFETY: see above.
         unsafe {
             let t = vector(t);
-            // The minimum in every lane: pairs, then quads, then the two halves.
-            let pairs = _mm256_min_ps(t, _mm256_permute_ps::<0b10_11_00_01>(t));
-            let quads = _mm256_min_ps(pairs, _mm256_permute_ps::<0b01_00_11_10>(pairs));
-            let min = _mm256_min_ps(quads, _mm256_permute2f128_ps::<1>(quads, quads));
+            let min = minimum(t);
             let at_min = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(t, min)) as u32;
+            (_mm256_cvtss_f32(min) < f32::INFINITY).then_some(at_min.trailing_zeros() as usize)
+        }
+    }
+}
+
+/// The reductions of [`avx`] with AVX-512 compares straight into mask registers
+/// (no `vmovmskps`, and the three compares of `any_zero` or-ed as masks). To be
+/// called only where the CPU has AVX-512 F and VL, inlined into code compiled with
+/// them.
+#[cfg(target_arch = "x86_64")]
+mod avx512 {
+    use std::arch::x86_64::{_CMP_EQ_OQ, _mm256_cmp_ps_mask, _mm256_cvtss_f32, _mm256_setzero_ps};
+
+    use super::avx::{minimum, vector};
+
+    // SAFETY (every `unsafe` block below): as in `avx`, with AVX-512 F and VL.
+
+    #[inline(always)]
+    pub(super) unsafe fn any_zero(u: &[f32; 8], v: &[f32; 8], w: &[f32; 8]) -> bool {
+        // SAFETY: see above.
+        unsafe {
+            let zero = _mm256_setzero_ps();
+            let eq = |a: &[f32; 8]| _mm256_cmp_ps_mask::<_CMP_EQ_OQ>(vector(a), zero);
+            (eq(u) | eq(v) | eq(w)) != 0
+        }
+    }
+
+    #[inline(always)]
+    pub(super) unsafe fn nearest_lane(t: &[f32; 8]) -> Option<usize> {
+        // SAFETY: see above.
+        unsafe {
+            let t = vector(t);
+            let min = minimum(t);
+            let at_min = u32::from(_mm256_cmp_ps_mask::<_CMP_EQ_OQ>(t, min));
             (_mm256_cvtss_f32(min) < f32::INFINITY).then_some(at_min.trailing_zeros() as usize)
         }
     }
@@ -430,6 +492,8 @@ mod avx {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::simd_path::SimdPath;
+    use crate::simd_path::isa::PORTABLE;
 
     /// A full pack agrees lane by lane, bit for bit, with packs of 1, on random
     /// triangles and rays (including rays through shared vertices).
@@ -459,9 +523,9 @@ mod tests {
                 single.set(0, tri, lane as u32);
                 singles.push(single);
             }
-            let (t, bu, bv) = ray.lanes::<false, PACK>(&pack, 10.0);
+            let (t, bu, bv) = ray.lanes::<PORTABLE, PACK>(&pack, 10.0);
             for (lane, single) in singles.iter().enumerate() {
-                let (t1, bu1, bv1) = ray.lanes::<false, 1>(single, 10.0);
+                let (t1, bu1, bv1) = ray.lanes::<PORTABLE, 1>(single, 10.0);
                 assert_eq!(t[lane].to_bits(), t1[0].to_bits());
                 if t1[0] < f32::INFINITY {
                     hits += 1;
@@ -472,15 +536,27 @@ mod tests {
         assert!(hits > 1000, "{hits}");
     }
 
-    /// The AVX reductions against the portable ones, on lanes drawn from a few
-    /// values so that ties, zeros of either sign and all-∞ packs are common (where
-    /// the CPU has AVX).
+    /// The AVX2 and AVX-512 reductions against the portable ones, on lanes drawn
+    /// from a few values so that ties, zeros of either sign and all-∞ packs are
+    /// common (on the paths the CPU has).
     #[test]
     fn reductions_agree_with_the_portable_ones() {
-        if !crate::simd_path::SimdPath::Avx2.is_available() {
+        if SimdPath::Avx2.is_available() {
+            // SAFETY: the CPU has AVX2.
+            unsafe { crate::simd_path::on_avx2(reductions_agree::<AVX2>) };
+        } else {
             println!("no AVX2 on this CPU: only the portable reductions exist");
-            return;
         }
+        if SimdPath::Avx512.is_available() {
+            // SAFETY: the CPU has AVX-512.
+            unsafe { crate::simd_path::on_avx512(reductions_agree::<AVX512>) };
+        } else {
+            println!("no AVX-512 on this CPU");
+        }
+    }
+
+    #[inline(always)]
+    fn reductions_agree<const ISA: u8>() {
         let values = [0.0, -0.0, 1.0, 2.5, 1e-30, -3.0, f32::INFINITY];
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
         let mut pick = move || {
@@ -495,13 +571,13 @@ mod tests {
                 |pick: &mut dyn FnMut() -> f32| -> [f32; PACK] { std::array::from_fn(|_| pick()) };
             let (u, v, w) = (lanes(&mut pick), lanes(&mut pick), lanes(&mut pick));
             assert_eq!(
-                any_zero::<true, PACK>(&u, &v, &w),
+                any_zero::<ISA, PACK>(&u, &v, &w),
                 any_zero_portable(&u, &v, &w),
                 "{u:?} {v:?} {w:?}"
             );
             // Distances are positive or ∞ (misses).
             let t = u.map(|x| if x > 0.0 { x } else { f32::INFINITY });
-            let best = nearest_lane::<true, PACK>(&t);
+            let best = nearest_lane::<ISA, PACK>(&t);
             assert_eq!(best, nearest_lane_portable(&t), "{t:?}");
             match best {
                 None => none += 1,
@@ -532,18 +608,35 @@ mod tests {
         pack.set(3, sliver, 7);
         let ray = ShearedRay::new(origin, dir);
         assert_eq!(
-            ray.intersect_pack::<false, PACK>(&pack, f32::INFINITY),
+            ray.intersect_pack::<PORTABLE, PACK>(&pack, f32::INFINITY),
             None
         );
-        assert!(!ray.any_in_pack::<false, PACK>(&pack, f32::INFINITY));
-        if crate::simd_path::SimdPath::Avx2.is_available() {
-            assert_eq!(ray.intersect_pack::<true, PACK>(&pack, f32::INFINITY), None);
-            assert!(!ray.any_in_pack::<true, PACK>(&pack, f32::INFINITY));
+        assert!(!ray.any_in_pack::<PORTABLE, PACK>(&pack, f32::INFINITY));
+        if SimdPath::Avx2.is_available() {
+            // SAFETY: the CPU has AVX2.
+            unsafe {
+                crate::simd_path::on_avx2(|| {
+                    assert_eq!(ray.intersect_pack::<AVX2, PACK>(&pack, f32::INFINITY), None);
+                    assert!(!ray.any_in_pack::<AVX2, PACK>(&pack, f32::INFINITY));
+                })
+            };
+        }
+        if SimdPath::Avx512.is_available() {
+            // SAFETY: the CPU has AVX-512.
+            unsafe {
+                crate::simd_path::on_avx512(|| {
+                    assert_eq!(
+                        ray.intersect_pack::<AVX512, PACK>(&pack, f32::INFINITY),
+                        None
+                    );
+                    assert!(!ray.any_in_pack::<AVX512, PACK>(&pack, f32::INFINITY));
+                })
+            };
         }
         let back = 1e-4f32;
         let behind = std::array::from_fn(|k| origin[k] - back * dir[k]);
         let hit = ShearedRay::new(behind, dir)
-            .intersect_pack::<false, PACK>(&pack, f32::INFINITY)
+            .intersect_pack::<PORTABLE, PACK>(&pack, f32::INFINITY)
             .expect("the line crosses the sliver ahead of this origin");
         assert_eq!(hit.lane, 3);
         let expected = back - 2.808e-6;
@@ -555,9 +648,9 @@ mod tests {
         let pack = TrianglePack::<PACK>::empty();
         let ray = ShearedRay::new([0.0; 3], [0.0, 0.0, 1.0]);
         assert_eq!(
-            ray.intersect_pack::<false, PACK>(&pack, f32::INFINITY),
+            ray.intersect_pack::<PORTABLE, PACK>(&pack, f32::INFINITY),
             None
         );
-        assert!(!ray.any_in_pack::<false, PACK>(&pack, f32::INFINITY));
+        assert!(!ray.any_in_pack::<PORTABLE, PACK>(&pack, f32::INFINITY));
     }
 }

@@ -15,8 +15,10 @@
 //!   (`bounds[plane][child]`, 224 bytes a node): one ray is tested against all 8 boxes
 //!   with the same straight-line code per child, which LLVM vectorises to AVX in the
 //!   traversal compiled for AVX2 (and to SSE2 in the portable one) without `unsafe`;
-//!   the const parameter `AVX` of the traversal says which of the two it is
-//!   instantiated for, as in `accel/triangle.rs`.
+//!   the AVX-512 traversal tests a child's near and far planes of one axis in one
+//!   16-lane register instead (`avx512::hit_children`, the same operations). The
+//!   const parameter `ISA` of the traversal says which path it is instantiated
+//!   for, as in `accel/triangle.rs`.
 //! - **Leaves**: up to [`MAX_LEAF`] primitives, stored by the geometry layer as
 //!   blocks ("packs") of [`PACK`] lanes; a leaf's child reference holds its first pack
 //!   and its primitive count, so a leaf is reached without an indirection.
@@ -50,6 +52,7 @@ pub(super) mod largest_child;
 mod tests;
 
 use super::boxes::Bounds;
+use crate::simd_path::isa::{AVX2, AVX512};
 
 pub(super) use super::triangle::PACK;
 pub(super) use build::TopNode;
@@ -167,6 +170,12 @@ pub(super) struct BoxRay {
     negative: [usize; 3],
 }
 
+/// 16 f32 lanes, aligned for one AVX-512 load.
+#[cfg(target_arch = "x86_64")]
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+struct Lanes16([f32; 16]);
+
 impl BoxRay {
     /// For a finite origin and a finite, non-zero direction.
     #[inline(always)]
@@ -191,7 +200,13 @@ impl BoxRay {
     /// The children hit within `[0, t_max]` (bit i for child i) and each one's
     /// entry distance.
     #[inline(always)]
-    fn hit_children<const AVX: bool>(&self, node: &Node, t_max: f32) -> (u32, [f32; WIDTH]) {
+    fn hit_children<const ISA: u8>(&self, node: &Node, t_max: f32) -> (u32, [f32; WIDTH]) {
+        #[cfg(target_arch = "x86_64")]
+        if ISA == AVX512 {
+            // SAFETY: `ISA` is AVX512 only where AVX-512 is enabled and the CPU has
+            // it (see the module documentation).
+            return unsafe { avx512::hit_children(self, node, t_max) };
+        }
         let b = &node.bounds;
         let near = |axis: usize| &b[2 * axis + (self.negative[axis] & 1)];
         let far = |axis: usize| &b[2 * axis + (!self.negative[axis] & 1)];
@@ -215,7 +230,7 @@ impl BoxRay {
             entry[i] = tn;
             limit[i] = min(tf, t_max);
         }
-        (hit_mask::<AVX>(&entry, &limit), entry)
+        (hit_mask::<ISA>(&entry, &limit), entry)
     }
 }
 
@@ -223,11 +238,11 @@ impl BoxRay {
 /// and one `vmovmskps` (LLVM builds the mask of the portable loop with four pack
 /// and logic instructions instead; see docs/benchmarks.md).
 #[inline(always)]
-fn hit_mask<const AVX: bool>(entry: &[f32; WIDTH], limit: &[f32; WIDTH]) -> u32 {
+fn hit_mask<const ISA: u8>(entry: &[f32; WIDTH], limit: &[f32; WIDTH]) -> u32 {
     #[cfg(target_arch = "x86_64")]
-    if AVX {
+    if ISA >= AVX2 {
         use std::arch::x86_64::{_CMP_LE_OQ, _mm256_cmp_ps, _mm256_movemask_ps, _mm256_setr_ps};
-        // SAFETY: `AVX` is true only where AVX is enabled and the CPU has it (see
+        // SAFETY: `ISA` is AVX2 or above only where AVX is enabled and the CPU has it (see
         // the module documentation); these intrinsics take and return values only
         // (no memory access).
         return unsafe {
@@ -247,6 +262,99 @@ fn hit_mask_portable(entry: &[f32; WIDTH], limit: &[f32; WIDTH]) -> u32 {
         mask |= u32::from(entry[i] <= limit[i]) << i;
     }
     mask
+}
+
+/// The slab test of [`BoxRay::hit_children`] with AVX-512: per axis, the near
+/// and far planes of the 8 children in one 16-lane register, `(plane − origin) ·
+/// (1/dir)` for both at once; then over the axes the maximum in the near lanes and
+/// the minimum in the far lanes (a maximum, then a masked minimum), and the
+/// compare into a mask register. Lane by lane the portable code's operations in
+/// its order (`maxps`/`minps` take the second operand on ties, as its `max`/`min`
+/// do, and no NaN arises: module documentation), so the same bits.
+#[cfg(target_arch = "x86_64")]
+mod avx512 {
+    use std::arch::x86_64::{
+        __m512, _CMP_LE_OQ, _mm256_cmp_ps_mask, _mm256_loadu_ps, _mm256_min_ps, _mm256_mul_ps,
+        _mm256_set1_ps, _mm256_storeu_ps, _mm512_castps256_ps512, _mm512_castps512_ps256,
+        _mm512_extractf32x8_ps, _mm512_insertf32x8, _mm512_load_ps, _mm512_mask_min_ps,
+        _mm512_max_ps, _mm512_mul_ps, _mm512_set1_ps, _mm512_sub_ps,
+    };
+
+    use super::{BoxRay, EXIT_WIDEN, Lanes16, Node, WIDTH};
+
+    /// The far lanes, 8–15.
+    const FAR: u16 = 0xff00;
+
+    /// Lanes 0–7 zero (the entry distance is at least 0), lanes 8–15 +∞ (no bound
+    /// on the exit distance): the portable code's `max(tnz, 0.0)`, and a no-op
+    /// `min(tfz, ∞)` that keeps the two halves' operations together.
+    static FLOOR: Lanes16 = Lanes16([
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+        f32::INFINITY,
+    ]);
+
+    /// The maximum of `a` and `b` in the near lanes, their minimum in the far ones.
+    #[inline(always)]
+    unsafe fn near_max_far_min(a: __m512, b: __m512) -> __m512 {
+        // SAFETY: as in `hit_children`.
+        unsafe { _mm512_mask_min_ps(_mm512_max_ps(a, b), FAR, a, b) }
+    }
+
+    /// To be called only where the CPU has AVX-512 F, VL and DQ, and inlined only
+    /// into code compiled with them (`ISA` = AVX512).
+    #[inline(always)]
+    pub(super) unsafe fn hit_children(
+        ray: &BoxRay,
+        node: &Node,
+        t_max: f32,
+    ) -> (u32, [f32; WIDTH]) {
+        // SAFETY: the intrinsics need the features the caller guarantees; the loads
+        // read `node.bounds` rows (8 f32 each) and `FLOOR` (16 f32, 64-byte
+        // aligned), all in bounds.
+        unsafe {
+            let b = &node.bounds;
+            // Axis `axis`: [near planes, far planes] − origin, times 1/dir.
+            let axis = |axis: usize| {
+                // The near row in lanes 0–7, the far one in 8–15, chosen by
+                // index as in the portable code (no branch on the ray's signs).
+                let negative = ray.negative[axis] & 1;
+                let near = _mm256_loadu_ps(b[2 * axis + negative].as_ptr());
+                let far = _mm256_loadu_ps(b[2 * axis + (1 - negative)].as_ptr());
+                let planes = _mm512_insertf32x8::<1>(_mm512_castps256_ps512(near), far);
+                _mm512_mul_ps(
+                    _mm512_sub_ps(planes, _mm512_set1_ps(ray.origin[axis])),
+                    _mm512_set1_ps(ray.inv_dir[axis]),
+                )
+            };
+            let (x, y, z) = (axis(0), axis(1), axis(2));
+            let floor = _mm512_load_ps(FLOOR.0.as_ptr());
+            let both = near_max_far_min(near_max_far_min(x, y), near_max_far_min(z, floor));
+            let entry = _mm512_castps512_ps256(both);
+            let exit = _mm256_mul_ps(
+                _mm512_extractf32x8_ps::<1>(both),
+                _mm256_set1_ps(EXIT_WIDEN),
+            );
+            let limit = _mm256_min_ps(exit, _mm256_set1_ps(t_max));
+            let mask = _mm256_cmp_ps_mask::<_CMP_LE_OQ>(entry, limit);
+            let mut out = [0.0f32; WIDTH];
+            _mm256_storeu_ps(out.as_mut_ptr(), entry);
+            (u32::from(mask), out)
+        }
+    }
 }
 
 /// Asks the cache for the memory of `value` (a hint: no fault, no effect on results).
@@ -384,7 +492,7 @@ impl WideBvh {
     /// packs and returns the new `t_max` (smaller when it found a closer hit);
     /// `fetch_leaf(first_pack, primitive_count)` may prefetch them.
     #[inline(always)]
-    pub fn closest<const AVX: bool>(
+    pub fn closest<const ISA: u8>(
         &self,
         ray: &BoxRay,
         t_max: f32,
@@ -393,7 +501,7 @@ impl WideBvh {
     ) {
         let mut traversal = Traversal::new();
         traversal.start(t_max);
-        while self.closest_step::<AVX>(ray, &mut traversal, &mut leaf, &fetch_leaf) {}
+        while self.closest_step::<ISA>(ray, &mut traversal, &mut leaf, &fetch_leaf) {}
     }
 
     /// One step of a closest-hit traversal: visits the traversal's current node or
@@ -403,7 +511,7 @@ impl WideBvh {
     /// memory each ray waits for arrives while the others work. The steps of one ray
     /// are the same either way, so are its results, bit for bit.
     #[inline(always)]
-    pub fn closest_step<const AVX: bool>(
+    pub fn closest_step<const ISA: u8>(
         &self,
         ray: &BoxRay,
         traversal: &mut Traversal,
@@ -419,7 +527,7 @@ impl WideBvh {
             traversal.t_max = leaf(first, count, traversal.t_max);
         } else {
             let node = &self.nodes[current as usize];
-            let (mut mask, entry) = ray.hit_children::<AVX>(node, traversal.t_max * TMAX_WIDEN);
+            let (mut mask, entry) = ray.hit_children::<ISA>(node, traversal.t_max * TMAX_WIDEN);
             if mask != 0 {
                 // Hit children, sorted by decreasing entry distance (insertion
                 // sort: rarely more than three).
@@ -460,7 +568,7 @@ impl WideBvh {
     /// Any hit: `leaf(first_pack, primitive_count)` says whether a leaf holds a hit;
     /// stops at the first. `fetch_leaf` as for [`WideBvh::closest`].
     #[inline(always)]
-    pub fn any<const AVX: bool>(
+    pub fn any<const ISA: u8>(
         &self,
         ray: &BoxRay,
         t_max: f32,
@@ -481,7 +589,7 @@ impl WideBvh {
                 }
             } else {
                 let node = &self.nodes[current as usize];
-                let (mut mask, _) = ray.hit_children::<AVX>(node, t_box);
+                let (mut mask, _) = ray.hit_children::<ISA>(node, t_box);
                 if mask != 0 {
                     // No ordering: any hit ends the query.
                     let i = mask.trailing_zeros() as usize;

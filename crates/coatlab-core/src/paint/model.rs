@@ -50,7 +50,7 @@ use super::parameters::{
     ABSORPTION, ALBEDO, Parameter, REFRACTIVE_INDEX, RangeError, THICKNESS, Violation,
 };
 use crate::colour::spectrum::{Channel, Channels};
-use crate::simd_path::SimdPath;
+use crate::simd_path::{SimdPath, dispatch};
 
 /// Errors setting paint parameters.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -732,25 +732,14 @@ impl SpectralPaint {
 }
 
 /// [`SpectralBsdf::eval`] on each SIMD path (`crate::simd_path`): the wavelength
-/// loop is vectorised 8 wide with AVX2 where the CPU has it, 4 wide (SSE2)
-/// otherwise, with the same operations per wavelength, so the same results.
+/// loop is vectorised 8 wide with AVX2 where the CPU has it (the AVX-512 path runs
+/// the same code compiled with AVX-512 enabled), 4 wide (SSE2) otherwise, with
+/// the same operations per wavelength, so the same results.
 impl SpectralPaint {
     /// [`SpectralBsdf::eval`] on `path` rather than the process's; a path this CPU
     /// lacks runs the portable code.
     pub fn eval_on(&self, path: SimdPath, wi: [f32; 3], wo: [f32; 3], out: &mut [f32]) {
-        #[cfg(target_arch = "x86_64")]
-        if path == SimdPath::Avx2 && path.is_available() {
-            // SAFETY: the CPU has the features the function is compiled with.
-            return unsafe { self.eval_avx2(wi, wo, out) };
-        }
-        let _ = path;
-        self.eval_with(wi, wo, out);
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-    fn eval_avx2(&self, wi: [f32; 3], wo: [f32; 3], out: &mut [f32]) {
-        self.eval_with(wi, wo, out);
+        dispatch!(path.or_portable(), _ => self.eval_with(wi, wo, out));
     }
 
     #[inline(always)]
@@ -797,7 +786,8 @@ impl SpectralBsdf for SpectralPaint {
 
     #[inline]
     fn eval(&self, wi: [f32; 3], wo: [f32; 3], out: &mut [f32]) {
-        self.eval_on(SimdPath::current(), wi, wo, out);
+        // The current path is one the CPU has: no check per call.
+        dispatch!(SimdPath::current(), _ => self.eval_with(wi, wo, out));
     }
 
     fn pdf(&self, wo: [f32; 3], wi: [f32; 3]) -> f32 {
