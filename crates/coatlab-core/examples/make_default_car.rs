@@ -1,4 +1,4 @@
-//! Writes the default car body to `assets/default-car.glb`.
+//! Writes the default car to `assets/default-car.glb`.
 //!
 //! `cargo run -p coatlab-core --example make_default_car [OUTPUT.glb] [--preview IMAGE.ppm]`
 //!
@@ -56,7 +56,7 @@ fn main() -> ExitCode {
         hi[2]
     );
     for m in &scene.materials {
-        println!("  {:<6} {:7.3} m²", m.name, m.area_m2);
+        println!("  {:<14} {:7.3} m²", m.name, m.area_m2);
     }
     if let Some(path) = preview {
         let image = preview::render(&scene, 720, 450);
