@@ -93,10 +93,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let elapsed = start.elapsed().as_secs_f64();
     let display = engine.display();
-    let first = match engine.first_image() {
-        Ok(image) => image,
-        Err(e) => return Err(e.into()),
-    };
+    let first = engine.first_image()?;
     let second = match engine.second_image() {
         SecondImage::Film(film) => film_xyz(film),
         SecondImage::Reshaded(Ok(image)) => image.xyz,
