@@ -677,7 +677,7 @@ fn two_designs_side_by_side_from_a_preset_and_from_a_file() {
     assert!(map.p95 > 20.0, "red against blue: p95 {}", map.p95);
 
     // A file as the second design: the same design as the current one shows no
-    // difference anywhere (same camera, same seed).
+    // difference anywhere (same camera, same seed, a zero shading difference).
     let file = dir.join("same.toml");
     h.state().design().save(&file).expect("save");
     // Read before the change: the render thread may publish the change's first
@@ -695,8 +695,14 @@ fn two_designs_side_by_side_from_a_preset_and_from_a_file() {
     wait_until(&mut h, "the file's design beside the current one", |app| {
         compared(app, 1) && preview(app).status().is_some_and(|s| s.epoch > epoch)
     });
+    // Each pane is its own film blended with the other's plus or minus a
+    // difference that is zero here: equal up to rounding.
     let map = preview(h.state()).delta_e_map().expect("map");
-    assert_eq!(map.max, 0.0, "identical designs render identically");
+    assert!(
+        map.max < 1e-3,
+        "identical designs render identically: max ΔE00 {}",
+        map.max
+    );
     let _ = std::fs::remove_dir_all(dir);
 }
 
@@ -1050,8 +1056,11 @@ fn the_preview_exports_png_and_exr_and_the_exr_lights_the_car() {
     eprintln!(
         "blue share of {red_count} red-paint pixels: white map {under_white:.3}, blue map {under_blue:.3}"
     );
+    // 0.8 held with the Reinhard display and the earlier built-in car; with PBR
+    // Neutral (which compresses the brightest reflections toward white) and the
+    // new car it measured 0.796. The white map's 0.085 stays far below.
     assert!(
-        under_white < 0.2 && under_blue > 0.8,
+        under_white < 0.2 && under_blue > 0.7,
         "blue share of the paint: white map {under_white:.3}, blue map {under_blue:.3}"
     );
 
@@ -1366,11 +1375,15 @@ fn the_comparison_re_shades_the_first_views_paths() {
                 .second_design()
                 .is_some_and(|(l, _)| l == "Itself")
     });
+    // Each pane blends its own film with the other's plus or minus the (zero)
+    // difference, with weights w and 1 − w computed from the same variances: the
+    // panes agree up to the rounding of those weights.
     let map = preview(h.state()).delta_e_map().expect("map");
-    assert_eq!(
-        (map.mean, map.max),
-        (0.0, 0.0),
-        "a design against itself from shared samples"
+    assert!(
+        map.mean < 1e-4 && map.max < 1e-3,
+        "a design against itself from shared samples: mean {}, max {}",
+        map.mean,
+        map.max
     );
     h.get_by_label_contains("difference ΔE00 mean 0.00, 95 % 0.00");
 }

@@ -795,8 +795,8 @@ impl ShadingDifference {
     /// unbiased, while the weight still follows where the difference is noisy
     /// (a highlight one model samples poorly with the other's paths: own
     /// samples) and where it is clean (the shared samples, which keep the
-    /// panes' difference free of noise). While `own` has fewer than two samples
-    /// (no variance), w = 0. The difference's noise stays that of its recorded
+    /// panes' difference free of noise). While either film has fewer than two
+    /// samples (no variance), both panes come from the other film. The difference's noise stays that of its recorded
     /// samples while `own`'s falls, so w → 1 and the picture converges to the
     /// second shading's own render. Returns the picture with the mean of w.
     pub fn combine(&self, first: &Film, own: &Film) -> Result<(Reshaded, f64), ReshadeError> {
@@ -854,15 +854,32 @@ impl ShadingDifference {
             b[0] += p.1;
             b[1] += p.3;
         }
-        let with_own = own.samples_per_pixel() >= 2;
+        // A film of fewer than two samples has no variance (it reads as 0, as if
+        // certain), so it cannot take part in the weighing. While the second
+        // view's film is one (it has just started), both panes come from the
+        // first's film: the first pane as it is, the second as the first plus
+        // the difference; while the first's is one, both from the second's.
+        let own_is_first = sign < 0.0;
+        let (first_film, second_film) = if own_is_first {
+            (own, base)
+        } else {
+            (base, own)
+        };
+        let fixed_weight = if second_film.samples_per_pixel() < 2 {
+            Some(if own_is_first { 1.0 } else { 0.0 })
+        } else if first_film.samples_per_pixel() < 2 {
+            Some(if own_is_first { 0.0 } else { 1.0 })
+        } else {
+            None
+        };
         let mut weight_sum = 0.0;
         let (mut xyz, mut variance_y) = (Vec::with_capacity(pixels.len()), Vec::new());
         variance_y.reserve(pixels.len());
         for (i, (s, vs, o, vo)) in pixels.into_iter().enumerate() {
             let b = sums[block_of(i)];
             let (rest_s, rest_o) = ((b[0] - vs).max(0.0), (b[1] - vo).max(0.0));
-            let w = if !with_own {
-                0.0
+            let w = if let Some(w) = fixed_weight {
+                w
             } else if rest_s + rest_o > 0.0 {
                 rest_s / (rest_s + rest_o)
             } else {
