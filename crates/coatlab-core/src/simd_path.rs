@@ -5,7 +5,7 @@
 //! queries) and the paint's spectral evaluation
 //! ([`crate::paint::model::SpectralPaint`]), are compiled three times: as is, with
 //! AVX2 and FMA enabled, and with AVX-512 (F, VL, BW, DQ) enabled on top
-//! (`#[target_feature]`, through [`dispatch!`]), and each call takes the path
+//! (`#[target_feature]`, through `dispatch!`), and each call takes the path
 //! chosen here. The traversal's AVX-512 copy tests a node's 8 child boxes with
 //! 16-lane registers (near and far planes together) and reduces with mask
 //! registers; the paint's is its AVX2 code compiled with AVX-512 enabled. Every
@@ -65,6 +65,22 @@ impl SimdPath {
             SimdPath::Avx2 => detected(false),
             SimdPath::Avx512 => detected(true),
         }
+    }
+
+    /// The paths this CPU can run, portable first.
+    pub fn available() -> Vec<SimdPath> {
+        SimdPath::ALL
+            .into_iter()
+            .filter(|p| p.is_available())
+            .collect()
+    }
+
+    /// The names of [`Self::available`], in its order.
+    pub fn available_names() -> Vec<&'static str> {
+        SimdPath::available()
+            .into_iter()
+            .map(SimdPath::name)
+            .collect()
     }
 
     /// This path where the CPU has it, else the portable one: what a caller asking
