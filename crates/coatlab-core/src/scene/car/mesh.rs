@@ -152,18 +152,7 @@ pub(super) fn add_ring_surface(
     }
 
     // Orient outward: a closed surface has positive signed volume.
-    let volume: f64 = triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|k| DVec3::from(positions[k as usize]));
-            a.dot(b.cross(c))
-        })
-        .sum();
-    if volume < 0.0 {
-        for t in &mut triangles {
-            t.swap(1, 2);
-        }
-    }
+    orient_by(&mut triangles, &positions, |[a, b, c]| a.dot(b.cross(c)));
     push_part(mesh, &positions, &triangles, materials);
 }
 
@@ -195,18 +184,9 @@ pub(super) fn add_grid_patch(
             materials.extend([mat, mat]);
         }
     }
-    let facing: f64 = triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|k| DVec3::from(positions[k as usize]));
-            (b - a).cross(c - a).dot(outward)
-        })
-        .sum();
-    if facing < 0.0 {
-        for t in &mut triangles {
-            t.swap(1, 2);
-        }
-    }
+    orient_by(&mut triangles, &positions, |[a, b, c]| {
+        (b - a).cross(c - a).dot(outward)
+    });
     push_part(mesh, &positions, &triangles, materials);
 }
 
@@ -236,6 +216,25 @@ pub(super) fn add_superellipsoid(
         .collect();
     let poles = ((centre - v).to_array(), (centre + v).to_array());
     add_ring_surface(mesh, &ring_points, Some(poles), false, |_, _| material);
+}
+
+/// Flips every triangle's winding when the sum of `measure` over the triangles
+/// (their corners' positions) is negative: the part's whole orientation is chosen
+/// by one signed total (a volume, or a facing along a direction).
+fn orient_by(
+    triangles: &mut [[u32; 3]],
+    positions: &[[f64; 3]],
+    measure: impl Fn([DVec3; 3]) -> f64,
+) {
+    let total: f64 = triangles
+        .iter()
+        .map(|t| measure(t.map(|k| DVec3::from(positions[k as usize]))))
+        .sum();
+    if total < 0.0 {
+        for t in triangles {
+            t.swap(1, 2);
+        }
+    }
 }
 
 /// Appends one part with area-weighted vertex normals.
