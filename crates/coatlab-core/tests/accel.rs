@@ -390,10 +390,7 @@ fn default_build_is_the_simd8_layout_with_the_fast_preset_and_spatial_splits() {
 /// and the comparison is with itself (it says so).
 #[test]
 fn every_simd_path_gives_the_same_hits_bit_for_bit() {
-    let paths: Vec<SimdPath> = SimdPath::ALL
-        .into_iter()
-        .filter(|p| p.is_available())
-        .collect();
+    let paths = SimdPath::available();
     println!(
         "SIMD paths this CPU has: {:?}; this process runs {}",
         paths.iter().map(|p| p.name()).collect::<Vec<_>>(),

@@ -291,12 +291,7 @@ fn body_is_the_largest_material_and_the_paint() {
     }
     // A body is most of the geometry: over 10 m² of paint, a few m² of glass.
     assert!(scene.materials[body as usize].area_m2 > 10.0);
-    let glass = &scene.materials[material_index(scene, "glass") as usize];
-    assert!(
-        glass.area_m2 > 1.5 && glass.area_m2 < 5.0,
-        "glass {} m²",
-        glass.area_m2
-    );
+    assert_area_within(scene, "glass", 1.5..5.0);
 }
 
 #[test]
@@ -579,13 +574,14 @@ fn shut_lines_cut_the_paint_into_panels() {
         .filter(|&a| a > 0.2)
         .collect();
     assert!(panels.len() >= 7, "painted pieces over 0.2 m²: {panels:?}");
-    let gap = &scene.materials[material_index(scene, "panel-gap") as usize];
     // About 14 m of shut lines (both sides) at 5 mm, plus the floors' slope.
-    assert!(
-        gap.area_m2 > 0.04 && gap.area_m2 < 0.3,
-        "panel gaps {} m²",
-        gap.area_m2
-    );
+    assert_area_within(scene, "panel-gap", 0.04..0.3);
+}
+
+/// Checks that the material named `name` covers an area (m²) within `range`.
+fn assert_area_within(scene: &Scene, name: &str, range: std::ops::Range<f32>) {
+    let area = scene.materials[material_index(scene, name) as usize].area_m2;
+    assert!(range.contains(&area), "{name}: {area} m², expected {range:?}");
 }
 
 #[test]

@@ -164,10 +164,7 @@ fn worst_f32_error(model: &PaintModel) -> (f64, f64) {
 /// (a tail shorter than a vector), sharp and broad lobes, random directions.
 #[test]
 fn every_simd_path_evaluates_the_same_bits() {
-    let paths: Vec<SimdPath> = SimdPath::ALL
-        .into_iter()
-        .filter(|p| p.is_available())
-        .collect();
+    let paths = SimdPath::available();
     println!(
         "SIMD paths: {:?}",
         paths.iter().map(|p| p.name()).collect::<Vec<_>>()

@@ -71,6 +71,18 @@ fn step(engine: &mut LiveEngine) -> (Progress, Vec<Output>) {
 }
 
 /// Steps until the engine waits for a command; the updates published.
+/// Converges `engine`, checks it ended in `pairing`, and returns the last
+/// published first and second frames.
+fn converge_in_pairing(engine: &mut LiveEngine, pairing: Pairing) -> (Frame, Frame) {
+    let published = converge(engine);
+    assert_eq!(engine.state().pairing, pairing);
+    let last = published.last().expect("images");
+    let SecondUpdate::Set(second) = &last.second else {
+        panic!("no second image: {:?}", last.second);
+    };
+    (last.first.clone(), second.clone())
+}
+
 fn converge(engine: &mut LiveEngine) -> Vec<ViewsUpdate> {
     let mut updates = Vec::new();
     for _ in 0..100 {
@@ -654,12 +666,7 @@ fn a_new_display_shows_the_images_again_without_rendering() {
 fn two_designs_share_paths_and_render_the_second_on_its_own() {
     let (mut engine, _) = comparing_a_thicker_coat();
     let before = engine.counters();
-    let published = converge(&mut engine);
-    assert_eq!(engine.state().pairing, Pairing::Shared);
-    let last = published.last().expect("images");
-    let SecondUpdate::Set(pane) = &last.second else {
-        panic!("no second image: {:?}", last.second);
-    };
+    let (_, pane) = converge_in_pairing(&mut engine, Pairing::Shared);
     assert!(
         matches!(pane.source, Some(SecondSource::Shared { own_weight, .. }) if own_weight > 0.0)
     );
@@ -686,16 +693,11 @@ fn a_mirror_against_phong_is_rendered_apart_in_step() {
         &mut engine,
         Command::Views(Views::models(PhongVariant::Naive)),
     );
-    let published = converge(&mut engine);
-    assert_eq!(engine.state().pairing, Pairing::Independent);
-    let last = published.last().expect("images");
-    let SecondUpdate::Set(second) = &last.second else {
-        panic!("no second image: {:?}", last.second);
-    };
+    let (first, second) = converge_in_pairing(&mut engine, Pairing::Independent);
     assert!(
         matches!(&second.source, Some(SecondSource::Independent { reason }) if reason.contains("ideal-mirror"))
     );
-    assert_eq!(second.samples_per_pixel, last.first.samples_per_pixel);
+    assert_eq!(second.samples_per_pixel, first.samples_per_pixel);
     let done = engine.counters().since(&before);
     assert_eq!(done.second_passes, done.passes);
     assert_eq!(done.render_builds, 1);
