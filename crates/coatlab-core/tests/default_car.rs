@@ -581,7 +581,10 @@ fn shut_lines_cut_the_paint_into_panels() {
 /// Checks that the material named `name` covers an area (m²) within `range`.
 fn assert_area_within(scene: &Scene, name: &str, range: std::ops::Range<f32>) {
     let area = scene.materials[material_index(scene, name) as usize].area_m2;
-    assert!(range.contains(&area), "{name}: {area} m², expected {range:?}");
+    assert!(
+        range.contains(&area),
+        "{name}: {area} m², expected {range:?}"
+    );
 }
 
 #[test]
