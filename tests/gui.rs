@@ -732,7 +732,7 @@ fn dropped_scenes_and_environment_maps_go_to_the_preview_and_bad_ones_change_not
     let other = (0..scene.materials.len() as u32)
         .find(|i| !scene.automatic_paint.contains(i))
         .expect("a material that is not painted");
-    let label = |i: u32| material_label(&scene.materials[i as usize], scene.areas_m2[i as usize]);
+    let label = |i: u32| material_label(&scene.materials[i as usize]);
     click_in_paint_list(&mut h, &label(other));
     let mut both = scene.automatic_paint.clone();
     both.push(other);

@@ -81,7 +81,13 @@ pub struct Analysis {
     pub distributions: Vec<Distribution>,
     /// Swatches under [`SWATCH_ILLUMINANTS`].
     pub swatches: Vec<Swatch>,
-    /// Spectra on the reference grid: wavelength, ρ, n, k.
+    /// ρ, n and k on the reference grid.
+    pub spectra: DesignSpectra,
+}
+
+/// A design's spectral inputs on one grid, as the spectra plots draw them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DesignSpectra {
     pub wavelength_nm: Vec<f64>,
     pub albedo: Vec<f64>,
     pub refractive_index: Vec<f64>,
@@ -132,10 +138,12 @@ impl Analysis {
                 .map(|(_, m)| m.angles[swatch_angle()].reflectance_factor.as_slice()),
         );
         Ok(Analysis {
-            wavelength_nm: grid.wavelengths_nm().collect(),
-            albedo: model.albedo().to_vec(),
-            refractive_index: model.refractive_index().to_vec(),
-            absorption_per_um: model.absorption_per_um().to_vec(),
+            spectra: DesignSpectra {
+                wavelength_nm: grid.wavelengths_nm().collect(),
+                albedo: model.albedo().to_vec(),
+                refractive_index: model.refractive_index().to_vec(),
+                absorption_per_um: model.absorption_per_um().to_vec(),
+            },
             model,
             measurement,
             target: target_measurement,

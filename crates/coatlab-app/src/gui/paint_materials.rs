@@ -3,13 +3,13 @@
 //! loader's choice stays until a box is changed; "Automatic" goes back to it.
 //! The list only says what the user chose: the preview sends it to the engine.
 
-use coatlab_core::engine::events::SceneInfo;
+use coatlab_core::engine::events::{MaterialInfo, SceneInfo};
 use coatlab_core::render::pick::toggled;
 use egui::Ui;
 
 /// A material's line in the list: its name and area.
-pub fn material_label(name: &str, area_m2: f32) -> String {
-    format!("{name} ({area_m2:.2} m²)")
+pub fn material_label(material: &MaterialInfo) -> String {
+    format!("{} ({:.2} m²)", material.name, material.area_m2)
 }
 
 /// Draws the list of `scene`'s materials, largest first, with `painted` checked
@@ -30,14 +30,14 @@ pub fn paint_materials_ui(
         choice = Some(None);
     }
     let mut order: Vec<usize> = (0..scene.materials.len()).collect();
-    let area = |i: usize| scene.areas_m2.get(i).copied().unwrap_or(0.0);
+    let area = |i: usize| scene.materials[i].area_m2;
     order.sort_by(|&a, &b| area(b).total_cmp(&area(a)));
     egui::ScrollArea::vertical()
         .max_height(320.0)
         .show(ui, |ui| {
             for i in order {
                 let mut on = painted.contains(&(i as u32));
-                let label = material_label(&scene.materials[i], area(i));
+                let label = material_label(&scene.materials[i]);
                 if ui.checkbox(&mut on, label).changed() {
                     choice = Some(Some(toggled(painted, i as u32)));
                 }

@@ -191,21 +191,16 @@ fn spectrum_line(name: &str, x: &[f64], y: &[f64], colour: Color32) -> Line<'sta
 
 fn spectra_ui(ui: &mut Ui, analysis: &Analysis) {
     let height = ((ui.available_height() - 60.0) / 3.0).max(90.0);
-    let x = &analysis.wavelength_nm;
+    let spectra = &analysis.spectra;
+    let x = &spectra.wavelength_nm;
     let group = egui::Id::unique("spectra_x");
     for (id, name, y, colour, unit) in [
-        ("spec_rho", "ρ(λ)", &analysis.albedo, PALETTE[0], "ρ"),
-        (
-            "spec_n",
-            "n(λ)",
-            &analysis.refractive_index,
-            PALETTE[1],
-            "n",
-        ),
+        ("spec_rho", "ρ(λ)", &spectra.albedo, PALETTE[0], "ρ"),
+        ("spec_n", "n(λ)", &spectra.refractive_index, PALETTE[1], "n"),
         (
             "spec_k",
             "k(λ) (1/µm)",
-            &analysis.absorption_per_um,
+            &spectra.absorption_per_um,
             PALETTE[4],
             "k (1/µm)",
         ),

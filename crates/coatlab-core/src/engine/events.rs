@@ -70,11 +70,8 @@ pub struct SceneInfo {
     pub name: String,
     /// Its file; `None` for the built-in car.
     pub path: Option<PathBuf>,
-    /// Material names, by index.
-    pub materials: Vec<String>,
-    /// Each material's surface area, m², by index: what the paint list shows so
-    /// that the body's large panels stand out from trim.
-    pub areas_m2: Vec<f32>,
+    /// The materials, by index.
+    pub materials: Vec<MaterialInfo>,
     /// Materials that carry the paint as the loader chose them.
     pub automatic_paint: Vec<u32>,
     /// Problems that did not stop the load.
@@ -83,14 +80,28 @@ pub struct SceneInfo {
     pub cameras: Vec<String>,
 }
 
+/// A scene material as the paint list shows it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MaterialInfo {
+    pub name: String,
+    /// Its surface area, m²: what lets the body's large panels stand out from trim.
+    pub area_m2: f32,
+}
+
 impl SceneInfo {
     /// What a user sees of `scene`, loaded from `path` (`None`: the built-in car).
     pub fn of(scene: &Scene, path: Option<&Path>) -> Self {
         Self {
             name: path.map(file_name).unwrap_or_else(|| "Built-in car".into()),
             path: path.map(Path::to_owned),
-            materials: scene.materials.iter().map(|m| m.name.clone()).collect(),
-            areas_m2: scene.materials.iter().map(|m| m.area_m2).collect(),
+            materials: scene
+                .materials
+                .iter()
+                .map(|m| MaterialInfo {
+                    name: m.name.clone(),
+                    area_m2: m.area_m2,
+                })
+                .collect(),
             automatic_paint: scene.paint_materials.clone(),
             warnings: scene.warnings.clone(),
             cameras: scene.cameras.iter().map(|c| c.name.clone()).collect(),

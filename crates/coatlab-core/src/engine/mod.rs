@@ -53,7 +53,7 @@ pub use command::{Command, QualityKnobs, SceneSource, SecondView, Views};
 pub use counters::EngineCounters;
 pub use cpu::CpuBackend;
 pub use delta_e::DeltaEMap;
-pub use events::{EngineError, EngineEvent, SceneInfo, file_name};
+pub use events::{EngineError, EngineEvent, MaterialInfo, SceneInfo, file_name};
 pub use frame::{Frame, SecondSource, SecondUpdate, ViewsUpdate};
 pub use live::{LiveEngine, Output, Progress};
 pub use plan::{Pairing, Phase, State};

@@ -2,7 +2,7 @@
 //! draggable divider, or the ΔE00 map with its legend; the dark background
 //! around them; mouse input that moves the camera.
 
-use coatlab_core::engine::Command;
+use coatlab_core::engine::{Command, MaterialInfo};
 use egui::{Color32, Ui};
 
 use super::super::compare::{CompareLayout, CompareMode, legend_ui};
@@ -378,10 +378,10 @@ fn pane_label(ui: &Ui, pos: egui::Pos2, align: egui::Align2, text: &str) {
     painter.galley(rect.min + egui::vec2(3.0, 3.0), galley, Color32::WHITE);
 }
 
-pub(super) fn names_of(materials: &[String], indices: &[u32]) -> String {
+pub(super) fn names_of(materials: &[MaterialInfo], indices: &[u32]) -> String {
     let names: Vec<&str> = indices
         .iter()
-        .filter_map(|&i| materials.get(i as usize).map(String::as_str))
+        .filter_map(|&i| materials.get(i as usize).map(|m| m.name.as_str()))
         .collect();
     if names.is_empty() {
         "none".into()
