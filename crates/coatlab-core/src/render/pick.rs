@@ -142,16 +142,26 @@ mod tests {
             ..Scene::default()
         };
         let scene = RenderScene::new(scene).unwrap();
-        let camera = Camera::new([0.0, 1.0, 3.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0], 40.0, 160, 100)
+        // From 3 m and from twice as far the same area (not the image share,
+        // which is a quarter).
+        for (distance, tolerance) in [(3.0, 0.03), (6.0, 0.05)] {
+            let camera = Camera::new(
+                [0.0, 1.0, distance],
+                [0.0, 1.0, 0.0],
+                [0.0, 1.0, 0.0],
+                40.0,
+                160,
+                100,
+            )
             .unwrap();
-        let areas = visible_areas(&scene, &camera, 256, 160);
-        assert!((areas[0] - 1.0).abs() < 0.03, "front square: {} m²", areas[0]);
-        assert_eq!(areas[1], 0.0, "the square behind it");
-        // Twice as far, the same area (not the image share, which is a quarter).
-        let far = Camera::new([0.0, 1.0, 6.0], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0], 40.0, 160, 100)
-            .unwrap();
-        let areas = visible_areas(&scene, &far, 256, 160);
-        assert!((areas[0] - 1.0).abs() < 0.05, "from 6 m: {} m²", areas[0]);
+            let areas = visible_areas(&scene, &camera, 256, 160);
+            assert!(
+                (areas[0] - 1.0).abs() < tolerance,
+                "front square from {distance} m: {} m²",
+                areas[0]
+            );
+            assert_eq!(areas[1], 0.0, "the square behind it");
+        }
     }
 
     #[test]

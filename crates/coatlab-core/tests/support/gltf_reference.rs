@@ -15,7 +15,6 @@
 
 use std::path::{Path, PathBuf};
 
-
 use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::design::presets;
 use coatlab_core::render::environment::Environment;
@@ -42,7 +41,10 @@ const WAVELENGTHS: usize = 8;
 
 /// Where the reference of the model file `model` is stored.
 pub fn reference_path(model: &Path) -> PathBuf {
-    let stem = model.file_stem().and_then(|s| s.to_str()).expect("a file name");
+    let stem = model
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .expect("a file name");
     Path::new(REFERENCE_DIR).join(format!("{stem}.csv"))
 }
 

@@ -44,7 +44,13 @@ fn export(engine: &LiveEngine, path: &Path) -> EngineEvent {
     let mut written = Vec::new();
     for (pane, target) in panes.into_iter().zip(targets) {
         let result = match pane {
-            Pane::Film(film) => write_film(film, &target, ext.as_deref(), &display, &record(engine, None)),
+            Pane::Film(film) => write_film(
+                film,
+                &target,
+                ext.as_deref(),
+                &display,
+                &record(engine, None),
+            ),
             Pane::Blended(xyz) => {
                 let film = first.film();
                 let record = record(engine, Some(blended_count(engine)));
@@ -256,7 +262,13 @@ mod tests {
         let path = dir.path().join("pair.exr");
         let report = export(&engine, &path);
         assert!(
-            matches!(&report, EngineEvent::Report { is_error: false, .. }),
+            matches!(
+                &report,
+                EngineEvent::Report {
+                    is_error: false,
+                    ..
+                }
+            ),
             "{report:?}"
         );
         let shown_first = engine.first_image().expect("the first pane");

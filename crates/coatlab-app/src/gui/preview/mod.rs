@@ -283,7 +283,6 @@ impl Preview {
         })
     }
 
-
     /// Writes the first view (and the second, as NAME-b.EXT, in a comparison): PNG
     /// as shown (same exposure and tone mapping), EXR as linear sRGB. Runs on the
     /// render thread after the pass in flight, which it keeps.
