@@ -1464,7 +1464,10 @@ fn a_click_on_the_car_in_a_comparison_toggles_its_paint_and_undo_takes_it_back()
     });
     steps(&mut h, 2);
     let scene = preview(h.state()).scene().cloned().expect("scene");
-    let visible = preview(h.state()).visible_areas().expect("measured").to_vec();
+    let visible = preview(h.state())
+        .visible_areas()
+        .expect("measured")
+        .to_vec();
     assert_eq!(visible.len(), scene.materials.len());
     for &body in &automatic {
         let total = scene.materials[body as usize].area_m2;
