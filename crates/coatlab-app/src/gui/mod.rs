@@ -7,7 +7,7 @@
 //! | [`curve_editor`] | ρ(λ) and k(λ) as curves with draggable control points |
 //! | [`plots`] | figures 3–6, spectra, instrument reflectance (egui_plot) |
 //! | [`instruments_panel`] | multi-angle table, gloss, ΔE00 to a target, swatches (from [`coatlab_core::analysis`], computed on change) |
-//! | [`history`] | undo/redo by design snapshots |
+//! | [`history`] | undo/redo by snapshots of the design and the paint-material choice |
 //! | [`storage`] | recent files, autosave and crash recovery |
 //! | [`dialogs`] | choosing files: the system file dialog (rfd, XDG portal or zenity) on its own thread, else the in-app browser |
 //! | [`file_browser`] | the in-app open/save browser |
