@@ -730,16 +730,16 @@ fn dropped_scenes_and_environment_maps_go_to_the_preview_and_bad_ones_change_not
     // Paint another material too, through the list of the scene's materials with
     // their areas; then take the loader's choice off: only the other is painted.
     let other = (0..scene.materials.len() as u32)
-        .find(|i| !scene.automatic_paint.contains(i))
+        .find(|i| !scene.automatic_paint().contains(i))
         .expect("a material that is not painted");
     let label = |i: u32| material_label(&scene.materials[i as usize]);
     click_in_paint_list(&mut h, &label(other));
-    let mut both = scene.automatic_paint.clone();
+    let mut both = scene.automatic_paint();
     both.push(other);
     both.sort_unstable();
     assert_eq!(preview(h.state()).paint_materials(), both);
     assert!(!preview(h.state()).paint_is_automatic());
-    for &automatic in &scene.automatic_paint {
+    for &automatic in &scene.automatic_paint() {
         click_in_paint_list(&mut h, &label(automatic));
     }
     assert_eq!(preview(h.state()).paint_materials(), vec![other]);

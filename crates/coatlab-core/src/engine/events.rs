@@ -75,8 +75,6 @@ pub struct SceneInfo {
     pub path: Option<PathBuf>,
     /// The materials, by index.
     pub materials: Vec<MaterialInfo>,
-    /// Materials that carry the paint as the loader chose them.
-    pub automatic_paint: Vec<u32>,
     /// Problems that did not stop the load.
     pub warnings: Vec<String>,
     /// Names of the file's own cameras, by index (`ViewChoice::SceneCamera`).
@@ -89,6 +87,8 @@ pub struct MaterialInfo {
     pub name: String,
     /// Its surface area, m²: what lets the body's large panels stand out from trim.
     pub area_m2: f32,
+    /// Whether the loader chose it to carry the paint (the automatic choice).
+    pub painted_by_loader: bool,
 }
 
 impl SceneInfo {
@@ -100,15 +100,23 @@ impl SceneInfo {
             materials: scene
                 .materials
                 .iter()
-                .map(|m| MaterialInfo {
+                .enumerate()
+                .map(|(i, m)| MaterialInfo {
                     name: m.name.clone(),
                     area_m2: m.area_m2,
+                    painted_by_loader: scene.paint_materials.contains(&(i as u32)),
                 })
                 .collect(),
-            automatic_paint: scene.paint_materials.clone(),
             warnings: scene.warnings.clone(),
             cameras: scene.cameras.iter().map(|c| c.name.clone()).collect(),
         }
+    }
+
+    /// The materials the loader chose to carry the paint, by index.
+    pub fn automatic_paint(&self) -> Vec<u32> {
+        (0..self.materials.len() as u32)
+            .filter(|&i| self.materials[i as usize].painted_by_loader)
+            .collect()
     }
 }
 

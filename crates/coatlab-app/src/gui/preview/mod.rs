@@ -241,7 +241,7 @@ impl Preview {
     pub fn paint_materials(&self) -> Vec<u32> {
         match (&self.paint_override, &self.scene) {
             (Some(chosen), _) => chosen.clone(),
-            (None, Some(scene)) => scene.automatic_paint.clone(),
+            (None, Some(scene)) => scene.automatic_paint(),
             (None, None) => Vec::new(),
         }
     }
@@ -613,6 +613,6 @@ fn scene_message(info: &SceneInfo) -> String {
         "Opened the scene {} ({} materials; paint on {}){warnings}",
         path.display(),
         info.materials.len(),
-        panes::names_of(&info.materials, &info.automatic_paint),
+        panes::names_of(&info.materials, &info.automatic_paint()),
     )
 }
