@@ -18,6 +18,8 @@ pub struct Pick {
     pub position: [f32; 3],
     /// Distance from the camera, metres.
     pub distance_m: f32,
+    /// The camera ray's unit direction, world space.
+    pub direction: [f32; 3],
 }
 
 /// The scene material seen through the continuous pixel coordinates
@@ -37,6 +39,7 @@ pub fn pick(scene: &RenderScene, camera: &Camera, pixel_x: f32, pixel_y: f32) ->
             material,
             position: hit.position,
             distance_m: hit.t,
+            direction,
         }),
         Surface::Floor => None,
     }
@@ -66,8 +69,7 @@ pub fn visible_areas(scene: &RenderScene, camera: &Camera, columns: u32, rows: u
             let Some(hit) = pick(scene, camera, px, py) else {
                 continue;
             };
-            let (_, direction) = camera.ray(px, py);
-            let cos = glam::Vec3::from(direction).normalize().dot(forward);
+            let cos = glam::Vec3::from(hit.direction).normalize().dot(forward);
             // Solid angle of the cell: its plane area × cos³ of its angle off the axis.
             let solid_angle = cell * cos * cos * cos;
             if let Some(area) = areas.get_mut(hit.material as usize) {
