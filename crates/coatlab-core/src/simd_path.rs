@@ -97,6 +97,15 @@ impl SimdPath {
     /// one. AVX-512 is taken only when `COATLAB_SIMD=avx512` asks for it: on the
     /// Xeon (Sapphire Rapids) it was measured on, its traversal traced 4–15 % fewer
     /// rays per CPU-second than the AVX2 one (`ACCEL_CPU=1` of `benches/accel.rs`).
+    /// Why, as far as the code shows (the VM exposes no performance counters, so
+    /// clocks and port use were not measured): the 16-lane box test halves the
+    /// subtractions and products of the 8-lane one but adds three 256→512-bit
+    /// inserts and an extract, so a node costs no fewer instructions; the mask
+    /// registers save one `vmovmskps` a node or pack; and with AVX-512 enabled on a
+    /// generic target LLVM also moves the batch's per-ray state in 512-bit
+    /// registers (in the dev build about 160 of that kernel's 221 zmm instructions
+    /// are moves), each of which puts the core in its 512-bit mode (no vector ALU
+    /// on port 1, possibly a lower clock) for no arithmetic gained.
     pub fn best() -> SimdPath {
         if SimdPath::Avx2.is_available() {
             SimdPath::Avx2
