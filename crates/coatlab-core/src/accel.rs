@@ -353,7 +353,7 @@ impl Accel {
         if let Tree::Simd8(tree) = &self.bvh.tree {
             let box_ray = BoxRay::new(origin, dir);
             let mut best = None;
-            tree.closest::<ISA>(
+            tree.nodes().closest::<ISA>(
                 &box_ray,
                 t_max,
                 #[inline(always)]
@@ -366,7 +366,7 @@ impl Accel {
                     None => t_max,
                 },
                 #[inline(always)]
-                |pack, _| self.fetch_pack(pack),
+                |pack, _| fetch_pack(&self.packs, pack),
             );
             return best.map(|(p, hit)| Hit {
                 t: hit.t,
@@ -487,8 +487,11 @@ impl Accel {
         for (lane, traversal) in lanes.iter_mut().zip(traversals.iter_mut()) {
             *lane = take(traversal);
         }
-        let packs = &self.packs;
-        let fetch_leaf = |pack: usize, _| self.fetch_pack(pack);
+        // Slices in locals, not reached through `self` at every step (see
+        // `wide::Nodes`).
+        let tree = tree.nodes();
+        let packs: &[TrianglePack<PACK>] = &self.packs;
+        let fetch_leaf = |pack: usize, _| fetch_pack(packs, pack);
         let mut active = lanes.iter().filter(|l| l.is_some()).count();
         while active > 0 {
             for (slot, traversal) in lanes.iter_mut().zip(traversals.iter_mut()) {
@@ -559,26 +562,16 @@ impl Accel {
         let sheared = ShearedRay::new(origin, dir);
         if let Tree::Simd8(tree) = &self.bvh.tree {
             let box_ray = BoxRay::new(origin, dir);
-            return tree.any::<ISA>(
+            return tree.nodes().any::<ISA>(
                 &box_ray,
                 t_max,
                 #[inline(always)]
                 |pack, _| sheared.any_in_pack::<ISA, PACK>(&self.packs[pack], t_max),
                 #[inline(always)]
-                |pack, _| self.fetch_pack(pack),
+                |pack, _| fetch_pack(&self.packs, pack),
             );
         }
         self.occluded_by_slot(&sheared, origin, dir, t_max)
-    }
-
-    /// Starts fetching a leaf's pack (see `wide::prefetch`). A `Simd8` leaf is one
-    /// pack (`wide::MAX_LEAF` is `PACK`), so the triangle traversals above test the
-    /// leaf's first pack only.
-    #[inline(always)]
-    fn fetch_pack(&self, pack: usize) {
-        if let Some(pack) = self.packs.get(pack) {
-            prefetch(pack);
-        }
     }
 
     /// The `Simd8` part of [`Accel::validate`]: the references are recomputed from the
@@ -770,6 +763,16 @@ impl Accel {
             *entry = Some(*t);
         }
         Ok(())
+    }
+}
+
+/// Starts fetching a leaf's pack (see `wide::prefetch`). A `Simd8` leaf is one
+/// pack (`wide::MAX_LEAF` is `PACK`), so the triangle traversals test the leaf's
+/// first pack only.
+#[inline(always)]
+fn fetch_pack(packs: &[TrianglePack<PACK>], pack: usize) {
+    if let Some(pack) = packs.get(pack) {
+        prefetch(pack);
     }
 }
 

@@ -97,6 +97,15 @@ impl SimdPath {
     /// one. AVX-512 is taken only when `COATLAB_SIMD=avx512` asks for it: on the
     /// Xeon (Sapphire Rapids) it was measured on, its traversal traced 4–15 % fewer
     /// rays per CPU-second than the AVX2 one (`ACCEL_CPU=1` of `benches/accel.rs`).
+    /// Why, as far as the code shows (the VM exposes no performance counters, so
+    /// clocks and port use were not measured): the 16-lane box test halves the
+    /// subtractions and products of the 8-lane one but adds three 256→512-bit
+    /// inserts and an extract, so a node costs no fewer instructions; the mask
+    /// registers save one `vmovmskps` a node or pack; and with AVX-512 enabled on a
+    /// generic target LLVM also moves the batch's per-ray state in 512-bit
+    /// registers (in the dev build about 160 of that kernel's 221 zmm instructions
+    /// are moves), each of which puts the core in its 512-bit mode (no vector ALU
+    /// on port 1, possibly a lower clock) for no arithmetic gained.
     pub fn best() -> SimdPath {
         if SimdPath::Avx2.is_available() {
             SimdPath::Avx2
@@ -189,6 +198,13 @@ pub(crate) fn on_avx512<R>(kernel: impl FnOnce() -> R) -> R {
 /// it), and evaluated on `path`, which must be one this CPU has
 /// ([`SimdPath::current`], [`SimdPath::or_portable`]). The one place where the
 /// kernels' entry points meet the target features.
+///
+/// The expression runs in a closure, so what it reaches through the references the
+/// closure captures (`self` above all) is not known to LLVM to be left alone by the
+/// kernel's own stores, as a `&self` argument of a `#[target_feature]` method would
+/// be: a kernel takes the slices its loop reads into locals before the loop, or
+/// LLVM loads their address and length again at every step (`accel::wide::Nodes`:
+/// that cost the batch traversal 2.8 % more instructions).
 macro_rules! dispatch {
     ($path:expr, $isa:tt => $body:expr) => {{
         let path: $crate::simd_path::SimdPath = $path;

@@ -268,7 +268,7 @@ fn simd8_closest<F: FnMut(&Ray, usize) -> f32>(
     let mut best = None;
     // The box layer's generic queries (tests, picking) run the portable code: the
     // caller's closure is not compiled for a SIMD path.
-    tree.closest::<PORTABLE>(
+    tree.nodes().closest::<PORTABLE>(
         &box_ray,
         ray.tmax,
         |first, count, t_max| {
@@ -292,7 +292,7 @@ fn simd8_closest<F: FnMut(&Ray, usize) -> f32>(
 /// [`Bvh::any`] on the `Simd8` tree, one slot at a time.
 fn simd8_any<F: FnMut(&Ray, usize) -> f32>(tree: &WideBvh, ray: Ray, mut intersect: F) -> bool {
     let box_ray = BoxRay::new(ray.origin.into(), ray.direction.into());
-    tree.any::<PORTABLE>(
+    tree.nodes().any::<PORTABLE>(
         &box_ray,
         ray.tmax,
         |first, count| {
