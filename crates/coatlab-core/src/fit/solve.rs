@@ -95,11 +95,12 @@ fn cholesky_solve(mut h: Vec<f64>, n: usize, b: &mut [f64]) -> Option<()> {
 /// 1982): the variables at a bound whose gradient points out of the box are held
 /// (a variable with equal bounds always is), the others take the Newton step of
 /// their block, and the step is projected and halved until the objective falls
-/// enough. With a Gauss–Newton Hessian this is a projected Gauss–Newton method; the
+/// enough, for at most `iterations` steps. With a Gauss–Newton Hessian this is a projected Gauss–Newton method; the
 /// ridge added when the block is singular makes it Levenberg–Marquardt-like there.
 pub(super) fn projected_newton(
     mut x: Vec<f64>,
     (lower, upper): (&[f64], &[f64]),
+    iterations: usize,
     local: impl Fn(&[f64]) -> Local,
     value: &impl Fn(&[f64]) -> f64,
 ) -> Vec<f64> {
@@ -107,7 +108,7 @@ pub(super) fn projected_newton(
     for (j, v) in x.iter_mut().enumerate() {
         *v = v.clamp(lower[j], upper[j]);
     }
-    for _ in 0..200 {
+    for _ in 0..iterations {
         let l = local(&x);
         let free: Vec<usize> = (0..n)
             .filter(|&j| {
