@@ -105,7 +105,10 @@ fn the_coat_is_fitted_from_a_perturbed_start() {
         &out,
         &["--start", start_arg, "--free", "rho,gloss,h,k,n", "--json"],
     ));
-    assert_eq!(j["free"], serde_json::json!(["rho", "gloss", "h", "k", "n"]));
+    assert_eq!(
+        j["free"],
+        serde_json::json!(["rho", "gloss", "h", "k", "n"])
+    );
     let coat = j["coat"].as_array().expect("coat parameters");
     let names: Vec<&str> = coat.iter().filter_map(|p| p["name"].as_str()).collect();
     assert_eq!(names, ["n", "gloss", "h", "k"]);

@@ -765,7 +765,7 @@ fn least_squares(
     };
     let start = mean_inverse(coat, readings, targets);
     let (lower, upper) = (vec![0.0; n], vec![1.0; n]);
-    projected_newton(start, (&lower, &upper), 200, local, &value)
+    projected_newton(start, (&lower, &upper), (200, 0.0), local, &value)
 }
 
 /// One stated colour to reproduce: the tristimulus weights of its conditions on
@@ -937,7 +937,7 @@ fn smoothest_metamer(
                 hessian,
             }
         };
-        rho = projected_newton(rho, (&lower, &upper), 200, local, &value);
+        rho = projected_newton(rho, (&lower, &upper), (200, 0.0), local, &value);
         let mut worst = 0.0f64;
         for (t, u) in targets.iter().zip(shift.iter_mut()) {
             let lab = lab_of(t, &rho);

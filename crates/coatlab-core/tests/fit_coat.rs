@@ -31,33 +31,28 @@ fn preset(slug: &str) -> PaintDesign {
 fn virtual_measurement(design: &PaintDesign, mut noise: impl FnMut() -> f64) -> Vec<Sample> {
     let model = design.model(WavelengthGrid::reference()).expect("model");
     let m = measure(&model).expect("spectral");
-    let keep: Vec<usize> = (0..m.wavelength_nm.len()).step_by(2).collect();
-    let w: Vec<f64> = keep.iter().map(|&i| m.wavelength_nm[i]).collect();
-    let gloss: Vec<GlossValue> = m
+    let mut samples = m.multi_angle_samples(&design.name, 2).expect("samples");
+    // The gloss repeats on every row: one noisy reading per geometry, repeated.
+    let gloss: Vec<GlossValue> = samples[0]
         .gloss
         .iter()
         .map(|g| GlossValue {
-            angle_deg: f64::from(u32::from(g.geometry)),
-            gu: g.total_gu * (1.0 + noise()),
+            gu: g.gu * (1.0 + noise()),
+            ..*g
         })
         .collect();
-    m.angles
-        .iter()
-        .map(|a| {
-            let r = keep
-                .iter()
-                .map(|&i| a.reflectance_factor[i] * (1.0 + noise()))
-                .collect();
-            Sample {
-                name: design.name.clone(),
-                id: None,
-                geometry: Geometry::directional(45.0, a.aspecular_deg),
-                spectrum: Some(Reflectance::new(w.clone(), r).expect("valid")),
-                colour: None,
-                gloss: gloss.clone(),
-            }
-        })
-        .collect()
+    for s in &mut samples {
+        let spectrum = s.spectrum.as_ref().expect("spectrum");
+        let noisy = spectrum
+            .factors()
+            .iter()
+            .map(|r| r * (1.0 + noise()))
+            .collect();
+        s.spectrum =
+            Some(Reflectance::new(spectrum.wavelengths_nm().to_vec(), noisy).expect("valid"));
+        s.gloss.clone_from(&gloss);
+    }
+    samples
 }
 
 /// Through a CGATS.17 file and back, as a measurement reaches `coatlab fit`.

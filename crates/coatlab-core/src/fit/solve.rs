@@ -95,12 +95,13 @@ fn cholesky_solve(mut h: Vec<f64>, n: usize, b: &mut [f64]) -> Option<()> {
 /// 1982): the variables at a bound whose gradient points out of the box are held
 /// (a variable with equal bounds always is), the others take the Newton step of
 /// their block, and the step is projected and halved until the objective falls
-/// enough, for at most `iterations` steps. With a Gauss–Newton Hessian this is a projected Gauss–Newton method; the
+/// enough, for at most `iterations` steps and until a step gains less than
+/// `min_decrease`. With a Gauss–Newton Hessian this is a projected Gauss–Newton method; the
 /// ridge added when the block is singular makes it Levenberg–Marquardt-like there.
 pub(super) fn projected_newton(
     mut x: Vec<f64>,
     (lower, upper): (&[f64], &[f64]),
-    iterations: usize,
+    (iterations, min_decrease): (usize, f64),
     local: impl Fn(&[f64]) -> Local,
     value: &impl Fn(&[f64]) -> f64,
 ) -> Vec<f64> {
@@ -172,7 +173,8 @@ pub(super) fn projected_newton(
                     .zip(&x)
                     .map(|(t, x)| (t - x).abs())
                     .fold(0.0, f64::max);
-                moved = change > 1e-13 && l.value - v > 1e-16 * (1.0 + l.value.abs());
+                moved =
+                    change > 1e-13 && l.value - v > min_decrease.max(1e-16 * (1.0 + l.value.abs()));
                 x = trial;
                 break;
             }
