@@ -469,7 +469,7 @@ fn fit_cases(designs: &[(String, PathBuf)], dir: &Path) -> Vec<Case> {
     for args in [
         &["fit", "--target", bad, "--out", &out][..],
         &[
-            "fit", "--target", &target, "--sample", "1", "--free", "n", "--out", &out,
+            "fit", "--target", &target, "--sample", "1", "--free", "n,x", "--out", &out,
         ],
         &[
             "fit", "--target", &target, "--sample", "1", "--free", "", "--out", &out,

@@ -86,6 +86,51 @@ fn a_presets_measurement_is_fitted_back_and_the_fit_passes_measure() {
 }
 
 #[test]
+fn the_coat_is_fitted_from_a_perturbed_start() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let red = preset("signal-red");
+    let spectra = spectra_of(&red, 2);
+    let target = dir.path().join("red.cgats");
+    std::fs::write(&target, as_cgats("Signal red", &spectra)).expect("write");
+    // The preset with a thicker, more absorbing coat.
+    let mut start = PaintDesign::load(&red).expect("preset");
+    start.thickness_um *= 1.3;
+    start.absorption_per_um = coatlab_core::design::Absorption::Constant(1e-3);
+    let start_path = dir.path().join("start.toml");
+    start.save(&start_path).expect("save");
+    let start_arg = start_path.to_str().expect("UTF-8 path");
+    let out = dir.path().join("fitted.toml");
+    let j = json(&fit(
+        &target,
+        &out,
+        &["--start", start_arg, "--free", "rho,gloss,h,k,n", "--json"],
+    ));
+    assert_eq!(
+        j["free"],
+        serde_json::json!(["rho", "gloss", "h", "k", "n"])
+    );
+    let coat = j["coat"].as_array().expect("coat parameters");
+    let names: Vec<&str> = coat.iter().filter_map(|p| p["name"].as_str()).collect();
+    assert_eq!(names, ["n", "gloss", "h", "k"]);
+    assert_eq!(number(&coat[2]["start"]), start.thickness_um);
+    for a in j["comparison"]["angles"].as_array().expect("angles") {
+        assert!(number(&a["difference"]["dE00"]) <= 0.05, "{a}");
+    }
+    // The written design carries the fitted coat.
+    let fitted = PaintDesign::load(&out).expect("a valid design");
+    assert_eq!(fitted.thickness_um, number(&coat[2]["fitted"]));
+    // The text report names the free parameters and their values.
+    let text = stdout(&fit(
+        &target,
+        &out,
+        &["--start", start_arg, "--free", "k,rho"],
+    ));
+    assert!(text.contains("free: rho, k; kept: gloss, h, n"), "{text}");
+    assert!(text.contains("clear coat absorption k"), "{text}");
+    assert!(text.contains("→"), "{text}");
+}
+
+#[test]
 fn one_geometry_is_inverted_to_the_designs_albedo() {
     let dir = tempfile::tempdir().expect("temp dir");
     let red = preset("signal-red");
@@ -166,10 +211,19 @@ fn bad_arguments_and_files_are_refused_and_nothing_is_written() {
     let target = dir.path().join("red.cgats");
     std::fs::write(&target, as_cgats("Signal red", &(w, angles))).expect("write");
     let out = dir.path().join("out.toml");
-    let e = failure(&fit(&target, &out, &["--free", "rho,n"]), exit::USAGE);
-    assert!(e.contains("--free n: only the pigment"), "{e}");
-    let e = failure(&fit(&target, &out, &["--free", "colour"]), exit::USAGE);
-    assert!(e.contains("unknown parameter"), "{e}");
+    let e = failure(&fit(&target, &out, &["--free", "rho,colour"]), exit::USAGE);
+    assert!(e.contains("--free \"colour\": unknown parameter"), "{e}");
+    let e = failure(&fit(&target, &out, &["--free", ""]), exit::USAGE);
+    assert!(e.contains("--free \"\": unknown parameter"), "{e}");
+    // Colours alone cannot fix a coat.
+    let lab = dir.path().join("lab.cgats");
+    std::fs::write(
+        &lab,
+        lab_only_cgats("Teal", [45.0, -30.0, -8.0], "D50", "2 degree"),
+    )
+    .expect("write");
+    let e = failure(&fit(&lab, &out, &["--free", "rho,h"]), exit::DATA);
+    assert!(e.contains("cannot be fitted to colours"), "{e}");
     let e = failure(&fit(&red, &out, &[]), exit::DATA);
     assert!(e.contains("not a CGATS.17 or CxF3"), "{e}");
     let e = failure(

@@ -1,11 +1,17 @@
-//! Fitting ρ(λ) alone to a measured standard (issue 19: ≤ 10 ms), the signal-red
-//! preset's own virtual measurement at 10 nm, 380–780 nm:
+//! Fitting a design to a measured standard (issue 19: ≤ 10 ms for ρ(λ) alone,
+//! ≤ 1 s with every coat parameter free), the signal-red preset's own virtual
+//! measurement at 10 nm, 380–780 nm:
 //!
 //!     cargo bench -p coatlab-core --bench fit
 //!
-//! - `one_geometry`: the closed form at 45°as45°;
-//! - `five_angles`: the bounded least-squares fit of the five instrument angles;
-//! - `lab_only`: the smoothest ρ with one stated CIELAB (D65/10°, 45°as45°).
+//! - `one_geometry`: ρ alone, the closed form at 45°as45°;
+//! - `five_angles`: ρ alone, the bounded least-squares fit of the five instrument
+//!   angles;
+//! - `lab_only`: ρ alone, the smoothest ρ with one stated CIELAB (D65/10°,
+//!   45°as45°);
+//! - `coat_free`: ρ, gloss, h, k and n, the five angles and the three glossmeter
+//!   readings, from the preset with its coat moved (gloss −6 GU, h × 1.3, a
+//!   constant k of twice its k at 587.6 nm, n + 0.03).
 //!
 //! Each includes building the start design's model (the coat's tables), as
 //! `coatlab fit` does.
@@ -14,7 +20,8 @@ use std::hint::black_box;
 
 use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::design::presets;
-use coatlab_core::fit::fit_albedo;
+use coatlab_core::design::{Absorption, RefractiveIndex};
+use coatlab_core::fit::{FitRequest, FreeParameters, fit, fit_albedo};
 use coatlab_core::instruments::measure;
 use coatlab_core::measurement::{
     Geometry, Reflectance, Sample, Standard, StatedColour, StatedValue,
@@ -40,18 +47,14 @@ fn bench_fit(c: &mut Criterion) {
     let design = presets::by_slug("signal-red").expect("preset").design;
     let model = design.model(WavelengthGrid::reference()).expect("model");
     let m = measure(&model).expect("spectral");
-    let keep: Vec<usize> = (0..m.wavelength_nm.len()).step_by(2).collect();
-    let w: Vec<f64> = keep.iter().map(|&i| m.wavelength_nm[i]).collect();
-    let spectral: Vec<Sample> = m
-        .angles
+    // Five angles at 10 nm with the three gloss readings on each row; the ρ-only
+    // fits get the spectra alone.
+    let with_gloss = m.multi_angle_samples("Signal red", 2).expect("samples");
+    let spectral: Vec<Sample> = with_gloss
         .iter()
-        .map(|a| {
-            let r = keep.iter().map(|&i| a.reflectance_factor[i]).collect();
-            sample(
-                Geometry::directional(45.0, a.aspecular_deg),
-                Some(Reflectance::new(w.clone(), r).expect("valid")),
-                None,
-            )
+        .map(|s| Sample {
+            gloss: Vec::new(),
+            ..s.clone()
         })
         .collect();
     let one = Standard {
@@ -75,6 +78,20 @@ fn bench_fit(c: &mut Criterion) {
         name: "Signal red",
         readings: vec![&lab_only],
     };
+    let with_gloss = Standard {
+        name: "Signal red",
+        readings: with_gloss.iter().collect(),
+    };
+    let mut moved = design.clone();
+    moved.gloss.gu -= 6.0;
+    moved.thickness_um *= 1.3;
+    moved.absorption_per_um = Absorption::Constant(2.0 * design.absorption_per_um.at_nm(587.6));
+    if let RefractiveIndex::Cauchy { a, .. } = &mut moved.refractive_index {
+        *a += 0.03;
+    }
+    let every = FitRequest {
+        free: FreeParameters::parse("rho,gloss,h,k,n").expect("names"),
+    };
     let mut group = c.benchmark_group("fit");
     group.bench_function("one_geometry", |b| {
         b.iter(|| fit_albedo(black_box(&design), black_box(&one)).expect("fit"));
@@ -84,6 +101,10 @@ fn bench_fit(c: &mut Criterion) {
     });
     group.bench_function("lab_only", |b| {
         b.iter(|| fit_albedo(black_box(&design), black_box(&lab)).expect("fit"));
+    });
+    group.sample_size(10);
+    group.bench_function("coat_free", |b| {
+        b.iter(|| fit(black_box(&moved), black_box(&with_gloss), &every).expect("fit"));
     });
     group.finish();
 }

@@ -29,8 +29,22 @@
 //!   readings have exactly those colours (the method of multipliers on the same
 //!   smoothness term). Many spectra share a colour (a metamer set); this picks one.
 //!
-//! Only ρ is fitted: the coat (n, k, h) and the gloss come from the start design.
-//! Outside the measured wavelengths ρ is held flat at its end values.
+//! What is free is the caller's choice ([`FitRequest`], `--free`): by default ρ
+//! alone, the coat (n, k, h) and the gloss coming from the start design. With any
+//! coat parameter free, spectra at one or several geometries are fitted by the
+//! bounded least squares of [`coat`] over ρ and those parameters together, the
+//! standard's gloss readings included; colours alone cannot fix a coat and are
+//! refused. Outside the measured wavelengths ρ is held flat at its end values.
+//!
+//! ```no_run
+//! # use coatlab_core::{design::PaintDesign, fit, measurement};
+//! # fn demo(start: &PaintDesign, m: &measurement::Measurement) -> Result<(), Box<dyn std::error::Error>> {
+//! let standard = m.select(None)?;
+//! let request = fit::FitRequest { free: fit::FreeParameters::parse("rho,gloss,h,k,n")? };
+//! let fitted = fit::fit(start, &standard, &request)?;
+//! println!("{} coat parameters fitted", fitted.coat.len());
+//! # Ok(()) }
+//! ```
 
 use std::f64::consts::PI;
 
@@ -46,6 +60,11 @@ use crate::paint::fresnel::reflectance;
 use crate::paint::model::PaintModel;
 use crate::target::{Comparison, TargetError, compare_to_standard};
 
+mod coat;
+mod solve;
+
+use solve::{Local, projected_newton, quadratic, smoothness_matrix};
+
 /// The weight λ of the smoothness term: the objective
 /// is mean(residual²) + λ·mean((ρ″·(10 nm)²)²). With λ = 10⁻³ a noiseless fit moves
 /// ρ by less than 10⁻⁴ while 0.5 % measurement noise is damped.
@@ -55,38 +74,145 @@ pub const SMOOTHNESS_WEIGHT: f64 = 1e-3;
 /// bound's reading by more than this (reflectance factor): rounding is not a finding.
 const UNREACHABLE_MARGIN: f64 = 1e-6;
 
-/// A design parameter the fit may change.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum FreeParameter {
-    /// The pigment albedo ρ(λ).
-    Rho,
+/// The parameters a fit may change (`--free`): any of ρ(λ) and the coat's gloss,
+/// thickness h, absorption k and refractive index n; ρ alone by default.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FreeParameters {
+    /// The pigment albedo ρ(λ) (`rho`).
+    pub rho: bool,
+    /// The gloss reading g at the start design's glossmeter geometry (`gloss`).
+    pub gloss: bool,
+    /// The clear coat thickness h (`h`).
+    pub thickness: bool,
+    /// The clear coat absorption k(λ), as a scale of the start's curve (`k`).
+    pub absorption: bool,
+    /// The clear coat refractive index n(λ), as a shift of the start's curve (`n`).
+    pub index: bool,
 }
 
-/// The parameters the fit may name (`--free`): only `rho` is fitted; the coat's
-/// `gloss`, `h`, `k` and `n` are recognised and refused with a reason.
-pub fn parse_free(list: &str) -> Result<Vec<FreeParameter>, FitError> {
-    let mut free = Vec::new();
-    for item in list.split(',').map(str::trim) {
-        match item {
-            "rho" | "ρ" => {
-                if !free.contains(&FreeParameter::Rho) {
-                    free.push(FreeParameter::Rho);
-                }
-            }
-            "gloss" | "h" | "k" | "n" => {
-                return Err(FitError::NotFittable {
-                    parameter: item.to_owned(),
-                });
-            }
-            other => {
-                return Err(FitError::UnknownParameter {
-                    parameter: other.to_owned(),
-                });
-            }
-        }
+impl Default for FreeParameters {
+    fn default() -> Self {
+        FreeParameters::RHO
     }
-    Ok(free)
+}
+
+impl FreeParameters {
+    /// ρ alone: the coat and gloss are the start design's.
+    pub const RHO: FreeParameters = FreeParameters {
+        rho: true,
+        gloss: false,
+        thickness: false,
+        absorption: false,
+        index: false,
+    };
+
+    /// The names `--free` takes, in its order.
+    pub const NAMES: [&'static str; 5] = ["rho", "gloss", "h", "k", "n"];
+
+    /// Reads a comma-separated list of [`Self::NAMES`] (`ρ` for `rho` too), in any
+    /// order, repeats allowed; an empty list or an unknown name is refused by name.
+    pub fn parse(list: &str) -> Result<FreeParameters, FitError> {
+        let mut free = FreeParameters {
+            rho: false,
+            ..FreeParameters::RHO
+        };
+        for item in list.split(',').map(str::trim) {
+            let flag = match item {
+                "rho" | "ρ" => &mut free.rho,
+                "gloss" => &mut free.gloss,
+                "h" => &mut free.thickness,
+                "k" => &mut free.absorption,
+                "n" => &mut free.index,
+                other => {
+                    return Err(FitError::UnknownParameter {
+                        parameter: other.to_owned(),
+                    });
+                }
+            };
+            *flag = true;
+        }
+        Ok(free)
+    }
+
+    /// Whether any coat parameter (gloss, h, k, n) is free.
+    pub fn coat(&self) -> bool {
+        self.gloss || self.thickness || self.absorption || self.index
+    }
+
+    /// The free parameters' names, in the order of [`Self::NAMES`].
+    pub fn names(&self) -> Vec<&'static str> {
+        let flags = [
+            self.rho,
+            self.gloss,
+            self.thickness,
+            self.absorption,
+            self.index,
+        ];
+        Self::NAMES
+            .iter()
+            .zip(flags)
+            .filter(|(_, on)| *on)
+            .map(|(name, _)| *name)
+            .collect()
+    }
+}
+
+/// As the list of names: `["rho", "gloss"]`.
+impl serde::Serialize for FreeParameters {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self.names().serialize(s)
+    }
+}
+
+/// What to fit: the one entry point of the app's *Fit to target* and of
+/// `coatlab fit` ([`fit`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FitRequest {
+    /// What may change; the rest is the start design's.
+    pub free: FreeParameters,
+}
+
+/// A coat parameter of a fit with it free: where it started, where it ended and
+/// the box it was kept in (from the paint parameter table).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct FittedParameter {
+    /// Its `--free` name: `gloss`, `h`, `k` or `n`.
+    pub name: &'static str,
+    /// What the number is: "clear coat thickness h".
+    pub label: String,
+    /// The unit as a suffix (" µm"; empty for n).
+    pub unit: String,
+    pub start: f64,
+    pub fitted: f64,
+    pub lower: f64,
+    pub upper: f64,
+}
+
+impl std::fmt::Display for FittedParameter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let at_bound = if self.fitted <= self.lower {
+            " (at its lower bound)"
+        } else if self.fitted >= self.upper {
+            " (at its upper bound)"
+        } else {
+            ""
+        };
+        write!(
+            f,
+            "{}: {:.6}{unit} → {:.6}{unit}{at_bound}, kept in [{:.6}, {:.6}]{unit}",
+            self.label,
+            self.start,
+            self.fitted,
+            self.lower,
+            self.upper,
+            unit = self.unit
+        )
+    }
+}
+
+/// The parameters of `--free` (see [`FreeParameters::parse`]).
+pub fn parse_free(list: &str) -> Result<FreeParameters, FitError> {
+    FreeParameters::parse(list)
 }
 
 /// How ρ was found.
@@ -144,11 +270,15 @@ impl std::fmt::Display for Unreachable {
 #[derive(Debug, thiserror::Error)]
 pub enum FitError {
     #[error(
-        "--free {parameter}: only the pigment (rho) can be fitted; the coat and the gloss come from the start design"
+        "--free {parameter:?}: unknown parameter (expected a comma-separated list of rho, gloss, h, k, n)"
     )]
-    NotFittable { parameter: String },
-    #[error("--free {parameter}: unknown parameter (expected rho, gloss, h, k or n)")]
     UnknownParameter { parameter: String },
+    #[error(
+        "standard {name:?} states only colours: a coat (gloss, h, k, n) cannot be fitted to colours; free only rho, or fit a measurement with spectra"
+    )]
+    CoatNeedsSpectra { name: String },
+    #[error("the coat fit's bounds: {0}")]
+    Bounds(String),
     #[error(
         "standard {name:?} has no directional reading with a spectrum or a colour to fit (sphere readings are compared but not fitted; unstated geometries have no instrument)"
     )]
@@ -177,6 +307,10 @@ pub struct Fit {
     pub albedo: Vec<f64>,
     /// The smoothness weight used (none for the closed form).
     pub smoothness_weight: Option<f64>,
+    /// What was free.
+    pub free: FreeParameters,
+    /// The free coat parameters, start and fitted (empty when only ρ was free).
+    pub coat: Vec<FittedParameter>,
     /// Readings the coat cannot produce with any ρ in [0, 1].
     pub unreachable: Vec<Unreachable>,
     /// What the reader should know (flat extension, metamers, the gloss not fitted).
@@ -184,6 +318,7 @@ pub struct Fit {
 }
 
 /// The coat's share of one directional reading on the fit wavelengths.
+#[derive(Clone)]
 struct Reading {
     geometry: Geometry,
     /// π·R_F·S: the surface reflection.
@@ -193,6 +328,7 @@ struct Reading {
 }
 
 /// The coat's quantities on the fit wavelengths, from the start model on its grid.
+#[derive(Clone)]
 struct Coat {
     /// C/π.
     c: Vec<f64>,
@@ -283,8 +419,101 @@ impl Reading {
     }
 }
 
-/// Fits ρ(λ) of `start` to `standard`; only `--free rho` exists (see [`parse_free`]).
+/// Fits ρ(λ) alone of `start` to `standard`: [`fit`] with the default request.
 pub fn fit_albedo(start: &PaintDesign, standard: &Standard<'_>) -> Result<Fit, FitError> {
+    fit(start, standard, &FitRequest::default())
+}
+
+/// Where the readings at ρ's bounds cannot reach their targets.
+fn unreachable_at(
+    coat: &Coat,
+    readings: &[Reading],
+    targets: &[Vec<f64>],
+    wavelength_nm: &[f64],
+    albedo: &[f64],
+) -> Vec<Unreachable> {
+    let mut unreachable = Vec::new();
+    for (reading, target) in readings.iter().zip(targets) {
+        for (j, (&rho, &t)) in albedo.iter().zip(target).enumerate() {
+            if let Some((beyond, limit)) = reading.beyond(coat, j, rho, t) {
+                unreachable.push(Unreachable {
+                    geometry: reading.geometry,
+                    wavelength_nm: wavelength_nm[j],
+                    beyond,
+                    target: t,
+                    limit,
+                });
+            }
+        }
+    }
+    unreachable
+}
+
+/// ρ on the fit wavelengths as a design's table: flat end points make the flat
+/// extension to the visible range explicit (a design file needs 400–700 nm).
+fn albedo_table(wavelength_nm: &[f64], albedo: &[f64]) -> Result<TabulatedSpectrum, FitError> {
+    let (lo, hi) = (wavelength_nm[0], wavelength_nm[wavelength_nm.len() - 1]);
+    let mut table_nm = wavelength_nm.to_vec();
+    let mut table_rho = albedo.to_vec();
+    if lo > VISIBLE.start_nm {
+        table_nm.insert(0, VISIBLE.start_nm);
+        table_rho.insert(0, albedo[0]);
+    }
+    if hi < VISIBLE.end_nm {
+        table_nm.push(VISIBLE.end_nm);
+        table_rho.push(albedo[albedo.len() - 1]);
+    }
+    TabulatedSpectrum::new(table_nm, table_rho).map_err(|error| {
+        FitError::Design(DesignError::Invalid {
+            field: "pigment.albedo".to_owned(),
+            message: format!("the fitted albedo: {error}"),
+        })
+    })
+}
+
+/// The standard's gloss readings at the glossmeter geometries the instruments
+/// have (20°, 60°, 85°); others are left out with a note.
+fn gloss_targets(
+    standard: &Standard<'_>,
+    notes: &mut Vec<String>,
+) -> Vec<(crate::paint::gloss::GlossGeometry, f64)> {
+    let mut targets: Vec<(crate::paint::gloss::GlossGeometry, f64)> = Vec::new();
+    // A multi-angle file repeats the gloss on each angle's row: one reading per
+    // geometry, the mean of its repeats.
+    let mut counts: Vec<f64> = Vec::new();
+    for g in standard.readings.iter().flat_map(|s| &s.gloss) {
+        let geometry = (g.angle_deg.fract() == 0.0 && g.angle_deg >= 0.0)
+            .then(|| crate::paint::gloss::GlossGeometry::try_from(g.angle_deg as u32).ok())
+            .flatten();
+        match geometry {
+            Some(geometry) => match targets.iter().position(|(t, _)| *t == geometry) {
+                Some(k) => {
+                    counts[k] += 1.0;
+                    targets[k].1 += (g.gu - targets[k].1) / counts[k];
+                }
+                None => {
+                    targets.push((geometry, g.gu));
+                    counts.push(1.0);
+                }
+            },
+            None => notes.push(format!(
+                "the gloss reading at {}° is not fitted: the glossmeter reads at 20°, 60° and 85°",
+                g.angle_deg
+            )),
+        }
+    }
+    targets
+}
+
+/// Fits `start` to `standard`, changing what `request` frees (see the module
+/// docs for the methods). The fitted design is `start` with those parameters
+/// replaced; errors name the standard or the start design's fault.
+pub fn fit(
+    start: &PaintDesign,
+    standard: &Standard<'_>,
+    request: &FitRequest,
+) -> Result<Fit, FitError> {
+    let free = request.free;
     let grid = WavelengthGrid::reference();
     let model = start.model(grid)?;
     let grid_nm: Vec<f64> = grid.wavelengths_nm().collect();
@@ -296,6 +525,8 @@ pub fn fit_albedo(start: &PaintDesign, standard: &Standard<'_>) -> Result<Fit, F
         .filter_map(|s| s.spectrum.as_ref().map(|r| (s.geometry, r)))
         .collect();
     let mut notes = Vec::new();
+    let mut design = start.clone();
+    let mut coat_parameters = Vec::new();
     let (method, wavelength_nm, albedo, unreachable) = if let Some(&(_, first)) = spectral.first() {
         let wavelength_nm = first.wavelengths_nm().to_vec();
         let coat = Coat::new(&model, &grid_nm, &wavelength_nm);
@@ -326,31 +557,67 @@ pub fn fit_albedo(start: &PaintDesign, standard: &Standard<'_>) -> Result<Fit, F
                 name: standard.name.to_owned(),
             });
         }
-        let (method, albedo) = if readings.len() == 1 {
-            let albedo = (0..wavelength_nm.len())
-                .map(|j| readings[0].invert(&coat, j, targets[0][j]).clamp(0.0, 1.0))
-                .collect();
-            (Method::ClosedForm, albedo)
-        } else {
-            let albedo = least_squares(&coat, &readings, &targets, &wavelength_nm);
-            (Method::LeastSquares, albedo)
-        };
-        let mut unreachable = Vec::new();
-        for (reading, target) in readings.iter().zip(&targets) {
-            for (j, (&rho, &t)) in albedo.iter().zip(target).enumerate() {
-                if let Some((beyond, limit)) = reading.beyond(&coat, j, rho, t) {
-                    unreachable.push(Unreachable {
-                        geometry: reading.geometry,
-                        wavelength_nm: wavelength_nm[j],
-                        beyond,
-                        target: t,
-                        limit,
-                    });
-                }
+        if free.coat() {
+            let start_albedo: Vec<f64> = if free.rho {
+                mean_inverse(&coat, &readings, &targets)
+            } else {
+                wavelength_nm
+                    .iter()
+                    .map(|&nm| start.albedo.value_at_nm(nm))
+                    .collect()
+            };
+            let coat_targets = coat::Targets {
+                wavelength_nm: &wavelength_nm,
+                geometries: readings.iter().map(|r| r.geometry).collect(),
+                spectra: &targets,
+                gloss: gloss_targets(standard, &mut notes),
+            };
+            let outcome = coat::fit_coat(start, &coat_targets, free, &start_albedo)?;
+            if free.thickness && free.absorption {
+                let tau = outcome
+                    .design
+                    .absorption_per_um
+                    .at_nm(crate::paint::gloss::GLOSS_WAVELENGTH_NM)
+                    * outcome.design.thickness_um;
+                notes.push(format!(
+                    "h and k trade off: the readings depend on their product τ = k·h alone \
+                     (fitted τ = {tau:.6} at 587.6 nm), so their split is not determined"
+                ));
             }
+            let unreachable = unreachable_at(
+                &outcome.coat,
+                &outcome.readings,
+                &targets,
+                &wavelength_nm,
+                &outcome.albedo,
+            );
+            design = outcome.design;
+            coat_parameters = outcome.parameters;
+            (
+                Method::LeastSquares,
+                wavelength_nm,
+                outcome.albedo,
+                unreachable,
+            )
+        } else {
+            let (method, albedo) = if readings.len() == 1 {
+                let albedo = (0..wavelength_nm.len())
+                    .map(|j| readings[0].invert(&coat, j, targets[0][j]).clamp(0.0, 1.0))
+                    .collect();
+                (Method::ClosedForm, albedo)
+            } else {
+                let albedo = least_squares(&coat, &readings, &targets, &wavelength_nm);
+                (Method::LeastSquares, albedo)
+            };
+            let unreachable = unreachable_at(&coat, &readings, &targets, &wavelength_nm, &albedo);
+            (method, wavelength_nm, albedo, unreachable)
         }
-        (method, wavelength_nm, albedo, unreachable)
     } else {
+        if free.coat() {
+            return Err(FitError::CoatNeedsSpectra {
+                name: standard.name.to_owned(),
+            });
+        }
         let albedo = smoothest_metamer(&model, &grid_nm, standard, &mut notes)?;
         notes.push(
             "the target states only colours: many spectra have them (a metamer set); this is \
@@ -362,43 +629,30 @@ pub fn fit_albedo(start: &PaintDesign, standard: &Standard<'_>) -> Result<Fit, F
     };
 
     let (lo, hi) = (wavelength_nm[0], wavelength_nm[wavelength_nm.len() - 1]);
-    let mut table_nm = wavelength_nm.clone();
-    let mut table_rho = albedo.clone();
-    if lo > VISIBLE.start_nm || hi < VISIBLE.end_nm {
-        notes.push(format!(
-            "outside the measured {lo}–{hi} nm, ρ is extended flat at its end values"
-        ));
+    if free.rho {
+        if lo > VISIBLE.start_nm || hi < VISIBLE.end_nm {
+            notes.push(format!(
+                "outside the measured {lo}–{hi} nm, ρ is extended flat at its end values"
+            ));
+        }
+        design.albedo = albedo_table(&wavelength_nm, &albedo)?;
     }
-    // The design file needs 400–700 nm at least; flat end points make the extension
-    // explicit in the table.
-    if lo > VISIBLE.start_nm {
-        table_nm.insert(0, VISIBLE.start_nm);
-        table_rho.insert(0, albedo[0]);
-    }
-    if hi < VISIBLE.end_nm {
-        table_nm.push(VISIBLE.end_nm);
-        table_rho.push(albedo[albedo.len() - 1]);
-    }
-    if standard.readings.iter().any(|s| !s.gloss.is_empty()) {
+    if !free.coat() && standard.readings.iter().any(|s| !s.gloss.is_empty()) {
         notes.push(
             "the standard's gloss readings are not fitted: the gloss is the start design's"
                 .to_owned(),
         );
     }
-    let mut design = start.clone();
-    design.albedo =
-        TabulatedSpectrum::new(table_nm, table_rho).map_err(|error| DesignError::Invalid {
-            field: "pigment.albedo".to_owned(),
-            message: format!("the fitted albedo: {error}"),
-        })?;
     design.validate()?;
-    let smoothness_weight = (method != Method::ClosedForm).then_some(SMOOTHNESS_WEIGHT);
+    let smoothness_weight = (method != Method::ClosedForm && free.rho).then_some(SMOOTHNESS_WEIGHT);
     Ok(Fit {
         design,
         method,
         wavelength_nm,
         albedo,
         smoothness_weight,
+        free,
+        coat: coat_parameters,
         unreachable,
         notes,
     })
@@ -453,173 +707,19 @@ pub fn report(
     })
 }
 
-// ---------------------------------------------------------------------------------
-// The smoothness term
-
-/// Q of the smoothness term λ·ρᵀQρ: the mean square of ρ's second divided
-/// difference times (10 nm)², so the weight means the same on any wavelength step.
-fn smoothness_matrix(wavelengths_nm: &[f64]) -> Vec<f64> {
-    let n = wavelengths_nm.len();
-    let mut q = vec![0.0; n * n];
-    if n < 3 {
-        return q;
-    }
-    let rows = (n - 2) as f64;
-    for j in 1..n - 1 {
-        let (h0, h1) = (
-            wavelengths_nm[j] - wavelengths_nm[j - 1],
-            wavelengths_nm[j + 1] - wavelengths_nm[j],
-        );
-        let s = 100.0 * 2.0 / (h0 + h1);
-        let d = [(j - 1, s / h0), (j, -s / h0 - s / h1), (j + 1, s / h1)];
-        for &(a, da) in &d {
-            for &(b, db) in &d {
-                q[a * n + b] += da * db / rows;
-            }
-        }
-    }
-    q
-}
-
-fn quadratic(q: &[f64], x: &[f64]) -> f64 {
-    let n = x.len();
-    (0..n)
-        .map(|a| x[a] * (0..n).map(|b| q[a * n + b] * x[b]).sum::<f64>())
-        .sum()
-}
-
-// ---------------------------------------------------------------------------------
-// Bounded minimisation
-
-/// What the solver needs of an objective at a point: its value, gradient and a
-/// positive semi-definite (Gauss–Newton) Hessian, row-major.
-struct Local {
-    value: f64,
-    gradient: Vec<f64>,
-    hessian: Vec<f64>,
-}
-
-/// Cholesky solve of the positive definite `h` (row-major, `n`×`n`) for `b`, in
-/// place; `None` when `h` is not positive definite.
-fn cholesky_solve(mut h: Vec<f64>, n: usize, b: &mut [f64]) -> Option<()> {
-    for j in 0..n {
-        let mut d = h[j * n + j];
-        for k in 0..j {
-            d -= h[j * n + k] * h[j * n + k];
-        }
-        if d <= 0.0 || !d.is_finite() {
-            return None;
-        }
-        let d = d.sqrt();
-        h[j * n + j] = d;
-        for i in j + 1..n {
-            let mut s = h[i * n + j];
-            for k in 0..j {
-                s -= h[i * n + k] * h[j * n + k];
-            }
-            h[i * n + j] = s / d;
-        }
-    }
-    for i in 0..n {
-        let mut s = b[i];
-        for k in 0..i {
-            s -= h[i * n + k] * b[k];
-        }
-        b[i] = s / h[i * n + i];
-    }
-    for i in (0..n).rev() {
-        let mut s = b[i];
-        for k in i + 1..n {
-            s -= h[k * n + i] * b[k];
-        }
-        b[i] = s / h[i * n + i];
-    }
-    Some(())
-}
-
-/// Minimises over the box [0, 1]ⁿ by projected Newton steps (Bertsekas 1982): the
-/// variables at a bound whose gradient points out of the box are held, the others
-/// take the Newton step of their block, and the step is projected and halved until
-/// the objective falls enough.
-fn projected_newton(
-    mut x: Vec<f64>,
-    local: impl Fn(&[f64]) -> Local,
-    value: &impl Fn(&[f64]) -> f64,
-) -> Vec<f64> {
-    let n = x.len();
-    for _ in 0..200 {
-        let l = local(&x);
-        let free: Vec<usize> = (0..n)
-            .filter(|&j| {
-                let g = l.gradient[j];
-                !((x[j] <= 0.0 && g > 0.0) || (x[j] >= 1.0 && g < 0.0))
-            })
-            .collect();
-        let m = free.len();
-        let mut step = vec![0.0; n];
-        if m > 0 {
-            let mut h = vec![0.0; m * m];
-            let mut largest = 0.0f64;
-            for (a, &ja) in free.iter().enumerate() {
-                for (b, &jb) in free.iter().enumerate() {
-                    h[a * m + b] = l.hessian[ja * n + jb];
-                }
-                largest = largest.max(h[a * m + a]);
-            }
-            let mut rhs: Vec<f64> = free.iter().map(|&j| -l.gradient[j]).collect();
-            let mut ridge = 1e-13 * largest.max(f64::MIN_POSITIVE);
-            loop {
-                let mut damped = h.clone();
-                for a in 0..m {
-                    damped[a * m + a] += ridge;
-                }
-                let mut trial = rhs.clone();
-                if cholesky_solve(damped, m, &mut trial).is_some() {
-                    rhs = trial;
-                    break;
-                }
-                ridge *= 100.0;
-                if ridge > 1e6 * largest.max(1.0) {
-                    // Nothing to descend along: a steepest-descent step instead.
-                    break;
-                }
-            }
-            for (a, &j) in free.iter().enumerate() {
-                step[j] = rhs[a];
-            }
-        }
-        let mut alpha = 1.0;
-        let mut moved = false;
-        for _ in 0..40 {
-            let trial: Vec<f64> = x
+/// The mean over the readings of the closed-form ρ, each kept in [0, 1]: where the
+/// least-squares fits start.
+fn mean_inverse(coat: &Coat, readings: &[Reading], targets: &[Vec<f64>]) -> Vec<f64> {
+    (0..coat.c.len())
+        .map(|j| {
+            let sum: f64 = readings
                 .iter()
-                .zip(&step)
-                .map(|(x, s)| (x + alpha * s).clamp(0.0, 1.0))
-                .collect();
-            let decrease: f64 = trial
-                .iter()
-                .zip(&x)
-                .zip(&l.gradient)
-                .map(|((t, x), g)| g * (t - x))
+                .zip(targets)
+                .map(|(r, t)| r.invert(coat, j, t[j]).clamp(0.0, 1.0))
                 .sum();
-            let v = value(&trial);
-            if v <= l.value + 1e-4 * decrease.min(0.0) && v <= l.value {
-                let change: f64 = trial
-                    .iter()
-                    .zip(&x)
-                    .map(|(t, x)| (t - x).abs())
-                    .fold(0.0, f64::max);
-                moved = change > 1e-13 && l.value - v > 1e-16 * (1.0 + l.value.abs());
-                x = trial;
-                break;
-            }
-            alpha *= 0.5;
-        }
-        if !moved {
-            break;
-        }
-    }
-    x
+            sum / readings.len() as f64
+        })
+        .collect()
 }
 
 /// ρ minimising mean((R_a(ρ) − target_a)²) + λ·ρᵀQρ over the box.
@@ -663,18 +763,9 @@ fn least_squares(
             hessian,
         }
     };
-    // Start from the mean of the per-geometry closed forms.
-    let start: Vec<f64> = (0..n)
-        .map(|j| {
-            let sum: f64 = readings
-                .iter()
-                .zip(targets)
-                .map(|(r, t)| r.invert(coat, j, t[j]).clamp(0.0, 1.0))
-                .sum();
-            sum / readings.len() as f64
-        })
-        .collect();
-    projected_newton(start, local, &value)
+    let start = mean_inverse(coat, readings, targets);
+    let (lower, upper) = (vec![0.0; n], vec![1.0; n]);
+    projected_newton(start, (&lower, &upper), (200, 0.0), local, &value)
 }
 
 /// One stated colour to reproduce: the tristimulus weights of its conditions on
@@ -789,6 +880,7 @@ fn smoothest_metamer(
         .collect();
     let mut shift = vec![[0.0f64; 3]; targets.len()];
     let mut rho = vec![0.5; n];
+    let (lower, upper) = (vec![0.0; n], vec![1.0; n]);
     for _ in 0..60 {
         let value = |rho: &[f64]| -> f64 {
             let data: f64 = targets
@@ -845,7 +937,7 @@ fn smoothest_metamer(
                 hessian,
             }
         };
-        rho = projected_newton(rho, local, &value);
+        rho = projected_newton(rho, (&lower, &upper), (200, 0.0), local, &value);
         let mut worst = 0.0f64;
         for (t, u) in targets.iter().zip(shift.iter_mut()) {
             let lab = lab_of(t, &rho);
@@ -918,11 +1010,17 @@ mod tests {
     }
 
     #[test]
-    fn free_parameters_other_than_rho_are_refused_by_name() {
-        assert_eq!(parse_free("rho").expect("rho"), [FreeParameter::Rho]);
-        let e = parse_free("rho,gloss").expect_err("gloss");
-        assert!(e.to_string().contains("--free gloss"), "{e}");
-        let e = parse_free("colour").expect_err("unknown");
-        assert!(e.to_string().contains("unknown parameter"), "{e}");
+    fn free_parameters_parse_any_subset_and_refuse_unknown_names() {
+        assert_eq!(parse_free("rho").expect("rho"), FreeParameters::RHO);
+        let all = parse_free("rho, gloss,h,k,n,h").expect("all");
+        assert_eq!(all.names(), FreeParameters::NAMES);
+        assert!(all.coat());
+        let coat = parse_free("n,gloss").expect("coat only");
+        assert_eq!(coat.names(), ["gloss", "n"]);
+        assert!(!coat.rho);
+        let e = parse_free("rho,colour").expect_err("unknown");
+        assert!(e.to_string().contains("--free \"colour\": unknown"), "{e}");
+        let e = parse_free("").expect_err("empty");
+        assert!(e.to_string().contains("--free \"\""), "{e}");
     }
 }

@@ -25,7 +25,9 @@ use std::f64::consts::PI;
 use crate::colour::cie::{Colorimeter, Illuminant, Observer};
 use crate::colour::spectrum::WavelengthGrid;
 use crate::colour::{Lab, ciede2000};
-use crate::measurement::{Geometry, SpecularComponent};
+use crate::measurement::{
+    Geometry, GlossValue, Reflectance, Sample, SpectrumProblem, SpecularComponent,
+};
 use crate::paint::coat::body_brdf;
 use crate::paint::fresnel::reflectance;
 use crate::paint::gloss::{GlossExponent, GlossGeometry, reading_from_exponent};
@@ -127,6 +129,48 @@ pub struct Measurement {
     pub sphere: Vec<GeometryReading>,
     /// Gloss at 20°, 60°, 85°.
     pub gloss: Vec<GlossReading>,
+}
+
+impl Measurement {
+    /// The glossmeter's total readings (specular and body) as a measurement file
+    /// states gloss.
+    pub fn gloss_values(&self) -> Vec<GlossValue> {
+        self.gloss
+            .iter()
+            .map(|g| GlossValue {
+                angle_deg: f64::from(u32::from(g.geometry)),
+                gu: g.total_gu,
+            })
+            .collect()
+    }
+
+    /// The multi-angle readings as one standard's samples, named `name`, as a
+    /// measurement file would hold them: every `step`-th wavelength (2 gives the
+    /// 10 nm most instruments write), 45° illumination, and the gloss readings on
+    /// each angle's row (as a multi-angle CGATS table repeats them).
+    pub fn multi_angle_samples(
+        &self,
+        name: &str,
+        step: usize,
+    ) -> Result<Vec<Sample>, SpectrumProblem> {
+        let keep: Vec<usize> = (0..self.wavelength_nm.len()).step_by(step.max(1)).collect();
+        let wavelength_nm: Vec<f64> = keep.iter().map(|&i| self.wavelength_nm[i]).collect();
+        let gloss = self.gloss_values();
+        self.angles
+            .iter()
+            .map(|a| {
+                let factors = keep.iter().map(|&i| a.reflectance_factor[i]).collect();
+                Ok(Sample {
+                    name: name.to_owned(),
+                    id: None,
+                    geometry: Geometry::directional(ILLUMINATION_DEG, a.aspecular_deg),
+                    spectrum: Some(Reflectance::new(wavelength_nm.clone(), factors)?),
+                    colour: None,
+                    gloss: gloss.clone(),
+                })
+            })
+            .collect()
+    }
 }
 
 /// CIELAB as `{"L", "a", "b"}`, as every JSON report writes it.

@@ -1,5 +1,5 @@
-//! `coatlab fit --target FILE --out DESIGN.toml`: the pigment albedo ρ(λ) that,
-//! under the start design's clear coat and gloss, reproduces a measured standard
+//! `coatlab fit --target FILE --out DESIGN.toml`: the pigment albedo ρ(λ) — and,
+//! with `--free`, the coat's gloss, h, k and n — that reproduce a measured standard
 //! (CGATS.17 or CxF3), written as a design file, with the fitted design against the
 //! standard as `coatlab measure --target` reports it. The method is
 //! `coatlab_core::fit`'s; docs/measurements.md ("Fitting a design") states it.
@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use coatlab_core::colour::tolerance::Tolerance;
 use coatlab_core::design::{PaintDesign, presets};
-use coatlab_core::fit::{self, FitError, Method, fit_albedo, parse_free};
+use coatlab_core::fit::{self, FitError, FitRequest, Method, parse_free};
 use coatlab_core::measurement;
 
 use super::failure::{Classify, Failure};
@@ -28,7 +28,10 @@ pub struct FitArgs {
     /// Signal red).
     #[arg(long, value_name = "DESIGN")]
     pub start: Option<PathBuf>,
-    /// What the fit may change; only `rho` (the pigment albedo) is fitted.
+    /// What the fit may change, comma-separated: `rho` (the pigment albedo),
+    /// `gloss`, `h` (coat thickness), `k` (coat absorption, the start's k(λ)
+    /// scaled), `n` (coat index, the start's n(λ) shifted); the rest is the start
+    /// design's.
     #[arg(long, value_name = "LIST", default_value = "rho")]
     pub free: String,
     /// Where to write the fitted design (atomically).
@@ -46,7 +49,7 @@ pub struct FitArgs {
 
 fn usage_or_data(error: FitError) -> anyhow::Error {
     let failure = match error {
-        FitError::NotFittable { .. } | FitError::UnknownParameter { .. } => Failure::Usage,
+        FitError::UnknownParameter { .. } => Failure::Usage,
         FitError::Design(_) => return anyhow::Error::new(error),
         _ => Failure::Data,
     };
@@ -81,16 +84,34 @@ pub fn run(args: &FitArgs, out: &mut impl Write) -> anyhow::Result<()> {
         .select(args.sample.as_deref())
         .with_context(|| format!("{file}: --sample"))
         .or_fail(Failure::Usage)?;
-    let mut fitted = fit_albedo(&start, &standard)
+    let mut fitted = fit::fit(&start, &standard, &FitRequest { free })
         .map_err(usage_or_data)
         .with_context(|| format!("{file}: cannot fit sample {:?}", standard.name))?;
     fitted.design.name = standard.name.to_owned();
+    let names = free.names();
+    let kept: Vec<&str> = [
+        ("pigment albedo", free.rho),
+        ("gloss", free.gloss),
+        ("h", free.thickness),
+        ("k", free.absorption),
+        ("n", free.index),
+    ]
+    .iter()
+    .filter(|(_, on)| !on)
+    .map(|(name, _)| *name)
+    .collect();
+    let kept_text = if kept.is_empty() {
+        "nothing".to_owned()
+    } else {
+        kept.join(", ")
+    };
     fitted.design.description = Some(format!(
-        "Fitted by coatlab fit to sample {:?} of {} ({format}): pigment albedo only; the clear coat and gloss are those of {:?}.",
+        "Fitted by coatlab fit to sample {:?} of {} ({format}), free: {}; kept from {:?}: {kept_text}.",
         standard.name,
         args.target
             .file_name()
             .map_or(file.clone(), |n| n.to_string_lossy().into_owned()),
+        names.join(", "),
         start.name
     ));
     let tolerance = args
@@ -105,11 +126,20 @@ pub fn run(args: &FitArgs, out: &mut impl Write) -> anyhow::Result<()> {
 
     let method = match fitted.method {
         Method::ClosedForm => "the closed form, per wavelength (one geometry)".to_owned(),
-        Method::LeastSquares => format!(
-            "bounded least squares over {} geometries, smoothness weight {}",
-            report.spectral_rms.len(),
-            fit::SMOOTHNESS_WEIGHT
-        ),
+        Method::LeastSquares => {
+            let gloss = if free.coat() && !report.comparison.gloss.is_empty() {
+                " and the gloss readings"
+            } else {
+                ""
+            };
+            let weight = fitted
+                .smoothness_weight
+                .map_or("ρ held".to_owned(), |w| format!("smoothness weight {w}"));
+            format!(
+                "bounded least squares over {} geometries{gloss}, {weight}",
+                report.spectral_rms.len()
+            )
+        }
         Method::SmoothestMetamer => format!(
             "the smoothest ρ(λ) with the stated colours, smoothness weight {}",
             fit::SMOOTHNESS_WEIGHT
@@ -122,6 +152,7 @@ pub fn run(args: &FitArgs, out: &mut impl Write) -> anyhow::Result<()> {
             "sample": standard.name,
             "start": start.name,
             "free": free,
+            "coat": fitted.coat,
             "method": fitted.method,
             "smoothness_weight": fitted.smoothness_weight,
             "wavelength_nm": fitted.wavelength_nm,
@@ -147,8 +178,9 @@ pub fn run(args: &FitArgs, out: &mut impl Write) -> anyhow::Result<()> {
     )?;
     writeln!(
         out,
-        "Start: {} (clear coat and gloss kept; fitted: pigment albedo ρ)",
-        start.name
+        "Start: {} (free: {}; kept: {kept_text})",
+        start.name,
+        names.join(", ")
     )?;
     writeln!(out, "Method: {method}")?;
     let (lo, hi) = (
@@ -166,6 +198,9 @@ pub fn run(args: &FitArgs, out: &mut impl Write) -> anyhow::Result<()> {
             .copied()
             .fold(f64::NEG_INFINITY, f64::max),
     )?;
+    for p in &fitted.coat {
+        writeln!(out, "{p}")?;
+    }
     let from_design = args.tolerance.is_none() && start.tolerance.is_some();
     super::measure::write_verdicts(out, &report.comparison, from_design)?;
     if !report.spectral_rms.is_empty() {
