@@ -13,6 +13,7 @@
 pub mod cgats;
 pub mod cgats_write;
 pub mod cxf;
+pub mod cxf_write;
 pub mod geometry;
 
 use std::fmt;
