@@ -15,18 +15,23 @@ pub mod cxf;
 pub mod gltf;
 
 use std::fmt;
+use std::path::{Path, PathBuf};
+use std::time::{SystemTime, UNIX_EPOCH};
 
 use crate::colour::cie::{Illuminant, Observer};
 use crate::colour::spectrum::WavelengthGrid;
 use crate::design::{DesignError, PaintDesign};
 use crate::instruments::{self, InstrumentError};
+use crate::io::atomic::{WriteError, write_bytes_atomically};
 use crate::measurement::cgats_write::{CgatsWriteError, write_cgats};
 use crate::measurement::cxf_write::CxfWriteError;
 use crate::measurement::{
     Geometry, GlossValue, MAX_REFLECTANCE_FACTOR, Reflectance, Sample, SpectrumProblem,
     StatedColour, StatedValue,
 };
-use crate::names::{UnknownName, by_name};
+use crate::names::{UnknownName, by_name, or_list};
+use crate::scene::Scene;
+use crate::scene::car::{CarParameters, generate};
 
 /// The `Creator`/`ORIGINATOR` written into every export.
 pub const CREATOR: &str = concat!("Coatlab ", env!("CARGO_PKG_VERSION"));
@@ -112,6 +117,110 @@ pub enum ExportError {
     Cxf(#[from] CxfWriteError),
     #[error(transparent)]
     Gltf(#[from] gltf::GltfExportError),
+    #[error(
+        "{}: a {format} export is a .{} file{}",
+        path.display(),
+        format.extensions()[0],
+        other_extensions(*format)
+    )]
+    Extension { path: PathBuf, format: ExportFormat },
+    /// The message of [`WriteError`] names the file already.
+    #[error("{error}")]
+    Write { path: PathBuf, error: WriteError },
+}
+
+fn other_extensions(format: ExportFormat) -> String {
+    match format.extensions() {
+        [_] => String::new(),
+        [_, rest @ ..] => {
+            let dotted: Vec<String> = rest.iter().map(|e| format!(".{e}")).collect();
+            format!(" (or {})", or_list(&dotted))
+        }
+        [] => String::new(),
+    }
+}
+
+/// What an export wrote.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Exported {
+    pub format: ExportFormat,
+    /// The file's size, bytes.
+    pub bytes: usize,
+    /// For glTF: the material written, with what it costs at each geometry.
+    pub material: Option<gltf::RealTimeMaterial>,
+}
+
+/// Writes `design` as `format` to `path` atomically (the file there, if any, is
+/// untouched on failure); glTF puts it on `scene`, else on the built-in car.
+/// `path` must have one of the format's extensions.
+pub fn export_to_file(
+    design: &PaintDesign,
+    format: ExportFormat,
+    scene: Option<&Scene>,
+    path: &Path,
+) -> Result<Exported, ExportError> {
+    let extension_fits = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| format.accepts_extension(e));
+    if !extension_fits {
+        return Err(ExportError::Extension {
+            path: path.to_owned(),
+            format,
+        });
+    }
+    let (bytes, material) = match format {
+        ExportFormat::Cxf => (
+            cxf::to_cxf(design, &utc_timestamp(SystemTime::now()))?.into_bytes(),
+            None,
+        ),
+        ExportFormat::Cgats => (to_cgats(design)?.into_bytes(), None),
+        ExportFormat::Gltf => {
+            let material = gltf::real_time_material(design)?;
+            let built_in;
+            let scene = match scene {
+                Some(scene) => scene,
+                None => {
+                    built_in = generate(&CarParameters::default());
+                    &built_in
+                }
+            };
+            (gltf::scene_glb(scene, design, &material)?, Some(material))
+        }
+    };
+    write_bytes_atomically(path, &bytes).map_err(|error| ExportError::Write {
+        path: path.to_owned(),
+        error,
+    })?;
+    Ok(Exported {
+        format,
+        bytes: bytes.len(),
+        material,
+    })
+}
+
+/// `time` as an `xs:dateTime` in UTC, to the second (`2026-12-02T18:00:00Z`).
+pub fn utc_timestamp(time: SystemTime) -> String {
+    let seconds = time.duration_since(UNIX_EPOCH).map_or(0, |d| d.as_secs());
+    let (days, second_of_day) = (seconds / 86_400, seconds % 86_400);
+    // Days since 1970-01-01 to the proleptic Gregorian date (H. Hinnant's
+    // `civil_from_days`), in 400-year eras of 146 097 days.
+    let z = days as i64 + 719_468;
+    let era = z.div_euclid(146_097);
+    let day_of_era = z.rem_euclid(146_097);
+    let year_of_era =
+        (day_of_era - day_of_era / 1460 + day_of_era / 36_524 - day_of_era / 146_096) / 365;
+    let day_of_year = day_of_era - (365 * year_of_era + year_of_era / 4 - year_of_era / 100);
+    let mp = (5 * day_of_year + 2) / 153;
+    let day = day_of_year - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = year_of_era + era * 400 + i64::from(month <= 2);
+    format!(
+        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}Z",
+        second_of_day / 3600,
+        second_of_day / 60 % 60,
+        second_of_day % 60
+    )
 }
 
 /// The design's readings by the virtual instruments, as a measurement file holds
@@ -180,4 +289,35 @@ pub fn to_cgats(design: &PaintDesign) -> Result<String, ExportError> {
         s.gloss.clone_from(&gloss);
     }
     Ok(write_cgats(CREATOR, &samples)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    #[test]
+    fn timestamps_are_utc_calendar_dates() {
+        let at = |s| utc_timestamp(UNIX_EPOCH + Duration::from_secs(s));
+        assert_eq!(at(0), "1970-01-01T00:00:00Z");
+        // 2000-02-29 12:34:56: a leap day in a century leap year.
+        assert_eq!(at(951_827_696), "2000-02-29T12:34:56Z");
+        assert_eq!(at(1_796_169_600), "2026-12-02T00:00:00Z");
+    }
+
+    #[test]
+    fn a_wrong_extension_names_the_file_and_the_ones_that_fit() {
+        let design = crate::design::presets::all()[0].design.clone();
+        let e = export_to_file(
+            &design,
+            ExportFormat::Cgats,
+            None,
+            Path::new("/nonexistent/out.cxf"),
+        )
+        .expect_err("wrong extension");
+        assert_eq!(
+            e.to_string(),
+            "/nonexistent/out.cxf: a cgats export is a .txt file (or .cgats, .cgt or .it8)"
+        );
+    }
 }
