@@ -64,18 +64,16 @@ pub fn run(args: &ExportArgs, out: &mut impl Write) -> anyhow::Result<()> {
              clearcoat 1 with roughness {:.4}, ior {:.4}",
             c.red, c.green, c.blue, material.roughness, material.clearcoat_roughness, material.ior
         )?;
+        let rows: Vec<String> = material
+            .delta_e00
+            .iter()
+            .map(|c| format!("  {:<10} {:.3}", c.geometry.to_string(), c.delta_e00))
+            .collect();
         writeln!(
             out,
-            "ΔE00 of the real-time material against the design (D65, 2° observer):"
+            "ΔE00 of the real-time material against the design (D65, 2° observer):\n{}",
+            rows.join("\n")
         )?;
-        for cost in &material.delta_e00 {
-            writeln!(
-                out,
-                "  {:<10} {:.3}",
-                cost.geometry.to_string(),
-                cost.delta_e00
-            )?;
-        }
     }
     Ok(())
 }

@@ -23,11 +23,10 @@ use crate::colour::spectrum::WavelengthGrid;
 use crate::design::{DesignError, PaintDesign};
 use crate::instruments::{self, InstrumentError};
 use crate::io::atomic::{WriteError, write_bytes_atomically};
-use crate::measurement::cgats_write::{CgatsWriteError, write_cgats};
-use crate::measurement::cxf_write::CxfWriteError;
+use crate::measurement::cgats_write::write_cgats;
 use crate::measurement::{
-    Geometry, GlossValue, MAX_REFLECTANCE_FACTOR, Reflectance, Sample, SpectrumProblem,
-    StatedColour, StatedValue,
+    Geometry, GlossValue, MAX_REFLECTANCE_FACTOR, ReadingsWriteError, Reflectance, Sample,
+    SpectrumProblem, StatedColour, StatedValue,
 };
 use crate::names::{UnknownName, by_name, or_list};
 use crate::scene::Scene;
@@ -111,10 +110,9 @@ pub enum ExportError {
         geometry: Geometry,
         problem: SpectrumProblem,
     },
+    /// CGATS or CxF3.
     #[error(transparent)]
-    Cgats(#[from] CgatsWriteError),
-    #[error(transparent)]
-    Cxf(#[from] CxfWriteError),
+    File(#[from] ReadingsWriteError),
     #[error(transparent)]
     Gltf(#[from] gltf::GltfExportError),
     #[error(

@@ -13,23 +13,11 @@
 
 use std::fmt::Write;
 
-use super::{Geometry, Sample, SpecularComponent, StatedValue};
+use super::{Geometry, ReadingsWriteError, Sample, SpecularComponent, StatedValue};
+pub use crate::io::markup::escape;
 
 /// The CxF3 core namespace.
 pub const CXF3_NAMESPACE: &str = "http://colorexchangeformat.com/CxF3-core";
-
-/// Why readings cannot be written as CxF3.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum CxfWriteError {
-    #[error("nothing to write: no readings")]
-    Empty,
-    #[error("sample {name:?} at {geometry}: {why}")]
-    Unwritable {
-        name: String,
-        geometry: Geometry,
-        why: &'static str,
-    },
-}
 
 /// What goes into the file besides the readings.
 #[derive(Debug, Clone, PartialEq)]
@@ -43,22 +31,6 @@ pub struct CxfHeader<'a> {
     /// Elements of another namespace placed in `CustomResources` as they are (the
     /// caller declares the namespace on them).
     pub custom_resources: Option<&'a str>,
-}
-
-/// `text` with XML's five special characters escaped, for text and attributes.
-pub fn escape(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    for c in text.chars() {
-        match c {
-            '&' => out.push_str("&amp;"),
-            '<' => out.push_str("&lt;"),
-            '>' => out.push_str("&gt;"),
-            '"' => out.push_str("&quot;"),
-            '\'' => out.push_str("&apos;"),
-            _ => out.push(c),
-        }
-    }
-    out
 }
 
 /// The `Id` of a geometry's `ColorSpecification` and its `GeometryChoice` content.
@@ -94,16 +66,16 @@ fn specification(geometry: Geometry) -> Option<(String, String)> {
 /// `samples` as a CxF3 document. Every sample needs a stated geometry and a
 /// spectrum on evenly spaced wavelengths (one `StartWL` and `Increment` per
 /// geometry); a stated colour is written only as CIELAB, taken as D65/10°.
-pub fn write_cxf(header: &CxfHeader<'_>, samples: &[Sample]) -> Result<String, CxfWriteError> {
+pub fn write_cxf(header: &CxfHeader<'_>, samples: &[Sample]) -> Result<String, ReadingsWriteError> {
     if samples.is_empty() {
-        return Err(CxfWriteError::Empty);
+        return Err(ReadingsWriteError::Empty);
     }
     // Specifications in order of first use: (id, geometry XML, start, step).
     let mut specs: Vec<(String, String, f64, f64)> = Vec::new();
     // Objects in order of first name: (name, ColorValues content).
     let mut objects: Vec<(String, String)> = Vec::new();
     for s in samples {
-        let unwritable = |why| CxfWriteError::Unwritable {
+        let unwritable = |why| ReadingsWriteError::Unwritable {
             name: s.name.clone(),
             geometry: s.geometry,
             why,
@@ -223,17 +195,4 @@ pub fn write_cxf(header: &CxfHeader<'_>, samples: &[Sample]) -> Result<String, C
     }
     xml.push_str("</cc:CxF>\n");
     Ok(xml)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_special_characters_are_escaped() {
-        assert_eq!(
-            escape("a<b & \"c\" 'd'>"),
-            "a&lt;b &amp; &quot;c&quot; &apos;d&apos;&gt;"
-        );
-    }
 }

@@ -344,6 +344,20 @@ pub struct Standard<'a> {
     pub readings: Vec<&'a Sample>,
 }
 
+/// Why readings cannot be written as a measurement file ([`cgats_write`],
+/// [`cxf_write`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ReadingsWriteError {
+    #[error("nothing to write: no reading has a spectrum")]
+    Empty,
+    #[error("sample {name:?} at {geometry}: {why}")]
+    Unwritable {
+        name: String,
+        geometry: Geometry,
+        why: &'static str,
+    },
+}
+
 /// Why `--sample` finds nothing.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SelectError {
