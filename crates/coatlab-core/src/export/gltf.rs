@@ -25,6 +25,7 @@ use std::f64::consts::PI;
 
 use gltf::json;
 use palette::LinSrgb;
+use serde::Serialize as _;
 
 use crate::colour::{
     Lab, ciede2000, lab_from_xyz, linear_srgb_of_reflectance, srgb_white, xyz_from_linear_srgb,
@@ -34,6 +35,7 @@ use crate::instruments::{self, ILLUMINATION_DEG, in_plane_direction};
 use crate::measurement::Geometry;
 use crate::paint::gloss::GlossExponent;
 use crate::paint::lobe::LobeKind;
+use crate::paint::model::PaintModel;
 use crate::scene::Scene;
 use crate::scene::car::{GlbOptions, GlbWriteError, to_glb_with};
 
@@ -87,8 +89,6 @@ fn serialize_rgb<S: serde::Serializer>(rgb: &LinSrgb<f64>, s: S) -> Result<S::Ok
 fn serialize_geometry<S: serde::Serializer>(g: &Geometry, s: S) -> Result<S::Ok, S::Error> {
     s.serialize_str(&g.to_string())
 }
-
-use serde::Serialize as _;
 
 /// glTF `roughness` for a Phong lobe of exponent `m` about the mirror direction.
 ///
@@ -165,9 +165,8 @@ fn lab_of_linear_srgb(rgb: [f64; 3]) -> Lab {
 }
 
 /// The five multi-angle geometries with the design's colour there (D65/2°).
-fn design_colours(design: &PaintDesign) -> Result<Vec<(f64, Lab)>, super::ExportError> {
-    let model = design.model(crate::colour::spectrum::WavelengthGrid::reference())?;
-    let m = instruments::measure(&model)?;
+fn design_colours(model: &PaintModel) -> Result<Vec<(f64, Lab)>, super::ExportError> {
+    let m = instruments::measure(model)?;
     Ok(m.angles
         .iter()
         .map(|a| {
@@ -243,7 +242,7 @@ pub fn real_time_material(design: &PaintDesign) -> Result<RealTimeMaterial, supe
         ior: model.index_at_gloss_wavelength(),
         delta_e00: Vec::new(),
     };
-    let targets = design_colours(design)?;
+    let targets = design_colours(&model)?;
     let start = linear_srgb_of_reflectance(model.albedo());
     let rgb = fit_base_colour(&material, start, &targets);
     material.base_color = LinSrgb::new(rgb[0], rgb[1], rgb[2]);
