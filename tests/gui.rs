@@ -1553,3 +1553,35 @@ fn the_view_list_offers_named_views_and_the_files_cameras() {
         h.state().notices()
     );
 }
+
+#[test]
+fn the_file_menu_exports_the_design_as_cxf_cgats_and_gltf() {
+    use coatlab_app::gui::app::EXPORT_MENU;
+    let dir = temp_dir("export-design");
+    let mut h = harness(app());
+    for (format, label) in EXPORT_MENU {
+        let file = dir.join(format!("export.{}", format.extensions()[0]));
+        let fake = FakeDialog::new(DialogOutcome::Chosen(file.clone()));
+        h.state_mut().set_native_dialog(Some(fake.clone()));
+        h.get_by_label("File").click();
+        h.run();
+        h.get_by_label(label).click();
+        wait_until(&mut h, label, |_| file.exists());
+        // The dialog was asked for a file to save, of the format's extension.
+        let asked = fake.requests();
+        assert!(asked[0].save, "{label}");
+        assert_eq!(asked[0].extensions, format.extensions(), "{label}");
+        let bytes = std::fs::read(&file).expect("written");
+        match format.extensions()[0] {
+            "glb" => assert_eq!(&bytes[..4], b"glTF"),
+            name => {
+                let back = coatlab_core::measurement::read(&bytes, name).expect("readable");
+                assert_eq!(back.samples[0].name, h.state().design().name);
+            }
+        }
+        assert!(has_notice(h.state(), false, "Exported"), "{label}");
+    }
+    // The glTF notice states what the real-time material costs per angle.
+    assert!(has_notice(h.state(), false, "45°as110°"));
+    let _ = std::fs::remove_dir_all(dir);
+}

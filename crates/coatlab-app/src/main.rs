@@ -68,6 +68,9 @@ enum Command {
     Measure(cmd::measure::MeasureArgs),
     /// Fit a design's pigment albedo to a measured standard (CGATS or CxF3) and write it.
     Fit(cmd::fit::FitArgs),
+    /// Export a design: its virtual readings as CxF3 or CGATS.17, or the car with
+    /// the design as a glTF clear-coat material (GLB).
+    Export(cmd::export::ExportArgs),
     /// Convert between a glossmeter reading (GU) and the lobe exponent m.
     Gloss(cmd::gloss::GlossArgs),
     /// Render a design on a car (progressive spectral path tracer) to PNG or EXR,
@@ -100,6 +103,7 @@ fn main() -> ExitCode {
         Command::DeltaE => cmd::delta_e::run(stdin, &mut stdout),
         Command::Measure(args) => cmd::measure::run(args, &mut stdout),
         Command::Fit(args) => cmd::fit::run(args, &mut stdout),
+        Command::Export(args) => cmd::export::run(args, &mut stdout),
         Command::Gloss(args) => cmd::gloss::run(args, &mut stdout),
         Command::Render(args) => cmd::render::run(args, &mut stdout),
         Command::Merge(args) => cmd::merge::run(args, &mut stdout),

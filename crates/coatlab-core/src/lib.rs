@@ -23,6 +23,7 @@ pub mod analysis;
 pub mod colour;
 pub mod design;
 pub mod engine;
+pub mod export;
 pub mod fit;
 pub mod instruments;
 pub mod io;

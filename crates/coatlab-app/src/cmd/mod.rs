@@ -5,6 +5,7 @@ pub mod batch;
 pub mod brdf;
 pub mod color;
 pub mod delta_e;
+pub mod export;
 pub mod failure;
 pub mod fit;
 pub mod gloss;

@@ -8,6 +8,8 @@ use std::time::{Duration, Instant};
 use coatlab_core::colour::spectrum::{ValueBounds, read_spectra_csv};
 use coatlab_core::design::PaintDesign;
 use coatlab_core::design::presets::{self, Preset};
+use coatlab_core::export::{ExportFormat, export_to_file};
+use coatlab_core::scene::gltf_loader::{LoadOptions, load};
 use egui::{Color32, RichText, Ui};
 
 use super::dialogs::{DialogEvent, DialogRequest, FileDialogs, NativeFileDialog};
@@ -20,6 +22,13 @@ use super::plots::{PlotSettings, plots_ui};
 use super::preview::{Preview, PreviewEvent, PreviewRequest};
 use super::storage::{Recovery, Storage};
 use coatlab_core::analysis::Analysis;
+
+/// The File menu's design exports, in menu order.
+pub const EXPORT_MENU: [(ExportFormat, &str); 3] = [
+    (ExportFormat::Cxf, "Export design as CxF3…"),
+    (ExportFormat::Cgats, "Export readings as CGATS.17…"),
+    (ExportFormat::Gltf, "Export car as glTF (GLB)…"),
+];
 
 /// How often an unsaved design is autosaved.
 pub const AUTOSAVE_INTERVAL: Duration = Duration::from_secs(5);
@@ -510,6 +519,9 @@ impl CoatlabApp {
                 .unwrap_or_else(|| format!("{}.toml", slug(&self.design.name))),
             FilePurpose::ExportMeasurement => format!("{}-readings.csv", slug(&self.design.name)),
             FilePurpose::ExportPreviewImage => format!("{}.png", slug(&self.design.name)),
+            FilePurpose::ExportDesign(format) => {
+                format!("{}.{}", slug(&self.design.name), format.extensions()[0])
+            }
             _ => String::new(),
         };
         let request = DialogRequest::for_purpose(purpose, dir, name);
@@ -526,6 +538,7 @@ impl CoatlabApp {
             FilePurpose::TargetDesign => self.open_target(&path),
             FilePurpose::ExportMeasurement => self.export_measurement(&path),
             FilePurpose::ExportPreviewImage => self.export_preview(&path),
+            FilePurpose::ExportDesign(format) => self.export_design(format, &path),
             FilePurpose::OpenScene => self.open_scene(&path),
             FilePurpose::OpenEnvironment => self.open_environment(&path),
             FilePurpose::SecondDesign => self.open_second_design(&path),
@@ -541,6 +554,48 @@ impl CoatlabApp {
             Ok(()) => self.info(format!("Exported readings to {}", path.display())),
             Err(e) => self.error(format!("{e:#}")),
         }
+    }
+
+    /// Writes the design as an exchange file (`coatlab export`'s): CxF3 or CGATS.17
+    /// readings, or glTF on the preview's scene (the built-in car until a scene
+    /// is opened). The glTF material's ΔE00 per angle goes to the notice bar.
+    pub fn export_design(&mut self, format: ExportFormat, path: &Path) {
+        let scene = match format {
+            ExportFormat::Gltf => match self.preview_scene_path() {
+                Some(scene_path) => match load(&scene_path, &LoadOptions::default()) {
+                    Ok(scene) => Some(scene),
+                    Err(e) => return self.error(format!("{e}")),
+                },
+                None => None,
+            },
+            _ => None,
+        };
+        match export_to_file(&self.design, format, scene.as_ref(), path) {
+            Ok(exported) => {
+                let cost = exported.material.map(|m| {
+                    let cells: Vec<String> = m
+                        .delta_e00
+                        .iter()
+                        .map(|c| format!("{} {:.2}", c.geometry, c.delta_e00))
+                        .collect();
+                    format!("; the real-time material's ΔE00: {}", cells.join(", "))
+                });
+                self.info(format!(
+                    "Exported {format} to {}{}",
+                    path.display(),
+                    cost.unwrap_or_default()
+                ));
+            }
+            Err(e) => self.error(format!("{e}")),
+        }
+    }
+
+    /// The file of the scene the preview shows (`None`: the built-in car).
+    fn preview_scene_path(&self) -> Option<PathBuf> {
+        self.preview
+            .as_ref()
+            .and_then(|p| p.scene())
+            .and_then(|s| s.path.clone())
     }
 
     /// A file dropped on the window: a design opens, a CSV becomes ρ(λ), a glTF
@@ -862,6 +917,11 @@ impl CoatlabApp {
                 }
                 if ui.button("Export readings (CSV, JSON)…").clicked() {
                     self.choose_file(FilePurpose::ExportMeasurement);
+                }
+                for (format, label) in EXPORT_MENU {
+                    if ui.button(label).clicked() {
+                        self.choose_file(FilePurpose::ExportDesign(format));
+                    }
                 }
                 ui.separator();
                 if ui.button("Open scene (glTF)…").clicked() {

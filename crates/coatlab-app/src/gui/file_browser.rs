@@ -7,6 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
+use coatlab_core::export::ExportFormat;
 use egui::{RichText, Ui};
 
 /// What the chosen path is for.
@@ -18,6 +19,8 @@ pub enum FilePurpose {
     TargetDesign,
     ExportMeasurement,
     ExportPreviewImage,
+    /// The design as an exchange file (CxF3, CGATS.17, glTF).
+    ExportDesign(ExportFormat),
     OpenScene,
     OpenEnvironment,
     SecondDesign,
@@ -33,6 +36,13 @@ impl FilePurpose {
             FilePurpose::TargetDesign => "Choose a target design",
             FilePurpose::ExportMeasurement => "Export readings (.csv or .json)",
             FilePurpose::ExportPreviewImage => "Export preview (.png or .exr)",
+            FilePurpose::ExportDesign(ExportFormat::Cxf) => "Export the design as CxF3 (.cxf)",
+            FilePurpose::ExportDesign(ExportFormat::Cgats) => {
+                "Export the design's readings as CGATS.17 (.txt)"
+            }
+            FilePurpose::ExportDesign(ExportFormat::Gltf) => {
+                "Export the car with the design as glTF (.glb)"
+            }
             FilePurpose::OpenScene => "Open a glTF scene (.glb or .gltf)",
             FilePurpose::OpenEnvironment => "Open an environment map (.hdr or .exr)",
             FilePurpose::SecondDesign => "Choose a design to compare with",
@@ -49,6 +59,7 @@ impl FilePurpose {
             FilePurpose::ImportAlbedoCsv => &["csv"],
             FilePurpose::ExportMeasurement => &["csv", "json"],
             FilePurpose::ExportPreviewImage => &["png", "exr"],
+            FilePurpose::ExportDesign(format) => format.extensions(),
             FilePurpose::OpenScene => &["glb", "gltf"],
             FilePurpose::OpenEnvironment => &["hdr", "exr"],
         }
@@ -64,6 +75,9 @@ impl FilePurpose {
             FilePurpose::ImportAlbedoCsv => "Spectral CSV",
             FilePurpose::ExportMeasurement => "Readings (CSV, JSON)",
             FilePurpose::ExportPreviewImage => "Image (PNG, EXR)",
+            FilePurpose::ExportDesign(ExportFormat::Cxf) => "CxF3",
+            FilePurpose::ExportDesign(ExportFormat::Cgats) => "CGATS.17",
+            FilePurpose::ExportDesign(ExportFormat::Gltf) => "glTF binary",
             FilePurpose::OpenScene => "glTF scene",
             FilePurpose::OpenEnvironment => "Environment map (HDR, EXR)",
         }
@@ -76,6 +90,7 @@ impl FilePurpose {
             FilePurpose::SaveDesign
                 | FilePurpose::ExportMeasurement
                 | FilePurpose::ExportPreviewImage
+                | FilePurpose::ExportDesign(_)
         )
     }
 }

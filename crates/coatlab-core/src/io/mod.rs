@@ -5,6 +5,7 @@ pub mod atomic;
 pub mod exr_read;
 pub mod exr_write;
 pub mod hdr;
+pub mod markup;
 pub mod png_write;
 pub mod rgb_image;
 pub mod tagged;

@@ -6,20 +6,10 @@
 
 use std::fmt::Write;
 
-use super::{Geometry, Sample, SpecularComponent};
+use super::{Geometry, ReadingsWriteError, Sample, SpecularComponent};
 
 /// Why readings cannot be written as one CGATS table.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum CgatsWriteError {
-    #[error("nothing to write: no reading has a spectrum")]
-    Empty,
-    #[error("sample {name:?} at {geometry}: {why}")]
-    Unwritable {
-        name: String,
-        geometry: Geometry,
-        why: &'static str,
-    },
-}
+pub type CgatsWriteError = ReadingsWriteError;
 
 /// The `GEOMETRY` field of a reading: `45as15`, `di:8`, `de:8`.
 fn geometry_field(geometry: Geometry) -> Option<String> {

@@ -13,6 +13,7 @@
 pub mod cgats;
 pub mod cgats_write;
 pub mod cxf;
+pub mod cxf_write;
 pub mod geometry;
 
 use std::fmt;
@@ -341,6 +342,20 @@ pub struct Measurement {
 pub struct Standard<'a> {
     pub name: &'a str,
     pub readings: Vec<&'a Sample>,
+}
+
+/// Why readings cannot be written as a measurement file ([`cgats_write`],
+/// [`cxf_write`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ReadingsWriteError {
+    #[error("nothing to write: no reading has a spectrum")]
+    Empty,
+    #[error("sample {name:?} at {geometry}: {why}")]
+    Unwritable {
+        name: String,
+        geometry: Geometry,
+        why: &'static str,
+    },
 }
 
 /// Why `--sample` finds nothing.

@@ -231,18 +231,7 @@ pub fn write_deck(manifest: &Manifest) -> anyhow::Result<DeckSummary> {
 
 /// `text` safe inside HTML text and double-quoted attributes.
 fn esc(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    for c in text.chars() {
-        match c {
-            '&' => out.push_str("&amp;"),
-            '<' => out.push_str("&lt;"),
-            '>' => out.push_str("&gt;"),
-            '"' => out.push_str("&quot;"),
-            '\'' => out.push_str("&#39;"),
-            c => out.push(c),
-        }
-    }
-    out
+    coatlab_core::io::markup::escape(text)
 }
 
 fn anchor(entry: &DesignEntry) -> String {

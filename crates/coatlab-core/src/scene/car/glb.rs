@@ -27,11 +27,39 @@ pub enum GlbWriteError {
     },
 }
 
+/// What a GLB holds besides the scene's geometry and simple materials.
+#[derive(Debug, Clone)]
+pub struct GlbOptions {
+    /// `asset.generator`.
+    pub generator: String,
+    /// The name of the one mesh and its node.
+    pub mesh_name: String,
+    /// The material written for every material of [`Scene::paint_materials`]
+    /// instead of its base colour (`None`: the scene's own).
+    pub paint_material: Option<gltf::json::Material>,
+    /// `extensionsUsed`: the extensions the paint material carries.
+    pub extensions_used: Vec<String>,
+}
+
 /// Writes `scene` as binary glTF 2.0 (GLB): one mesh on one node, one primitive per
 /// material with triangles, all sharing one POSITION and one NORMAL accessor (f32),
 /// u32 indices; materials as metallic-roughness base colours with their names.
 /// Deterministic: the same scene gives the same bytes.
 pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, GlbWriteError> {
+    to_glb_with(
+        scene,
+        &GlbOptions {
+            generator: "coatlab-core scene::car".to_owned(),
+            mesh_name: "default car".to_owned(),
+            paint_material: None,
+            extensions_used: Vec::new(),
+        },
+    )
+}
+
+/// [`to_glb`] with the paint materials, the generator and the extensions of
+/// `options` (textures and texture coordinates are not written).
+pub fn to_glb_with(scene: &Scene, options: &GlbOptions) -> Result<Vec<u8>, GlbWriteError> {
     use gltf::json::{self, validation::Checked::Valid, validation::USize64};
 
     let mesh = &scene.mesh;
@@ -49,9 +77,10 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, GlbWriteError> {
     let mut bin: Vec<u8> = Vec::new();
     let mut root = json::Root {
         asset: json::Asset {
-            generator: Some("coatlab-core scene::car".to_owned()),
+            generator: Some(options.generator.clone()),
             ..Default::default()
         },
+        extensions_used: options.extensions_used.clone(),
         ..Default::default()
     };
     let buffer = json::Index::new(0);
@@ -127,7 +156,11 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, GlbWriteError> {
 
     let mut primitives = Vec::new();
     for (index, m) in scene.materials.iter().enumerate() {
-        let material = root.push(json::Material {
+        let paint = options
+            .paint_material
+            .as_ref()
+            .filter(|_| scene.paint_materials.contains(&(index as u32)));
+        let material = root.push(paint.cloned().unwrap_or_else(|| json::Material {
             name: Some(m.name.clone()),
             pbr_metallic_roughness: json::material::PbrMetallicRoughness {
                 base_color_factor: json::material::PbrBaseColorFactor([
@@ -141,7 +174,7 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, GlbWriteError> {
                 ..Default::default()
             },
             ..Default::default()
-        });
+        }));
         let indices: Vec<u8> = mesh
             .triangles
             .iter()
@@ -192,13 +225,13 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, GlbWriteError> {
     let mesh_index = root.push(json::Mesh {
         extensions: None,
         extras: Default::default(),
-        name: Some("default car".to_owned()),
+        name: Some(options.mesh_name.clone()),
         primitives,
         weights: None,
     });
     let node = root.push(json::Node {
         mesh: Some(mesh_index),
-        name: Some("default car".to_owned()),
+        name: Some(options.mesh_name.clone()),
         ..Default::default()
     });
     let scene_index = root.push(json::Scene {

@@ -118,7 +118,7 @@ mod mesh;
 mod parts;
 mod wheels;
 
-pub use glb::{GlbWriteError, to_glb};
+pub use glb::{GlbOptions, GlbWriteError, to_glb, to_glb_with};
 
 /// The segment the default car is drawn from, a modern compact-executive (D-segment)
 /// saloon: the span of the 2019–2024 BMW 3 Series (G20), Audi A4 (B9), Mercedes
