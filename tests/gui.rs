@@ -29,6 +29,10 @@ use hdr_fixture::write_hdr;
 #[path = "../crates/coatlab-core/tests/support/gltf_testdata.rs"]
 mod gltf_testdata;
 
+/// The Instruments tab's target from measurement files, and *Fit to target*.
+#[path = "gui/target.rs"]
+mod target;
+
 fn app() -> CoatlabApp {
     CoatlabApp::new(options(false))
 }
