@@ -255,3 +255,43 @@ fn fit_to_target_needs_a_measured_target() {
     assert!(has_notice(h.state(), true, "needs a measured target"));
     assert_eq!(h.state().design(), &before);
 }
+
+#[test]
+fn a_csv_of_spectra_is_compared_at_the_geometry_the_person_states() {
+    let dir = temp_dir("csv-target");
+    let mut h = instruments_harness();
+    // The design's own 45°as45° reading as a CSV, as `coatlab color` reads one.
+    let analysis = h.state().analysis().expect("valid design");
+    let m = &analysis.measurement;
+    let at_45 = m
+        .angles
+        .iter()
+        .find(|a| a.aspecular_deg == 45.0)
+        .expect("the 45° reading");
+    let mut csv = String::from("wavelength_nm,own\n");
+    for (nm, r) in m.wavelength_nm.iter().zip(&at_45.reflectance_factor) {
+        csv.push_str(&format!("{nm},{r}\n"));
+    }
+    let file = dir.join("own.csv");
+    std::fs::write(&file, csv).expect("write");
+    h.state_mut()
+        .set_native_dialog(Some(FakeDialog::new(DialogOutcome::Chosen(file))));
+    h.get_by_label("Target from file…").click();
+    wait_until(&mut h, "the CSV target", |app| app.target_view().is_some());
+    h.run();
+
+    // No geometry in a CSV: nothing compared until one is stated.
+    let c = shown_comparison(h.state());
+    assert!(c.angles.is_empty() && c.not_comparable.len() == 1, "{c:?}");
+    h.get_by_role_and_label(Role::ComboBox, "Measured at")
+        .click();
+    h.run();
+    h.get_by_role_and_label(Role::Button, "45°as45°").click();
+    h.run();
+    let c = shown_comparison(h.state());
+    assert_eq!(c.angles.len(), 1);
+    assert!(c.angles[0].difference.de00 < 1e-6, "{:?}", c.angles[0]);
+    assert_eq!(c.pass, Some(true));
+    assert!(h.query_all_by_label("pass").next().is_some());
+    let _ = std::fs::remove_dir_all(dir);
+}

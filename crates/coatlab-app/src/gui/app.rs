@@ -20,8 +20,11 @@ use super::paint_panel::{PanelRequest, paint_controls_ui};
 use super::plots::{PlotSettings, plots_ui};
 use super::preview::{Preview, PreviewEvent, PreviewRequest};
 use super::storage::{Recovery, Storage};
-use super::target::{Target, TargetView, compare, is_measurement, load_target, tolerance_of};
+use super::target::{
+    MeasuredTarget, Target, TargetView, compare, is_measurement, load_target, tolerance_of,
+};
 use coatlab_core::analysis::Analysis;
+use coatlab_core::measurement::Geometry;
 
 /// How often an unsaved design is autosaved.
 pub const AUTOSAVE_INTERVAL: Duration = Duration::from_secs(5);
@@ -490,11 +493,20 @@ impl CoatlabApp {
 
     /// Chooses the standard of a measurement target by its index in the file.
     pub fn select_target_sample(&mut self, index: usize) {
+        self.change_measured_target(|m| m.selected = index);
+    }
+
+    /// States the geometry of a CSV target's readings.
+    pub fn set_target_geometry(&mut self, geometry: Geometry) {
+        self.change_measured_target(|m| m.set_geometry(geometry));
+    }
+
+    fn change_measured_target(&mut self, change: impl FnOnce(&mut MeasuredTarget)) {
         let Some(Target::Measured(m)) = &self.target else {
             return;
         };
         let mut m = m.clone();
-        m.selected = index;
+        change(&mut m);
         self.set_target(Some(Target::Measured(m)));
     }
 
@@ -843,6 +855,7 @@ impl CoatlabApp {
                 InstrumentsRequest::TargetFile => self.choose_file(FilePurpose::Target),
                 InstrumentsRequest::ClearTarget => self.set_target(None),
                 InstrumentsRequest::SelectSample(i) => self.select_target_sample(i),
+                InstrumentsRequest::SetGeometry(g) => self.set_target_geometry(g),
                 // Edited in place, like a slider: committed as one step when the
                 // gesture ends.
                 InstrumentsRequest::SetTolerance(t) => self.design.tolerance = Some(t),
@@ -959,7 +972,7 @@ impl CoatlabApp {
                     self.choose_file(FilePurpose::ExportMeasurement);
                 }
                 if ui
-                    .button("Target from file (design, CGATS, CxF3)…")
+                    .button("Target from file (design, CGATS, CxF3, CSV)…")
                     .clicked()
                 {
                     self.choose_file(FilePurpose::Target);

@@ -47,7 +47,7 @@ impl FilePurpose {
                 &["toml"]
             }
             // CGATS files come as .cgats, .txt, .it8 or .ti3, CxF3 as .cxf (or .xml).
-            FilePurpose::Target => &["toml", "cgats", "txt", "it8", "ti3", "cxf", "xml"],
+            FilePurpose::Target => &["toml", "cgats", "txt", "it8", "ti3", "cxf", "xml", "csv"],
             FilePurpose::ImportAlbedoCsv => &["csv"],
             FilePurpose::ExportMeasurement => &["csv", "json"],
             FilePurpose::ExportPreviewImage => &["png", "exr"],
@@ -62,7 +62,7 @@ impl FilePurpose {
             FilePurpose::OpenDesign | FilePurpose::SaveDesign | FilePurpose::SecondDesign => {
                 "Coatlab design"
             }
-            FilePurpose::Target => "Design or measurement (CGATS, CxF3)",
+            FilePurpose::Target => "Design or measurement (CGATS, CxF3, spectral CSV)",
             FilePurpose::ImportAlbedoCsv => "Spectral CSV",
             FilePurpose::ExportMeasurement => "Readings (CSV, JSON)",
             FilePurpose::ExportPreviewImage => "Image (PNG, EXR)",

@@ -10,7 +10,7 @@ use egui::{Color32, RichText, Ui};
 use coatlab_core::analysis::{Analysis, SWATCH_ASPECULAR_DEG, Swatch};
 
 use super::fit_job::FitDone;
-use super::target::{Target, TargetView};
+use super::target::{Target, TargetView, geometry_choices};
 use super::tolerance_view::{comparison_ui, fit_report_ui};
 
 /// What the panel asks the app to do.
@@ -24,6 +24,8 @@ pub enum InstrumentsRequest {
     ClearTarget,
     /// Use this standard of the target's measurement file.
     SelectSample(usize),
+    /// The geometry a CSV target was measured at (a CSV does not say).
+    SetGeometry(coatlab_core::measurement::Geometry),
     /// Judge by this tolerance (the design's `[tolerance]`; an edit of the design).
     SetTolerance(Tolerance),
     /// Fit the design's ρ(λ) to the target standard.
@@ -163,8 +165,8 @@ fn target_row_ui(ui: &mut Ui, view: &InstrumentsView<'_>, requests: &mut Vec<Ins
         if ui
             .button("Target from file…")
             .on_hover_text(
-                "A design (.toml) or a measurement: CGATS.17 text or CxF3 XML. \
-                 A measurement file can also be dropped on the window.",
+                "A design (.toml) or a measurement: CGATS.17 text, CxF3 XML or a CSV of \
+                 spectra. A CGATS or CxF3 file can also be dropped on the window.",
             )
             .clicked()
         {
@@ -195,6 +197,23 @@ fn target_row_ui(ui: &mut Ui, view: &InstrumentsView<'_>, requests: &mut Vec<Ins
                             }
                         }
                     });
+            }
+            if m.geometry_is_chosen() {
+                let current = m.chosen_geometry();
+                egui::ComboBox::from_label("Measured at")
+                    .selected_text(current.to_string())
+                    .show_ui(ui, |ui| {
+                        for g in geometry_choices() {
+                            if ui.selectable_label(g == current, g.to_string()).clicked() {
+                                requests.push(InstrumentsRequest::SetGeometry(g));
+                            }
+                        }
+                    })
+                    .response
+                    .on_hover_text(
+                        "A CSV of spectra does not say where it was measured: state the \
+                         geometry to compare the design at",
+                    );
             }
         }
         tolerance_ui(ui, view.tolerance, requests);

@@ -12,7 +12,9 @@ use coatlab_core::analysis::{
 };
 use coatlab_core::colour::tolerance::Tolerance;
 use coatlab_core::design::PaintDesign;
-use coatlab_core::measurement::{self, Measurement, Standard};
+use coatlab_core::instruments::{ASPECULAR_DEG, ILLUMINATION_DEG, SPHERE_GEOMETRIES};
+use coatlab_core::measurement::spectra_csv::read_spectra_measurement;
+use coatlab_core::measurement::{self, Format, Geometry, Measurement, Standard};
 use coatlab_core::target::{Comparison, compare_designs, compare_to_standard};
 
 /// A measurement file and the standard in it that is the target.
@@ -32,6 +34,26 @@ impl MeasuredTarget {
             .iter()
             .map(|s| s.name.to_owned())
             .collect()
+    }
+
+    /// Whether the file leaves the geometry to the person (a CSV of spectra).
+    pub fn geometry_is_chosen(&self) -> bool {
+        self.measurement.format == Format::SpectraCsv
+    }
+
+    /// The geometry of a CSV's readings.
+    pub fn chosen_geometry(&self) -> Geometry {
+        self.measurement
+            .samples
+            .first()
+            .map_or(Geometry::Unspecified, |s| s.geometry)
+    }
+
+    /// States the geometry of every reading (a CSV says none).
+    pub fn set_geometry(&mut self, geometry: Geometry) {
+        for s in &mut self.measurement.samples {
+            s.geometry = geometry;
+        }
     }
 
     /// The chosen standard (the first if the choice is out of range).
@@ -82,22 +104,41 @@ pub fn is_measurement(bytes: &[u8]) -> bool {
     measurement::sniff(bytes).is_some()
 }
 
-/// Reads `path` as a target: a CGATS or CxF3 measurement file by its content,
-/// otherwise a design file. A file with several standards starts on the first;
-/// the Instruments tab offers the others. Errors name the file and, from the
-/// core's readers, the line or element.
+/// The geometries a CSV's readings may be stated at: the virtual instruments'.
+pub fn geometry_choices() -> Vec<Geometry> {
+    std::iter::once(Geometry::Unspecified)
+        .chain(
+            ASPECULAR_DEG
+                .iter()
+                .map(|&a| Geometry::directional(ILLUMINATION_DEG, a)),
+        )
+        .chain(SPHERE_GEOMETRIES)
+        .collect()
+}
+
+/// Reads `path` as a target: a CGATS or CxF3 measurement file by its content, a
+/// CSV of spectra (`.csv`, as `coatlab color` reads it; its geometry unstated
+/// until the person states it), otherwise a design file. A file with several
+/// standards starts on the first; the Instruments tab offers the others. Errors
+/// name the file and, from the core's readers, the line, column or element.
 pub fn load_target(path: &Path) -> anyhow::Result<Target> {
     let file = path.display().to_string();
     let bytes = std::fs::read(path).with_context(|| format!("cannot read {file}"))?;
-    if is_measurement(&bytes) {
-        let measurement = measurement::read(&bytes, &file)?;
-        return Ok(Target::Measured(MeasuredTarget {
-            path: path.to_owned(),
-            measurement,
-            selected: 0,
-        }));
-    }
-    Ok(Target::Design(PaintDesign::load(path)?))
+    let is_csv = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
+    let measurement = if is_measurement(&bytes) {
+        measurement::read(&bytes, &file)?
+    } else if is_csv {
+        read_spectra_measurement(&bytes, &file, Geometry::Unspecified)?
+    } else {
+        return Ok(Target::Design(PaintDesign::load(path)?));
+    };
+    Ok(Target::Measured(MeasuredTarget {
+        path: path.to_owned(),
+        measurement,
+        selected: 0,
+    }))
 }
 
 /// The tolerance the design is judged by: its own `[tolerance]`, else ΔE00 ≤ 1.
