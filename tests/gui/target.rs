@@ -10,9 +10,11 @@ use coatlab_core::target::{Comparison, compare_to_standard};
 use super::*;
 
 fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../coatlab-core/tests/data/measurements")
-        .join(name)
+        .join(name);
+    // Without the "..": the path is shown in notices and in the fit report.
+    std::fs::canonicalize(&path).unwrap_or(path)
 }
 
 fn instruments_harness() -> Harness<'static, CoatlabApp> {
@@ -294,4 +296,39 @@ fn a_csv_of_spectra_is_compared_at_the_geometry_the_person_states() {
     assert_eq!(c.pass, Some(true));
     assert!(h.query_all_by_label("pass").next().is_some());
     let _ = std::fs::remove_dir_all(dir);
+}
+
+/// The workflow page's pictures (docs/workflow.md): the Instruments tab with a
+/// measured standard as the target, then after *Fit to target*, drawn by wgpu as
+/// the window draws them and written to `target/gui-preview/workflow-*.png`. The
+/// swatches put the target's colour beside the design's.
+#[test]
+fn the_workflow_pictures_show_the_target_and_the_fit() {
+    let mut app = app();
+    app.set_tab(Tab::Instruments);
+    let mut h = app_harness(egui::vec2(1500.0, 1350.0), true, app);
+    h.run();
+    h.state_mut().open_target(&fixture("multi_angle.cxf"));
+    h.run();
+    h.state_mut().select_target_sample(1);
+    h.run();
+    let blue = |rgb: [u8; 3]| rgb[2] > rgb[0];
+    let swatches = &h.state().target_view().expect("target").swatches;
+    assert!(swatches.iter().all(|s| s.target_srgb.is_some_and(blue)));
+    assert!(
+        swatches.iter().all(|s| !blue(s.design_srgb)),
+        "a red design"
+    );
+    save_screenshot(&mut h, "workflow-target.png");
+
+    h.get_by_label("Fit to target").click();
+    h.step();
+    wait_until(&mut h, "the fit", |app| !app.is_fitting());
+    h.run();
+    let swatches = &h.state().target_view().expect("target").swatches;
+    assert!(
+        swatches.iter().all(|s| blue(s.design_srgb)),
+        "fitted to blue"
+    );
+    save_screenshot(&mut h, "workflow-fit.png");
 }
