@@ -120,8 +120,7 @@ fn a_measurement_chosen_in_the_file_dialog_is_the_target_with_its_tolerance_tabl
     let c = shown_comparison(h.state());
     assert_eq!(c.tolerance.formula, Formula::DeAb);
     assert!(c.angles.iter().all(|a| a.value == a.difference.de_ab));
-    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
-    h.run();
+    undo_key(&mut h);
     assert_eq!(h.state().design().tolerance, None);
     assert_eq!(shown_comparison(h.state()).tolerance, Tolerance::default());
 }
@@ -223,14 +222,9 @@ fn fit_to_target_applies_the_fit_as_one_edit_and_undo_restores_the_design() {
     h.get_by_label_contains("Fit of ρ(λ) to sample \"Deep blue\"");
     h.get_by_label("residual ΔE00");
 
-    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
-    h.run();
+    undo_key(&mut h);
     assert_eq!(h.state().design(), &before, "one undo step restores it");
-    h.key_press_modifiers(
-        egui::Modifiers::COMMAND | egui::Modifiers::SHIFT,
-        egui::Key::Z,
-    );
-    h.run();
+    redo_key(&mut h);
     assert_eq!(h.state().design(), &fitted, "and redo brings the fit back");
 }
 

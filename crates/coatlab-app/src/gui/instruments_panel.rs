@@ -64,14 +64,11 @@ pub fn instruments_ui(ui: &mut Ui, view: &InstrumentsView<'_>) -> Vec<Instrument
         ))
         .strong(),
     );
-    egui::Grid::new("multi_angle")
-        .striped(true)
-        .num_columns(6)
-        .show(ui, |ui| {
-            for h in ["aspecular", "detector", "L*", "a*", "b*", "ΔE00"] {
-                ui.label(RichText::new(h).strong());
-            }
-            ui.end_row();
+    table_ui(
+        ui,
+        "multi_angle",
+        &["aspecular", "detector", "L*", "a*", "b*", "ΔE00"],
+        |ui| {
             for (i, a) in analysis.measurement.angles.iter().enumerate() {
                 ui.label(format!("{}°", a.aspecular_deg));
                 ui.label(format!("{}°", a.detector_deg));
@@ -84,24 +81,23 @@ pub fn instruments_ui(ui: &mut Ui, view: &InstrumentsView<'_>) -> Vec<Instrument
                 };
                 ui.end_row();
             }
-        });
+        },
+    );
     ui.add_space(6.0);
     ui.label(RichText::new("Gloss (ISO 2813; specular + body, ȳ under D65)").strong());
-    egui::Grid::new("gloss")
-        .striped(true)
-        .num_columns(3)
-        .show(ui, |ui| {
-            for h in ["geometry", "total GU", "specular GU"] {
-                ui.label(RichText::new(h).strong());
-            }
-            ui.end_row();
+    table_ui(
+        ui,
+        "gloss",
+        &["geometry", "total GU", "specular GU"],
+        |ui| {
             for g in &analysis.measurement.gloss {
                 ui.label(g.geometry.to_string());
                 ui.label(format!("{:.1}", g.total_gu));
                 ui.label(format!("{:.1}", g.specular_gu));
                 ui.end_row();
             }
-        });
+        },
+    );
     ui.add_space(6.0);
     ui.label(
         RichText::new(format!(
@@ -260,17 +256,36 @@ fn tolerance_ui(ui: &mut Ui, tolerance: &Tolerance, requests: &mut Vec<Instrumen
             .prefix("≤ "),
     )
     .on_hover_text("The limit at every angle without one of its own; stored in the design file");
-    if !t.per_angle.is_empty() {
-        let cells: Vec<String> = t
-            .per_angle
-            .iter()
-            .map(|(angle, limit)| format!("{limit} at as{angle}°"))
-            .collect();
-        ui.label(RichText::new(cells.join(", ")).weak());
+    let per_angle = t
+        .per_angle
+        .iter()
+        .map(|(angle, limit)| format!("{limit} at as{angle}°"));
+    let per_angle = per_angle.collect::<Vec<_>>().join(", ");
+    if !per_angle.is_empty() {
+        ui.label(RichText::new(per_angle).weak());
     }
     if t != *tolerance {
         requests.push(InstrumentsRequest::SetTolerance(t));
     }
+}
+
+/// A bold line above a table.
+pub(super) fn heading_ui(ui: &mut Ui, text: String) {
+    ui.label(RichText::new(text).strong());
+}
+
+/// A striped table with a bold header row; `rows` adds the rows.
+pub(super) fn table_ui(ui: &mut Ui, id: &str, heads: &[&str], rows: impl FnOnce(&mut Ui)) {
+    egui::Grid::new(id)
+        .striped(true)
+        .num_columns(heads.len())
+        .show(ui, |ui| {
+            for h in heads {
+                ui.label(RichText::new(*h).strong());
+            }
+            ui.end_row();
+            rows(ui);
+        });
 }
 
 fn delta_e_text(de: f64) -> RichText {

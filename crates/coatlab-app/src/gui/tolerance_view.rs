@@ -8,6 +8,7 @@ use coatlab_core::target::Comparison;
 use egui::{Color32, RichText, Ui};
 
 use super::fit_job::FitDone;
+use super::instruments_panel::{heading_ui, table_ui};
 
 /// How many unreachable wavelengths are listed before the rest are counted.
 const UNREACHABLE_LISTED: usize = 8;
@@ -29,37 +30,30 @@ fn verdict(pass: bool) -> RichText {
 /// beside the target's and the comparison's notes.
 pub fn comparison_ui(ui: &mut Ui, c: &Comparison) {
     let t = &c.tolerance;
-    ui.label(
-        RichText::new(format!(
+    heading_ui(
+        ui,
+        format!(
             "Against the target: {} ≤ {} (design − target)",
             t.formula, t.default_limit
-        ))
-        .strong(),
+        ),
     );
     const HEADS: [&str; 11] = [
         "geometry", "ΔL*", "Δa*", "Δb*", "ΔC*", "ΔH*", "ΔE00", "ΔE*ab", "CMC 2:1", "limit",
         "verdict",
     ];
-    egui::Grid::new("tolerance")
-        .striped(true)
-        .num_columns(HEADS.len())
-        .show(ui, |ui| {
-            for h in HEADS {
-                ui.label(RichText::new(h).strong());
+    table_ui(ui, "tolerance", &HEADS, |ui| {
+        for a in &c.angles {
+            let d = &a.difference;
+            ui.label(a.geometry.to_string());
+            for v in [
+                d.dl, d.da, d.db, d.dc, d.dh, d.de00, d.de_ab, d.de_cmc, a.limit,
+            ] {
+                ui.label(format!("{v:.2}"));
             }
+            ui.label(verdict(a.pass));
             ui.end_row();
-            for a in &c.angles {
-                let d = &a.difference;
-                ui.label(a.geometry.to_string());
-                for v in [
-                    d.dl, d.da, d.db, d.dc, d.dh, d.de00, d.de_ab, d.de_cmc, a.limit,
-                ] {
-                    ui.label(format!("{v:.2}"));
-                }
-                ui.label(verdict(a.pass));
-                ui.end_row();
-            }
-        });
+        }
+    });
     for n in &c.not_comparable {
         ui.label(RichText::new(format!("{}: {}", n.geometry, n.reason)).weak());
     }
@@ -81,12 +75,7 @@ pub fn comparison_ui(ui: &mut Ui, c: &Comparison) {
     if c.angles.iter().any(|a| !a.metamerism.is_empty()) {
         ui.label("Metamerism index (matched under D65): ΔE00 (ΔE*ab)");
         for a in c.angles.iter().filter(|a| !a.metamerism.is_empty()) {
-            let cells: Vec<String> = a
-                .metamerism
-                .iter()
-                .map(|m| format!("{}: {:.2} ({:.2})", m.illuminant, m.de00, m.de_ab))
-                .collect();
-            ui.label(format!("{}   {}", a.geometry, cells.join("   ")));
+            ui.label(format!("{}   {}", a.geometry, a.metamerism_summary()));
         }
         if c.metameric {
             ui.label(
@@ -113,12 +102,9 @@ pub fn comparison_ui(ui: &mut Ui, c: &Comparison) {
 /// cannot be reached and why, and the fit's notes.
 pub fn fit_report_ui(ui: &mut Ui, done: &FitDone) {
     let fit = &done.fit;
-    ui.label(
-        RichText::new(format!(
-            "Fit of ρ(λ) to sample {:?} of {}",
-            done.sample, done.file
-        ))
-        .strong(),
+    heading_ui(
+        ui,
+        format!("Fit of ρ(λ) to sample {:?} of {}", done.sample, done.file),
     );
     let method = match fit.method {
         Method::ClosedForm => "the closed form per wavelength (one geometry)".to_owned(),
@@ -140,21 +126,19 @@ pub fn fit_report_ui(ui: &mut Ui, done: &FitDone) {
             .find(|(geometry, _)| *geometry == g)
             .map_or("–".to_owned(), |(_, rms)| format!("{rms:.4}"))
     };
-    egui::Grid::new("fit_residual")
-        .striped(true)
-        .num_columns(3)
-        .show(ui, |ui| {
-            for h in ["geometry", "residual ΔE00", "spectral RMS"] {
-                ui.label(RichText::new(h).strong());
-            }
-            ui.end_row();
+    table_ui(
+        ui,
+        "fit_residual",
+        &["geometry", "residual ΔE00", "spectral RMS"],
+        |ui| {
             for a in &done.report.comparison.angles {
                 ui.label(a.geometry.to_string());
                 ui.label(format!("{:.2}", a.difference.de00));
                 ui.label(rms(a.geometry));
                 ui.end_row();
             }
-        });
+        },
+    );
     if !fit.unreachable.is_empty() {
         ui.label(
             RichText::new(format!(
