@@ -9,6 +9,9 @@ use coatlab_core::target::{Comparison, compare_to_standard};
 
 use super::*;
 
+#[path = "../../crates/coatlab-core/tests/support/metameric_black.rs"]
+mod metameric_black;
+
 fn fixture(name: &str) -> PathBuf {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../coatlab-core/tests/data/measurements")
@@ -264,9 +267,23 @@ fn a_csv_of_spectra_is_compared_at_the_geometry_the_person_states() {
         .iter()
         .find(|a| a.aspecular_deg == 45.0)
         .expect("the 45° reading");
-    let mut csv = String::from("wavelength_nm,own\n");
-    for (nm, r) in m.wavelength_nm.iter().zip(&at_45.reflectance_factor) {
-        csv.push_str(&format!("{nm},{r}\n"));
+    // And a metamer of it under D65: the same reading plus a metameric black.
+    // (in proportion to the reflectance, so that it stays positive).
+    let wiggle: Vec<f64> = m
+        .wavelength_nm
+        .iter()
+        .zip(&at_45.reflectance_factor)
+        .map(|(nm, r)| 0.4 * r * ((nm - 380.0) / 20.0).sin())
+        .collect();
+    let black = metameric_black::metameric_black(&m.wavelength_nm, &wiggle);
+    let mut csv = String::from("wavelength_nm,own,metamer\n");
+    for ((nm, r), b) in m
+        .wavelength_nm
+        .iter()
+        .zip(&at_45.reflectance_factor)
+        .zip(&black)
+    {
+        csv.push_str(&format!("{nm},{r},{}\n", r + b));
     }
     let file = dir.join("own.csv");
     std::fs::write(&file, csv).expect("write");
@@ -289,6 +306,17 @@ fn a_csv_of_spectra_is_compared_at_the_geometry_the_person_states() {
     assert!(c.angles[0].difference.de00 < 1e-6, "{:?}", c.angles[0]);
     assert_eq!(c.pass, Some(true));
     assert!(h.query_all_by_label("pass").next().is_some());
+    assert!(h.query_by_label_contains("metameric").is_none());
+
+    // The metamer passes under D65 and is warned about.
+    h.get_by_role_and_label(Role::ComboBox, "Sample").click();
+    h.run();
+    h.get_by_role_and_label(Role::Button, "metamer").click();
+    h.run();
+    let c = shown_comparison(h.state());
+    assert_eq!(c.pass, Some(true), "{c:?}");
+    assert!(c.metameric, "{c:?}");
+    h.get_by_label_contains("Warning: metameric");
     let _ = std::fs::remove_dir_all(dir);
 }
 
