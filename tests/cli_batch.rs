@@ -7,7 +7,7 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use common::batch::{self, coatlab_batch as coatlab};
-use common::{exit, failure, scratch_with_presets, stdout};
+use common::{assert_mentions, exit, failure, scratch_with_presets, stdout};
 
 /// A fresh folder with the signal red and deep blue presets in it.
 fn scratch(name: &str) -> PathBuf {
@@ -224,10 +224,7 @@ fn the_schedulers_index_variables_pick_one_task() {
         ),
         exit::USAGE,
     );
-    assert!(
-        err.contains("JOB_COMPLETION_INDEX 4: out of range") && err.contains("4 tasks"),
-        "{err}"
-    );
+    assert_mentions(&err, &["JOB_COMPLETION_INDEX 4: out of range", "4 tasks"]);
 }
 
 #[test]

@@ -16,7 +16,7 @@ use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::simd_path::SimdPath;
-use common::{ExrImage, assert_rgb_f32, exit, failure, read_exr, stdout};
+use common::{ExrImage, assert_mentions, assert_rgb_f32, exit, failure, read_exr, stdout};
 
 #[path = "../crates/coatlab-core/tests/support/gltf_testdata.rs"]
 mod gltf_testdata;
@@ -68,10 +68,7 @@ fn version_names_the_simd_path_and_coatlab_simd_forces_it() {
         }
     }
     let message = failure(&version(Some("avx9000")), 2);
-    assert!(
-        message.contains("COATLAB_SIMD") && message.contains("portable"),
-        "{message}"
-    );
+    assert_mentions(&message, &["COATLAB_SIMD", "portable"]);
 }
 
 #[test]
@@ -94,14 +91,7 @@ fn renders_the_built_in_car_to_png_with_a_speed_line() {
         .expect("coatlab runs");
     let text = stdout(&output);
     let last = text.lines().last().expect("a last line");
-    assert!(
-        last.contains("M samples/s") && last.contains("M rays/s"),
-        "{last}"
-    );
-    assert!(
-        last.contains("2 spp") && last.contains("8 wavelengths"),
-        "{last}"
-    );
+    assert_mentions(last, &["M samples/s", "M rays/s", "2 spp", "8 wavelengths"]);
     // The hot kernels' SIMD path, as this process (same CPU, same environment)
     // chooses it.
     assert!(
@@ -471,10 +461,7 @@ fn exr_options_and_the_header_record() {
     ] {
         let output = render_small(&out_path("options.png"), "8x8", 1, &[flag, value]);
         let message = failure(&output, exit::USAGE);
-        assert!(
-            message.contains(flag) && message.contains(refusal),
-            "{message}"
-        );
+        assert_mentions(&message, &[flag, refusal]);
     }
     let output = render_small(
         &out_path("bad-options.exr"),

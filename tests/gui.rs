@@ -7,7 +7,7 @@ use std::sync::Arc;
 use coatlab_app::gui::dialogs::{
     DialogOutcome, DialogRequest, NativeFileDialog, native_dialog_availability,
 };
-use coatlab_app::gui::paint_materials::material_label;
+use coatlab_app::gui::paint_materials::{material_label, visible_label};
 use coatlab_app::gui::storage::Storage;
 use coatlab_app::gui::{AppOptions, CoatlabApp, app::Tab};
 use coatlab_core::render::lighting::Lighting;
@@ -1400,6 +1400,102 @@ fn the_comparison_re_shades_the_first_views_paths() {
         map.max
     );
     h.get_by_label_contains("difference ΔE00 mean 0.00, 95 % 0.00");
+}
+
+/// A click at `at`: press and release without moving, one frame apart (a
+/// press held over several of the harness's quarter-second frames would be a
+/// long press, not a click).
+fn click(h: &mut Harness<'static, CoatlabApp>, at: egui::Pos2) {
+    h.hover_at(at);
+    h.step();
+    h.drag_at(at);
+    h.step();
+    h.drop_at(at);
+    h.step();
+}
+
+/// In a comparison a click on the car toggles its material's paint as in the
+/// single view — in a side-by-side pane and on the ΔE00 map — and undo takes
+/// each choice back, to the loader's at the end.
+#[test]
+fn a_click_on_the_car_in_a_comparison_toggles_its_paint_and_undo_takes_it_back() {
+    use coatlab_app::gui::compare::CompareLayout;
+    let mut h = preview_harness(true);
+    compare_models(&mut h, CompareLayout::SideBySide);
+    wait_until(&mut h, "both views", |app| compared(app, 1));
+    let automatic = preview(h.state()).paint_materials();
+    assert!(preview(h.state()).paint_is_automatic());
+    // The framed car's middle is its painted body (the loader's choice).
+    let pane = h
+        .get_by_role_and_label(Role::Image, "Preview pane: Phong (best fit)")
+        .rect();
+    let changed = |h: &mut Harness<'static, CoatlabApp>, at: egui::Pos2, what: &str| {
+        let before = preview(h.state()).paint_materials();
+        click(h, at);
+        wait_until(h, what, |app| {
+            preview(app).paint_materials() != before && !preview(app).change_pending()
+        });
+        // The gesture is over: committed as an undo step.
+        steps(h, 2);
+        preview(h.state()).paint_materials()
+    };
+    let unpainted = changed(&mut h, pane.center(), "the click in the Phong pane");
+    assert!(
+        unpainted.len() < automatic.len(),
+        "the body's material came off: {automatic:?} → {unpainted:?}"
+    );
+    save_screenshot(&mut h, "compare_side_by_side_unpainted.png");
+    h.get_by_label("ΔE00 map").click();
+    steps(&mut h, 3);
+    let map = h.get_by_role_and_label(Role::Image, "ΔE00 map").rect();
+    wait_until(&mut h, "the map", |app| compared(app, 1));
+    let repainted = changed(&mut h, map.center(), "the click on the map");
+    let mut expected = automatic.clone();
+    expected.sort_unstable();
+    let mut got = repainted.clone();
+    got.sort_unstable();
+    assert_eq!(got, expected, "the same click put the body's paint back");
+    assert!(!preview(h.state()).paint_is_automatic());
+
+    h.state_mut().undo();
+    steps(&mut h, 2);
+    assert_eq!(preview(h.state()).paint_materials(), unpainted);
+    h.state_mut().undo();
+    steps(&mut h, 2);
+    assert!(preview(h.state()).paint_is_automatic());
+    assert_eq!(preview(h.state()).paint_materials(), automatic);
+    h.state_mut().redo();
+    steps(&mut h, 2);
+    assert_eq!(preview(h.state()).paint_materials(), unpainted);
+
+    // The paint list shows the area the view sees of each material, measured
+    // on the render thread once the list is open: of the body, a part (its far
+    // side is hidden, and what is seen is seen in projection).
+    h.get_by_label("Paint materials").click();
+    steps(&mut h, 2);
+    wait_until(&mut h, "the visible areas", |app| {
+        preview(app).visible_areas().is_some()
+    });
+    steps(&mut h, 2);
+    let scene = preview(h.state()).scene().cloned().expect("scene");
+    let visible = preview(h.state())
+        .visible_areas()
+        .expect("measured")
+        .to_vec();
+    assert_eq!(visible.len(), scene.materials.len());
+    for &body in &automatic {
+        let total = scene.materials[body as usize].area_m2;
+        let seen = visible[body as usize];
+        // The built-in saloon's body, 16.7 m² of panels (inner faces included),
+        // shows 2.0 m² from the front three-quarter view.
+        assert!(
+            seen > 1.0 && seen < 0.5 * total,
+            "{}: {seen} m² seen of {total} m²",
+            scene.materials[body as usize].name
+        );
+    }
+    h.get_by_label(&visible_label(Some(visible[automatic[0] as usize])));
+    save_screenshot(&mut h, "compare_paint_list_visible.png");
 }
 
 /// An ideal-mirror paint cannot be re-shaded into Phong (a delta bounce has no

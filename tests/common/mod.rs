@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
 #[allow(unused_imports)] // each test crate uses its own subset
-pub use outcome::{exit, failure, stdout};
+pub use outcome::{assert_mentions, exit, failure, stdout};
 
 pub fn coatlab(args: &[&str], stdin: &str) -> Output {
     coatlab_fed(args, stdin.as_bytes().to_vec())

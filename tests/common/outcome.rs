@@ -36,3 +36,12 @@ pub fn failure(output: &Output, code: i32) -> String {
     assert!(!stderr.trim().is_empty(), "a failure says why");
     stderr
 }
+
+/// Asserts that `text` (a message or an output line) says every one of `fragments`,
+/// naming the first one it lacks.
+#[track_caller]
+pub fn assert_mentions(text: &str, fragments: &[&str]) {
+    if let Some(missing) = fragments.iter().find(|f| !text.contains(**f)) {
+        panic!("expected {missing:?} in:\n{text}");
+    }
+}

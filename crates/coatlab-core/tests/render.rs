@@ -34,7 +34,7 @@ use render_reference::{REFERENCE_FILE, Reference, reference_replicas};
 
 #[path = "support/gltf_testdata.rs"]
 mod gltf_testdata;
-use gltf_testdata::testdata;
+use gltf_testdata::{model_files, testdata};
 
 #[path = "support/progressive.rs"]
 mod progressive;
@@ -546,22 +546,7 @@ fn paint_and_phong_differ_toward_grazing_and_agree_head_on() {
 #[test]
 fn every_test_model_renders_or_is_refused() {
     let Some(dir) = testdata() else { return };
-    let mut files = Vec::new();
-    let mut stack = vec![dir];
-    while let Some(d) = stack.pop() {
-        for entry in std::fs::read_dir(&d).expect("read_dir") {
-            let path = entry.expect("entry").path();
-            if path.is_dir() {
-                stack.push(path);
-            } else if matches!(
-                path.extension().and_then(|e| e.to_str()),
-                Some("glb" | "gltf")
-            ) {
-                files.push(path);
-            }
-        }
-    }
-    files.sort();
+    let files = model_files(&dir);
     assert!(files.len() >= 6, "found only {files:?}");
     let grid = WavelengthGrid::visible(4).expect("grid");
     let model = grey_model(grid, GlossExponent::Finite(300.0));

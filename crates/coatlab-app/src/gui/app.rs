@@ -14,7 +14,7 @@ use super::dialogs::{DialogEvent, DialogRequest, FileDialogs, NativeFileDialog};
 use super::export;
 use super::file_browser::FilePurpose;
 use super::fit_job::{FitDone, FitJob};
-use super::history::History;
+use super::history::{Edit, History};
 use super::instruments_panel::{InstrumentsRequest, InstrumentsView, instruments_ui};
 use super::paint_panel::{PanelRequest, paint_controls_ui};
 use super::plots::{PlotSettings, plots_ui};
@@ -95,7 +95,7 @@ pub struct CoatlabApp {
     path: Option<PathBuf>,
     /// The design as last saved or opened, to tell unsaved changes.
     saved: PaintDesign,
-    history: History,
+    history: History<Edit>,
     presets: Vec<Preset>,
     target: Option<Target>,
     /// The design against the target, computed with the analysis.
@@ -162,7 +162,10 @@ impl CoatlabApp {
         });
         let mut app = Self {
             saved: design.clone(),
-            history: History::new(design.clone()),
+            history: History::new(Edit {
+                design: design.clone(),
+                paint: None,
+            }),
             design,
             path: None,
             presets,
@@ -217,9 +220,46 @@ impl CoatlabApp {
 
     /// Replaces the design as an undoable edit (what every control ends up doing).
     pub fn set_design(&mut self, design: PaintDesign) {
-        self.history.commit(&self.design);
+        self.commit();
         self.design = design;
-        self.history.commit(&self.design);
+        self.commit();
+    }
+
+    /// The state an undo step restores: the design and the preview's paint
+    /// materials.
+    fn edit(&self) -> Edit {
+        Edit {
+            design: self.design.clone(),
+            paint: self.preview.as_ref().and_then(Preview::paint_choice),
+        }
+    }
+
+    /// Records the state as an undo step if it changed. A new scene's paint
+    /// choice is not a step: it is taken as the committed one (the steps before
+    /// it keep their designs; their choices of the old scene's materials are
+    /// not applied to the new scene).
+    fn commit(&mut self) {
+        let current = self.edit();
+        let scene = |e: &Edit| e.paint.as_ref().map(|p| p.scene.clone());
+        if scene(&current) != scene(self.history.committed()) {
+            let amended = Edit {
+                paint: current.paint.clone(),
+                ..self.history.committed().clone()
+            };
+            self.history.amend(amended);
+        }
+        self.history.commit(&current);
+    }
+
+    /// Takes `edit` back: the design, and the paint materials where the
+    /// preview still shows the scene they were chosen on.
+    fn restore(&mut self, edit: Edit) {
+        self.design = edit.design;
+        if let (Some(preview), Some(paint)) = (self.preview.as_mut(), edit.paint)
+            && preview.scene().is_some_and(|s| s.name == paint.scene)
+        {
+            preview.set_paint_materials(paint.chosen);
+        }
     }
 
     /// The file the design belongs to.
@@ -553,15 +593,16 @@ impl CoatlabApp {
 
     /// Undoes the last edit.
     pub fn undo(&mut self) {
-        if let Some(d) = self.history.undo(&self.design) {
-            self.design = d;
+        self.commit();
+        if let Some(edit) = self.history.undo(&self.edit()) {
+            self.restore(edit);
         }
     }
 
     /// Redoes the last undone edit.
     pub fn redo(&mut self) {
-        if let Some(d) = self.history.redo(&self.design) {
-            self.design = d;
+        if let Some(edit) = self.history.redo(&self.edit()) {
+            self.restore(edit);
         }
     }
 
@@ -897,7 +938,7 @@ impl CoatlabApp {
         // is being typed in.
         let gesture_over = !ctx.input(|i| i.pointer.any_down()) && !ctx.egui_wants_keyboard_input();
         if gesture_over {
-            self.history.commit(&self.design);
+            self.commit();
         }
         self.autosave(ctx);
         let title = format!(
@@ -1004,10 +1045,9 @@ impl CoatlabApp {
                 }
             });
             ui.menu_button("Edit", |ui| {
-                let (can_undo, can_redo) = (
-                    self.history.can_undo(&self.design),
-                    self.history.can_redo(&self.design),
-                );
+                let edit = self.edit();
+                let (can_undo, can_redo) =
+                    (self.history.can_undo(&edit), self.history.can_redo(&edit));
                 for (enabled, label, action) in [
                     (can_undo, "Undo  (Ctrl+Z)", Self::undo as fn(&mut Self)),
                     (can_redo, "Redo  (Ctrl+Shift+Z)", Self::redo),

@@ -1,9 +1,11 @@
-//! Undo and redo of design edits.
+//! Undo and redo of design edits, and of the choice of the scene materials
+//! that carry the design.
 //!
-//! The history stores whole designs: a design is a few kilobytes (two 81-sample
-//! spectra at most), so snapshots are simpler and safer than inverse operations,
-//! and every kind of edit — a slider, a preset, an import, a loaded file — is
-//! undoable by the same path.
+//! The history stores whole states ([`Edit`]: the design and the paint-material
+//! choice): a design is a few kilobytes (two 81-sample spectra at most), so
+//! snapshots are simpler and safer than inverse operations, and every kind of
+//! edit — a slider, a preset, an import, a loaded file, a material toggled in
+//! the paint list or by a click on the car — is undoable by the same path.
 //!
 //! Edits are *committed*, not recorded per change: the UI calls [`History::commit`]
 //! once a gesture is over (no pointer button held), so a slider drag over 200
@@ -14,17 +16,36 @@ use coatlab_core::design::PaintDesign;
 /// How many undo steps are kept; older ones are dropped.
 pub const MAX_UNDO: usize = 200;
 
-/// Undo and redo stacks around the last committed design.
-#[derive(Debug, Clone)]
-pub struct History {
-    undo: Vec<PaintDesign>,
-    redo: Vec<PaintDesign>,
-    committed: PaintDesign,
+/// One undoable state of the document.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Edit {
+    pub design: PaintDesign,
+    /// Which of the preview scene's materials carry the design; `None` while
+    /// the preview shows no scene.
+    pub paint: Option<PaintChoice>,
 }
 
-impl History {
+/// The preview's paint-material choice and the scene it was made on (material
+/// indices mean nothing on another scene).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PaintChoice {
+    /// The scene's name as the preview reports it.
+    pub scene: String,
+    /// The materials chosen, or `None` for the loader's choice.
+    pub chosen: Option<Vec<u32>>,
+}
+
+/// Undo and redo stacks around the last committed state (a design, an [`Edit`]).
+#[derive(Debug, Clone)]
+pub struct History<T = PaintDesign> {
+    undo: Vec<T>,
+    redo: Vec<T>,
+    committed: T,
+}
+
+impl<T: Clone + PartialEq> History<T> {
     /// A history whose only state is `initial`.
-    pub fn new(initial: PaintDesign) -> Self {
+    pub fn new(initial: T) -> Self {
         Self {
             undo: Vec::new(),
             redo: Vec::new(),
@@ -34,7 +55,7 @@ impl History {
 
     /// Records `current` as a new step if it differs from the last committed design.
     /// Returns whether a step was recorded. A new step clears the redo stack.
-    pub fn commit(&mut self, current: &PaintDesign) -> bool {
+    pub fn commit(&mut self, current: &T) -> bool {
         if *current == self.committed {
             return false;
         }
@@ -49,7 +70,7 @@ impl History {
 
     /// Forgets every step and starts again from `design` (a newly opened file is
     /// still undoable: callers commit it instead when that is wanted).
-    pub fn reset(&mut self, design: PaintDesign) {
+    pub fn reset(&mut self, design: T) {
         self.undo.clear();
         self.redo.clear();
         self.committed = design;
@@ -57,7 +78,7 @@ impl History {
 
     /// The design before the last step, or `None` when there is nothing to undo.
     /// `current` is committed first, so an edit still in progress is not lost to redo.
-    pub fn undo(&mut self, current: &PaintDesign) -> Option<PaintDesign> {
+    pub fn undo(&mut self, current: &T) -> Option<T> {
         self.commit(current);
         let previous = self.undo.pop()?;
         let undone = std::mem::replace(&mut self.committed, previous.clone());
@@ -66,7 +87,7 @@ impl History {
     }
 
     /// The design the last undo went back from, or `None`.
-    pub fn redo(&mut self, current: &PaintDesign) -> Option<PaintDesign> {
+    pub fn redo(&mut self, current: &T) -> Option<T> {
         if *current != self.committed {
             // An uncommitted edit after an undo is a new branch: redo has nothing left.
             self.commit(current);
@@ -79,13 +100,24 @@ impl History {
     }
 
     /// Whether an undo step exists (counting an uncommitted edit).
-    pub fn can_undo(&self, current: &PaintDesign) -> bool {
+    pub fn can_undo(&self, current: &T) -> bool {
         !self.undo.is_empty() || *current != self.committed
     }
 
     /// Whether a redo step exists.
-    pub fn can_redo(&self, current: &PaintDesign) -> bool {
+    pub fn can_redo(&self, current: &T) -> bool {
         !self.redo.is_empty() && *current == self.committed
+    }
+
+    /// The last committed state.
+    pub fn committed(&self) -> &T {
+        &self.committed
+    }
+
+    /// Takes `current` as the committed state without recording a step: a
+    /// change that is not the user's edit (a new scene's paint choice).
+    pub fn amend(&mut self, current: T) {
+        self.committed = current;
     }
 
     /// Number of undo steps recorded.

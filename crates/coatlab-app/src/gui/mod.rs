@@ -10,7 +10,7 @@
 //! | [`target`] | the target: a design or a standard of a measurement file (CGATS, CxF3), compared by [`coatlab_core::target`] |
 //! | [`tolerance_view`] | the tolerance table and the fit report, as `coatlab measure` and `coatlab fit` print them |
 //! | [`fit_job`] | *Fit to target* ([`coatlab_core::fit`]) on a thread of its own |
-//! | [`history`] | undo/redo by design snapshots |
+//! | [`history`] | undo/redo by snapshots of the design and the paint-material choice |
 //! | [`storage`] | recent files, autosave and crash recovery |
 //! | [`dialogs`] | choosing files: the system file dialog (rfd, XDG portal or zenity) on its own thread, else the in-app browser |
 //! | [`file_browser`] | the in-app open/save browser |

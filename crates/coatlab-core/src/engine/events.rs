@@ -20,6 +20,9 @@ pub enum EngineEvent {
     /// The materials that carry the paint now, after a pick toggled one
     /// ([`super::command::Command::TogglePaintAt`]).
     PaintMaterials(Vec<u32>),
+    /// Per scene material, the area the current view sees of it, m²
+    /// ([`super::LiveEngine::visible_areas`]), measured by a job the app sent.
+    VisibleAreas(Vec<f32>),
     /// Something failed; the picture keeps what it had.
     Failed(EngineError),
     /// What a job run on the render thread reported ([`super::EngineThread::run_job`]).

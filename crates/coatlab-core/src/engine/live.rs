@@ -10,7 +10,7 @@ use crate::render::environment::Environment;
 use crate::render::film::{DisplayChoice, DisplaySettings};
 use crate::render::lighting::Lighting;
 use crate::render::material::Shading;
-use crate::render::pick::{pick, toggled};
+use crate::render::pick::{pick, toggled, visible_areas};
 use crate::render::reshade::ReshadeError;
 use crate::render::view::ViewChoice;
 
@@ -317,6 +317,17 @@ impl<B: RenderBackend> LiveEngine<B> {
         }
     }
 
+    /// Per scene material, the area the current view sees of it, m²
+    /// ([`visible_areas`] on a grid of [`VISIBLE_AREA_COLUMNS`] across, in the
+    /// image's aspect): a few thousand rays, milliseconds, for the paint list.
+    pub fn visible_areas(&self) -> Vec<f32> {
+        let camera = &self.inputs.camera;
+        let rows = (VISIBLE_AREA_COLUMNS as f32 * camera.height() as f32 / camera.width() as f32)
+            .round()
+            .max(1.0) as u32;
+        visible_areas(&self.world.scene, camera, VISIBLE_AREA_COLUMNS, rows)
+    }
+
     /// The display settings of the last published images: what they were shown in.
     pub fn display(&self) -> DisplaySettings {
         self.views.display
@@ -342,6 +353,10 @@ impl<B: RenderBackend> LiveEngine<B> {
         self.views.first.samples_per_pixel()
     }
 }
+
+/// Columns of the grid of rays [`LiveEngine::visible_areas`] casts: fine enough
+/// that a door handle or a mirror is hit, coarse enough to take milliseconds.
+pub const VISIBLE_AREA_COLUMNS: u32 = 96;
 
 /// A command that could not be carried out: reported, and nothing changed.
 fn failed(error: EngineError, out: &mut dyn FnMut(Output)) -> Change {

@@ -55,7 +55,7 @@ pub use cpu::CpuBackend;
 pub use delta_e::DeltaEMap;
 pub use events::{EngineError, EngineEvent, MaterialInfo, SceneInfo, file_name};
 pub use frame::{Frame, SecondSource, SecondUpdate, ViewsUpdate};
-pub use live::{LiveEngine, Output, Progress};
+pub use live::{LiveEngine, Output, Progress, VISIBLE_AREA_COLUMNS};
 pub use plan::{Pairing, Phase, State};
 pub use thread::{EngineThread, Job, Mailbox, ThreadHooks};
 pub use views::SecondImage;

@@ -963,3 +963,32 @@ fn the_render_thread_stamps_images_with_the_commands_they_show() {
         s.is_some_and(|(e, spp, _)| e == epoch && spp == TARGET)
     });
 }
+
+/// Side by side, each pane of a comparison is tall (half the preview's width):
+/// a new size frames the default view again in that aspect, and both views
+/// render through that camera, so each pane holds the whole car (the framing
+/// of a tall frame is checked on every test car in `tests/views.rs`).
+#[test]
+fn tall_comparison_panes_are_framed_in_their_own_aspect() {
+    let mut engine = engine();
+    apply(
+        &mut engine,
+        Command::Views(Views::models(PhongVariant::Naive)),
+    );
+    converge(&mut engine);
+    for (width, height) in [(32, 40), (20, 40)] {
+        apply(&mut engine, Command::Size(width, height));
+        converge(&mut engine);
+        let framed = engine
+            .world
+            .scene
+            .framing()
+            .camera(&ViewChoice::default(), width, height)
+            .expect("the default view");
+        assert_eq!(engine.inputs.camera, framed, "{width}x{height}");
+        let second = engine.views.second.as_ref().expect("a second view");
+        for view in [&engine.views.first, second] {
+            assert_eq!(view.camera(), &framed, "{width}x{height}");
+        }
+    }
+}

@@ -1094,19 +1094,13 @@ impl Film {
     /// is one matrix away for analysis (or [`Self::mean_xyz`] in code).
     pub fn write_exr_with(&self, path: &Path, output: &ExrOutput) -> Result<(), FilmError> {
         self.check_not_empty(path)?;
-        let options = ExrOptions {
-            precision: output.precision,
-            compression: output.compression,
-            attributes: self.exr_attributes(&output.record),
-        };
-        write_linear_srgb_exr(
+        write_linear_exr(
             path,
-            self.width as usize,
-            self.height as usize,
+            (self.width, self.height),
             &self.linear_srgb_image(),
-            &options,
-        )?;
-        Ok(())
+            output,
+            self.exr_attributes(&output.record),
+        )
     }
 
     /// The header attributes of this film's EXR, (name, text): those of
@@ -1142,14 +1136,7 @@ impl Film {
     }
 
     fn check_not_empty(&self, path: &Path) -> Result<(), FilmError> {
-        if self.width == 0 || self.height == 0 {
-            return Err(FilmError::EmptyImage {
-                path: path.to_owned(),
-                width: self.width,
-                height: self.height,
-            });
-        }
-        Ok(())
+        check_not_empty(path, self.width, self.height)
     }
 
     #[inline]
@@ -1296,6 +1283,42 @@ pub fn write_xyz_png(
     xyz: &[[f32; 3]],
     settings: &DisplaySettings,
 ) -> Result<(), FilmError> {
+    check_not_empty(path, width, height)?;
+    let rgb: Vec<Srgb<u8>> = display_xyz_srgba(xyz, settings)
+        .into_iter()
+        .map(|p| p.color)
+        .collect();
+    write_srgb8_png(path, width, height, &rgb)?;
+    Ok(())
+}
+
+/// Writes mean XYZ values (`width` × `height`, row-major from the top-left) as
+/// [`Film::write_exr_with`] writes a film's means: linear sRGB relative to the
+/// D65 white, unexposed, untone-mapped and unclamped, with `attributes` in the
+/// header. The export of an image that is not one film's means (a comparison
+/// pane blended from two films), linear as a film's EXR is.
+pub fn write_xyz_exr(
+    path: &Path,
+    width: u32,
+    height: u32,
+    xyz: &[[f32; 3]],
+    output: &ExrOutput,
+    attributes: Vec<(String, String)>,
+) -> Result<(), FilmError> {
+    check_not_empty(path, width, height)?;
+    let m = display_matrix(None, 0.0);
+    let rgb: Vec<LinSrgb<f32>> = xyz
+        .iter()
+        .map(|&v| {
+            let [r, g, b] = mul(&m, v);
+            LinSrgb::new(r, g, b)
+        })
+        .collect();
+    write_linear_exr(path, (width, height), &rgb, output, attributes)
+}
+
+/// An image of no pixels cannot be written: the error naming `path`.
+fn check_not_empty(path: &Path, width: u32, height: u32) -> Result<(), FilmError> {
     if width == 0 || height == 0 {
         return Err(FilmError::EmptyImage {
             path: path.to_owned(),
@@ -1303,11 +1326,24 @@ pub fn write_xyz_png(
             height,
         });
     }
-    let rgb: Vec<Srgb<u8>> = display_xyz_srgba(xyz, settings)
-        .into_iter()
-        .map(|p| p.color)
-        .collect();
-    write_srgb8_png(path, width, height, &rgb)?;
+    Ok(())
+}
+
+/// Writes linear sRGB pixels of a `size` image as `output` says, with
+/// `attributes` in the header: what a film's EXR and a blended image's share.
+fn write_linear_exr(
+    path: &Path,
+    (width, height): (u32, u32),
+    rgb: &[LinSrgb<f32>],
+    output: &ExrOutput,
+    attributes: Vec<(String, String)>,
+) -> Result<(), FilmError> {
+    let options = ExrOptions {
+        precision: output.precision,
+        compression: output.compression,
+        attributes,
+    };
+    write_linear_srgb_exr(path, width as usize, height as usize, rgb, &options)?;
     Ok(())
 }
 

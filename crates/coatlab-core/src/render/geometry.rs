@@ -102,21 +102,15 @@ impl RenderGeometry {
 
     /// The floor's hit on a ray when nearer than `t_max`: the hit and its distance.
     fn floor_hit(origin: [f32; 3], dir: [f32; 3], t_max: f32) -> Option<SurfaceHit> {
-        if dir[1] < 0.0 && origin[1] > 0.0 {
-            let t = -origin[1] / dir[1];
-            if t > 0.0 && t < t_max {
-                return Some(SurfaceHit {
-                    t,
-                    position: [origin[0] + t * dir[0], 0.0, origin[2] + t * dir[2]],
-                    geometric_normal: [0.0, 1.0, 0.0],
-                    shading_normal: [0.0, 1.0, 0.0],
-                    surface: Surface::Floor,
-                    triangle: 0,
-                    barycentric: [0.0; 2],
-                });
-            }
-        }
-        None
+        floor_distance(origin, dir, t_max).map(|t| SurfaceHit {
+            t,
+            position: [origin[0] + t * dir[0], 0.0, origin[2] + t * dir[2]],
+            geometric_normal: [0.0, 1.0, 0.0],
+            shading_normal: [0.0, 1.0, 0.0],
+            surface: Surface::Floor,
+            triangle: 0,
+            barycentric: [0.0; 2],
+        })
     }
 
     /// [`Self::intersect_with_floor`] for a batch of rays (each `t_max` as given),
@@ -154,7 +148,7 @@ impl RenderGeometry {
         }
     }
 
-    /// [`Self::occluded_with_floor`] for a batch of shadow rays, the mesh traced by
+    /// [`Self::occluded`] (with the floor included or not) for a batch of shadow rays, the mesh traced by
     /// [`Accel::closest_hits`] (which agrees with [`Accel::occluded`]): rays the
     /// floor blocks are not traced.
     ///
@@ -175,8 +169,7 @@ impl RenderGeometry {
         scratch.queries.clear();
         scratch.lanes.clear();
         for (i, (ray, blocked)) in rays.iter().zip(occluded.iter_mut()).enumerate() {
-            let [o, d] = [ray.origin, ray.dir];
-            *blocked = floor && d[1] < 0.0 && o[1] > 0.0 && -o[1] / d[1] < ray.t_max;
+            *blocked = floor && floor_distance(ray.origin, ray.dir, ray.t_max).is_some();
             if !*blocked {
                 scratch.queries.push(*ray);
                 scratch.lanes.push(i as u32);
@@ -224,21 +217,8 @@ impl RenderGeometry {
 
     /// Whether anything blocks the segment from `origin` along unit `dir` up to `t_max`.
     pub fn occluded(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
-        self.occluded_with_floor(origin, dir, t_max, self.floor)
-    }
-
-    /// [`Self::occluded`] with the floor plane included or not.
-    pub fn occluded_with_floor(
-        &self,
-        origin: [f32; 3],
-        dir: [f32; 3],
-        t_max: f32,
-        floor: bool,
-    ) -> bool {
-        if floor && dir[1] < 0.0 && origin[1] > 0.0 && -origin[1] / dir[1] < t_max {
-            return true;
-        }
-        self.accel.occluded(origin, dir, t_max)
+        (self.floor && floor_distance(origin, dir, t_max).is_some())
+            || self.accel.occluded(origin, dir, t_max)
     }
 
     /// A ray origin just off the surface of `hit`, on the side `dir` leaves toward.
@@ -247,6 +227,13 @@ impl RenderGeometry {
         let n = if Vec3::from(dir).dot(n) >= 0.0 { n } else { -n };
         offset_ray_origin(hit.position, n.into())
     }
+}
+
+/// Distance along the ray to the floor plane y = 0, when the ray goes down onto it
+/// from above nearer than `t_max`.
+fn floor_distance(origin: [f32; 3], dir: [f32; 3], t_max: f32) -> Option<f32> {
+    let t = -origin[1] / dir[1];
+    (dir[1] < 0.0 && origin[1] > 0.0 && t > 0.0 && t < t_max).then_some(t)
 }
 
 /// An orthonormal frame with z along a unit normal: world ↔ local shading space.

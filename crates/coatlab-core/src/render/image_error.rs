@@ -164,12 +164,9 @@ impl XyzImage {
 
     /// Writes the image (see `MAGIC`); creates the folder.
     pub fn write(&self, path: &Path) -> Result<(), ImageErrorError> {
-        let io = |error| ImageErrorError::Io {
-            path: path.display().to_string(),
-            error,
-        };
+        let io = io_error(path);
         if let Some(parent) = path.parent() {
-            std::fs::create_dir_all(parent).map_err(io)?;
+            std::fs::create_dir_all(parent).map_err(&io)?;
         }
         let mut bytes = Vec::with_capacity(16 + self.pixels.len() * 12);
         bytes.extend_from_slice(MAGIC);
@@ -184,11 +181,8 @@ impl XyzImage {
 
     /// Reads an image written by [`Self::write`].
     pub fn read(path: &Path) -> Result<XyzImage, ImageErrorError> {
+        let bytes = std::fs::read(path).map_err(io_error(path))?;
         let name = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|error| ImageErrorError::Io {
-            path: name.clone(),
-            error,
-        })?;
         let bad = |reason: String| ImageErrorError::BadFile {
             path: name.clone(),
             reason,
@@ -398,6 +392,14 @@ fn check_same_size(a: [u32; 2], b: [u32; 2]) -> Result<(), ImageErrorError> {
         });
     }
     Ok(())
+}
+
+/// The error for a failed read or write of the image file at `path`.
+fn io_error(path: &Path) -> impl Fn(std::io::Error) -> ImageErrorError + '_ {
+    move |error| ImageErrorError::Io {
+        path: path.display().to_string(),
+        error,
+    }
 }
 
 #[cfg(test)]

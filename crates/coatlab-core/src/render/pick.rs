@@ -1,7 +1,9 @@
 //! What is under a pixel: the ray through it from the camera ([`Camera::ray`])
 //! against the scene's BVH, the same closest-hit query the tracer's camera rays
 //! make, so a click in the preview names the material the image shows there.
-//! The floor is not picked: it is no material of the scene.
+//! The floor is not picked: it is no material of the scene. The same rays on a
+//! coarse grid over the image measure how much of each material the view shows
+//! ([`visible_areas`]).
 
 use super::camera::Camera;
 use super::geometry::Surface;
@@ -40,6 +42,42 @@ pub fn pick(scene: &RenderScene, camera: &Camera, pixel_x: f32, pixel_y: f32) ->
     }
 }
 
+/// Per material of `scene`, the area the view of `camera` sees of it, m²:
+/// the sum over the rays through the centres of a `columns` × `rows` grid over
+/// the image of the ray's solid angle times the squared distance to what it
+/// hits (the cell's footprint across the line of sight there). It is the
+/// projected area seen, nothing behind other surfaces counted, and converges to
+/// it as the grid gets finer; a surface seen edge-on shows little of its area.
+pub fn visible_areas(scene: &RenderScene, camera: &Camera, columns: u32, rows: u32) -> Vec<f32> {
+    let mut areas = vec![0.0f32; scene.materials().len()];
+    let (columns, rows) = (columns.max(1), rows.max(1));
+    let tan_v = (0.5 * camera.vertical_fov_deg().to_radians()).tan();
+    let tan_h = tan_v * camera.width() as f32 / camera.height() as f32;
+    // A cell's area on the image plane at unit distance along the view.
+    let cell = (2.0 * tan_h / columns as f32) * (2.0 * tan_v / rows as f32);
+    let forward = glam::Vec3::from(camera.forward()).normalize();
+    let (sx, sy) = (
+        camera.width() as f32 / columns as f32,
+        camera.height() as f32 / rows as f32,
+    );
+    for row in 0..rows {
+        for column in 0..columns {
+            let (px, py) = ((column as f32 + 0.5) * sx, (row as f32 + 0.5) * sy);
+            let Some(hit) = pick(scene, camera, px, py) else {
+                continue;
+            };
+            let (_, direction) = camera.ray(px, py);
+            let cos = glam::Vec3::from(direction).normalize().dot(forward);
+            // Solid angle of the cell: its plane area × cos³ of its angle off the axis.
+            let solid_angle = cell * cos * cos * cos;
+            if let Some(area) = areas.get_mut(hit.material as usize) {
+                *area += solid_angle * hit.distance_m * hit.distance_m;
+            }
+        }
+    }
+    areas
+}
+
 /// `painted` (material indices) with `material` added, or taken out if it was
 /// there; sorted: what a click on the car or a box in the paint list makes of
 /// the materials that carry the design.
@@ -75,6 +113,55 @@ mod tests {
         );
         assert_eq!(pick(&scene, &camera, -1.0, 90.0), None, "off the image");
         assert_eq!(pick(&scene, &camera, f32::NAN, 90.0), None);
+    }
+
+    /// A 1 m square facing the camera squarely is seen as 1 m² (to the
+    /// grid's resolution of its edges); a smaller square behind it is not seen.
+    #[test]
+    fn a_square_facing_the_camera_shows_its_area_and_hides_what_is_behind_it() {
+        use crate::scene::{Scene, SceneMaterial, TriangleMesh};
+        let mut mesh = TriangleMesh::default();
+        for (z, half, material) in [(0.0f32, 0.5f32, 0u32), (-1.0, 0.3, 1)] {
+            let base = mesh.positions.len() as u32;
+            for (x, y) in [(-half, -half), (half, -half), (half, half), (-half, half)] {
+                mesh.positions.push([x, 1.0 + y, z]);
+                mesh.normals.push([0.0, 0.0, 1.0]);
+            }
+            mesh.triangles.push([base, base + 1, base + 2]);
+            mesh.triangles.push([base, base + 2, base + 3]);
+            mesh.triangle_material.extend([material; 2]);
+        }
+        let material = |name: &str| SceneMaterial {
+            name: name.into(),
+            ..SceneMaterial::default()
+        };
+        let scene = Scene {
+            mesh,
+            materials: vec![material("front"), material("behind")],
+            paint_materials: vec![0],
+            ..Scene::default()
+        };
+        let scene = RenderScene::new(scene).unwrap();
+        // From 3 m and from twice as far the same area (not the image share,
+        // which is a quarter).
+        for (distance, tolerance) in [(3.0, 0.03), (6.0, 0.05)] {
+            let camera = Camera::new(
+                [0.0, 1.0, distance],
+                [0.0, 1.0, 0.0],
+                [0.0, 1.0, 0.0],
+                40.0,
+                160,
+                100,
+            )
+            .unwrap();
+            let areas = visible_areas(&scene, &camera, 256, 160);
+            assert!(
+                (areas[0] - 1.0).abs() < tolerance,
+                "front square from {distance} m: {} m²",
+                areas[0]
+            );
+            assert_eq!(areas[1], 0.0, "the square behind it");
+        }
     }
 
     #[test]

@@ -24,12 +24,8 @@ pub fn torus(rings: usize, sides: usize) -> TriangleMesh {
     let index = |i: usize, j: usize| ((i % rings) * sides + j % sides) as u32;
     for i in 0..rings {
         for j in 0..sides {
-            let (p, q, r, s) = (
-                index(i, j),
-                index(i + 1, j),
-                index(i + 1, j + 1),
-                index(i, j + 1),
-            );
+            let [p, q, r, s] =
+                [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)].map(|(i, j)| index(i, j));
             mesh.triangles.push([p, r, q]);
             mesh.triangles.push([p, s, r]);
         }

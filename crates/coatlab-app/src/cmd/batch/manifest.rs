@@ -211,25 +211,29 @@ impl Manifest {
             }
         };
 
-        if raw.format.get_ref() != FORMAT {
-            return Err(at(
+        // The header: what kind of file this is, and which version of it.
+        let header = [
+            (
+                raw.format.get_ref() == FORMAT,
                 raw.format.span(),
                 "format",
                 format!(
                     "'{}': a batch manifest says format = \"{FORMAT}\"",
                     raw.format.get_ref()
                 ),
-            ));
-        }
-        if *raw.version.get_ref() != VERSION {
-            return Err(at(
+            ),
+            (
+                *raw.version.get_ref() == VERSION,
                 raw.version.span(),
                 "version",
                 format!(
                     "version {}: this program reads version {VERSION}",
                     raw.version.get_ref()
                 ),
-            ));
+            ),
+        ];
+        if let Some((_, span, key, message)) = header.into_iter().find(|(ok, ..)| !ok) {
+            return Err(at(span, key, message));
         }
         if raw.output.get_ref().trim().is_empty() {
             return Err(at(raw.output.span(), "output", "names no folder".into()));
@@ -261,13 +265,7 @@ impl Manifest {
                 },
             ));
         }
-        unique(
-            design_entries
-                .iter()
-                .map(|(span, d)| (span.clone(), d.slug.clone())),
-            "designs",
-            &at,
-        )?;
+        unique(&design_entries, |d| &d.slug, "designs", &at)?;
 
         let views = match &raw.views {
             None => vec![DEFAULT_VIEW.name().to_owned()],
@@ -283,7 +281,7 @@ impl Manifest {
                     frames.extend(spec.frames().iter().map(|f| (view.span(), f.to_string())));
                 }
                 // Two entries that share a frame would write one output twice.
-                unique(frames.into_iter(), "views", &at)?;
+                unique(&frames, |frame| frame, "views", &at)?;
                 names
             }
         };
@@ -320,13 +318,7 @@ impl Manifest {
             };
             lighting.push((entry.span(), lighting_entry));
         }
-        unique(
-            lighting
-                .iter()
-                .map(|(span, l)| (span.clone(), l.slug.clone())),
-            "lighting",
-            &at,
-        )?;
+        unique(&lighting, |l| &l.slug, "lighting", &at)?;
 
         let models = match &raw.models {
             None => vec![("paint".to_owned(), ShadingModel::Paint)],
@@ -335,16 +327,10 @@ impl Manifest {
                 for model in non_empty(models, "models", &at)? {
                     let shading =
                         parse_model(model.get_ref()).map_err(|e| at(model.span(), "models", e))?;
-                    parsed.push((model.span(), model.get_ref().clone(), shading));
+                    parsed.push((model.span(), (model.get_ref().clone(), shading)));
                 }
-                unique(
-                    parsed
-                        .iter()
-                        .map(|(span, name, _)| (span.clone(), name.clone())),
-                    "models",
-                    &at,
-                )?;
-                parsed.into_iter().map(|(_, n, m)| (n, m)).collect()
+                unique(&parsed, |(name, _)| name, "models", &at)?;
+                parsed.into_iter().map(|(_, entry)| entry).collect()
             }
         };
 
@@ -543,14 +529,15 @@ fn non_empty<'a>(
 }
 
 /// Refuses the second of two entries that give the same part of output names.
-fn unique(
-    names: impl Iterator<Item = (Range<usize>, String)>,
+fn unique<T>(
+    entries: &[(Range<usize>, T)],
+    slug: impl Fn(&T) -> &String,
     key: &str,
     at: &impl Fn(Range<usize>, &str, String) -> ManifestError,
 ) -> Result<(), ManifestError> {
-    let names: Vec<(Range<usize>, String)> = names.collect();
-    for (i, (span, name)) in names.iter().enumerate() {
-        if names[..i].iter().any(|(_, other)| other == name) {
+    for (i, (span, entry)) in entries.iter().enumerate() {
+        let name = slug(entry);
+        if entries[..i].iter().any(|(_, other)| slug(other) == name) {
             return Err(at(
                 span.clone(),
                 key,

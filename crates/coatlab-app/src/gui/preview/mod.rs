@@ -44,6 +44,7 @@ pub use export::second_path;
 pub(super) use panes::uncovered;
 
 use super::compare::{CompareLayout, CompareMode, DeltaEMap, map_colours};
+use super::history::PaintChoice;
 use super::quality::QualitySelector;
 
 /// Something the app should tell the user.
@@ -86,6 +87,11 @@ pub struct Preview {
     second: Option<(String, PaintDesign)>,
     scene: Option<SceneInfo>,
     paint_override: Option<Vec<u32>>,
+    /// Per scene material, the area the view sees of it (m²), and the epoch of
+    /// the view it was measured in; asked for while the paint list is open.
+    visible: Option<(u64, Vec<f32>)>,
+    /// The epoch of the view whose visible areas were last asked for.
+    visible_asked: Option<u64>,
     /// The view chosen last (a scene opens at the default one; orbiting, zooming
     /// and panning move on from it).
     view: ViewChoice,
@@ -130,6 +136,8 @@ impl Preview {
             second: None,
             scene: None,
             paint_override: None,
+            visible: None,
+            visible_asked: None,
             view: ViewChoice::default(),
             design_name: design.name.clone(),
             size: (0, 0),
@@ -243,6 +251,38 @@ impl Preview {
         self.paint_override.is_none()
     }
 
+    /// Per scene material, the area the current view sees of it (m²), once
+    /// measured ([`Self::ask_visible_areas`]); the last view's while the new
+    /// one's is measured.
+    pub fn visible_areas(&self) -> Option<&[f32]> {
+        self.visible.as_ref().map(|(_, areas)| areas.as_slice())
+    }
+
+    /// Asks the render thread for the visible areas of the view the last
+    /// command shows, unless they are measured or asked for already: a job
+    /// between two passes, off the UI thread.
+    pub fn ask_visible_areas(&mut self) {
+        let epoch = self.engine.epoch();
+        let measured = self.visible.as_ref().is_some_and(|(e, _)| *e >= epoch);
+        if measured || self.visible_asked.is_some_and(|e| e >= epoch) {
+            return;
+        }
+        self.visible_asked = Some(epoch);
+        self.engine.run_job(Box::new(|engine| {
+            Some(EngineEvent::VisibleAreas(engine.visible_areas()))
+        }));
+    }
+
+    /// The paint-material choice with the scene it was made on, for the undo
+    /// history; `None` before a scene is shown.
+    pub fn paint_choice(&self) -> Option<PaintChoice> {
+        let scene = self.scene.as_ref()?;
+        Some(PaintChoice {
+            scene: scene.name.clone(),
+            chosen: self.paint_override.clone(),
+        })
+    }
+
     /// Writes the first view (and the second, as NAME-b.EXT, in a comparison): PNG
     /// as shown (same exposure and tone mapping), EXR as linear sRGB. Runs on the
     /// render thread after the pass in flight, which it keeps.
@@ -349,6 +389,8 @@ impl Preview {
             // The engine frames a new scene at the default view.
             self.view = ViewChoice::default();
             self.scene = Some(scene);
+            // Another scene's materials.
+            self.visible = None;
         }
         if std::mem::take(&mut mailbox.fresh) {
             // Uploaded from the mailbox, not copied out of it.
@@ -400,6 +442,11 @@ impl Preview {
                     .unwrap_or_default();
                 self.paint_override = Some(chosen);
                 PreviewEvent::Info(format!("Paint on: {names}"))
+            }
+            EngineEvent::VisibleAreas(areas) => {
+                // Measured for the view asked for: no notice.
+                self.visible = Some((self.visible_asked.unwrap_or(0), areas));
+                return;
             }
             EngineEvent::Failed(e) => PreviewEvent::Error(e.to_string()),
             EngineEvent::Report { text, is_error } if is_error => PreviewEvent::Error(text),

@@ -69,14 +69,7 @@ impl Preview {
                 );
                 named(&r, "Preview pane");
                 let shown = self.image_ui(ui, 0, rect, None);
-                // A click (not a drag) on the car toggles its material's paint.
-                if let (true, Some(pos), Some(shown)) =
-                    (r.clicked(), r.interact_pointer_pos(), shown)
-                    && shown.contains(pos)
-                {
-                    let at = (pos - shown.min) / shown.size();
-                    self.send(Command::TogglePaintAt(at.x, at.y));
-                }
+                self.click_to_paint(&r, shown);
                 covered.extend(shown);
                 self.camera_input(ui, &r);
             }
@@ -92,7 +85,10 @@ impl Preview {
                         egui::Sense::click_and_drag(),
                     );
                     named(&r, &format!("Preview pane: {label}"));
-                    covered.extend(self.image_ui(ui, i, pane, Some(label)));
+                    let shown = self.image_ui(ui, i, pane, Some(label));
+                    // Both panes show one camera: a click on either picks there.
+                    self.click_to_paint(&r, shown);
+                    covered.extend(shown);
                     self.camera_input(ui, &r);
                 }
             }
@@ -105,7 +101,9 @@ impl Preview {
                     egui::Sense::click_and_drag(),
                 );
                 named(&r, "ΔE00 map");
-                covered.extend(self.map_ui(ui, map_rect, &r, &labels));
+                let shown = self.map_ui(ui, map_rect, &r, &labels);
+                self.click_to_paint(&r, shown);
+                covered.extend(shown);
                 self.camera_input(ui, &r);
                 let legend =
                     egui::Rect::from_min_max(egui::pos2(map_rect.right(), rect.top()), rect.max);
@@ -221,9 +219,23 @@ impl Preview {
             &labels[1],
         );
         if !d.dragged() {
+            self.click_to_paint(&r, drawn);
             self.camera_input(ui, &r);
         }
         drawn
+    }
+
+    /// A click (not a drag) in `response`'s area on the picture `shown` toggles
+    /// the paint of the material under it (the engine picks it through the
+    /// camera of the views, which every layout shares).
+    fn click_to_paint(&mut self, response: &egui::Response, shown: Option<egui::Rect>) {
+        if let (true, Some(pos), Some(shown)) =
+            (response.clicked(), response.interact_pointer_pos(), shown)
+            && shown.contains(pos)
+        {
+            let at = (pos - shown.min) / shown.size();
+            self.send(Command::TogglePaintAt(at.x, at.y));
+        }
     }
 
     /// The ΔE00 map; returns where its (opaque) image went.

@@ -293,8 +293,11 @@ impl Preview {
         let painted = self.paint_materials();
         let automatic = self.paint_is_automatic();
         let mut choice = None;
+        let mut open = false;
+        let visible = self.visible_areas().map(<[f32]>::to_vec);
         ui.menu_button("Paint materials", |ui| {
-            choice = paint_materials_ui(ui, &scene, &painted, automatic);
+            open = true;
+            choice = paint_materials_ui(ui, &scene, &painted, automatic, visible.as_deref());
         })
         .response
         .on_hover_text(format!(
@@ -302,6 +305,9 @@ impl Preview {
             panes::names_of(&scene.materials, &painted),
             if automatic { " (automatic)" } else { "" }
         ));
+        if open {
+            self.ask_visible_areas();
+        }
         if let Some(choice) = choice {
             self.set_paint_materials(choice);
         }

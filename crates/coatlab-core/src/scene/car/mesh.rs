@@ -110,29 +110,15 @@ pub(super) fn add_ring_surface(
         positions.extend_from_slice(ring);
     }
     let vertex = |i: usize, j: usize| (ring_start + i * m + j % m) as u32;
-    for (i, _) in rings.iter().enumerate().take(rings.len() - 1) {
+    // Each ring joins the next; a wrapped surface also joins the last ring to the first.
+    let last = rings.len() - 1;
+    let ring_pairs = (0..last)
+        .map(|i| (i, i + 1))
+        .chain(wrap.then_some((last, 0)));
+    for (i, next) in ring_pairs {
         for j in 0..m {
-            let (a, b, c, d) = (
-                vertex(i, j),
-                vertex(i + 1, j),
-                vertex(i + 1, j + 1),
-                vertex(i, j + 1),
-            );
-            let mat = material(i as isize, j);
-            triangles.push([a, b, c]);
-            triangles.push([a, c, d]);
-            materials.extend([mat, mat]);
-        }
-    }
-    if wrap {
-        let i = rings.len() - 1;
-        for j in 0..m {
-            let (a, b, c, d) = (
-                vertex(i, j),
-                vertex(0, j),
-                vertex(0, j + 1),
-                vertex(i, j + 1),
-            );
+            let [a, b, c, d] =
+                [(i, j), (next, j), (next, j + 1), (i, j + 1)].map(|(i, j)| vertex(i, j));
             let mat = material(i as isize, j);
             triangles.push([a, b, c]);
             triangles.push([a, c, d]);

@@ -57,31 +57,31 @@ fn add_mirror(mesh: &mut TriangleMesh, body: &BodyShape, d: f64, side: f64) {
     let (point, _, _, _) = flank_frame(body, d, 1.0, side);
     let out = DVec3::X * side;
     let arm = point + out * 0.035 + DVec3::Y * 0.025;
-    add_superellipsoid(
-        mesh,
-        arm,
-        [out * 0.06, DVec3::Y * 0.018, DVec3::Z * 0.04],
-        (3.0, 3.0),
-        PART_RESOLUTION,
-        MIRROR_HOUSING,
-    );
     let housing = point + out * 0.14 + DVec3::Y * 0.075;
-    add_superellipsoid(
-        mesh,
-        housing,
-        [out * 0.1, DVec3::Y * 0.062, DVec3::Z * 0.05],
-        (3.0, 2.6),
-        PART_RESOLUTION,
-        MIRROR_HOUSING,
-    );
-    add_superellipsoid(
-        mesh,
-        housing - DVec3::Z * 0.047 + out * 0.004,
-        [out * 0.088, DVec3::Y * 0.05, DVec3::Z * 0.006],
-        (4.0, 4.0),
-        PART_RESOLUTION,
-        MIRROR_GLASS,
-    );
+    // (centre, semi-axes, exponents, material) of the arm, the housing and the glass.
+    let pieces = [
+        (
+            arm,
+            [out * 0.06, DVec3::Y * 0.018, DVec3::Z * 0.04],
+            (3.0, 3.0),
+            MIRROR_HOUSING,
+        ),
+        (
+            housing,
+            [out * 0.1, DVec3::Y * 0.062, DVec3::Z * 0.05],
+            (3.0, 2.6),
+            MIRROR_HOUSING,
+        ),
+        (
+            housing - DVec3::Z * 0.047 + out * 0.004,
+            [out * 0.088, DVec3::Y * 0.05, DVec3::Z * 0.006],
+            (4.0, 4.0),
+            MIRROR_GLASS,
+        ),
+    ];
+    for (centre, axes, exponents, material) in pieces {
+        add_superellipsoid(mesh, centre, axes, exponents, PART_RESOLUTION, material);
+    }
 }
 
 /// Floor, dashboard, console, steering wheel and four seats, inside the shell.
