@@ -320,10 +320,10 @@ fn a_csv_of_spectra_is_compared_at_the_geometry_the_person_states() {
     let _ = std::fs::remove_dir_all(dir);
 }
 
-/// The workflow page's pictures (docs/workflow.md): the Instruments tab with a
-/// measured standard as the target, then after *Fit to target*, drawn by wgpu as
-/// the window draws them and written to `target/gui-preview/workflow-*.png`. The
-/// swatches put the target's colour beside the design's.
+/// The two states docs/workflow.md shows: the Instruments tab with a measured
+/// standard as the target, then after *Fit to target*, drawn by wgpu and written to
+/// `target/gui-preview/workflow-*.png` to look at. The swatches put the target's
+/// colour beside the design's.
 #[test]
 fn the_workflow_pictures_show_the_target_and_the_fit() {
     let mut app = app();
