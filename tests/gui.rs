@@ -29,6 +29,10 @@ use hdr_fixture::write_hdr;
 #[path = "../crates/coatlab-core/tests/support/gltf_testdata.rs"]
 mod gltf_testdata;
 
+/// The Instruments tab's target from measurement files, and *Fit to target*.
+#[path = "gui/target.rs"]
+mod target;
+
 fn app() -> CoatlabApp {
     CoatlabApp::new(options(false))
 }
@@ -49,6 +53,21 @@ fn delta_e_to_target(h: &mut Harness<'static, CoatlabApp>, target: &Path) -> Vec
         .expect("ΔE00 per angle")
 }
 
+/// Ctrl+Z, and the frame that takes it.
+fn undo_key(h: &mut Harness<'static, CoatlabApp>) {
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    h.run();
+}
+
+/// Ctrl+Shift+Z, and the frame that takes it.
+fn redo_key(h: &mut Harness<'static, CoatlabApp>) {
+    h.key_press_modifiers(
+        egui::Modifiers::COMMAND | egui::Modifiers::SHIFT,
+        egui::Key::Z,
+    );
+    h.run();
+}
+
 fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("coatlab-gui-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
@@ -67,15 +86,10 @@ fn moving_the_thickness_slider_changes_the_design_and_undo_restores_it() {
     assert_eq!(h.state().design().thickness_um, 60.0);
     assert!(h.state().is_dirty());
 
-    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
-    h.run();
+    undo_key(&mut h);
     assert_eq!(h.state().design(), &before, "Ctrl+Z restores the design");
 
-    h.key_press_modifiers(
-        egui::Modifiers::COMMAND | egui::Modifiers::SHIFT,
-        egui::Key::Z,
-    );
-    h.run();
+    redo_key(&mut h);
     assert_eq!(h.state().design().thickness_um, 60.0, "Ctrl+Shift+Z redoes");
 }
 

@@ -15,6 +15,7 @@ use crate::colour::spectrum::WavelengthGrid;
 use crate::colour::{Lab, ciede2000, srgb_from_xyz};
 use crate::design::PaintDesign;
 use crate::instruments::{self, Measurement};
+use crate::measurement::{Geometry, Standard, interpolate};
 use crate::paint::fresnel::reflectance;
 use crate::paint::gloss::GlossExponent;
 use crate::paint::model::PaintModel;
@@ -135,7 +136,7 @@ impl Analysis {
             &measurement,
             target_measurement
                 .as_ref()
-                .map(|(_, m)| m.angles[swatch_angle()].reflectance_factor.as_slice()),
+                .and_then(|(_, m)| design_swatch_reflectance(m)),
         );
         Ok(Analysis {
             spectra: DesignSpectra {
@@ -268,6 +269,39 @@ pub fn swatches(design: &Measurement, target: Option<&[f64]>) -> Vec<Swatch> {
             }
         })
         .collect()
+}
+
+/// A target design's reflectance factor at [`SWATCH_ASPECULAR_DEG`], for [`swatches`].
+pub fn design_swatch_reflectance(target: &Measurement) -> Option<&[f64]> {
+    target
+        .angles
+        .iter()
+        .find(|a| a.aspecular_deg == SWATCH_ASPECULAR_DEG)
+        .map(|a| a.reflectance_factor.as_slice())
+}
+
+/// A measured standard's spectrum at [`SWATCH_ASPECULAR_DEG`] (any illumination
+/// angle), on `wavelength_nm` and held at its end values beyond its range as the
+/// comparison does, for [`swatches`]; `None` when the standard has no spectrum
+/// at that geometry (a sphere reading alone, stated colours).
+pub fn standard_swatch_reflectance(
+    standard: &Standard<'_>,
+    wavelength_nm: &[f64],
+) -> Option<Vec<f64>> {
+    standard
+        .readings
+        .iter()
+        .filter(|r| {
+            matches!(r.geometry, Geometry::Directional { aspecular_deg, .. }
+                if aspecular_deg == SWATCH_ASPECULAR_DEG)
+        })
+        .find_map(|r| r.spectrum.as_ref())
+        .map(|spectrum| {
+            wavelength_nm
+                .iter()
+                .map(|&nm| interpolate(spectrum.wavelengths_nm(), spectrum.factors(), nm))
+                .collect()
+        })
 }
 
 #[cfg(test)]

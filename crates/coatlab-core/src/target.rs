@@ -52,6 +52,19 @@ pub struct AngleComparison {
     pub metamerism: Vec<MetamerismIndex>,
 }
 
+impl AngleComparison {
+    /// The metamerism indices as reports print them: `A: 0.12 (0.20)   F11: …`,
+    /// ΔE00 with ΔE*ab in brackets.
+    pub fn metamerism_summary(&self) -> String {
+        let cells: Vec<String> = self
+            .metamerism
+            .iter()
+            .map(|m| format!("{}: {:.2} ({:.2})", m.illuminant, m.de00, m.de_ab))
+            .collect();
+        cells.join("   ")
+    }
+}
+
 /// A reading of the target that cannot be compared, and why.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct NotComparable {

@@ -279,12 +279,12 @@ pub(super) fn write_verdicts(
             "Metamerism index (matched under D65, CIE multiplicative correction): ΔE00 (ΔE*ab)"
         )?;
         for a in c.angles.iter().filter(|a| !a.metamerism.is_empty()) {
-            let cells: Vec<String> = a
-                .metamerism
-                .iter()
-                .map(|m| format!("{}: {:.2} ({:.2})", m.illuminant, m.de00, m.de_ab))
-                .collect();
-            writeln!(out, "{:<12} {}", a.geometry.to_string(), cells.join("   "))?;
+            writeln!(
+                out,
+                "{:<12} {}",
+                a.geometry.to_string(),
+                a.metamerism_summary()
+            )?;
         }
         if c.metameric {
             writeln!(

@@ -15,13 +15,18 @@ use egui::{Color32, RichText, Ui};
 use super::dialogs::{DialogEvent, DialogRequest, FileDialogs, NativeFileDialog};
 use super::export;
 use super::file_browser::FilePurpose;
+use super::fit_job::{FitDone, FitJob};
 use super::history::{Edit, History};
-use super::instruments_panel::{InstrumentsRequest, instruments_ui};
+use super::instruments_panel::{InstrumentsRequest, InstrumentsView, instruments_ui};
 use super::paint_panel::{PanelRequest, paint_controls_ui};
 use super::plots::{PlotSettings, plots_ui};
 use super::preview::{Preview, PreviewEvent, PreviewRequest};
 use super::storage::{Recovery, Storage};
+use super::target::{
+    MeasuredTarget, Target, TargetView, compare, is_measurement, load_target, tolerance_of,
+};
 use coatlab_core::analysis::Analysis;
+use coatlab_core::measurement::Geometry;
 
 /// The File menu's design exports, in menu order.
 pub const EXPORT_MENU: [(ExportFormat, &str); 3] = [
@@ -89,7 +94,7 @@ pub struct Notice {
 #[derive(Debug, Clone, PartialEq)]
 struct AnalysisKey {
     design: PaintDesign,
-    target: Option<PaintDesign>,
+    target: Option<Target>,
     phong: coatlab_core::paint::phong::PhongVariant,
 }
 
@@ -101,7 +106,12 @@ pub struct CoatlabApp {
     saved: PaintDesign,
     history: History<Edit>,
     presets: Vec<Preset>,
-    target: Option<PaintDesign>,
+    target: Option<Target>,
+    /// The design against the target, computed with the analysis.
+    target_view: Option<TargetView>,
+    /// *Fit to target* while it runs, and its last report.
+    fit_job: Option<FitJob>,
+    fit_done: Option<FitDone>,
     analysis: Option<Analysis>,
     analysis_error: Option<String>,
     analysis_key: Option<AnalysisKey>,
@@ -169,6 +179,9 @@ impl CoatlabApp {
             path: None,
             presets,
             target: None,
+            target_view: None,
+            fit_job: None,
+            fit_done: None,
             analysis: None,
             analysis_error: None,
             analysis_key: None,
@@ -362,9 +375,24 @@ impl CoatlabApp {
         self.tab = tab;
     }
 
-    /// The target design of the ΔE00 column.
-    pub fn target(&self) -> Option<&PaintDesign> {
+    /// The target: a design, or a standard of a measurement file.
+    pub fn target(&self) -> Option<&Target> {
         self.target.as_ref()
+    }
+
+    /// The design against the target (tolerances, swatches), once computed.
+    pub fn target_view(&self) -> Option<&TargetView> {
+        self.target_view.as_ref()
+    }
+
+    /// Whether *Fit to target* is running.
+    pub fn is_fitting(&self) -> bool {
+        self.fit_job.is_some()
+    }
+
+    /// The last fit's report.
+    pub fn last_fit(&self) -> Option<&FitDone> {
+        self.fit_done.as_ref()
     }
 
     /// Recent files, newest first.
@@ -478,11 +506,97 @@ impl CoatlabApp {
         }
     }
 
-    /// Uses a design file as the target.
+    /// Uses a design or a measurement file (CGATS.17, CxF3) as the target. A file
+    /// that cannot be read is reported and the target stays as it was.
     pub fn open_target(&mut self, path: &Path) {
-        match PaintDesign::load(path) {
-            Ok(d) => self.target = Some(d),
-            Err(e) => self.error(format!("Could not open the target: {e}")),
+        match load_target(path) {
+            Ok(target) => {
+                if let Target::Measured(m) = &target {
+                    let count = m.standard_names().len();
+                    let scale = m
+                        .measurement
+                        .reflectance_scale
+                        .as_ref()
+                        .map(|s| format!("; {s}"))
+                        .unwrap_or_default();
+                    self.info(format!(
+                        "Target: {} ({} standard(s), {}{scale})",
+                        path.display(),
+                        count,
+                        m.measurement.format
+                    ));
+                }
+                self.set_target(Some(target));
+            }
+            Err(e) => self.error(format!("Could not open the target: {e:#}")),
+        }
+    }
+
+    /// Sets the target; a fit's report belongs to the target it was made for.
+    pub fn set_target(&mut self, target: Option<Target>) {
+        if self.target != target {
+            self.fit_done = None;
+        }
+        self.target = target;
+    }
+
+    /// Chooses the standard of a measurement target by its index in the file.
+    pub fn select_target_sample(&mut self, index: usize) {
+        self.change_measured_target(|m| m.selected = index);
+    }
+
+    /// States the geometry of a CSV target's readings.
+    pub fn set_target_geometry(&mut self, geometry: Geometry) {
+        self.change_measured_target(|m| m.set_geometry(geometry));
+    }
+
+    fn change_measured_target(&mut self, change: impl FnOnce(&mut MeasuredTarget)) {
+        let Some(Target::Measured(m)) = &self.target else {
+            return;
+        };
+        let mut m = m.clone();
+        change(&mut m);
+        self.set_target(Some(Target::Measured(m)));
+    }
+
+    /// Fits the design's ρ(λ) to the measured target on a thread of its own; the
+    /// result is applied, as one undoable edit, when it arrives (see
+    /// [`Self::take_fit`]).
+    pub fn fit_to_target(&mut self) {
+        if self.fit_job.is_some() {
+            return self.error("A fit is already running.");
+        }
+        let Some(Target::Measured(m)) = &self.target else {
+            return self.error(
+                "Fit to target needs a measured target: choose a CGATS or CxF3 file as the target.",
+            );
+        };
+        let tolerance = tolerance_of(&self.design);
+        match FitJob::start(self.ctx.as_ref(), self.design.clone(), m.clone(), tolerance) {
+            Ok(job) => self.fit_job = Some(job),
+            Err(e) => self.error(e),
+        }
+    }
+
+    /// Takes up a finished fit: applied as one undoable edit if the design is still
+    /// the one it started from, else reported and dropped.
+    fn take_fit(&mut self) {
+        let Some(answer) = self.fit_job.as_ref().and_then(FitJob::poll) else {
+            return;
+        };
+        self.fit_job = None;
+        match answer {
+            Ok(done) if done.start == self.design => {
+                self.set_design(done.fit.design.clone());
+                self.info(format!(
+                    "Fitted ρ(λ) to sample {:?} of {} (Undo restores the design)",
+                    done.sample, done.file
+                ));
+                self.fit_done = Some(done);
+            }
+            Ok(_) => self
+                .error("The design changed while the fit ran; the fit was not applied. Fit again."),
+            Err(e) => self.error(format!("Could not fit: {e}")),
         }
     }
 
@@ -535,7 +649,7 @@ impl CoatlabApp {
             FilePurpose::OpenDesign => self.open_design(&path),
             FilePurpose::SaveDesign => self.save_design_as(&path),
             FilePurpose::ImportAlbedoCsv => self.import_albedo_csv(&path),
-            FilePurpose::TargetDesign => self.open_target(&path),
+            FilePurpose::Target => self.open_target(&path),
             FilePurpose::ExportMeasurement => self.export_measurement(&path),
             FilePurpose::ExportPreviewImage => self.export_preview(&path),
             FilePurpose::ExportDesign(format) => self.export_design(format, &path),
@@ -598,21 +712,30 @@ impl CoatlabApp {
             .and_then(|s| s.path.clone())
     }
 
-    /// A file dropped on the window: a design opens, a CSV becomes ρ(λ), a glTF
+    /// A file dropped on the window: a measurement file (CGATS.17, CxF3, told by
+    /// its content) becomes the target, a design opens, a CSV becomes ρ(λ), a glTF
     /// scene or an environment map goes to the preview.
     pub fn file_dropped(&mut self, path: &Path) {
         let ext = path
             .extension()
             .and_then(|e| e.to_str())
             .map(str::to_ascii_lowercase);
+        let binary = matches!(
+            ext.as_deref(),
+            Some("glb") | Some("gltf") | Some("hdr") | Some("exr")
+        );
+        if !binary && std::fs::read(path).is_ok_and(|bytes| is_measurement(&bytes)) {
+            self.tab = Tab::Instruments;
+            return self.open_target(path);
+        }
         match ext.as_deref() {
             Some("toml") => self.open_design(path),
             Some("csv") => self.import_albedo_csv(path),
             Some("glb") | Some("gltf") => self.open_scene(path),
             Some("hdr") | Some("exr") => self.open_environment(path),
             _ => self.error(format!(
-                "{}: not a design (.toml), a spectral CSV (.csv), a glTF scene (.glb, .gltf) \
-                 or an environment map (.hdr, .exr)",
+                "{}: not a design (.toml), a measurement (CGATS.17 text, CxF3 XML), a spectral \
+                 CSV (.csv), a glTF scene (.glb, .gltf) or an environment map (.hdr, .exr)",
                 path.display()
             )),
         }
@@ -628,8 +751,16 @@ impl CoatlabApp {
         if self.analysis_key.as_ref() == Some(&key) {
             return;
         }
-        match Analysis::compute(&key.design, key.target.as_ref(), key.phong) {
+        match Analysis::compute(
+            &key.design,
+            key.target.as_ref().and_then(Target::design),
+            key.phong,
+        ) {
             Ok(a) => {
+                self.target_view = key
+                    .target
+                    .as_ref()
+                    .map(|t| compare(&a, t, &tolerance_of(&key.design)));
                 self.analysis = Some(a);
                 self.analysis_error = None;
             }
@@ -637,6 +768,7 @@ impl CoatlabApp {
                 // Keep showing the last valid analysis is misleading next to an
                 // invalid design: show none, and the reason.
                 self.analysis = None;
+                self.target_view = None;
                 self.analysis_error = Some(e);
             }
         }
@@ -794,20 +926,36 @@ impl CoatlabApp {
 
     /// The Instruments tab, and the targets and exports it asks for.
     fn instruments_tab_ui(&mut self, ui: &mut Ui) {
-        let target_name = self.target.as_ref().map(|t| t.name.clone());
-        let requests = instruments_ui(
-            ui,
-            self.analysis.as_ref(),
-            target_name.as_deref(),
-            &self.presets,
-        );
+        let tolerance = tolerance_of(&self.design);
+        let view = InstrumentsView {
+            analysis: self.analysis.as_ref(),
+            target: self.target.as_ref(),
+            target_view: self.target_view.as_ref(),
+            presets: &self.presets,
+            tolerance: &tolerance,
+            fitting: self.fit_job.is_some(),
+            fit: self.fit_done.as_ref(),
+        };
+        let requests = egui::ScrollArea::vertical()
+            .show(ui, |ui| instruments_ui(ui, &view))
+            .inner;
         for request in requests {
             match request {
                 InstrumentsRequest::TargetPreset(i) => {
-                    self.target = self.presets.get(i).map(|p| p.design.clone());
+                    let target = self
+                        .presets
+                        .get(i)
+                        .map(|p| Target::Design(p.design.clone()));
+                    self.set_target(target);
                 }
-                InstrumentsRequest::TargetFile => self.choose_file(FilePurpose::TargetDesign),
-                InstrumentsRequest::ClearTarget => self.target = None,
+                InstrumentsRequest::TargetFile => self.choose_file(FilePurpose::Target),
+                InstrumentsRequest::ClearTarget => self.set_target(None),
+                InstrumentsRequest::SelectSample(i) => self.select_target_sample(i),
+                InstrumentsRequest::SetGeometry(g) => self.set_target_geometry(g),
+                // Edited in place, like a slider: committed as one step when the
+                // gesture ends.
+                InstrumentsRequest::SetTolerance(t) => self.design.tolerance = Some(t),
+                InstrumentsRequest::FitToTarget => self.fit_to_target(),
                 InstrumentsRequest::Export => self.choose_file(FilePurpose::ExportMeasurement),
             }
         }
@@ -816,6 +964,7 @@ impl CoatlabApp {
     /// What follows the panels each frame: files chosen in dialogs, the preview's
     /// notices, the drop overlay, the undo step, autosave and the window title.
     fn after_frame(&mut self, ctx: &egui::Context) {
+        self.take_fit();
         for event in self.dialogs.show(ctx) {
             match event {
                 DialogEvent::Chosen(purpose, path) => self.file_chosen(purpose, path),
@@ -923,6 +1072,12 @@ impl CoatlabApp {
                         self.choose_file(FilePurpose::ExportDesign(format));
                     }
                 }
+                if ui
+                    .button("Target from file (design, CGATS, CxF3, CSV)…")
+                    .clicked()
+                {
+                    self.choose_file(FilePurpose::Target);
+                }
                 ui.separator();
                 if ui.button("Open scene (glTF)…").clicked() {
                     self.choose_file(FilePurpose::OpenScene);
@@ -960,6 +1115,19 @@ impl CoatlabApp {
                     if ui.add_enabled(enabled, egui::Button::new(label)).clicked() {
                         action(self);
                     }
+                }
+                ui.separator();
+                let fittable =
+                    matches!(self.target, Some(Target::Measured(_))) && self.fit_job.is_none();
+                if ui
+                    .add_enabled(fittable, egui::Button::new("Fit to target"))
+                    .on_disabled_hover_text(
+                        "Needs a measured target (Instruments tab) and no fit running",
+                    )
+                    .clicked()
+                {
+                    self.tab = Tab::Instruments;
+                    self.fit_to_target();
                 }
             });
             if self.dialogs.is_waiting() {
@@ -1003,8 +1171,9 @@ impl CoatlabApp {
         if self.notices.is_empty() {
             ui.label(
                 RichText::new(
-                    "Drop a design (.toml), a spectral CSV, a glTF scene (.glb, .gltf) or an \
-                     environment map (.hdr, .exr) on the window to open it.",
+                    "Drop a design (.toml), a measurement (CGATS, CxF3) as the target, a spectral \
+                     CSV, a glTF scene (.glb, .gltf) or an environment map (.hdr, .exr) on the \
+                     window to open it.",
                 )
                 .weak(),
             );
@@ -1095,7 +1264,7 @@ fn drop_overlay(ctx: &egui::Context) {
     painter.text(
         screen.center(),
         egui::Align2::CENTER_CENTER,
-        "Drop a design, a spectral CSV, a glTF scene or an environment map",
+        "Drop a design, a measurement, a spectral CSV, a glTF scene or an environment map",
         egui::FontId::proportional(24.0),
         Color32::WHITE,
     );

@@ -16,7 +16,8 @@ pub enum FilePurpose {
     OpenDesign,
     SaveDesign,
     ImportAlbedoCsv,
-    TargetDesign,
+    /// A target: a design, or a measurement file (CGATS.17, CxF3).
+    Target,
     ExportMeasurement,
     ExportPreviewImage,
     /// The design as an exchange file (CxF3, CGATS.17, glTF).
@@ -33,7 +34,7 @@ impl FilePurpose {
             FilePurpose::OpenDesign => "Open design",
             FilePurpose::SaveDesign => "Save design as",
             FilePurpose::ImportAlbedoCsv => "Import ρ(λ) from a spectral CSV",
-            FilePurpose::TargetDesign => "Choose a target design",
+            FilePurpose::Target => "Choose a target (a design or a measurement)",
             FilePurpose::ExportMeasurement => "Export readings (.csv or .json)",
             FilePurpose::ExportPreviewImage => "Export preview (.png or .exr)",
             FilePurpose::ExportDesign(ExportFormat::Cxf) => "Export the design as CxF3 (.cxf)",
@@ -52,10 +53,11 @@ impl FilePurpose {
     /// The file types offered, as extensions without the dot.
     pub fn extensions(self) -> &'static [&'static str] {
         match self {
-            FilePurpose::OpenDesign
-            | FilePurpose::SaveDesign
-            | FilePurpose::TargetDesign
-            | FilePurpose::SecondDesign => &["toml"],
+            FilePurpose::OpenDesign | FilePurpose::SaveDesign | FilePurpose::SecondDesign => {
+                &["toml"]
+            }
+            // CGATS files come as .cgats, .txt, .it8 or .ti3, CxF3 as .cxf (or .xml).
+            FilePurpose::Target => &["toml", "cgats", "txt", "it8", "ti3", "cxf", "xml", "csv"],
             FilePurpose::ImportAlbedoCsv => &["csv"],
             FilePurpose::ExportMeasurement => &["csv", "json"],
             FilePurpose::ExportPreviewImage => &["png", "exr"],
@@ -68,10 +70,10 @@ impl FilePurpose {
     /// What the file types are called in a system dialog's filter.
     pub fn filter_name(self) -> &'static str {
         match self {
-            FilePurpose::OpenDesign
-            | FilePurpose::SaveDesign
-            | FilePurpose::TargetDesign
-            | FilePurpose::SecondDesign => "Coatlab design",
+            FilePurpose::OpenDesign | FilePurpose::SaveDesign | FilePurpose::SecondDesign => {
+                "Coatlab design"
+            }
+            FilePurpose::Target => "Design or measurement (CGATS, CxF3, spectral CSV)",
             FilePurpose::ImportAlbedoCsv => "Spectral CSV",
             FilePurpose::ExportMeasurement => "Readings (CSV, JSON)",
             FilePurpose::ExportPreviewImage => "Image (PNG, EXR)",

@@ -6,7 +6,10 @@
 //! | [`paint_panel`] | the paint controls |
 //! | [`curve_editor`] | ρ(λ) and k(λ) as curves with draggable control points |
 //! | [`plots`] | figures 3–6, spectra, instrument reflectance (egui_plot) |
-//! | [`instruments_panel`] | multi-angle table, gloss, ΔE00 to a target, swatches (from [`coatlab_core::analysis`], computed on change) |
+//! | [`instruments_panel`] | multi-angle table, gloss, the target and its tolerances, *Fit to target*, swatches (from [`coatlab_core::analysis`], computed on change) |
+//! | [`target`] | the target: a design or a standard of a measurement file (CGATS, CxF3), compared by [`coatlab_core::target`] |
+//! | [`tolerance_view`] | the tolerance table and the fit report, as `coatlab measure` and `coatlab fit` print them |
+//! | [`fit_job`] | *Fit to target* ([`coatlab_core::fit`]) on a thread of its own |
 //! | [`history`] | undo/redo by snapshots of the design and the paint-material choice |
 //! | [`storage`] | recent files, autosave and crash recovery |
 //! | [`dialogs`] | choosing files: the system file dialog (rfd, XDG portal or zenity) on its own thread, else the in-app browser |
@@ -24,6 +27,7 @@ pub mod curve_editor;
 pub mod dialogs;
 pub mod export;
 pub mod file_browser;
+pub mod fit_job;
 #[cfg(feature = "frame-log")]
 pub mod frame_log;
 pub mod history;
@@ -35,6 +39,8 @@ pub mod preview;
 pub mod priority;
 pub mod quality;
 pub mod storage;
+pub mod target;
+pub mod tolerance_view;
 
 pub use app::{AppOptions, CoatlabApp};
 

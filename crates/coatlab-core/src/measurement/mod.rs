@@ -8,13 +8,15 @@
 //! gloss readings where the file has them. A multi-angle standard is several
 //! readings of the same name at different geometries; [`Measurement::standards`]
 //! groups them. The variants each reader accepts, and its conventions, are in
-//! `docs/measurements.md`.
+//! `docs/measurements.md`. A CSV of spectra ([`spectra_csv`]) is read the same
+//! way at a geometry the caller states.
 
 pub mod cgats;
 pub mod cgats_write;
 pub mod cxf;
 pub mod cxf_write;
 pub mod geometry;
+pub mod spectra_csv;
 
 use std::fmt;
 
@@ -41,6 +43,8 @@ pub enum Format {
     Cgats,
     /// X-Rite CxF3 XML.
     Cxf3,
+    /// A CSV of spectra ([`spectra_csv`]), at a geometry the reader states.
+    SpectraCsv,
 }
 
 impl fmt::Display for Format {
@@ -48,6 +52,7 @@ impl fmt::Display for Format {
         f.write_str(match self {
             Format::Cgats => "CGATS",
             Format::Cxf3 => "CxF3",
+            Format::SpectraCsv => "spectral CSV",
         })
     }
 }
@@ -517,7 +522,9 @@ pub fn read(bytes: &[u8], file: &str) -> Result<Measurement, MeasurementError> {
     let measurement = match sniff(text.as_bytes()) {
         Some(Format::Cxf3) => cxf::read_cxf(text, file)?,
         Some(Format::Cgats) => cgats::read_cgats(text, file)?,
-        None => return Err(file_error(FileProblem::UnknownFormat)),
+        // `sniff` never answers SpectraCsv: a CSV needs its geometry stated
+        // (`spectra_csv::read_spectra_measurement`).
+        Some(Format::SpectraCsv) | None => return Err(file_error(FileProblem::UnknownFormat)),
     };
     if measurement.samples.is_empty() {
         return Err(file_error(FileProblem::NoSamples));

@@ -14,13 +14,16 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use coatlab_core::analysis::{SWATCH_ASPECULAR_DEG, Swatch, swatches as swatches_of};
+use coatlab_core::analysis::{
+    SWATCH_ASPECULAR_DEG, Swatch, design_swatch_reflectance, standard_swatch_reflectance,
+    swatches as swatches_of,
+};
 use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::colour::tolerance::{Formula, Tolerance};
 use coatlab_core::design::PaintDesign;
 use coatlab_core::instruments::{self, Measurement};
 use coatlab_core::io::atomic::write_bytes_atomically;
-use coatlab_core::measurement::{self, Geometry, Standard, interpolate};
+use coatlab_core::measurement::{self, Standard};
 use coatlab_core::paint::model::PaintModel;
 use coatlab_core::target::{Comparison, compare_designs, compare_to_standard};
 
@@ -147,11 +150,7 @@ fn design_page<'a>(
             name,
             readings: target,
         }) => {
-            target_factor = target
-                .angles
-                .iter()
-                .find(|a| a.aspecular_deg == SWATCH_ASPECULAR_DEG)
-                .map(|a| a.reflectance_factor.clone());
+            target_factor = design_swatch_reflectance(target).map(<[f64]>::to_vec);
             Some((
                 name.clone(),
                 compare_designs(&readings, target, tolerance).or_fail(Failure::Internal)?,
@@ -159,24 +158,7 @@ fn design_page<'a>(
         }
         Some(Target::Measured { file, readings: m }) => {
             let standard = standard_for(m, file, manifest.target_sample.as_deref(), &design.name)?;
-            // The standard's spectrum at the swatches' angle, on the design's
-            // wavelengths (held at its end values beyond its range, as the
-            // comparison does).
-            target_factor = standard
-                .readings
-                .iter()
-                .filter(|r| {
-                    matches!(r.geometry, Geometry::Directional { aspecular_deg, .. }
-                        if aspecular_deg == SWATCH_ASPECULAR_DEG)
-                })
-                .find_map(|r| r.spectrum.as_ref())
-                .map(|spectrum| {
-                    readings
-                        .wavelength_nm
-                        .iter()
-                        .map(|&nm| interpolate(spectrum.wavelengths_nm(), spectrum.factors(), nm))
-                        .collect()
-                });
+            target_factor = standard_swatch_reflectance(&standard, &readings.wavelength_nm);
             let c = compare_to_standard(&model, &readings, &standard, tolerance)
                 .with_context(|| format!("{file}: cannot compare with {:?}", standard.name))
                 .or_fail(Failure::Data)?;
