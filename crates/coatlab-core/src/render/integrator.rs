@@ -639,11 +639,8 @@ impl<'a> PathTracer<'a> {
                                 add_emission(out, throughput, f);
                             }
                             mapped_normal = parameters.normal;
-                            textured = GltfBsdf::new(
-                                &parameters.bsdf,
-                                upsampler,
-                                self.shading.channels(),
-                            );
+                            textured =
+                                GltfBsdf::new(&parameters.bsdf, upsampler, self.shading.channels());
                             &textured
                         }
                     },

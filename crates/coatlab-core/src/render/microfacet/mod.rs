@@ -252,7 +252,13 @@ impl GltfBsdf {
     /// The BSDF of `parameters` on `channels`; out-of-range values are clamped.
     pub fn new(parameters: &GltfParameters, upsampler: &RgbUpsampler, channels: &Channels) -> Self {
         let c = parameters.base_color;
-        let unit = |x: f32| if x.is_finite() { x.clamp(0.0, 1.0) } else { 1.0 };
+        let unit = |x: f32| {
+            if x.is_finite() {
+                x.clamp(0.0, 1.0)
+            } else {
+                1.0
+            }
+        };
         let mut base = vec![0.0; channels.len()];
         upsampler.reflectance(
             LinSrgb::new(unit(c.red), unit(c.green), unit(c.blue)),
@@ -330,30 +336,12 @@ impl GltfBsdf {
             * (self.mean_multiple_albedo * (1.0 - e1).max(0.0)
                 + self.mean_diffuse_albedo * (1.0 - ed).max(0.0));
         let total = coat + specular + cosine;
-        (total > 0.0 && total.is_finite())
-            .then(|| [coat / total, specular / total, cosine / total])
+        (total > 0.0 && total.is_finite()).then(|| [coat / total, specular / total, cosine / total])
     }
 
-    fn mixture_pdf(&self, p: [f32; 3], wo: [f32; 3], wi: [f32; 3]) -> f32 {
-        let coat = match &self.coat {
-            Some(c) if p[0] > 0.0 => p[0] * c.ggx.reflection_pdf(wo, wi),
-            _ => 0.0,
-        };
-        coat + p[1] * self.ggx.reflection_pdf(wo, wi) + p[2] * wi[2] * FRAC_1_PI
-    }
-}
-
-impl SpectralBsdf for GltfBsdf {
-    fn len(&self) -> usize {
-        self.f0.len()
-    }
-
+    /// f for ωi and ωo both above the surface.
     #[inline]
-    fn eval(&self, wi: [f32; 3], wo: [f32; 3], out: &mut [f32]) {
-        if wi[2] <= 0.0 || wo[2] <= 0.0 {
-            out.fill(0.0);
-            return;
-        }
+    fn eval_above(&self, wi: [f32; 3], wo: [f32; 3], out: &mut [f32]) {
         let h = normalise(add(wo, wi));
         let s = (1.0 - dot(wo, h).clamp(0.0, 1.0)).powi(5);
         let inv_denominator = 1.0 / (4.0 * wo[2] * wi[2]);
@@ -382,6 +370,29 @@ impl SpectralBsdf for GltfBsdf {
             .zip(&self.diffuse)
         {
             *o = coat + through * (specular * (f0 + (1.0 - f0) * s) + multiple * m + diffuse * d);
+        }
+    }
+
+    fn mixture_pdf(&self, p: [f32; 3], wo: [f32; 3], wi: [f32; 3]) -> f32 {
+        let coat = match &self.coat {
+            Some(c) if p[0] > 0.0 => p[0] * c.ggx.reflection_pdf(wo, wi),
+            _ => 0.0,
+        };
+        coat + p[1] * self.ggx.reflection_pdf(wo, wi) + p[2] * wi[2] * FRAC_1_PI
+    }
+}
+
+impl SpectralBsdf for GltfBsdf {
+    fn len(&self) -> usize {
+        self.f0.len()
+    }
+
+    #[inline]
+    fn eval(&self, wi: [f32; 3], wo: [f32; 3], out: &mut [f32]) {
+        if wi[2] > 0.0 && wo[2] > 0.0 {
+            self.eval_above(wi, wo, out);
+        } else {
+            out.fill(0.0);
         }
     }
 

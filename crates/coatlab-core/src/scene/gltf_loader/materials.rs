@@ -60,7 +60,10 @@ pub(super) fn document_materials(
             });
             let (clearcoat, clearcoat_roughness) = clear_coat(&m, &name, warnings);
             SceneMaterial {
-                ior: m.ior().filter(|n| n.is_finite() && *n >= 1.0).unwrap_or(1.5),
+                ior: m
+                    .ior()
+                    .filter(|n| n.is_finite() && *n >= 1.0)
+                    .unwrap_or(1.5),
                 clearcoat,
                 clearcoat_roughness,
                 name,
@@ -83,11 +86,7 @@ pub(super) fn document_materials(
 /// extension), read from its JSON (the `gltf` crate does not type it), each kept
 /// in [0, 1]. Its textures are not read (`docs/materials.md`): a warning names
 /// each one present, and the factor stands in.
-fn clear_coat(
-    material: &gltf::Material<'_>,
-    name: &str,
-    warnings: &mut Vec<String>,
-) -> (f32, f32) {
+fn clear_coat(material: &gltf::Material<'_>, name: &str, warnings: &mut Vec<String>) -> (f32, f32) {
     let Some(value) = material.extension_value("KHR_materials_clearcoat") else {
         return (0.0, 0.0);
     };
@@ -108,7 +107,10 @@ fn clear_coat(
             .and_then(json::Value::as_f64)
             .map_or(0.0, |x| finite_unit(x as f32))
     };
-    (factor("clearcoatFactor"), factor("clearcoatRoughnessFactor"))
+    (
+        factor("clearcoatFactor"),
+        factor("clearcoatRoughnessFactor"),
+    )
 }
 
 /// A material's texture slot as glTF gives it, before its image is decoded.
