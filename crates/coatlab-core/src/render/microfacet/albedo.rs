@@ -14,8 +14,8 @@
 //! designer sets), each by 32 × 32 stratified samples of the visible normals, whose
 //! weight G2/G1 is smooth (about 30 ms at opt-level 3). A material interpolates its
 //! roughness once into an [`AlbedoRow`]; a shading point then interpolates linearly
-//! in μ. Their hemispherical averages E_avg = 2 ∫ E μ dμ come from the same nodes
-//! (trapezoid rule), so the compensation lobes built from them integrate to what
+//! in μ. Their hemispherical averages E_avg = 2 ∫ E μ dμ are those of the
+//! piecewise-linear rows (exact integrals of the interpolant), so the compensation lobes built from them integrate to what
 //! they should up to the interpolation error (measured in `tests/microfacet.rs`).
 
 use std::sync::LazyLock;
@@ -29,10 +29,14 @@ const MU_FLOOR: f32 = 1e-3;
 /// Strata per axis of the visible-normal samples of one node.
 const STRATA: usize = 32;
 
-/// E₁ and E₅ per roughness node (rows) and μ node (columns).
+/// E₁ and E₅ per roughness node (rows) and μ node (columns), and each row's
+/// hemispherical average (linear in the row, so a row interpolated between
+/// nodes has the interpolated average: nothing is integrated per material).
 struct Tables {
     e1: Vec<[f32; NODES]>,
     e5: Vec<[f32; NODES]>,
+    average1: Vec<f32>,
+    average5: Vec<f32>,
 }
 
 static TABLES: LazyLock<Tables> = LazyLock::new(|| {
@@ -47,7 +51,12 @@ static TABLES: LazyLock<Tables> = LazyLock::new(|| {
             e5[k][j] = b;
         }
     }
-    Tables { e1, e5 }
+    Tables {
+        average1: e1.iter().map(hemispherical_average).collect(),
+        average5: e5.iter().map(hemispherical_average).collect(),
+        e1,
+        e5,
+    }
 });
 
 /// (E₁, E₅) of `ggx` at cos θo = `mu`: the mean of G2/G1 (and of it × (1 − ωo·h)⁵)
@@ -96,13 +105,12 @@ impl AlbedoRow {
         let lerp = |rows: &[[f32; NODES]]| -> [f32; NODES] {
             std::array::from_fn(|j| rows[k][j] + t * (rows[k + 1][j] - rows[k][j]))
         };
-        let e1 = lerp(&tables.e1);
-        let e5 = lerp(&tables.e5);
+        let average = |a: &[f32]| a[k] + t * (a[k + 1] - a[k]);
         Self {
-            average1: hemispherical_average(&e1),
-            average5: hemispherical_average(&e5),
-            e1,
-            e5,
+            e1: lerp(&tables.e1),
+            e5: lerp(&tables.e5),
+            average1: average(&tables.average1),
+            average5: average(&tables.average5),
         }
     }
 
