@@ -35,22 +35,22 @@ fn white() -> LinSrgb<f32> {
     LinSrgb::new(1.0, 1.0, 1.0)
 }
 
-fn conductor(base_color: LinSrgb<f32>, roughness: f32) -> GltfParameters {
+/// glTF's material of `base_color`, `metallic` (0 or 1 here) and `roughness`.
+fn material(base_color: LinSrgb<f32>, metallic: f32, roughness: f32) -> GltfParameters {
     GltfParameters {
         base_color,
-        metallic: 1.0,
+        metallic,
         roughness,
         ..GltfParameters::default()
     }
 }
 
+fn conductor(base_color: LinSrgb<f32>, roughness: f32) -> GltfParameters {
+    material(base_color, 1.0, roughness)
+}
+
 fn dielectric(base_color: LinSrgb<f32>, roughness: f32) -> GltfParameters {
-    GltfParameters {
-        base_color,
-        metallic: 0.0,
-        roughness,
-        ..GltfParameters::default()
-    }
+    material(base_color, 0.0, roughness)
 }
 
 fn from_mu(mu: f32) -> [f32; 3] {
