@@ -335,7 +335,7 @@ fn clear_coat_car_paint_renders_through_its_coat() {
         .next()
         .expect("a preset")
         .design
-        .model(grid.clone())
+        .model(grid)
         .expect("model");
     let render_scene = Arc::new(RenderScene::new(scene.clone()).expect("scene"));
     let (width, height) = (48, 48);
