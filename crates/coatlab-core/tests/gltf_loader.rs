@@ -125,7 +125,13 @@ fn toy_car_with_external_bin_is_scaled_up() {
         return;
     };
     assert_eq!(paint_names(&scene), ["ToyCar"]);
-    assert!(warns_with(&scene, "KHR_materials_clearcoat"));
+    // Its clear coat is read (on the parts that do not carry the design), not warned about.
+    assert!(!warns_with(&scene, "KHR_materials_clearcoat"));
+    // Its clear-coat texture is not read, and says so.
+    assert!(warns_about(
+        &scene,
+        "'ToyCar': KHR_materials_clearcoat clearcoatTexture not read"
+    ));
     // Its textures are decoded (PNG files next to the .gltf), none refused.
     let toy = scene
         .materials
@@ -148,13 +154,17 @@ fn clear_coat_car_paint_loads_despite_its_required_extensions() {
         return;
     };
     assert_eq!(scene.paint_materials, [0]);
-    assert!(warns_with(
-        &scene,
-        "KHR_materials_clearcoat: clear coat ignored"
-    ));
+    assert!(
+        !warns_with(&scene, "KHR_materials_clearcoat"),
+        "{:?}",
+        scene.warnings
+    );
     let m = &scene.materials[0];
     assert!((m.base_color.red - 0.7).abs() < 1e-6 && m.base_color.green == 0.0);
     assert!((m.roughness - 0.4).abs() < 1e-6 && (m.metallic - 0.3).abs() < 1e-6);
+    // KHR_materials_clearcoat's factors (1 and 0 in the file); no KHR_materials_ior: 1.5.
+    assert_eq!((m.clearcoat, m.clearcoat_roughness), (1.0, 0.0));
+    assert_eq!(m.ior, 1.5);
 }
 
 #[test]

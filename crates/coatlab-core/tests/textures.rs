@@ -170,6 +170,7 @@ fn base_colour_at(scene: &Scene, b: [f32; 2]) -> f32 {
         footprint_m: 0.0,
     };
     surface_parameters(trim(scene), &scene.mesh, &point)
+        .bsdf
         .base_color
         .green
 }

@@ -49,6 +49,7 @@ use crate::render::environment::{
 };
 use crate::render::geometry::{BatchScratch, Frame, RenderGeometry, Surface, SurfaceHit, dot};
 use crate::render::material::{Shading, SimpleMaterial, SurfaceExtras};
+use crate::render::microfacet::GltfBsdf;
 use crate::render::sampler::PixelSampler;
 use crate::render::texturing::{PIXEL_SPREAD_RAD, TexturePoint, surface_parameters};
 
@@ -611,7 +612,7 @@ impl<'a> PathTracer<'a> {
                 // Textures and emission: the material's parameters at this hit (a
                 // BSDF of its own) and its emitted light, which no light sample
                 // reaches and so counts fully.
-                let textured: SimpleMaterial;
+                let textured: GltfBsdf;
                 let mut mapped_normal = None;
                 let material: &dyn SpectralBsdf = match hit.surface {
                     Surface::Mesh { material: index } => match self.shading.extras(index) {
@@ -638,14 +639,8 @@ impl<'a> PathTracer<'a> {
                                 add_emission(out, throughput, f);
                             }
                             mapped_normal = parameters.normal;
-                            textured = SimpleMaterial::from_parameters(
-                                parameters.base_color,
-                                parameters.metallic,
-                                parameters.roughness,
-                                parameters.occlusion,
-                                upsampler,
-                                self.shading.channels(),
-                            );
+                            textured =
+                                GltfBsdf::new(&parameters.bsdf, upsampler, self.shading.channels());
                             &textured
                         }
                     },

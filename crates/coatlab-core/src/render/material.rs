@@ -2,51 +2,33 @@
 //! the two Phong translations the paper compares it with), simple materials for the
 //! rest of the scene, and the floor.
 //!
-//! # Simple materials
+//! # The other parts
 //! Parts that are not painted keep the glTF metallic-roughness description they came
-//! with, reduced to what a preview needs: a Lambertian base under a glossy lobe,
+//! with (and `KHR_materials_clearcoat`, `KHR_materials_ior`), rendered by the GGX
+//! microfacet BSDF of [`crate::render::microfacet`] (its module documentation has
+//! the model and the parameter table): a conductor with Schlick's spectral Fresnel
+//! from the base colour and Kulla–Conty multiple scattering, a rough dielectric over
+//! an energy-compensated diffuse base, and an optional clear coat. A textured
+//! material's parameters are taken at each hit ([`crate::render::texturing`]) and
+//! its BSDF built there; [`Shading::extras`] says which materials need that, and
+//! which emit. What is left out (glass, alpha, sheen) is listed in
+//! `docs/materials.md`.
 //!
-//! f = (1 − F₀(λ)) · a(λ)/π + F₀(λ) · (m + 1)/(2π) · cos^m α / max(cos θi, cos θo),
-//!
-//! with α the angle between ωi and the mirror direction of ωo, and
-//!
-//! | name | unit | range | from glTF |
-//! |---|---|---|---|
-//! | a(λ), diffuse albedo | 1 | [0, 1] | (1 − metallic) × base colour, upsampled |
-//! | F₀(λ), specular colour | 1 | [0, 1] | 0.04 (dielectric) mixed to the base colour by metallic |
-//! | m, lobe exponent | 1 | [0, [`MAX_SIMPLE_EXPONENT`]] | 2/α² − 2 with α = roughness² (the Blinn–Phong equivalent of GGX's α) |
-//! | o, occlusion | 1 | [0, 1] | the occlusion texture (1 without one); multiplies a(λ) |
-//!
-//! A textured material's base colour, metallic, roughness and occlusion are taken
-//! at each hit ([`crate::render::texturing`]) and the material is built there by
-//! [`SimpleMaterial::from_parameters`]; [`Shading::extras`] says which materials
-//! need that, and which emit. What is left out (GGX conductors and dielectrics,
-//! glass, alpha, clear coat on other parts) is listed in `docs/materials.md`.
-//!
-//! Base colours are turned into smooth reflectance spectra by
-//! [`RgbUpsampler::reflectance`]. The lobe's 1/max(cos θi, cos θo) makes it
-//! reciprocal and lets a sharp lobe reflect F₀ at every angle, as a mirror does (the
-//! classic (m + 2)/(2π) normalisation reflects only F₀·cos θ, so chrome and glass went
-//! black toward grazing); its directional albedo never exceeds F₀ (∫ cos θi / max(·)
-//! dω/2π ≤ 1). Below-horizon parts of the lobe are lost, which darkens rough lobes at
-//! grazing a little — acceptable for tyres, trim and glass in a paint preview, and
-//! the reason these materials are not used for anything measured.
+//! # The floor
+//! [`SimpleMaterial`]: the floor's Lambertian reflector (a Phong mixture with the
+//! reciprocal normalisation, of which only the diffuse part is used there).
 
 use std::sync::Arc;
-
-use palette::LinSrgb;
 
 use crate::colour::spectrum::Channels;
 use crate::colour::upsampling::RgbUpsampler;
 use crate::paint::model::{BsdfSample, PaintModel, SpectralBsdf, SpectralPaint};
 use crate::paint::phong::{PhongNormalisation, PhongParams, PhongVariant, SpectralPhong};
+use crate::render::microfacet::{GltfBsdf, GltfParameters};
 use crate::scene::{Scene, SceneMaterial};
 
-/// Sharpest lobe a simple material gets (roughness 0 would otherwise give an
-/// infinite exponent); at 10⁵ the lobe is 0.3° wide, a mirror for a preview.
+/// Sharpest lobe a [`SimpleMaterial`] gets; at 10⁵ the lobe is 0.3° wide.
 pub const MAX_SIMPLE_EXPONENT: f32 = 1e5;
-/// F₀ of a dielectric: glTF's fixed 4 % (n = 1.5).
-const DIELECTRIC_F0: f32 = 0.04;
 
 /// Which model renders the designed paint.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -128,8 +110,9 @@ impl SpectralBsdf for DesignBsdf {
     }
 }
 
-/// A non-paint material (see the module documentation): a Phong mixture with the
-/// reciprocal normalisation.
+/// A Lambertian (and optionally glossy) reflector: a Phong mixture with the
+/// reciprocal normalisation, its lobe's directional albedo at most F₀ at every
+/// angle. The floor uses it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimpleMaterial(SpectralPhong);
 
@@ -137,60 +120,6 @@ impl SimpleMaterial {
     /// A Lambertian reflector with reflectance `albedo` per channel.
     pub fn lambertian(albedo: &[f32]) -> Self {
         Self::new(albedo, &vec![0.0; albedo.len()], 1.0)
-    }
-
-    /// The material of a glTF metallic-roughness description on `channels` (its
-    /// factors; textures are applied per hit by [`Self::from_parameters`]).
-    pub fn from_scene_material(
-        material: &SceneMaterial,
-        upsampler: &RgbUpsampler,
-        channels: &Channels,
-    ) -> Self {
-        Self::from_parameters(
-            material.base_color,
-            material.metallic,
-            material.roughness,
-            1.0,
-            upsampler,
-            channels,
-        )
-    }
-
-    /// The material of base colour, metallic and roughness (glTF's meanings) and
-    /// an occlusion factor that darkens the diffuse part (1: none).
-    pub fn from_parameters(
-        base_color: LinSrgb<f32>,
-        metallic: f32,
-        roughness: f32,
-        occlusion: f32,
-        upsampler: &RgbUpsampler,
-        channels: &Channels,
-    ) -> Self {
-        let colour = base_color;
-        let clamped = LinSrgb::new(
-            colour.red.clamp(0.0, 1.0),
-            colour.green.clamp(0.0, 1.0),
-            colour.blue.clamp(0.0, 1.0),
-        );
-        let mut base = vec![0.0; channels.len()];
-        upsampler.reflectance(clamped, &mut base);
-        let metallic = metallic.clamp(0.0, 1.0);
-        let occlusion = occlusion.clamp(0.0, 1.0);
-        let albedo: Vec<f32> = base
-            .iter()
-            .map(|&c| ((1.0 - metallic) * c * occlusion).clamp(0.0, 1.0))
-            .collect();
-        let specular: Vec<f32> = base
-            .iter()
-            .map(|&c| (DIELECTRIC_F0 + metallic * (c - DIELECTRIC_F0)).clamp(0.0, 1.0))
-            .collect();
-        let alpha = roughness.clamp(0.0, 1.0).powi(2);
-        let exponent = if alpha > 0.0 {
-            (2.0 / (alpha * alpha) - 2.0).clamp(0.0, MAX_SIMPLE_EXPONENT)
-        } else {
-            MAX_SIMPLE_EXPONENT
-        };
-        Self::new(&albedo, &specular, exponent)
     }
 
     /// From diffuse albedo a(λ), specular colour F₀(λ) and lobe exponent m.
@@ -244,7 +173,7 @@ impl SpectralBsdf for SimpleMaterial {
 }
 
 /// Everything the tracer needs to shade one scene with one design: the design's
-/// BSDF, a simple material per scene material, which of them carry the paint, and
+/// BSDF, a GGX material per scene material, which of them carry the paint, and
 /// the floor. Built when the design, the model or the scene changes; the geometry
 /// and its BVH are not touched.
 #[derive(Debug, Clone)]
@@ -252,7 +181,7 @@ pub struct Shading {
     channels: Channels,
     model: ShadingModel,
     design: DesignBsdf,
-    simple: Vec<SimpleMaterial>,
+    simple: Vec<GltfBsdf>,
     painted: Vec<bool>,
     /// Per scene material: what a hit on it needs beyond `simple` (textures,
     /// emission); `None` for most, and for every painted one.
@@ -296,7 +225,7 @@ impl Shading {
         let upsampler = RgbUpsampler::new(channels);
         let simple = materials
             .iter()
-            .map(|m| SimpleMaterial::from_scene_material(m, &upsampler, channels))
+            .map(|m| GltfBsdf::new(&GltfParameters::factors(m), &upsampler, channels))
             .collect();
         let mut painted = vec![false; materials.len()];
         for &index in paint_materials {
@@ -403,12 +332,6 @@ pub type SharedShading = Arc<Shading>;
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::colour::spectrum::WavelengthGrid;
-
-    fn grid() -> Channels {
-        Channels::Spectral(WavelengthGrid::visible(16).expect("grid"))
-    }
-
     fn directional_albedo(material: &SimpleMaterial, wo: [f32; 3]) -> f32 {
         // Importance-sampled estimate of ∫ f cos θi dωi at the first wavelength.
         let mut weight = vec![0.0; material.len()];
@@ -438,33 +361,6 @@ mod tests {
         );
         let albedo = directional_albedo(&m, [0.0, 0.0, 1.0]);
         assert!((albedo - 0.5).abs() < 1e-3, "{albedo}");
-    }
-
-    #[test]
-    fn simple_materials_never_reflect_more_than_they_receive() {
-        let upsampler = RgbUpsampler::new(&grid());
-        for (roughness, metallic) in [(0.0, 0.0), (0.3, 0.0), (0.3, 1.0), (1.0, 0.5), (0.05, 1.0)] {
-            let scene_material = SceneMaterial {
-                name: "test".into(),
-                base_color: LinSrgb::new(1.0, 1.0, 1.0),
-                roughness,
-                metallic,
-                area_m2: 1.0,
-                ..SceneMaterial::default()
-            };
-            let m = SimpleMaterial::from_scene_material(&scene_material, &upsampler, &grid());
-            for mu in [1.0f32, 0.5, 0.1] {
-                let wo = [(1.0 - mu * mu).sqrt(), 0.0, mu];
-                let albedo = directional_albedo(&m, wo);
-                assert!(
-                    albedo <= 1.0 + 5e-3,
-                    "roughness {roughness} metallic {metallic} mu {mu}: albedo {albedo}"
-                );
-                // A white material is bright at every angle (its diffuse part or its
-                // F₀ = 1 lobe).
-                assert!(albedo > 0.3, "white material too dark: {albedo}");
-            }
-        }
     }
 
     #[test]

@@ -12,7 +12,8 @@
 //! - [`lighting`]: the user's choice of lighting and the one builder from it;
 //! - [`environment`]: what lights the scene (studio, booth, outdoor, image maps);
 //! - [`camera`] and [`film`]: rays from pixels, and accumulation into an image;
-//! - [`material`]: the design as paint or Phong, and the scene's simple materials;
+//! - [`material`]: the design as paint or Phong, the other parts' materials, the floor;
+//! - [`microfacet`]: GGX conductors, rough dielectrics and clear coats (glTF materials);
 //! - [`texturing`]: a textured material's parameters at a hit (mip level from a ray cone);
 //! - [`integrator`]: the path tracer;
 //! - [`progressive`]: passes over tiles on all cores, restarts, noise estimates;
@@ -32,6 +33,7 @@ pub mod image_error;
 pub mod integrator;
 pub mod lighting;
 pub mod material;
+pub mod microfacet;
 pub mod pick;
 pub mod progressive;
 pub mod reshade;

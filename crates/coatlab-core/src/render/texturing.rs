@@ -21,6 +21,7 @@
 
 use palette::LinSrgb;
 
+use crate::render::microfacet::GltfParameters;
 use crate::scene::texture::TextureRef;
 use crate::scene::{SceneMaterial, TriangleMesh};
 
@@ -30,14 +31,9 @@ pub const PIXEL_SPREAD_RAD: f32 = 1.5e-3;
 /// The material's parameters at one point, textures applied.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SurfaceParameters {
-    /// Base colour, linear sRGB in [0, 1].
-    pub base_color: LinSrgb<f32>,
-    /// Metallic in [0, 1].
-    pub metallic: f32,
-    /// Roughness in [0, 1].
-    pub roughness: f32,
-    /// Occlusion in [0, 1] (1: none), strength applied.
-    pub occlusion: f32,
+    /// What the BSDF is built from: base colour, metallic, roughness, occlusion,
+    /// index and clear coat.
+    pub bsdf: GltfParameters,
     /// Emitted radiance colour, linear sRGB.
     pub emission: LinSrgb<f32>,
     /// The normal the normal map gives, world space, unit; `None` without one.
@@ -72,25 +68,23 @@ pub fn surface_parameters(
     let sample = |texture: &TextureRef| frame.sample(texture);
     let base = material.base_color;
     let mut parameters = SurfaceParameters {
-        base_color: base,
-        metallic: material.metallic,
-        roughness: material.roughness,
-        occlusion: 1.0,
+        bsdf: GltfParameters::factors(material),
         emission: material.emissive,
         normal: None,
     };
+    let bsdf = &mut parameters.bsdf;
     if let Some(t) = &material.base_color_texture {
         let [r, g, b, _] = sample(t);
-        parameters.base_color = LinSrgb::new(base.red * r, base.green * g, base.blue * b);
+        bsdf.base_color = LinSrgb::new(base.red * r, base.green * g, base.blue * b);
     }
     if let Some(t) = &material.metallic_roughness_texture {
         let [_, g, b, _] = sample(t);
-        parameters.roughness = (material.roughness * g).clamp(0.0, 1.0);
-        parameters.metallic = (material.metallic * b).clamp(0.0, 1.0);
+        bsdf.roughness = (material.roughness * g).clamp(0.0, 1.0);
+        bsdf.metallic = (material.metallic * b).clamp(0.0, 1.0);
     }
     if let Some(t) = &material.occlusion_texture {
         let [r, ..] = sample(t);
-        parameters.occlusion = (1.0 + t.scale * (r - 1.0)).clamp(0.0, 1.0);
+        bsdf.occlusion = (1.0 + t.scale * (r - 1.0)).clamp(0.0, 1.0);
     }
     if let Some(t) = &material.emissive_texture {
         let [r, g, b, _] = sample(t);
@@ -280,13 +274,13 @@ mod tests {
         let mesh = quad_half();
         // u = barycentric[0]: 0.8 lies in the white half, 0.1 in the black.
         let white = surface_parameters(&material, &mesh, &point([0.8, 0.1], 0.0));
-        assert!((white.base_color.red - 0.5).abs() < 1e-4, "{white:?}");
-        assert!((white.base_color.green - 1.0).abs() < 1e-4);
+        assert!((white.bsdf.base_color.red - 0.5).abs() < 1e-4, "{white:?}");
+        assert!((white.bsdf.base_color.green - 1.0).abs() < 1e-4);
         let black = surface_parameters(&material, &mesh, &point([0.1, 0.1], 0.0));
-        assert!(black.base_color.green < 1e-4, "{black:?}");
+        assert!(black.bsdf.base_color.green < 1e-4, "{black:?}");
         // A footprint as wide as the texture reads the average: linear 0.5.
         let far = surface_parameters(&material, &mesh, &point([0.1, 0.1], 5.0));
-        assert!((far.base_color.green - 0.5).abs() < 0.02, "{far:?}");
+        assert!((far.bsdf.base_color.green - 0.5).abs() < 0.02, "{far:?}");
     }
 
     #[test]

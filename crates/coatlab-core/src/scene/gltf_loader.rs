@@ -46,20 +46,12 @@ const MAX_SPARSE_ONLY_COUNT: u64 = 1 << 24;
 /// with what each means for us. Anything else in `extensionsRequired` is refused.
 pub const IGNORED_EXTENSIONS: &[(&str, &str)] = &[
     (
-        "KHR_materials_clearcoat",
-        "clear coat ignored: the designed paint has its own clear coat; other materials render without one",
-    ),
-    (
         "KHR_materials_sheen",
         "sheen ignored: materials render as base colour and roughness",
     ),
     (
         "KHR_materials_transmission",
         "transmission ignored: transmissive materials (glass) render opaque",
-    ),
-    (
-        "KHR_materials_ior",
-        "index of refraction ignored: simple materials use the glTF default",
     ),
     (
         "KHR_materials_specular",
@@ -69,8 +61,15 @@ pub const IGNORED_EXTENSIONS: &[(&str, &str)] = &[
 
 /// Extensions the loader and the tracer model (`docs/materials.md`): allowed in
 /// `extensionsRequired`, used without a warning.
-pub const SUPPORTED_EXTENSIONS: &[&str] =
-    &["KHR_texture_transform", "KHR_materials_emissive_strength"];
+pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_texture_transform",
+    "KHR_materials_emissive_strength",
+    // On the parts that do not carry the design (the design has its own coat);
+    // factors only, its textures are not read.
+    "KHR_materials_clearcoat",
+    // Its `ior` sets the dielectric's F₀ (render/microfacet).
+    "KHR_materials_ior",
+];
 
 /// Substrings (case-insensitive) of a material name that mark the car body.
 pub const PAINT_NAME_HINTS: &[&str] = &[

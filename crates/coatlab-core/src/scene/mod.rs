@@ -101,10 +101,17 @@ pub struct SceneMaterial {
     pub emissive: LinSrgb<f32>,
     /// Emissive texture (sRGB-decoded; multiplies `emissive`).
     pub emissive_texture: Option<TextureRef>,
+    /// Index of refraction of the dielectric part (`KHR_materials_ior`, default
+    /// 1.5); sets its F₀ only.
+    pub ior: f32,
+    /// `KHR_materials_clearcoat`'s `clearcoatFactor` in [0, 1] (0: no coat).
+    pub clearcoat: f32,
+    /// `KHR_materials_clearcoat`'s `clearcoatRoughnessFactor` in [0, 1].
+    pub clearcoat_roughness: f32,
 }
 
 /// A glTF material with no properties set: white, metallic 1, roughness 1, no
-/// textures, no emission (the glTF 2.0 defaults), with no area yet.
+/// textures, no emission, η = 1.5, no clear coat (the glTF 2.0 defaults), with no area yet.
 impl Default for SceneMaterial {
     fn default() -> Self {
         Self {
@@ -119,6 +126,9 @@ impl Default for SceneMaterial {
             occlusion_texture: None,
             emissive: LinSrgb::new(0.0, 0.0, 0.0),
             emissive_texture: None,
+            ior: 1.5,
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.0,
         }
     }
 }

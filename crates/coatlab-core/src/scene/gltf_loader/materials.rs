@@ -58,7 +58,14 @@ pub(super) fn document_materials(
                 let e = c * strength;
                 if e.is_finite() { e.max(0.0) } else { 0.0 }
             });
+            let (clearcoat, clearcoat_roughness) = clear_coat(&m, &name, warnings);
             SceneMaterial {
+                ior: m
+                    .ior()
+                    .filter(|n| n.is_finite() && *n >= 1.0)
+                    .unwrap_or(1.5),
+                clearcoat,
+                clearcoat_roughness,
                 name,
                 base_color: LinSrgb::new(r, g, b),
                 roughness: finite_unit(pbr.roughness_factor()),
@@ -73,6 +80,37 @@ pub(super) fn document_materials(
             }
         })
         .collect()
+}
+
+/// `KHR_materials_clearcoat`'s factor and roughness factor (0 and 0 without the
+/// extension), read from its JSON (the `gltf` crate does not type it), each kept
+/// in [0, 1]. Its textures are not read (`docs/materials.md`): a warning names
+/// each one present, and the factor stands in.
+fn clear_coat(material: &gltf::Material<'_>, name: &str, warnings: &mut Vec<String>) -> (f32, f32) {
+    let Some(value) = material.extension_value("KHR_materials_clearcoat") else {
+        return (0.0, 0.0);
+    };
+    for slot in [
+        "clearcoatTexture",
+        "clearcoatRoughnessTexture",
+        "clearcoatNormalTexture",
+    ] {
+        if value.get(slot).is_some() {
+            warnings.push(format!(
+                "material '{name}': KHR_materials_clearcoat {slot} not read, its factor stands in"
+            ));
+        }
+    }
+    let factor = |key: &str| {
+        value
+            .get(key)
+            .and_then(json::Value::as_f64)
+            .map_or(0.0, |x| finite_unit(x as f32))
+    };
+    (
+        factor("clearcoatFactor"),
+        factor("clearcoatRoughnessFactor"),
+    )
 }
 
 /// A material's texture slot as glTF gives it, before its image is decoded.
