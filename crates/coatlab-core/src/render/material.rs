@@ -20,8 +20,9 @@
 //! A textured material's base colour, metallic, roughness and occlusion are taken
 //! at each hit ([`crate::render::texturing`]) and the material is built there by
 //! [`SimpleMaterial::from_parameters`]; [`Shading::extras`] says which materials
-//! need that, and which emit. What is left out (GGX conductors and dielectrics,
-//! glass, alpha, clear coat on other parts) is listed in `docs/materials.md`.
+//! need that, and which emit. Glass and alpha are [`crate::render::glass`]'s
+//! ([`Shading::see_through`]). What is left out (GGX conductors and dielectrics,
+//! clear coat on other parts) is listed in `docs/materials.md`.
 //!
 //! Base colours are turned into smooth reflectance spectra by
 //! [`RgbUpsampler::reflectance`]. The lobe's 1/max(cos θi, cos θo) makes it
@@ -40,6 +41,7 @@ use crate::colour::spectrum::Channels;
 use crate::colour::upsampling::RgbUpsampler;
 use crate::paint::model::{BsdfSample, PaintModel, SpectralBsdf, SpectralPaint};
 use crate::paint::phong::{PhongNormalisation, PhongParams, PhongVariant, SpectralPhong};
+use crate::render::glass::SeeThroughMaterials;
 use crate::scene::{Scene, SceneMaterial};
 
 /// Sharpest lobe a simple material gets (roughness 0 would otherwise give an
@@ -257,6 +259,8 @@ pub struct Shading {
     /// Per scene material: what a hit on it needs beyond `simple` (textures,
     /// emission); `None` for most, and for every painted one.
     surfaces: Vec<Option<SurfaceExtras>>,
+    /// Per scene material: its glass and alpha ([`crate::render::glass`]).
+    see_through: SeeThroughMaterials,
     upsampler: RgbUpsampler,
 }
 
@@ -321,6 +325,7 @@ impl Shading {
                 }
             })
             .collect();
+        let see_through = SeeThroughMaterials::new(materials, &painted, &upsampler, channels);
         Self {
             channels: *channels,
             model,
@@ -328,8 +333,15 @@ impl Shading {
             simple,
             painted,
             surfaces,
+            see_through,
             upsampler,
         }
+    }
+
+    /// The scene's glass and alpha-blended or masked materials.
+    #[inline]
+    pub fn see_through(&self) -> &SeeThroughMaterials {
+        &self.see_through
     }
 
     /// What a hit on scene material `material` needs beyond [`Self::material`]:

@@ -13,6 +13,7 @@
 //! - [`environment`]: what lights the scene (studio, booth, outdoor, image maps);
 //! - [`camera`] and [`film`]: rays from pixels, and accumulation into an image;
 //! - [`material`]: the design as paint or Phong, and the scene's simple materials;
+//! - [`glass`]: glass (thin panes, refracting volumes) and alpha MASK/BLEND;
 //! - [`texturing`]: a textured material's parameters at a hit (mip level from a ray cone);
 //! - [`integrator`]: the path tracer;
 //! - [`progressive`]: passes over tiles on all cores, restarts, noise estimates;
@@ -28,6 +29,7 @@ pub mod adaptive;
 pub mod camera;
 pub mod environment;
 pub mod film;
+pub mod glass;
 pub mod image_error;
 pub mod integrator;
 pub mod lighting;

@@ -30,6 +30,7 @@ use palette::LinSrgb;
 
 use super::orientation::{Front, orient};
 use super::texture::{TexelEncoding, Texture, TextureRef, UvTransform, WrapMode};
+use super::transparency::{AlphaMode, Transparency};
 use super::{Scene, SceneCamera, SceneMaterial, TriangleMesh, framing};
 
 /// Length the model is scaled to: its larger horizontal extent, metres (a car's length).
@@ -54,14 +55,6 @@ pub const IGNORED_EXTENSIONS: &[(&str, &str)] = &[
         "sheen ignored: materials render as base colour and roughness",
     ),
     (
-        "KHR_materials_transmission",
-        "transmission ignored: transmissive materials (glass) render opaque",
-    ),
-    (
-        "KHR_materials_ior",
-        "index of refraction ignored: simple materials use the glTF default",
-    ),
-    (
         "KHR_materials_specular",
         "specular ignored: simple materials use the glTF default",
     ),
@@ -69,8 +62,13 @@ pub const IGNORED_EXTENSIONS: &[(&str, &str)] = &[
 
 /// Extensions the loader and the tracer model (`docs/materials.md`): allowed in
 /// `extensionsRequired`, used without a warning.
-pub const SUPPORTED_EXTENSIONS: &[&str] =
-    &["KHR_texture_transform", "KHR_materials_emissive_strength"];
+pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_texture_transform",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_transmission",
+    "KHR_materials_ior",
+    "KHR_materials_volume",
+];
 
 /// Substrings (case-insensitive) of a material name that mark the car body.
 pub const PAINT_NAME_HINTS: &[&str] = &[

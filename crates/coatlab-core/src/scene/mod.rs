@@ -11,6 +11,7 @@ pub mod framing;
 pub mod gltf_loader;
 pub mod orientation;
 pub mod texture;
+pub mod transparency;
 
 use crate::accel::Triangles;
 use texture::TextureRef;
@@ -101,6 +102,8 @@ pub struct SceneMaterial {
     pub emissive: LinSrgb<f32>,
     /// Emissive texture (sRGB-decoded; multiplies `emissive`).
     pub emissive_texture: Option<TextureRef>,
+    /// Alpha and glass.
+    pub transparency: transparency::Transparency,
 }
 
 /// A glTF material with no properties set: white, metallic 1, roughness 1, no
@@ -119,6 +122,7 @@ impl Default for SceneMaterial {
             occlusion_texture: None,
             emissive: LinSrgb::new(0.0, 0.0, 0.0),
             emissive_texture: None,
+            transparency: transparency::Transparency::default(),
         }
     }
 }

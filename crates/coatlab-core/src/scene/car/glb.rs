@@ -126,7 +126,12 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, GlbWriteError> {
     let normals = vec3_attribute(&mut root, &mut bin, &mesh.normals, None);
 
     let mut primitives = Vec::new();
+    let mut used = std::collections::BTreeSet::new();
     for (index, m) in scene.materials.iter().enumerate() {
+        // glTF keeps emissiveFactor in [0, 1]; the rest goes into the strength.
+        let e = m.emissive;
+        let emissive_strength = e.red.max(e.green).max(e.blue).max(1.0);
+        let emissive_factor = [e.red, e.green, e.blue].map(|c| c / emissive_strength);
         let material = root.push(json::Material {
             name: Some(m.name.clone()),
             pbr_metallic_roughness: json::material::PbrMetallicRoughness {
@@ -140,6 +145,8 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, GlbWriteError> {
                 roughness_factor: json::material::StrengthFactor(m.roughness),
                 ..Default::default()
             },
+            emissive_factor: json::material::EmissiveFactor(emissive_factor),
+            extensions: material_extensions(m, emissive_strength, &mut used),
             ..Default::default()
         });
         let indices: Vec<u8> = mesh
@@ -208,6 +215,7 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, GlbWriteError> {
         nodes: vec![node],
     });
     root.scene = Some(scene_index);
+    root.extensions_used = used.into_iter().map(str::to_owned).collect();
 
     // GLB: 12-byte header, JSON chunk padded with spaces, BIN chunk padded with zeros.
     let mut json_chunk = root
@@ -227,4 +235,39 @@ pub fn to_glb(scene: &Scene) -> Result<Vec<u8>, GlbWriteError> {
         glb.extend_from_slice(chunk);
     }
     Ok(glb)
+}
+
+/// The glTF extensions that carry `m`'s glass and emission strength (`None`
+/// without either), their names added to `used`.
+fn material_extensions(
+    m: &super::SceneMaterial,
+    emissive_strength: f32,
+    used: &mut std::collections::BTreeSet<&'static str>,
+) -> Option<gltf::json::extensions::material::Material> {
+    use gltf::json::extensions::material as ext;
+    let p = &m.transparency;
+    let mut extensions = ext::Material::default();
+    if p.transmission > 0.0 {
+        used.insert("KHR_materials_transmission");
+        used.insert("KHR_materials_ior");
+        extensions.transmission = Some(ext::Transmission {
+            transmission_factor: ext::TransmissionFactor(p.transmission),
+            ..Default::default()
+        });
+        extensions.ior = Some(ext::Ior {
+            ior: ext::IndexOfRefraction(p.ior),
+            ..Default::default()
+        });
+    }
+    if emissive_strength > 1.0 {
+        used.insert("KHR_materials_emissive_strength");
+        extensions.emissive_strength = Some(ext::EmissiveStrength {
+            emissive_strength: gltf::json::extensions::material::EmissiveStrengthFactor(
+                emissive_strength,
+            ),
+            ..Default::default()
+        });
+    }
+    (extensions.transmission.is_some() || extensions.emissive_strength.is_some())
+        .then_some(extensions)
 }
