@@ -164,6 +164,11 @@ impl SeeThrough {
         if !p.is_see_through() {
             return None;
         }
+        // A transmittance spectrum of a colour, relative to white's: the
+        // upsampled white is not 1 at every wavelength (0.77–1.44), and a white
+        // pane or attenuation colour must pass everything.
+        let mut white = vec![0.0; channels.len()];
+        upsampler.reflectance(palette::LinSrgb::new(1.0, 1.0, 1.0), &mut white);
         let spectrum = |rgb: palette::LinSrgb<f32>| {
             let mut out = vec![0.0; channels.len()];
             let clamped = palette::LinSrgb::new(
@@ -172,7 +177,9 @@ impl SeeThrough {
                 rgb.blue.clamp(0.0, 1.0),
             );
             upsampler.reflectance(clamped, &mut out);
-            out.iter_mut().for_each(|v| *v = v.clamp(0.0, 1.0));
+            for (v, w) in out.iter_mut().zip(&white) {
+                *v = if *w > 0.0 { (*v / w).clamp(0.0, 1.0) } else { 0.0 };
+            }
             out
         };
         let attenuation = (p.is_volume() && p.attenuation_distance_m.is_finite())
