@@ -33,8 +33,11 @@
 //! [`IntegratorSettings::max_bounces`] (a bias toward darker images, taken to be far
 //! below the noise for the car; no measurement of it is recorded).
 //!
-//! Surfaces reflect only (no transmission): the car's glass is a dark, glossy
-//! reflector, which is how it reads in a paint preview. Every surface is two-sided.
+//! Glass and alpha ([`crate::render::glass`]) are resolved per hit before its light
+//! sample: a point that is skipped (alpha) or is glass draws none; the path goes
+//! straight on, or takes a delta reflection or refraction. Shadow rays cross what
+//! lets light straight through, weighted by its transmittance, so the interior
+//! behind the windows is lit. Every surface is two-sided.
 //!
 //! Textured materials are evaluated at each hit ([`crate::render::texturing`]: the
 //! parameters there, a normal map's normal) into a BSDF of their own. Emissive
@@ -223,6 +226,8 @@ pub struct PathTracer<'a> {
     shading: &'a Shading,
     floor: Option<SimpleMaterial>,
     settings: IntegratorSettings,
+    /// Whether any material is glass or alpha (else no hit is looked at for it).
+    see_through: bool,
 }
 
 /// What one path did.
@@ -332,6 +337,7 @@ impl<'a> PathTracer<'a> {
             shading,
             floor,
             settings,
+            see_through: shading.see_through().any(),
         }
     }
 
@@ -803,7 +809,7 @@ impl<'a> PathTracer<'a> {
             stats.rays += shadow_rays.len() as u32;
             blocked.clear();
             blocked.resize(shadow_rays.len(), false);
-            if self.shading.see_through().any() {
+            if self.see_through {
                 stats.rays += self.see_through_shadows(
                     SeeThroughShadows {
                         rays: shadow_rays,
@@ -851,6 +857,9 @@ impl<'a> PathTracer<'a> {
         let Surface::Mesh { material } = hit.surface else {
             return Crossing::Opaque;
         };
+        if !self.see_through {
+            return Crossing::Opaque;
+        }
         let Some(glass) = self.shading.see_through().get(material) else {
             return Crossing::Opaque;
         };
