@@ -117,7 +117,10 @@ fn the_loader_reads_glass_and_alpha_and_warns_of_bad_values_by_material() {
     assert_eq!(veil.alpha_mode, AlphaMode::Blend);
     assert!((veil.alpha - 0.3).abs() < 1e-6);
     assert_eq!(find("Cutout").alpha_mode, AlphaMode::Mask { cutoff: 0.7 });
-    assert_eq!(find("BadCutout").alpha_mode, AlphaMode::Mask { cutoff: 0.5 });
+    assert_eq!(
+        find("BadCutout").alpha_mode,
+        AlphaMode::Mask { cutoff: 0.5 }
+    );
     // The glass extensions are understood: no "ignored" warning for them.
     assert!(
         !scene.warnings.iter().any(|w| w.contains("ignored")),
@@ -165,12 +168,8 @@ fn mean_radiance(mesh: TriangleMesh, pane: SceneMaterial, seed: u64, n: u32) -> 
     let shading = Shading::new(&paint, ShadingModel::Paint, &materials, &[]);
     let geometry = RenderGeometry::new(mesh, false).expect("the scene builds");
     let environment = Environment::studio(&grid);
-    let tracer = PathTracer::new(
-        &geometry,
-        &environment,
-        &shading,
-        IntegratorSettings::default(),
-    );
+    let settings = IntegratorSettings::default();
+    let tracer = PathTracer::new(&geometry, &environment, &shading, settings);
     let mut buffers = PathBuffers::new(tracer.len());
     let mut out = vec![0.0; tracer.len()];
     let (mut sum, mut sum2) = (0.0f64, 0.0f64);
@@ -205,13 +204,26 @@ fn pane(transparency: Transparency, base: f32) -> SceneMaterial {
 #[test]
 fn the_backdrop_is_seen_and_lit_through_glass() {
     let n = 6_000;
-    let (open, open_var) = mean_radiance(backdrop_scene(false), pane(Transparency::default(), 0.0), 1, n);
+    let (open, open_var) = mean_radiance(
+        backdrop_scene(false),
+        pane(Transparency::default(), 0.0),
+        1,
+        n,
+    );
     assert!(open > 0.05, "the backdrop is lit: {open}");
     let z = |(a, va): (f64, f64)| (a - open) / (va + open_var).sqrt();
     // Glass of index 1 reflects nothing and transmits everything: the same
     // picture as no pane (camera rays and the backdrop's shadow rays through it).
-    let invisible = mean_radiance(backdrop_scene(true), pane(Transparency::thin_glass(1.0), 1.0), 2, n);
-    assert!(z(invisible).abs() < 4.0, "index-1 pane {invisible:?} against open {open}");
+    let invisible = mean_radiance(
+        backdrop_scene(true),
+        pane(Transparency::thin_glass(1.0), 1.0),
+        2,
+        n,
+    );
+    assert!(
+        z(invisible).abs() < 4.0,
+        "index-1 pane {invisible:?} against open {open}"
+    );
     // A masked-out veil (alpha 0 below the cutoff) is not there either.
     let cut_out = Transparency {
         alpha: 0.0,
@@ -219,16 +231,32 @@ fn the_backdrop_is_seen_and_lit_through_glass() {
         ..Transparency::default()
     };
     let masked = mean_radiance(backdrop_scene(true), pane(cut_out, 0.0), 3, n);
-    assert!(z(masked).abs() < 4.0, "masked pane {masked:?} against open {open}");
+    assert!(
+        z(masked).abs() < 4.0,
+        "masked pane {masked:?} against open {open}"
+    );
     // Real glass: the backdrop through it, dimmed by the pane's 8 % reflection on
     // the way in and the light's on the way to the backdrop, plus what the pane
     // reflects of the studio behind the camera.
-    let (glass, _) = mean_radiance(backdrop_scene(true), pane(Transparency::thin_glass(1.5), 1.0), 4, n);
+    let (glass, _) = mean_radiance(
+        backdrop_scene(true),
+        pane(Transparency::thin_glass(1.5), 1.0),
+        4,
+        n,
+    );
     assert!(
         glass > 0.6 * open && glass < 1.1 * open,
         "glass {glass} against open {open}"
     );
     // The same pane opaque and black hides the backdrop.
-    let (opaque, _) = mean_radiance(backdrop_scene(true), pane(Transparency::default(), 0.0), 5, n);
-    assert!(opaque < 0.3 * glass, "opaque {opaque} against glass {glass}");
+    let (opaque, _) = mean_radiance(
+        backdrop_scene(true),
+        pane(Transparency::default(), 0.0),
+        5,
+        n,
+    );
+    assert!(
+        opaque < 0.3 * glass,
+        "opaque {opaque} against glass {glass}"
+    );
 }

@@ -53,7 +53,8 @@
 //! Rough transmission (`roughnessFactor` on glass: every pane is smooth),
 //! `transmissionTexture` and `thicknessTexture` (their factors stand in, with a
 //! warning), dispersion, nested volumes (a path inside one volume that meets
-//! another takes the second as entered from air), base-colour *textures* as a
+//! another takes the second as entered from air; one that escapes from inside an
+//! open mesh is not absorbed on its last segment), base-colour *textures* as a
 //! pane's tint (the factor tints; the texture's alpha is read for alpha modes).
 //! A path passes at most [`MAX_CROSSINGS`] skips and thin-pane transmissions;
 //! past that it ends (a bias toward dark that needs more panes in a row than any
@@ -97,7 +98,9 @@ pub fn refracted_cos(cos_i: f32, eta: f32) -> Option<f32> {
 /// to `transmit`.
 pub fn thin_pane(cos_i: f32, ior: f32, tint: &[f32], reflect: &mut [f32], transmit: &mut [f32]) {
     let f = fresnel_dielectric(cos_i, ior);
-    let cos_t = refracted_cos(cos_i.clamp(0.0, 1.0), ior).unwrap_or(1.0).max(1e-3);
+    let cos_t = refracted_cos(cos_i.clamp(0.0, 1.0), ior)
+        .unwrap_or(1.0)
+        .max(1e-3);
     for ((&c, r), t) in tint.iter().zip(reflect.iter_mut()).zip(transmit.iter_mut()) {
         let a = if c >= 1.0 {
             1.0
@@ -178,7 +181,11 @@ impl SeeThrough {
             );
             upsampler.reflectance(clamped, &mut out);
             for (v, w) in out.iter_mut().zip(&white) {
-                *v = if *w > 0.0 { (*v / w).clamp(0.0, 1.0) } else { 0.0 };
+                *v = if *w > 0.0 {
+                    (*v / w).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
             }
             out
         };
@@ -241,8 +248,7 @@ impl SeeThrough {
         if skip >= 1.0 || (skip > 0.0 && next() < skip) {
             return Crossing::Skip;
         }
-        if self.transmission >= 1.0 || (self.transmission > 0.0 && next() < self.transmission)
-        {
+        if self.transmission >= 1.0 || (self.transmission > 0.0 && next() < self.transmission) {
             Crossing::Glass
         } else {
             Crossing::Opaque

@@ -52,7 +52,7 @@ use crate::render::environment::{
 };
 use crate::render::geometry::{BatchScratch, Frame, RenderGeometry, Surface, SurfaceHit, dot};
 use crate::render::glass::{
-    Crossing, MAX_CROSSINGS, fresnel_dielectric, reflect_probability, refracted_cos,
+    Crossing, MAX_CROSSINGS, SeeThrough, fresnel_dielectric, reflect_probability, refracted_cos,
 };
 use crate::render::material::{Shading, SimpleMaterial, SurfaceExtras};
 use crate::render::sampler::PixelSampler;
@@ -863,16 +863,19 @@ impl<'a> PathTracer<'a> {
         let Some(glass) = self.shading.see_through().get(material) else {
             return Crossing::Opaque;
         };
-        let alpha = glass.alpha(
-            self.geometry.mesh(),
-            &TexturePoint {
-                triangle: hit.triangle,
-                barycentric: hit.barycentric,
-                shading_normal: hit.shading_normal,
-                footprint_m: (travelled_m + hit.t) * PIXEL_SPREAD_RAD,
-            },
-        );
+        let alpha = self.alpha_at(glass, hit, travelled_m);
         glass.choose(alpha, || sampler.next_1d())
+    }
+
+    /// The alpha of `glass` at `hit`, reached after `travelled_m` (the ray cone).
+    fn alpha_at(&self, glass: &SeeThrough, hit: &SurfaceHit, travelled_m: f32) -> f32 {
+        let point = TexturePoint {
+            triangle: hit.triangle,
+            barycentric: hit.barycentric,
+            shading_normal: hit.shading_normal,
+            footprint_m: (travelled_m + hit.t) * PIXEL_SPREAD_RAD,
+        };
+        glass.alpha(self.geometry.mesh(), &point)
     }
 
     /// Carries a path across a see-through surface (`crossing` is `Skip` or
@@ -949,9 +952,7 @@ impl<'a> PathTracer<'a> {
                     };
                     // Snell's law: the tangential part scaled by 1/η, the normal
                     // part continuing through.
-                    next = std::array::from_fn(|k| {
-                        (dir[k] + cos_o * n[k]) / eta - cos_t * n[k]
-                    });
+                    next = std::array::from_fn(|k| (dir[k] + cos_o * n[k]) / eta - cos_t * n[k]);
                     lane.inside = if entering { Some(material) } else { None };
                 }
             }
@@ -986,7 +987,7 @@ impl<'a> PathTracer<'a> {
 
     /// Traces shadow rays through see-through surfaces: each crossing multiplies
     /// the ray's pending contribution by what passes straight through there
-    /// ([`crate::render::glass::SeeThrough::straight_through`]); an opaque hit, the floor, a volume or
+    /// ([`SeeThrough::straight_through`]); an opaque hit, the floor, a volume or
     /// more than [`MAX_CROSSINGS`] crossings block it. Returns the rays traced
     /// after the first round.
     fn see_through_shadows(&self, b: SeeThroughShadows<'_>, floor: bool) -> u32 {
@@ -1032,15 +1033,7 @@ impl<'a> PathTracer<'a> {
                     continue;
                 };
                 let dir = rays[j].dir;
-                let alpha = glass.alpha(
-                    self.geometry.mesh(),
-                    &TexturePoint {
-                        triangle: hit.triangle,
-                        barycentric: hit.barycentric,
-                        shading_normal: hit.shading_normal,
-                        footprint_m: hit.t * PIXEL_SPREAD_RAD,
-                    },
-                );
+                let alpha = self.alpha_at(glass, hit, 0.0);
                 let cos = dot(hit.shading_normal, dir).abs();
                 let passes = glass.straight_through(cos, alpha, &mut weight[..len], &mut f[..len]);
                 let contribution = &mut pending[j * len..(j + 1) * len];

@@ -86,16 +86,17 @@ fn transparency(
     warnings: &mut Vec<String>,
 ) -> Transparency {
     let defaults = Transparency::default();
-    let checked = |what: &str, value: f32, valid: bool, default: f32, warnings: &mut Vec<String>| {
-        if valid {
-            value
-        } else {
-            warnings.push(format!(
-                "material '{name}': {what} {value} is out of range, {default} used"
-            ));
-            default
-        }
-    };
+    let checked =
+        |what: &str, value: f32, valid: bool, default: f32, warnings: &mut Vec<String>| {
+            if valid {
+                value
+            } else {
+                warnings.push(format!(
+                    "material '{name}': {what} {value} is out of range, {default} used"
+                ));
+                default
+            }
+        };
     let alpha_mode = match m.alpha_mode() {
         gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
         gltf::material::AlphaMode::Blend => AlphaMode::Blend,
