@@ -923,14 +923,14 @@ impl<'a> PathTracer<'a> {
                     reflected = true;
                     let largest = scale_and_largest(throughput, reflect);
                     throughput.iter_mut().for_each(|t| *t /= p);
-                    if !(largest > 0.0) {
+                    if largest <= 0.0 {
                         return;
                     }
                 } else {
                     next = dir;
                     let largest = scale_and_largest(throughput, transmit);
                     throughput.iter_mut().for_each(|t| *t /= 1.0 - p);
-                    if !(largest > 0.0) {
+                    if largest <= 0.0 {
                         return;
                     }
                 }
@@ -1037,7 +1037,8 @@ impl<'a> PathTracer<'a> {
                 let cos = dot(hit.shading_normal, dir).abs();
                 let passes = glass.straight_through(cos, alpha, &mut weight[..len], &mut f[..len]);
                 let contribution = &mut pending[j * len..(j + 1) * len];
-                if !passes || !(scale_and_largest(contribution, &weight[..len]) > 0.0) {
+                // (`scale_and_largest` passes NaNs over: its result is never NaN.)
+                if !passes || scale_and_largest(contribution, &weight[..len]) <= 0.0 {
                     blocked[j] = true;
                     continue;
                 }

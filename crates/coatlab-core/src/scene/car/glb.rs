@@ -262,10 +262,7 @@ fn material_extensions(
     if emissive_strength > 1.0 {
         used.insert("KHR_materials_emissive_strength");
         extensions.emissive_strength = Some(ext::EmissiveStrength {
-            emissive_strength: gltf::json::extensions::material::EmissiveStrengthFactor(
-                emissive_strength,
-            ),
-            ..Default::default()
+            emissive_strength: ext::EmissiveStrengthFactor(emissive_strength),
         });
     }
     (extensions.transmission.is_some() || extensions.emissive_strength.is_some())
