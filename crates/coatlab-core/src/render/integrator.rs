@@ -33,8 +33,11 @@
 //! [`IntegratorSettings::max_bounces`] (a bias toward darker images, taken to be far
 //! below the noise for the car; no measurement of it is recorded).
 //!
-//! Surfaces reflect only (no transmission): the car's glass is a dark, glossy
-//! reflector, which is how it reads in a paint preview. Every surface is two-sided.
+//! Glass and alpha ([`crate::render::glass`]) are resolved per hit before its light
+//! sample: a point that is skipped (alpha) or is glass draws none; the path goes
+//! straight on, or takes a delta reflection or refraction. Shadow rays cross what
+//! lets light straight through, weighted by its transmittance, so the interior
+//! behind the windows is lit. Every surface is two-sided.
 //!
 //! Textured materials are evaluated at each hit ([`crate::render::texturing`]: the
 //! parameters there, a normal map's normal) into a BSDF of their own. Emissive
@@ -48,6 +51,9 @@ use crate::render::environment::{
     DirectionLookUp, EnvSample, Environment, LocatedSample, SampleLookUp,
 };
 use crate::render::geometry::{BatchScratch, Frame, RenderGeometry, Surface, SurfaceHit, dot};
+use crate::render::glass::{
+    Crossing, MAX_CROSSINGS, SeeThrough, fresnel_dielectric, reflect_probability, refracted_cos,
+};
 use crate::render::material::{Shading, SimpleMaterial, SurfaceExtras};
 use crate::render::microfacet::GltfBsdf;
 use crate::render::sampler::PixelSampler;
@@ -124,6 +130,11 @@ pub struct PathBuffers {
     shadow_rays: Vec<RayQuery>,
     shadow_lanes: Vec<usize>,
     blocked: Vec<bool>,
+    /// Per ray of the batch: what it does at a see-through surface it hit.
+    crossings: Vec<Crossing>,
+    /// Shadow rays still crossing see-through surfaces, and the next round's.
+    shadow_active: Vec<usize>,
+    shadow_next: Vec<usize>,
     scratch: BatchScratch,
 }
 
@@ -149,6 +160,9 @@ impl PathBuffers {
             shadow_rays: Vec::new(),
             shadow_lanes: Vec::new(),
             blocked: Vec::new(),
+            crossings: Vec::new(),
+            shadow_active: Vec::new(),
+            shadow_next: Vec::new(),
             scratch: BatchScratch::default(),
         }
     }
@@ -196,6 +210,10 @@ struct Lane {
     /// Length of the path so far, m (the ray cone's width for texture look-ups).
     travelled_m: f32,
     bounce: u32,
+    /// Skips and thin-pane transmissions so far ([`MAX_CROSSINGS`]).
+    crossed: u32,
+    /// The glass volume (scene material) the path is inside, if any.
+    inside: Option<u32>,
     alive: bool,
     /// The vertex being shaded, told to the recorder once its shadow ray is known.
     record: Option<VertexRecord>,
@@ -209,6 +227,8 @@ pub struct PathTracer<'a> {
     shading: &'a Shading,
     floor: Option<SimpleMaterial>,
     settings: IntegratorSettings,
+    /// Whether any material is glass or alpha (else no hit is looked at for it).
+    see_through: bool,
 }
 
 /// What one path did.
@@ -318,6 +338,7 @@ impl<'a> PathTracer<'a> {
             shading,
             floor,
             settings,
+            see_through: shading.see_through().any(),
         }
     }
 
@@ -443,6 +464,9 @@ impl<'a> PathTracer<'a> {
             shadow_rays,
             shadow_lanes,
             blocked,
+            crossings,
+            shadow_active,
+            shadow_next,
             scratch,
             ..
         } = buffers;
@@ -460,6 +484,8 @@ impl<'a> PathTracer<'a> {
             previous_floor: false,
             travelled_m: 0.0,
             bounce: 0,
+            crossed: 0,
+            inside: None,
             alive: true,
             record: None,
         }));
@@ -505,9 +531,17 @@ impl<'a> PathTracer<'a> {
             // the order of the rays.
             begun.clear();
             begun_extra.clear();
+            crossings.clear();
             for (&i, hit) in ray_lanes.iter().zip(hits.iter()) {
                 let lane = &lanes[i];
+                // What a see-through surface does with the ray, decided before its
+                // light sample: one it skips or that is glass draws none.
+                let crossing = hit.map_or(Crossing::Opaque, |hit| {
+                    self.crossing(&hit, lane.travelled_m, &mut samplers[i])
+                });
+                crossings.push(crossing);
                 begun.push(match hit {
+                    Some(_) if crossing != Crossing::Opaque => Begun::Nothing,
                     // An escape's density is that of the light samples at the
                     // vertex it left (a floor's are for a surface facing up).
                     None => Begun::Escape(self.environment.begin_radiance_and_pdf_for(
@@ -576,7 +610,12 @@ impl<'a> PathTracer<'a> {
             shadow_rays.clear();
             shadow_lanes.clear();
             pending.clear();
-            for ((&i, hit), &found) in ray_lanes.iter().zip(hits.iter()).zip(looked_up.iter()) {
+            for (((&i, hit), &found), &crossing) in ray_lanes
+                .iter()
+                .zip(hits.iter())
+                .zip(looked_up.iter())
+                .zip(crossings.iter())
+            {
                 let lane = &mut lanes[i];
                 let sampler = &mut samplers[i];
                 let recorder = &mut recorders[i];
@@ -602,6 +641,13 @@ impl<'a> PathTracer<'a> {
                     lane.alive = false;
                     continue;
                 };
+                if let Some(volume) = lane.inside.and_then(|m| self.shading.see_through().get(m)) {
+                    volume.absorb(hit.t, throughput);
+                }
+                if crossing != Crossing::Opaque {
+                    self.cross(hit, crossing, lane, sampler, throughput, weight, f);
+                    continue;
+                }
                 let (LookUp::Light(light_sample), Some(plain)) = (found, self.material(hit)) else {
                     // The last bounce's hit, or a floor this lighting has not.
                     lane.alive = false;
@@ -758,8 +804,26 @@ impl<'a> PathTracer<'a> {
             stats.rays += shadow_rays.len() as u32;
             blocked.clear();
             blocked.resize(shadow_rays.len(), false);
-            self.geometry
-                .occluded_batch(shadow_rays, use_floor, blocked, scratch);
+            if self.see_through {
+                stats.rays += self.see_through_shadows(
+                    SeeThroughShadows {
+                        rays: shadow_rays,
+                        pending,
+                        blocked,
+                        active: shadow_active,
+                        next: shadow_next,
+                        queries,
+                        hits,
+                        scratch,
+                        weight,
+                        f,
+                    },
+                    use_floor,
+                );
+            } else {
+                self.geometry
+                    .occluded_batch(shadow_rays, use_floor, blocked, scratch);
+            }
             for (j, (&i, &is_blocked)) in shadow_lanes.iter().zip(blocked.iter()).enumerate() {
                 let lane = &mut lanes[i];
                 if is_blocked {
@@ -780,6 +844,209 @@ impl<'a> PathTracer<'a> {
             }
         }
         stats
+    }
+
+    /// What a ray does at `hit` ([`Crossing`]): `Opaque` except on a see-through
+    /// material, where the alpha there and `sampler` decide.
+    fn crossing(&self, hit: &SurfaceHit, travelled_m: f32, sampler: &mut PixelSampler) -> Crossing {
+        let Surface::Mesh { material } = hit.surface else {
+            return Crossing::Opaque;
+        };
+        if !self.see_through {
+            return Crossing::Opaque;
+        }
+        let Some(glass) = self.shading.see_through().get(material) else {
+            return Crossing::Opaque;
+        };
+        let alpha = self.alpha_at(glass, hit, travelled_m);
+        glass.choose(alpha, || sampler.next_1d())
+    }
+
+    /// The alpha of `glass` at `hit`, reached after `travelled_m` (the ray cone).
+    fn alpha_at(&self, glass: &SeeThrough, hit: &SurfaceHit, travelled_m: f32) -> f32 {
+        let point = TexturePoint {
+            triangle: hit.triangle,
+            barycentric: hit.barycentric,
+            shading_normal: hit.shading_normal,
+            footprint_m: (travelled_m + hit.t) * PIXEL_SPREAD_RAD,
+        };
+        glass.alpha(self.geometry.mesh(), &point)
+    }
+
+    /// Carries a path across a see-through surface (`crossing` is `Skip` or
+    /// `Glass`): on in the same direction, or reflected or refracted by the glass,
+    /// its throughput weighed; the lane dies where the path ends.
+    #[allow(clippy::too_many_arguments)]
+    fn cross(
+        &self,
+        hit: &SurfaceHit,
+        crossing: Crossing,
+        lane: &mut Lane,
+        sampler: &mut PixelSampler,
+        throughput: &mut [f32],
+        reflect: &mut [f32],
+        transmit: &mut [f32],
+    ) {
+        lane.alive = false;
+        lane.travelled_m += hit.t;
+        let Surface::Mesh { material } = hit.surface else {
+            return;
+        };
+        let Some(glass) = self.shading.see_through().get(material) else {
+            return;
+        };
+        let dir = lane.dir;
+        // The normal on the viewer's side, as for opaque shading.
+        let n = if -dot(hit.shading_normal, dir) > 0.0 {
+            hit.shading_normal
+        } else {
+            hit.geometric_normal
+        };
+        let cos_o = -dot(n, dir);
+        let mirror = std::array::from_fn(|k| dir[k] + 2.0 * cos_o * n[k]);
+        // The event's direction, and whether it reflects.
+        let next: [f32; 3];
+        let mut reflected = false;
+        match crossing {
+            Crossing::Opaque => return,
+            Crossing::Skip => next = dir,
+            Crossing::Glass if !glass.is_volume() => {
+                glass.pane(cos_o, reflect, transmit);
+                let p = reflect_probability(reflect, transmit);
+                if sampler.next_1d() < p {
+                    next = mirror;
+                    reflected = true;
+                    let largest = scale_and_largest(throughput, reflect);
+                    throughput.iter_mut().for_each(|t| *t /= p);
+                    if largest <= 0.0 {
+                        return;
+                    }
+                } else {
+                    next = dir;
+                    let largest = scale_and_largest(throughput, transmit);
+                    throughput.iter_mut().for_each(|t| *t /= 1.0 - p);
+                    if largest <= 0.0 {
+                        return;
+                    }
+                }
+            }
+            Crossing::Glass => {
+                let entering = lane.inside != Some(material);
+                let eta = if entering {
+                    glass.ior()
+                } else {
+                    1.0 / glass.ior()
+                };
+                let fresnel = fresnel_dielectric(cos_o, eta);
+                if sampler.next_1d() < fresnel {
+                    next = mirror;
+                    reflected = true;
+                } else {
+                    let Some(cos_t) = refracted_cos(cos_o, eta) else {
+                        return;
+                    };
+                    // Snell's law: the tangential part scaled by 1/η, the normal
+                    // part continuing through.
+                    next = std::array::from_fn(|k| (dir[k] + cos_o * n[k]) / eta - cos_t * n[k]);
+                    lane.inside = if entering { Some(material) } else { None };
+                }
+            }
+        }
+        // A reflection must leave on the viewer's side of the true surface, a
+        // transmission on the far side.
+        let side = dot(next, hit.geometric_normal);
+        if (reflected && side <= 0.0) || (!reflected && side >= 0.0) {
+            return;
+        }
+        // Reflection and refraction turn the path: a (delta) bounce. Straight
+        // through keeps the previous vertex's MIS state (module documentation of
+        // `render::glass`).
+        if reflected || next != dir {
+            if lane.bounce >= self.settings.max_bounces {
+                return;
+            }
+            lane.bounce += 1;
+            lane.previous_pdf = 1.0;
+            lane.previous_delta = true;
+            lane.previous_floor = false;
+        } else {
+            lane.crossed += 1;
+            if lane.crossed > MAX_CROSSINGS {
+                return;
+            }
+        }
+        lane.origin = RenderGeometry::spawn_origin(hit, next);
+        lane.dir = next;
+        lane.alive = true;
+    }
+
+    /// Traces shadow rays through see-through surfaces: each crossing multiplies
+    /// the ray's pending contribution by what passes straight through there
+    /// ([`SeeThrough::straight_through`]); an opaque hit, the floor, a volume or
+    /// more than [`MAX_CROSSINGS`] crossings block it. Returns the rays traced
+    /// after the first round.
+    fn see_through_shadows(&self, b: SeeThroughShadows<'_>, floor: bool) -> u32 {
+        let len = self.len();
+        let SeeThroughShadows {
+            rays,
+            pending,
+            blocked,
+            active,
+            next,
+            queries,
+            hits,
+            scratch,
+            weight,
+            f,
+        } = b;
+        active.clear();
+        active.extend(0..rays.len());
+        let mut traced = 0;
+        for round in 0..=MAX_CROSSINGS {
+            if active.is_empty() {
+                break;
+            }
+            if round > 0 {
+                traced += active.len() as u32;
+            }
+            queries.clear();
+            queries.extend(active.iter().map(|&j| rays[j]));
+            hits.clear();
+            hits.resize(queries.len(), None);
+            self.geometry.intersect_batch(queries, floor, hits, scratch);
+            next.clear();
+            for (&j, hit) in active.iter().zip(hits.iter()) {
+                let Some(hit) = hit else {
+                    continue;
+                };
+                let glass = match hit.surface {
+                    Surface::Mesh { material } => self.shading.see_through().get(material),
+                    Surface::Floor => None,
+                };
+                let Some(glass) = glass else {
+                    blocked[j] = true;
+                    continue;
+                };
+                let dir = rays[j].dir;
+                let alpha = self.alpha_at(glass, hit, 0.0);
+                let cos = dot(hit.shading_normal, dir).abs();
+                let passes = glass.straight_through(cos, alpha, &mut weight[..len], &mut f[..len]);
+                let contribution = &mut pending[j * len..(j + 1) * len];
+                // (`scale_and_largest` passes NaNs over: its result is never NaN.)
+                if !passes || scale_and_largest(contribution, &weight[..len]) <= 0.0 {
+                    blocked[j] = true;
+                    continue;
+                }
+                rays[j].origin = RenderGeometry::spawn_origin(hit, dir);
+                next.push(j);
+            }
+            std::mem::swap(active, next);
+        }
+        // Still crossing after the last round: taken as blocked.
+        for &j in active.iter() {
+            blocked[j] = true;
+        }
+        traced
     }
 
     /// Next-event estimation for one light sample at a vertex: its contribution
@@ -840,6 +1107,20 @@ impl<'a> PathTracer<'a> {
             bsdf_pdf,
         })
     }
+}
+
+/// The buffers [`PathTracer::see_through_shadows`] works in.
+struct SeeThroughShadows<'a> {
+    rays: &'a mut [RayQuery],
+    pending: &'a mut [f32],
+    blocked: &'a mut [bool],
+    active: &'a mut Vec<usize>,
+    next: &'a mut Vec<usize>,
+    queries: &'a mut Vec<RayQuery>,
+    hits: &'a mut Vec<Option<SurfaceHit>>,
+    scratch: &'a mut BatchScratch,
+    weight: &'a mut [f32],
+    f: &'a mut [f32],
 }
 
 /// What weighs a light sample's contribution at a vertex.

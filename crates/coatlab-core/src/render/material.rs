@@ -11,7 +11,8 @@
 //! an energy-compensated diffuse base, and an optional clear coat. A textured
 //! material's parameters are taken at each hit ([`crate::render::texturing`]) and
 //! its BSDF built there; [`Shading::extras`] says which materials need that, and
-//! which emit. What is left out (glass, alpha, sheen) is listed in
+//! which emit. Glass and alpha are [`crate::render::glass`]'s
+//! ([`Shading::see_through`]). What is left out (sheen, among others) is listed in
 //! `docs/materials.md`.
 //!
 //! # The floor
@@ -24,6 +25,7 @@ use crate::colour::spectrum::Channels;
 use crate::colour::upsampling::RgbUpsampler;
 use crate::paint::model::{BsdfSample, PaintModel, SpectralBsdf, SpectralPaint};
 use crate::paint::phong::{PhongNormalisation, PhongParams, PhongVariant, SpectralPhong};
+use crate::render::glass::SeeThroughMaterials;
 use crate::render::microfacet::{GltfBsdf, GltfParameters};
 use crate::scene::{Scene, SceneMaterial};
 
@@ -186,6 +188,8 @@ pub struct Shading {
     /// Per scene material: what a hit on it needs beyond `simple` (textures,
     /// emission); `None` for most, and for every painted one.
     surfaces: Vec<Option<SurfaceExtras>>,
+    /// Per scene material: its glass and alpha ([`crate::render::glass`]).
+    see_through: SeeThroughMaterials,
     upsampler: RgbUpsampler,
 }
 
@@ -250,6 +254,7 @@ impl Shading {
                 }
             })
             .collect();
+        let see_through = SeeThroughMaterials::new(materials, &painted, &upsampler, channels);
         Self {
             channels: *channels,
             model,
@@ -257,8 +262,15 @@ impl Shading {
             simple,
             painted,
             surfaces,
+            see_through,
             upsampler,
         }
+    }
+
+    /// The scene's glass and alpha-blended or masked materials.
+    #[inline]
+    pub fn see_through(&self) -> &SeeThroughMaterials {
+        &self.see_through
     }
 
     /// What a hit on scene material `material` needs beyond [`Self::material`]:

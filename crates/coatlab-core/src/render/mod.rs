@@ -14,6 +14,7 @@
 //! - [`camera`] and [`film`]: rays from pixels, and accumulation into an image;
 //! - [`material`]: the design as paint or Phong, the other parts' materials, the floor;
 //! - [`microfacet`]: GGX conductors, rough dielectrics and clear coats (glTF materials);
+//! - [`glass`]: glass (thin panes, refracting volumes) and alpha MASK/BLEND;
 //! - [`texturing`]: a textured material's parameters at a hit (mip level from a ray cone);
 //! - [`integrator`]: the path tracer;
 //! - [`progressive`]: passes over tiles on all cores, restarts, noise estimates;
@@ -29,6 +30,7 @@ pub mod adaptive;
 pub mod camera;
 pub mod environment;
 pub mod film;
+pub mod glass;
 pub mod image_error;
 pub mod integrator;
 pub mod lighting;

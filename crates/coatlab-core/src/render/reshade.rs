@@ -101,6 +101,12 @@ pub enum ReshadeError {
         "the scene has textured materials, which re-shading does not replay: its paths must be traced anew"
     )]
     Textured,
+    /// A material is glass or alpha-blended or masked: its crossings and their
+    /// shadow rays are not recorded.
+    #[error(
+        "the scene has glass or see-through materials, which re-shading does not replay: its paths must be traced anew"
+    )]
+    SeeThrough,
 }
 
 /// One stored path.
@@ -622,6 +628,9 @@ pub fn reshade_prepared(
     }
     if shading.has_textures() {
         return Err(ReshadeError::Textured);
+    }
+    if shading.see_through().any() {
+        return Err(ReshadeError::SeeThrough);
     }
     // A replayed bounce is weighed by the new BSDF over the density it was sampled
     // from. Where the new lobe is wider, that weight grows without bound away from

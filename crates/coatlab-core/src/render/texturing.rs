@@ -97,6 +97,24 @@ pub fn surface_parameters(
     parameters
 }
 
+/// `material`'s alpha at `point` of `mesh`: the base colour factor's alpha times
+/// the base colour texture's (the part `alphaMode` reads; `surface_parameters`
+/// leaves it out, as the opaque parts of a path never need it).
+pub fn base_alpha(material: &SceneMaterial, mesh: &TriangleMesh, point: &TexturePoint) -> f32 {
+    let alpha = material.transparency.alpha;
+    match &material.base_color_texture {
+        Some(t) => {
+            let corners = mesh
+                .triangles
+                .get(point.triangle as usize)
+                .copied()
+                .unwrap_or([0; 3]);
+            alpha * TriangleFrame::new(mesh, corners, point).sample(t)[3]
+        }
+        None => alpha,
+    }
+}
+
 /// A triangle's texture coordinates at a point and their scale per set.
 struct TriangleFrame {
     /// Per set: (u, v) at the point, texture units per metre, dP/du and dP/dv.

@@ -30,6 +30,7 @@ use palette::LinSrgb;
 
 use super::orientation::{Front, orient};
 use super::texture::{TexelEncoding, Texture, TextureRef, UvTransform, WrapMode};
+use super::transparency::{AlphaMode, Transparency};
 use super::{Scene, SceneCamera, SceneMaterial, TriangleMesh, framing};
 
 /// Length the model is scaled to: its larger horizontal extent, metres (a car's length).
@@ -50,10 +51,6 @@ pub const IGNORED_EXTENSIONS: &[(&str, &str)] = &[
         "sheen ignored: materials render as base colour and roughness",
     ),
     (
-        "KHR_materials_transmission",
-        "transmission ignored: transmissive materials (glass) render opaque",
-    ),
-    (
         "KHR_materials_specular",
         "specular ignored: simple materials use the glTF default",
     ),
@@ -67,8 +64,11 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     // On the parts that do not carry the design (the design has its own coat);
     // factors only, its textures are not read.
     "KHR_materials_clearcoat",
-    // Its `ior` sets the dielectric's F₀ (render/microfacet).
+    // Its `ior` sets the dielectric's F₀ (render/microfacet) and the glass's.
     "KHR_materials_ior",
+    // Glass (render/glass): thin panes and refracting volumes.
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
 ];
 
 /// Substrings (case-insensitive) of a material name that mark the car body.

@@ -11,6 +11,7 @@ pub mod framing;
 pub mod gltf_loader;
 pub mod orientation;
 pub mod texture;
+pub mod transparency;
 
 use crate::accel::Triangles;
 use texture::TextureRef;
@@ -108,6 +109,8 @@ pub struct SceneMaterial {
     pub clearcoat: f32,
     /// `KHR_materials_clearcoat`'s `clearcoatRoughnessFactor` in [0, 1].
     pub clearcoat_roughness: f32,
+    /// Alpha and glass.
+    pub transparency: transparency::Transparency,
 }
 
 /// A glTF material with no properties set: white, metallic 1, roughness 1, no
@@ -129,6 +132,7 @@ impl Default for SceneMaterial {
             ior: 1.5,
             clearcoat: 0.0,
             clearcoat_roughness: 0.0,
+            transparency: transparency::Transparency::default(),
         }
     }
 }

@@ -155,11 +155,16 @@ pub fn to_glb_with(scene: &Scene, options: &GlbOptions) -> Result<Vec<u8>, GlbWr
     let normals = vec3_attribute(&mut root, &mut bin, &mesh.normals, None);
 
     let mut primitives = Vec::new();
+    let mut used = std::collections::BTreeSet::new();
     for (index, m) in scene.materials.iter().enumerate() {
         let paint = options
             .paint_material
             .as_ref()
             .filter(|_| scene.paint_materials.contains(&(index as u32)));
+        // glTF keeps emissiveFactor in [0, 1]; the rest goes into the strength.
+        let e = m.emissive;
+        let emissive_strength = e.red.max(e.green).max(e.blue).max(1.0);
+        let emissive_factor = [e.red, e.green, e.blue].map(|c| c / emissive_strength);
         let material = root.push(paint.cloned().unwrap_or_else(|| json::Material {
             name: Some(m.name.clone()),
             pbr_metallic_roughness: json::material::PbrMetallicRoughness {
@@ -173,6 +178,8 @@ pub fn to_glb_with(scene: &Scene, options: &GlbOptions) -> Result<Vec<u8>, GlbWr
                 roughness_factor: json::material::StrengthFactor(m.roughness),
                 ..Default::default()
             },
+            emissive_factor: json::material::EmissiveFactor(emissive_factor),
+            extensions: material_extensions(m, emissive_strength, &mut used),
             ..Default::default()
         }));
         let indices: Vec<u8> = mesh
@@ -241,6 +248,12 @@ pub fn to_glb_with(scene: &Scene, options: &GlbOptions) -> Result<Vec<u8>, GlbWr
         nodes: vec![node],
     });
     root.scene = Some(scene_index);
+    // The paint material's extensions (options) and the other parts' (used).
+    let mut extensions_used = std::mem::take(&mut root.extensions_used);
+    extensions_used.extend(used.into_iter().map(str::to_owned));
+    extensions_used.sort();
+    extensions_used.dedup();
+    root.extensions_used = extensions_used;
 
     // GLB: 12-byte header, JSON chunk padded with spaces, BIN chunk padded with zeros.
     let mut json_chunk = root
@@ -260,4 +273,36 @@ pub fn to_glb_with(scene: &Scene, options: &GlbOptions) -> Result<Vec<u8>, GlbWr
         glb.extend_from_slice(chunk);
     }
     Ok(glb)
+}
+
+/// The glTF extensions that carry `m`'s glass and emission strength (`None`
+/// without either), their names added to `used`.
+fn material_extensions(
+    m: &super::SceneMaterial,
+    emissive_strength: f32,
+    used: &mut std::collections::BTreeSet<&'static str>,
+) -> Option<gltf::json::extensions::material::Material> {
+    use gltf::json::extensions::material as ext;
+    let p = &m.transparency;
+    let mut extensions = ext::Material::default();
+    if p.transmission > 0.0 {
+        used.insert("KHR_materials_transmission");
+        used.insert("KHR_materials_ior");
+        extensions.transmission = Some(ext::Transmission {
+            transmission_factor: ext::TransmissionFactor(p.transmission),
+            ..Default::default()
+        });
+        extensions.ior = Some(ext::Ior {
+            ior: ext::IndexOfRefraction(p.ior),
+            ..Default::default()
+        });
+    }
+    if emissive_strength > 1.0 {
+        used.insert("KHR_materials_emissive_strength");
+        extensions.emissive_strength = Some(ext::EmissiveStrength {
+            emissive_strength: ext::EmissiveStrengthFactor(emissive_strength),
+        });
+    }
+    (extensions.transmission.is_some() || extensions.emissive_strength.is_some())
+        .then_some(extensions)
 }

@@ -17,7 +17,7 @@ pub(super) fn document_materials(
                 .name()
                 .map_or_else(|| format!("material {i}"), str::to_owned);
             let pbr = m.pbr_metallic_roughness();
-            let [r, g, b, _] = pbr.base_color_factor().map(|c| {
+            let [r, g, b, alpha] = pbr.base_color_factor().map(|c| {
                 if c.is_finite() {
                     c.clamp(0.0, 1.0)
                 } else {
@@ -59,11 +59,9 @@ pub(super) fn document_materials(
                 if e.is_finite() { e.max(0.0) } else { 0.0 }
             });
             let (clearcoat, clearcoat_roughness) = clear_coat(&m, &name, warnings);
+            let transparency = transparency(&m, &name, alpha, warnings);
             SceneMaterial {
-                ior: m
-                    .ior()
-                    .filter(|n| n.is_finite() && *n >= 1.0)
-                    .unwrap_or(1.5),
+                ior: transparency.ior,
                 clearcoat,
                 clearcoat_roughness,
                 name,
@@ -77,6 +75,7 @@ pub(super) fn document_materials(
                 occlusion_texture,
                 emissive: LinSrgb::new(er, eg, eb),
                 emissive_texture,
+                transparency,
             }
         })
         .collect()
@@ -111,6 +110,109 @@ fn clear_coat(material: &gltf::Material<'_>, name: &str, warnings: &mut Vec<Stri
         factor("clearcoatFactor"),
         factor("clearcoatRoughnessFactor"),
     )
+}
+
+/// A material's alpha mode and glass extensions; each value out of its range a
+/// warning naming the material, with the default standing in.
+fn transparency(
+    m: &gltf::Material<'_>,
+    name: &str,
+    alpha: f32,
+    warnings: &mut Vec<String>,
+) -> Transparency {
+    let defaults = Transparency::default();
+    let checked =
+        |what: &str, value: f32, valid: bool, default: f32, warnings: &mut Vec<String>| {
+            if valid {
+                value
+            } else {
+                warnings.push(format!(
+                    "material '{name}': {what} {value} is out of range, {default} used"
+                ));
+                default
+            }
+        };
+    let alpha_mode = match m.alpha_mode() {
+        gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+        gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+        gltf::material::AlphaMode::Mask => {
+            let cutoff = m.alpha_cutoff().unwrap_or(0.5);
+            AlphaMode::Mask {
+                cutoff: checked(
+                    "alphaCutoff",
+                    cutoff,
+                    (0.0..=1.0).contains(&cutoff),
+                    0.5,
+                    warnings,
+                ),
+            }
+        }
+    };
+    let transmission = m.transmission().map_or(0.0, |t| {
+        if t.transmission_texture().is_some() {
+            warnings.push(format!(
+                "material '{name}': transmission texture not read, its factor stands in"
+            ));
+        }
+        let f = t.transmission_factor();
+        checked(
+            "transmissionFactor",
+            f,
+            (0.0..=1.0).contains(&f),
+            defaults.transmission,
+            warnings,
+        )
+    });
+    let ior = m.ior().map_or(defaults.ior, |ior| {
+        checked(
+            "KHR_materials_ior ior",
+            ior,
+            ior >= 1.0 && ior.is_finite(),
+            defaults.ior,
+            warnings,
+        )
+    });
+    let mut transparency = Transparency {
+        alpha,
+        alpha_mode,
+        transmission,
+        ior,
+        ..defaults
+    };
+    if let Some(volume) = m.volume() {
+        if volume.thickness_texture().is_some() {
+            warnings.push(format!(
+                "material '{name}': thickness texture not read, its factor stands in"
+            ));
+        }
+        let thickness = volume.thickness_factor();
+        transparency.thickness_m = checked(
+            "KHR_materials_volume thicknessFactor",
+            thickness,
+            thickness >= 0.0 && thickness.is_finite(),
+            defaults.thickness_m,
+            warnings,
+        );
+        let distance = volume.attenuation_distance();
+        transparency.attenuation_distance_m = checked(
+            "KHR_materials_volume attenuationDistance",
+            distance,
+            distance > 0.0,
+            defaults.attenuation_distance_m,
+            warnings,
+        );
+        let colour = volume.attenuation_color();
+        let valid = colour.iter().all(|c| (0.0..=1.0).contains(c));
+        if valid {
+            let [r, g, b] = colour;
+            transparency.attenuation_color = LinSrgb::new(r, g, b);
+        } else {
+            warnings.push(format!(
+                "material '{name}': KHR_materials_volume attenuationColor {colour:?} is out of [0, 1], white used"
+            ));
+        }
+    }
+    transparency
 }
 
 /// A material's texture slot as glTF gives it, before its image is decoded.
