@@ -127,7 +127,7 @@ fn the_coat_is_fitted_from_a_perturbed_start() {
     ));
     assert!(text.contains("free: rho, k; kept: gloss, h, n"), "{text}");
     assert!(text.contains("clear coat absorption k"), "{text}");
-    assert!(text.contains("→"), "{text}");
+    assert!(text.contains(" fitted to "), "{text}");
 }
 
 #[test]

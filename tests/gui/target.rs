@@ -4,6 +4,7 @@
 //! *Fit to target* as one undoable edit.
 
 use coatlab_core::colour::tolerance::{Formula, Tolerance};
+use coatlab_core::fit::FreeParameters;
 use coatlab_core::measurement;
 use coatlab_core::target::{Comparison, compare_to_standard};
 
@@ -229,6 +230,66 @@ fn fit_to_target_applies_the_fit_as_one_edit_and_undo_restores_the_design() {
     assert_eq!(h.state().design(), &before, "one undo step restores it");
     redo_key(&mut h);
     assert_eq!(h.state().design(), &fitted, "and redo brings the fit back");
+}
+
+#[test]
+fn fit_to_target_fits_what_is_ticked_and_nothing_ticked_cannot_fit() {
+    let file = fixture("multi_angle.cxf");
+    let mut h = instruments_harness();
+    h.state_mut().open_target(&file);
+    h.run();
+    h.state_mut().select_target_sample(1);
+    h.run();
+    assert_eq!(
+        h.state().fit_free(),
+        FreeParameters::RHO,
+        "ρ alone by default"
+    );
+    h.get_by_role_and_label(Role::CheckBox, "h").click();
+    h.run();
+    assert_eq!(
+        h.state().fit_free(),
+        FreeParameters::parse("rho,h").expect("names")
+    );
+    let before = h.state().design().clone();
+
+    h.get_by_label("Fit to target").click();
+    h.step();
+    wait_until(&mut h, "the fit", |app| !app.is_fitting());
+    h.run();
+    let fitted = h.state().design().clone();
+    let done = h.state().last_fit().expect("a fit report");
+    assert_eq!(done.fit.design, fitted);
+    let coat: Vec<_> = done.fit.coat.iter().map(|p| p.name).collect();
+    assert_eq!(coat, ["h"], "h was free, and only h of the coat");
+    assert!((fitted.thickness_um - done.fit.coat[0].fitted).abs() < 1e-9);
+    assert_ne!(fitted.albedo, before.albedo, "ρ(λ) was fitted");
+    assert_eq!(
+        (&fitted.gloss, &fitted.name),
+        (&before.gloss, &before.name),
+        "the gloss was not free"
+    );
+    h.get_by_label_contains("Fit of ρ(λ), h to sample \"Deep blue\"");
+    h.get_by_label_contains("clear coat thickness h");
+    undo_key(&mut h);
+    assert_eq!(h.state().design(), &before, "one undo step restores it");
+
+    // Nothing ticked: the button is off, and the action says why.
+    h.get_by_role_and_label(Role::CheckBox, "ρ(λ)").click();
+    h.run();
+    h.get_by_role_and_label(Role::CheckBox, "h").click();
+    h.run();
+    assert!(!h.state().fit_free().any());
+    assert!(
+        h.get_by_label("Fit to target")
+            .accesskit_node()
+            .is_disabled()
+    );
+    h.state_mut().fit_to_target();
+    h.run();
+    assert!(!h.state().is_fitting());
+    assert!(has_notice(h.state(), true, "nothing is free"));
+    assert_eq!(h.state().design(), &before);
 }
 
 #[test]

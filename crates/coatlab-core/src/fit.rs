@@ -109,6 +109,15 @@ impl FreeParameters {
     /// The names `--free` takes, in its order.
     pub const NAMES: [&'static str; 5] = ["rho", "gloss", "h", "k", "n"];
 
+    /// What each of [`Self::NAMES`] fits, in the same order (for the app's choice).
+    pub const DESCRIPTIONS: [&'static str; 5] = [
+        "the pigment albedo ρ(λ)",
+        "the gloss reading g at the design's glossmeter geometry",
+        "the clear coat thickness h",
+        "the clear coat absorption k(λ), as a scale of its curve",
+        "the clear coat refractive index n(λ), as a shift of its curve",
+    ];
+
     /// Reads a comma-separated list of [`Self::NAMES`] (`ρ` for `rho` too), in any
     /// order, repeats allowed; an empty list or an unknown name is refused by name.
     pub fn parse(list: &str) -> Result<FreeParameters, FitError> {
@@ -117,21 +126,31 @@ impl FreeParameters {
             ..FreeParameters::RHO
         };
         for item in list.split(',').map(str::trim) {
-            let flag = match item {
-                "rho" | "ρ" => &mut free.rho,
-                "gloss" => &mut free.gloss,
-                "h" => &mut free.thickness,
-                "k" => &mut free.absorption,
-                "n" => &mut free.index,
-                other => {
-                    return Err(FitError::UnknownParameter {
-                        parameter: other.to_owned(),
-                    });
-                }
-            };
+            let flag = free
+                .flag_mut(item)
+                .ok_or_else(|| FitError::UnknownParameter {
+                    parameter: item.to_owned(),
+                })?;
             *flag = true;
         }
         Ok(free)
+    }
+
+    /// The flag of the parameter named `name` (one of [`Self::NAMES`], or `ρ`).
+    pub fn flag_mut(&mut self, name: &str) -> Option<&mut bool> {
+        match name {
+            "rho" | "ρ" => Some(&mut self.rho),
+            "gloss" => Some(&mut self.gloss),
+            "h" => Some(&mut self.thickness),
+            "k" => Some(&mut self.absorption),
+            "n" => Some(&mut self.index),
+            _ => None,
+        }
+    }
+
+    /// Whether anything at all is free (a fit needs one).
+    pub fn any(&self) -> bool {
+        self.rho || self.coat()
     }
 
     /// Whether any coat parameter (gloss, h, k, n) is free.
@@ -199,7 +218,7 @@ impl std::fmt::Display for FittedParameter {
         };
         write!(
             f,
-            "{}: {:.6}{unit} → {:.6}{unit}{at_bound}, kept in [{:.6}, {:.6}]{unit}",
+            "{}: {:.6}{unit} fitted to {:.6}{unit}{at_bound}, kept in [{:.6}, {:.6}]{unit}",
             self.label,
             self.start,
             self.fitted,
@@ -273,6 +292,8 @@ pub enum FitError {
         "--free {parameter:?}: unknown parameter (expected a comma-separated list of rho, gloss, h, k, n)"
     )]
     UnknownParameter { parameter: String },
+    #[error("nothing is free to fit: free at least one of rho, gloss, h, k, n")]
+    NothingFree,
     #[error(
         "standard {name:?} states only colours: a coat (gloss, h, k, n) cannot be fitted to colours; free only rho, or fit a measurement with spectra"
     )]
@@ -514,6 +535,9 @@ pub fn fit(
     request: &FitRequest,
 ) -> Result<Fit, FitError> {
     let free = request.free;
+    if !free.any() {
+        return Err(FitError::NothingFree);
+    }
     let grid = WavelengthGrid::reference();
     let model = start.model(grid)?;
     let grid_nm: Vec<f64> = grid.wavelengths_nm().collect();

@@ -242,3 +242,15 @@ fn colours_alone_cannot_fix_a_coat() {
     assert!(matches!(e, FitError::CoatNeedsSpectra { .. }), "{e}");
     assert!(e.to_string().contains("\"red\""), "{e}");
 }
+
+#[test]
+fn a_fit_with_nothing_free_is_refused() {
+    let design = preset("signal-red");
+    let m = as_file(&virtual_measurement(&design, || 0.0));
+    let standard = m.select(None).expect("one standard");
+    let mut nothing = FreeParameters::RHO;
+    nothing.rho = false;
+    let e = fit(&design, &standard, &FitRequest { free: nothing }).expect_err("nothing free");
+    assert!(matches!(e, FitError::NothingFree), "{e}");
+    assert!(e.to_string().contains("nothing is free"), "{e}");
+}

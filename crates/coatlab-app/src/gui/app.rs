@@ -26,6 +26,7 @@ use super::target::{
     MeasuredTarget, Target, TargetView, compare, is_measurement, load_target, tolerance_of,
 };
 use coatlab_core::analysis::Analysis;
+use coatlab_core::fit::{FitRequest, FreeParameters};
 use coatlab_core::measurement::Geometry;
 
 /// The File menu's design exports, in menu order.
@@ -112,6 +113,8 @@ pub struct CoatlabApp {
     /// *Fit to target* while it runs, and its last report.
     fit_job: Option<FitJob>,
     fit_done: Option<FitDone>,
+    /// What *Fit to target* may change (`coatlab fit --free`); ρ(λ) alone by default.
+    fit_free: FreeParameters,
     analysis: Option<Analysis>,
     analysis_error: Option<String>,
     analysis_key: Option<AnalysisKey>,
@@ -182,6 +185,7 @@ impl CoatlabApp {
             target_view: None,
             fit_job: None,
             fit_done: None,
+            fit_free: FreeParameters::default(),
             analysis: None,
             analysis_error: None,
             analysis_key: None,
@@ -559,7 +563,19 @@ impl CoatlabApp {
         self.set_target(Some(Target::Measured(m)));
     }
 
-    /// Fits the design's ρ(λ) to the measured target on a thread of its own; the
+    /// What *Fit to target* may change.
+    pub fn fit_free(&self) -> FreeParameters {
+        self.fit_free
+    }
+
+    /// Sets what *Fit to target* may change (a setting of the window, not of the
+    /// design: it is not undone).
+    pub fn set_fit_free(&mut self, free: FreeParameters) {
+        self.fit_free = free;
+    }
+
+    /// Fits the design's free parameters (see [`Self::set_fit_free`]) to the
+    /// measured target on a thread of its own; the
     /// result is applied, as one undoable edit, when it arrives (see
     /// [`Self::take_fit`]).
     pub fn fit_to_target(&mut self) {
@@ -571,8 +587,20 @@ impl CoatlabApp {
                 "Fit to target needs a measured target: choose a CGATS or CxF3 file as the target.",
             );
         };
+        if !self.fit_free.any() {
+            return self.error("Fit to target: nothing is free; tick ρ(λ) or a coat parameter.");
+        }
         let tolerance = tolerance_of(&self.design);
-        match FitJob::start(self.ctx.as_ref(), self.design.clone(), m.clone(), tolerance) {
+        let request = FitRequest {
+            free: self.fit_free,
+        };
+        match FitJob::start(
+            self.ctx.as_ref(),
+            self.design.clone(),
+            m.clone(),
+            tolerance,
+            request,
+        ) {
             Ok(job) => self.fit_job = Some(job),
             Err(e) => self.error(e),
         }
@@ -589,8 +617,10 @@ impl CoatlabApp {
             Ok(done) if done.start == self.design => {
                 self.set_design(done.fit.design.clone());
                 self.info(format!(
-                    "Fitted ρ(λ) to sample {:?} of {} (Undo restores the design)",
-                    done.sample, done.file
+                    "Fitted {} to sample {:?} of {} (Undo restores the design)",
+                    done.fit.free.names().join(", "),
+                    done.sample,
+                    done.file
                 ));
                 self.fit_done = Some(done);
             }
@@ -935,6 +965,7 @@ impl CoatlabApp {
             tolerance: &tolerance,
             fitting: self.fit_job.is_some(),
             fit: self.fit_done.as_ref(),
+            fit_free: self.fit_free,
         };
         let requests = egui::ScrollArea::vertical()
             .show(ui, |ui| instruments_ui(ui, &view))
@@ -956,6 +987,7 @@ impl CoatlabApp {
                 // gesture ends.
                 InstrumentsRequest::SetTolerance(t) => self.design.tolerance = Some(t),
                 InstrumentsRequest::FitToTarget => self.fit_to_target(),
+                InstrumentsRequest::SetFitFree(free) => self.fit_free = free,
                 InstrumentsRequest::Export => self.choose_file(FilePurpose::ExportMeasurement),
             }
         }
@@ -1117,12 +1149,13 @@ impl CoatlabApp {
                     }
                 }
                 ui.separator();
-                let fittable =
-                    matches!(self.target, Some(Target::Measured(_))) && self.fit_job.is_none();
+                let fittable = matches!(self.target, Some(Target::Measured(_)))
+                    && self.fit_job.is_none()
+                    && self.fit_free.any();
                 if ui
                     .add_enabled(fittable, egui::Button::new("Fit to target"))
                     .on_disabled_hover_text(
-                        "Needs a measured target (Instruments tab) and no fit running",
+                        "Needs a measured target (Instruments tab), something free to fit and no fit running",
                     )
                     .clicked()
                 {

@@ -1,7 +1,8 @@
 //! *Fit to target* off the UI thread: the core's fit ([`coatlab_core::fit`]) of
-//! the design's pigment albedo to the target standard, and its report. A fit of
-//! several geometries is a bounded least-squares problem that may take longer
-//! than a frame, so it runs on a thread of its own and the window keeps drawing;
+//! the design's free parameters (ρ(λ) by default; the coat's gloss, h, k, n as the
+//! person frees them) to the target standard, and its report. A fit of several
+//! geometries or of the coat is a bounded least-squares problem that may take
+//! longer than a frame, so it runs on a thread of its own and the window keeps drawing;
 //! the app applies the result as one undoable edit, and only to the design it
 //! was started from.
 
@@ -9,14 +10,14 @@ use std::sync::mpsc::{Receiver, TryRecvError, channel};
 
 use coatlab_core::colour::tolerance::Tolerance;
 use coatlab_core::design::PaintDesign;
-use coatlab_core::fit::{self, Fit, FitReport, fit_albedo};
+use coatlab_core::fit::{self, Fit, FitReport, FitRequest};
 
 use super::target::MeasuredTarget;
 
 /// A finished fit.
 #[derive(Debug, Clone)]
 pub struct FitDone {
-    /// The design the fit started from (its coat and gloss are kept).
+    /// The design the fit started from (what was not free is kept).
     pub start: PaintDesign,
     /// The standard fitted to, and its file.
     pub sample: String,
@@ -40,6 +41,7 @@ impl FitJob {
         design: PaintDesign,
         target: MeasuredTarget,
         tolerance: Tolerance,
+        request: FitRequest,
     ) -> Result<Self, String> {
         let (send, answer) = channel();
         let ctx = ctx.cloned();
@@ -48,7 +50,7 @@ impl FitJob {
             .name("coatlab-fit".into())
             .spawn(move || {
                 // The receiver is gone only if the app closed meanwhile.
-                let _ = send.send(run(design, &target, &tolerance));
+                let _ = send.send(run(design, &target, &tolerance, &request));
                 if let Some(ctx) = ctx {
                     ctx.request_repaint();
                 }
@@ -78,13 +80,14 @@ fn run(
     design: PaintDesign,
     target: &MeasuredTarget,
     tolerance: &Tolerance,
+    request: &FitRequest,
 ) -> Result<FitDone, String> {
     let file = target.path.display().to_string();
     let standard = target
         .standard()
         .ok_or_else(|| format!("{file}: no sample to fit"))?;
     let cannot = |e: fit::FitError| format!("{file}: cannot fit sample {:?}: {e}", standard.name);
-    let fitted = fit_albedo(&design, &standard).map_err(cannot)?;
+    let fitted = fit::fit(&design, &standard, request).map_err(cannot)?;
     let report = fit::report(&fitted, &standard, tolerance).map_err(cannot)?;
     Ok(FitDone {
         start: design,

@@ -12,6 +12,7 @@ use coatlab_core::analysis::{Analysis, SWATCH_ASPECULAR_DEG, Swatch};
 use super::fit_job::FitDone;
 use super::target::{Target, TargetView, geometry_choices};
 use super::tolerance_view::{comparison_ui, fit_report_ui};
+use coatlab_core::fit::FreeParameters;
 
 /// What the panel asks the app to do.
 #[derive(Debug, Clone, PartialEq)]
@@ -28,8 +29,10 @@ pub enum InstrumentsRequest {
     SetGeometry(coatlab_core::measurement::Geometry),
     /// Judge by this tolerance (the design's `[tolerance]`; an edit of the design).
     SetTolerance(Tolerance),
-    /// Fit the design's ρ(λ) to the target standard.
+    /// Fit the design's free parameters to the target standard.
     FitToTarget,
+    /// What the fit may change.
+    SetFitFree(FreeParameters),
     /// Export the readings (the file browser asks where).
     Export,
 }
@@ -47,6 +50,8 @@ pub struct InstrumentsView<'a> {
     pub fitting: bool,
     /// The last fit's report.
     pub fit: Option<&'a FitDone>,
+    /// What the fit may change.
+    pub fit_free: FreeParameters,
 }
 
 /// Shows the panel.
@@ -141,6 +146,31 @@ pub fn instruments_ui(ui: &mut Ui, view: &InstrumentsView<'_>) -> Vec<Instrument
     requests
 }
 
+/// The parameters *Fit to target* may change, one box each, named as `coatlab fit
+/// --free` names them.
+fn free_parameters_ui(ui: &mut Ui, free: FreeParameters, requests: &mut Vec<InstrumentsRequest>) {
+    ui.horizontal(|ui| {
+        ui.label("Free in the fit:");
+        for (name, description) in FreeParameters::NAMES
+            .into_iter()
+            .zip(FreeParameters::DESCRIPTIONS)
+        {
+            let mut changed = free;
+            let Some(flag) = changed.flag_mut(name) else {
+                continue;
+            };
+            let text = if name == "rho" { "ρ(λ)" } else { name };
+            if ui
+                .checkbox(flag, text)
+                .on_hover_text(format!("Fit {description}"))
+                .changed()
+            {
+                requests.push(InstrumentsRequest::SetFitFree(changed));
+            }
+        }
+    });
+}
+
 /// The target box, the standard of a measurement file, the tolerance and the
 /// actions on the target.
 fn target_row_ui(ui: &mut Ui, view: &InstrumentsView<'_>, requests: &mut Vec<InstrumentsRequest>) {
@@ -214,17 +244,20 @@ fn target_row_ui(ui: &mut Ui, view: &InstrumentsView<'_>, requests: &mut Vec<Ins
         }
         tolerance_ui(ui, view.tolerance, requests);
         let fittable = matches!(target, Target::Measured(_)) && view.analysis.is_some();
+        free_parameters_ui(ui, view.fit_free, requests);
         let button = ui
             .add_enabled(
-                fittable && !view.fitting,
+                fittable && !view.fitting && view.fit_free.any(),
                 egui::Button::new("Fit to target"),
             )
             .on_hover_text(
-                "Fit the pigment albedo ρ(λ) to the target standard, keeping the clear coat \
-                 and gloss (as coatlab fit --free rho); one undoable edit",
+                "Fit what is ticked to the target standard, keeping the rest of the \
+                 design (as coatlab fit --free); one undoable edit",
             )
             .on_disabled_hover_text(if view.fitting {
                 "A fit is running"
+            } else if !view.fit_free.any() {
+                "Tick at least one parameter to fit"
             } else {
                 "Fitting needs a measured target (a CGATS or CxF3 file) and a valid design"
             });

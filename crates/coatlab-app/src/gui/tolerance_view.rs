@@ -3,7 +3,7 @@
 //! *Fit to target* (what `coatlab fit` prints).
 
 use coatlab_core::colour::tolerance::METAMERIC_DE00;
-use coatlab_core::fit::Method;
+use coatlab_core::fit::{FreeParameters, Method};
 use coatlab_core::target::Comparison;
 use egui::{Color32, RichText, Ui};
 
@@ -98,13 +98,28 @@ pub fn comparison_ui(ui: &mut Ui, c: &Comparison) {
     }
 }
 
-/// The last fit: how ρ was found, the residual per geometry, where the target
-/// cannot be reached and why, and the fit's notes.
+/// The free parameters as the report's heading names them: "ρ(λ), h".
+fn free_names(free: FreeParameters) -> String {
+    free.names()
+        .into_iter()
+        .map(|name| if name == "rho" { "ρ(λ)" } else { name })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The last fit: what was free, how ρ was found, the coat parameters before and
+/// after, the residual per geometry, where the target cannot be reached and why,
+/// and the fit's notes.
 pub fn fit_report_ui(ui: &mut Ui, done: &FitDone) {
     let fit = &done.fit;
     heading_ui(
         ui,
-        format!("Fit of ρ(λ) to sample {:?} of {}", done.sample, done.file),
+        format!(
+            "Fit of {} to sample {:?} of {}",
+            free_names(fit.free),
+            done.sample,
+            done.file
+        ),
     );
     let method = match fit.method {
         Method::ClosedForm => "the closed form per wavelength (one geometry)".to_owned(),
@@ -116,9 +131,12 @@ pub fn fit_report_ui(ui: &mut Ui, done: &FitDone) {
         .map(|w| format!(", smoothness weight {w}"))
         .unwrap_or_default();
     ui.label(format!(
-        "Method: {method}{weight}; clear coat and gloss kept from {:?}",
+        "Method: {method}{weight}; the rest kept from {:?}",
         done.start.name
     ));
+    for parameter in &fit.coat {
+        ui.label(parameter.to_string());
+    }
     let rms = |g| {
         done.report
             .spectral_rms
