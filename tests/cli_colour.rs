@@ -154,37 +154,19 @@ fn color_of_white_and_a_known_spectrum() {
     // CIE digits as ours, so D65 agrees to rounding (1e-6 leaves room for summation
     // order); its illuminant A is rounded to 4-5 significant digits where our table
     // has 10, which moves the A results by up to 4e-5, hence 1e-4 there.
-    let cases = [
-        (
-            ["--illuminant", "D65", "--observer", "10"],
-            1e-6,
-            [94.811_786_870_491_63, 100.0, 107.324_107_664_663_19],
-            [
-                20.962_646_408_354_576,
-                26.218_243_485_208_447,
-                51.452_540_894_504_04,
-            ],
-            [
-                58.243_628_112_8,
-                -17.674_022_373_304_29,
-                -28.524_558_171_868_275,
-            ],
-        ),
-        (
-            ["--illuminant", "a", "--observer", "2"],
-            1e-4,
-            [109.848_993_121_245_12, 100.0, 35.582_473_632_4],
-            [
-                17.648_819_023_8,
-                20.797_387_131_815_427,
-                16.909_900_123_934_875,
-            ],
-            [
-                52.727_030_746_792_224,
-                -24.420_256_268_144_09,
-                -37.579_503_969_8,
-            ],
-        ),
+    // Per case: the options, the tolerance, then X Y Z of the white, X Y Z of the
+    // test spectrum and its L* a* b*.
+    type Case<'a> = ([&'a str; 4], f64, [f64; 3], [f64; 3], [f64; 3]);
+    #[rustfmt::skip]
+    let cases: [Case; 2] = [
+        (["--illuminant", "D65", "--observer", "10"], 1e-6,
+         [94.811_786_870_491_63, 100.0, 107.324_107_664_663_19],
+         [20.962_646_408_354_576, 26.218_243_485_208_447, 51.452_540_894_504_04],
+         [58.243_628_112_8, -17.674_022_373_304_29, -28.524_558_171_868_275]),
+        (["--illuminant", "a", "--observer", "2"], 1e-4,
+         [109.848_993_121_245_12, 100.0, 35.582_473_632_4],
+         [17.648_819_023_8, 20.797_387_131_815_427, 16.909_900_123_934_875],
+         [52.727_030_746_792_224, -24.420_256_268_144_09, -37.579_503_969_8]),
     ];
     for (args, tolerance, white_xyz, test_xyz, test_lab) in cases {
         let rows = color_rows(&args, &csv);

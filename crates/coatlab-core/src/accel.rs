@@ -308,7 +308,8 @@ impl Accel {
     /// module documentation for the epsilon policy. For shading rays and picking.
     #[inline]
     pub fn closest_hit(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> Option<Hit> {
-        self.closest_hit_checked(SimdPath::current(), origin, dir, t_max)
+        let path = SimdPath::current();
+        dispatch!(path, ISA => self.closest_hit_with::<ISA>(origin, dir, t_max))
     }
 
     /// [`Accel::closest_hit`] on `path` rather than the process's
@@ -322,18 +323,6 @@ impl Accel {
         t_max: f32,
     ) -> Option<Hit> {
         let path = path.or_portable();
-        self.closest_hit_checked(path, origin, dir, t_max)
-    }
-
-    /// [`Accel::closest_hit`] on `path`, which this CPU has.
-    #[inline(always)]
-    fn closest_hit_checked(
-        &self,
-        path: SimdPath,
-        origin: [f32; 3],
-        dir: [f32; 3],
-        t_max: f32,
-    ) -> Option<Hit> {
         dispatch!(path, ISA => self.closest_hit_with::<ISA>(origin, dir, t_max))
     }
 
@@ -532,24 +521,13 @@ impl Accel {
     /// query for shadow rays. Agrees with `closest_hit(..).is_some()`.
     #[inline]
     pub fn occluded(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
-        self.occluded_checked(SimdPath::current(), origin, dir, t_max)
+        let path = SimdPath::current();
+        dispatch!(path, ISA => self.occluded_with::<ISA>(origin, dir, t_max))
     }
 
     /// [`Accel::occluded`] on `path` (see [`Accel::closest_hit_on`]).
     pub fn occluded_on(&self, path: SimdPath, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> bool {
         let path = path.or_portable();
-        self.occluded_checked(path, origin, dir, t_max)
-    }
-
-    /// [`Accel::occluded`] on `path`, which this CPU has.
-    #[inline(always)]
-    fn occluded_checked(
-        &self,
-        path: SimdPath,
-        origin: [f32; 3],
-        dir: [f32; 3],
-        t_max: f32,
-    ) -> bool {
         dispatch!(path, ISA => self.occluded_with::<ISA>(origin, dir, t_max))
     }
 

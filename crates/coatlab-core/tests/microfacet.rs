@@ -330,13 +330,8 @@ fn clear_coat_car_paint_renders_through_its_coat() {
     let scene = load(&path, &LoadOptions::default()).expect("ClearCoatCarPaint loads");
     assert_eq!(scene.materials[0].clearcoat, 1.0);
     let grid = WavelengthGrid::visible(16).expect("grid");
-    let paint = coatlab_core::design::presets::all()
-        .into_iter()
-        .next()
-        .expect("a preset")
-        .design
-        .model(grid)
-        .expect("model");
+    let signal_red = coatlab_core::design::presets::by_slug("signal-red").expect("preset");
+    let paint = signal_red.design.model(grid).expect("model");
     let render_scene = Arc::new(RenderScene::new(scene.clone()).expect("scene"));
     let (width, height) = (48, 48);
     let brightest = |clearcoat: f32| {

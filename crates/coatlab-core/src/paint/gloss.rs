@@ -29,6 +29,7 @@ use glam::DVec3;
 use super::fresnel::reflectance;
 use super::lobe::{one_minus_cos_to_mirror, phong_normalisation};
 use super::parameters::{Bounds, GLOSS, REFRACTIVE_INDEX};
+use crate::parameter::RangeError;
 use crate::quadrature::GaussLegendre;
 
 /// Refractive index of the black glass standard that defines 100 GU (at 587.6 nm).
@@ -131,23 +132,13 @@ pub enum GlossError {
     /// Not 20, 60 or 85.
     #[error("glossmeter geometry {0}° is not one of ISO 2813's 20°, 60°, 85°")]
     UnknownGeometry(u32),
-    /// NaN, infinite or negative gloss.
-    #[error(
-        "gloss {0} GU is not a finite, non-negative number: {parameter} must lie in {range}",
-        parameter = GLOSS.label(),
-        range = GLOSS.range_text()
-    )]
-    InvalidGloss(f64),
+    /// A gloss or refractive index outside its parameter's range (NaN, infinite,
+    /// a negative gloss, an index below 1); the message names the parameter.
+    #[error(transparent)]
+    OutOfRange(#[from] RangeError),
     /// NaN, infinite or negative exponent.
     #[error("lobe exponent {0} is not a finite, non-negative number")]
     InvalidExponent(f64),
-    /// Refractive index below 1 or not finite.
-    #[error(
-        "refractive index {0} is not a finite number ≥ 1: {parameter} must lie in {range}",
-        parameter = REFRACTIVE_INDEX.label(),
-        range = REFRACTIVE_INDEX.range_text()
-    )]
-    InvalidIndex(f64),
     /// Below what the broadest lobe (m = 0) reads.
     #[error(
         "gloss {gu} GU at {geometry} is below the lowest reading a gloss lobe can give ({min:.4} GU, m = 0)"
@@ -435,11 +426,7 @@ impl FractionTable {
 }
 
 fn check_index(n: f64) -> Result<(), GlossError> {
-    if REFRACTIVE_INDEX.accepts(n) {
-        Ok(())
-    } else {
-        Err(GlossError::InvalidIndex(n))
-    }
+    Ok(REFRACTIVE_INDEX.check(n)?)
 }
 
 /// The reading, GU, of the specular part of a coat of index n (at 587.6 nm) with
@@ -484,9 +471,7 @@ pub fn exponent_from_reading(
     gu: f64,
 ) -> Result<GlossExponent, GlossError> {
     check_index(n)?;
-    if !GLOSS.accepts(gu) {
-        return Err(GlossError::InvalidGloss(gu));
-    }
+    GLOSS.check(gu)?;
     let table = fraction_table(geometry);
     let (mut lo, mut hi) = (0.0, x_max());
     let min = table.reading(n, lo);
@@ -596,11 +581,11 @@ mod tests {
         ));
         assert!(matches!(
             exponent_from_reading(geometry, 0.9, 50.0),
-            Err(GlossError::InvalidIndex(_))
+            Err(GlossError::OutOfRange(e)) if e.parameter.name == REFRACTIVE_INDEX.name
         ));
         assert!(matches!(
             exponent_from_reading(geometry, 1.5, f64::NAN),
-            Err(GlossError::InvalidGloss(_))
+            Err(GlossError::OutOfRange(e)) if e.parameter.name == GLOSS.name
         ));
     }
 }

@@ -246,9 +246,7 @@ impl PaintModel {
         check_spectrum(&REFRACTIVE_INDEX, &params.refractive_index, &channels)?;
         check_spectrum(&ABSORPTION, &params.absorption_per_um, &channels)?;
         THICKNESS.check(params.thickness_um)?;
-        if !REFRACTIVE_INDEX.accepts(params.index_at_gloss_wavelength) {
-            return Err(GlossError::InvalidIndex(params.index_at_gloss_wavelength).into());
-        }
+        REFRACTIVE_INDEX.check(params.index_at_gloss_wavelength)?;
         let exponent = resolve_exponent(params.gloss, params.index_at_gloss_wavelength)?;
         let len = channels.len();
         let mut model = Self {
