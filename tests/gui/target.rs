@@ -177,14 +177,20 @@ fn a_dropped_measurement_becomes_the_target_and_a_bad_one_changes_nothing() {
     assert!(h.state().target_view().is_some());
 }
 
-#[test]
-fn fit_to_target_applies_the_fit_as_one_edit_and_undo_restores_the_design() {
-    let file = fixture("multi_angle.cxf");
+/// The Instruments tab with the "Deep blue" standard of `multi_angle.cxf` as the
+/// target.
+fn deep_blue_target_harness() -> Harness<'static, CoatlabApp> {
     let mut h = instruments_harness();
-    h.state_mut().open_target(&file);
+    h.state_mut().open_target(&fixture("multi_angle.cxf"));
     h.run();
     h.state_mut().select_target_sample(1);
     h.run();
+    h
+}
+
+#[test]
+fn fit_to_target_applies_the_fit_as_one_edit_and_undo_restores_the_design() {
+    let mut h = deep_blue_target_harness();
     assert_eq!(target_label(h.state()), "Deep blue (multi_angle.cxf)");
     let before = h.state().design().clone();
     let failing = shown_comparison(h.state());
@@ -234,12 +240,7 @@ fn fit_to_target_applies_the_fit_as_one_edit_and_undo_restores_the_design() {
 
 #[test]
 fn fit_to_target_fits_what_is_ticked_and_nothing_ticked_cannot_fit() {
-    let file = fixture("multi_angle.cxf");
-    let mut h = instruments_harness();
-    h.state_mut().open_target(&file);
-    h.run();
-    h.state_mut().select_target_sample(1);
-    h.run();
+    let mut h = deep_blue_target_harness();
     assert_eq!(
         h.state().fit_free(),
         FreeParameters::RHO,
@@ -280,15 +281,22 @@ fn fit_to_target_fits_what_is_ticked_and_nothing_ticked_cannot_fit() {
     h.get_by_role_and_label(Role::CheckBox, "h").click();
     h.run();
     assert!(!h.state().fit_free().any());
+    assert_fit_refused(&mut h, "nothing is free");
+}
+
+/// *Fit to target* is off, and asked for anyway it says `why` and leaves the
+/// design alone.
+fn assert_fit_refused(h: &mut Harness<'_, CoatlabApp>, why: &str) {
     assert!(
         h.get_by_label("Fit to target")
             .accesskit_node()
             .is_disabled()
     );
+    let before = h.state().design().clone();
     h.state_mut().fit_to_target();
     h.run();
     assert!(!h.state().is_fitting());
-    assert!(has_notice(h.state(), true, "nothing is free"));
+    assert!(has_notice(h.state(), true, why));
     assert_eq!(h.state().design(), &before);
 }
 
@@ -303,17 +311,7 @@ fn fit_to_target_needs_a_measured_target() {
         .click();
     h.run();
     assert!(h.state().target_view().is_some());
-    assert!(
-        h.get_by_label("Fit to target")
-            .accesskit_node()
-            .is_disabled()
-    );
-    let before = h.state().design().clone();
-    h.state_mut().fit_to_target();
-    h.run();
-    assert!(!h.state().is_fitting());
-    assert!(has_notice(h.state(), true, "needs a measured target"));
-    assert_eq!(h.state().design(), &before);
+    assert_fit_refused(&mut h, "needs a measured target");
 }
 
 #[test]

@@ -363,14 +363,14 @@ impl Accel {
                 barycentric: hit.barycentric,
             });
         }
-        self.closest_hit_by_slot(&sheared, origin, dir, t_max)
+        self.closest_hit_by_slot(&sheared, RayQuery { origin, dir, t_max })
     }
 
     /// [`Accel::closest_hit`] where the tree is not `Simd8`: without the obvhs
     /// layouts (feature `bvh-experiments`), only the empty tree, which nothing hits.
     #[cfg(not(feature = "bvh-experiments"))]
     #[inline(always)]
-    fn closest_hit_by_slot(&self, _: &ShearedRay, _: [f32; 3], _: [f32; 3], _: f32) -> Option<Hit> {
+    fn closest_hit_by_slot(&self, _: &ShearedRay, _: RayQuery) -> Option<Hit> {
         None
     }
 
@@ -378,7 +378,7 @@ impl Accel {
     /// [`Accel::closest_hit_by_slot`]).
     #[cfg(not(feature = "bvh-experiments"))]
     #[inline(always)]
-    fn occluded_by_slot(&self, _: &ShearedRay, _: [f32; 3], _: [f32; 3], _: f32) -> bool {
+    fn occluded_by_slot(&self, _: &ShearedRay, _: RayQuery) -> bool {
         false
     }
 
@@ -549,7 +549,7 @@ impl Accel {
                 |pack, _| fetch_pack(&self.packs, pack),
             );
         }
-        self.occluded_by_slot(&sheared, origin, dir, t_max)
+        self.occluded_by_slot(&sheared, RayQuery { origin, dir, t_max })
     }
 
     /// The `Simd8` part of [`Accel::validate`]: the references are recomputed from the
@@ -683,13 +683,8 @@ impl Accel {
 impl Accel {
     /// [`Accel::closest_hit`] through an obvhs tree (or the empty one): one triangle a
     /// slot, from the slot-order copy.
-    fn closest_hit_by_slot(
-        &self,
-        sheared: &ShearedRay,
-        origin: [f32; 3],
-        dir: [f32; 3],
-        t_max: f32,
-    ) -> Option<Hit> {
+    fn closest_hit_by_slot(&self, sheared: &ShearedRay, query: RayQuery) -> Option<Hit> {
+        let RayQuery { origin, dir, t_max } = query;
         let ray = Ray::new(origin.into(), dir.into(), 0.0, t_max);
         let (slot, _) = self
             .bvh
@@ -704,14 +699,8 @@ impl Accel {
     }
 
     /// [`Accel::occluded`] through an obvhs tree (or the empty one).
-    fn occluded_by_slot(
-        &self,
-        sheared: &ShearedRay,
-        origin: [f32; 3],
-        dir: [f32; 3],
-        t_max: f32,
-    ) -> bool {
-        let ray = Ray::new(origin.into(), dir.into(), 0.0, t_max);
+    fn occluded_by_slot(&self, sheared: &ShearedRay, query: RayQuery) -> bool {
+        let ray = Ray::new(query.origin.into(), query.dir.into(), 0.0, query.t_max);
         self.bvh
             .any(ray, |ray, slot| self.slot_distance(sheared, ray, slot))
     }
