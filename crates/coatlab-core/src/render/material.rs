@@ -1,5 +1,5 @@
 //! What the tracer shades with: the designed paint (as the paint model or as one of
-//! the two Phong translations the paper compares it with), simple materials for the
+//! the two Phong translations the paper compares it with), the glTF materials of the
 //! rest of the scene, and the floor.
 //!
 //! # The other parts

@@ -52,7 +52,7 @@ pub const IGNORED_EXTENSIONS: &[(&str, &str)] = &[
     ),
     (
         "KHR_materials_specular",
-        "specular ignored: simple materials use the glTF default",
+        "specular ignored: materials use the glTF default F₀",
     ),
 ];
 
