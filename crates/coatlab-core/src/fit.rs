@@ -32,7 +32,7 @@
 //! What is free is the caller's choice ([`FitRequest`], `--free`): by default ρ
 //! alone, the coat (n, k, h) and the gloss coming from the start design. With any
 //! coat parameter free, spectra at one or several geometries are fitted by the
-//! bounded least squares of [`coat`] over ρ and those parameters together, the
+//! bounded least squares of `fit/coat.rs` over ρ and those parameters together, the
 //! standard's gloss readings included; colours alone cannot fix a coat and are
 //! refused. Outside the measured wavelengths ρ is held flat at its end values.
 //!

@@ -577,7 +577,7 @@ impl CoatlabApp {
     /// Fits the design's free parameters (see [`Self::set_fit_free`]) to the
     /// measured target on a thread of its own; the
     /// result is applied, as one undoable edit, when it arrives (see
-    /// [`Self::take_fit`]).
+    /// `take_fit`, called each frame).
     pub fn fit_to_target(&mut self) {
         if self.fit_job.is_some() {
             return self.error("A fit is already running.");
