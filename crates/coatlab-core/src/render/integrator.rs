@@ -38,6 +38,9 @@
 //! straight on, or takes a delta reflection or refraction. Shadow rays cross what
 //! lets light straight through, weighted by its transmittance, so the interior
 //! behind the windows is lit. Every surface is two-sided.
+//! A recording path ([`PathRecorder`]) is told each crossing's weight and each
+//! recorded shadow ray's transmittance: none depends on the paint, so re-shading
+//! replays them ([`crate::render::reshade`], "Glass and alpha").
 //!
 //! Textured materials are evaluated at each hit ([`crate::render::texturing`]: the
 //! parameters there, a normal map's normal) into a BSDF of their own. Emissive
