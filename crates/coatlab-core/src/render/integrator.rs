@@ -38,6 +38,9 @@
 //! straight on, or takes a delta reflection or refraction. Shadow rays cross what
 //! lets light straight through, weighted by its transmittance, so the interior
 //! behind the windows is lit. Every surface is two-sided.
+//! A recording path ([`PathRecorder`]) is told each crossing's weight and each
+//! recorded shadow ray's transmittance: none depends on the paint, so re-shading
+//! replays them ([`crate::render::reshade`], "Glass and alpha").
 //!
 //! Textured materials are evaluated at each hit ([`crate::render::texturing`]: the
 //! parameters there, a normal map's normal) into a BSDF of their own. Emissive
@@ -135,6 +138,9 @@ pub struct PathBuffers {
     /// Shadow rays still crossing see-through surfaces, and the next round's.
     shadow_active: Vec<usize>,
     shadow_next: Vec<usize>,
+    /// Per shadow ray of a recorded path: what passed the see-through surfaces
+    /// it crossed.
+    shadow_transmittance: Vec<f32>,
     scratch: BatchScratch,
 }
 
@@ -163,6 +169,7 @@ impl PathBuffers {
             crossings: Vec::new(),
             shadow_active: Vec::new(),
             shadow_next: Vec::new(),
+            shadow_transmittance: Vec::new(),
             scratch: BatchScratch::default(),
         }
     }
@@ -217,6 +224,8 @@ struct Lane {
     alive: bool,
     /// The vertex being shaded, told to the recorder once its shadow ray is known.
     record: Option<VertexRecord>,
+    /// The shadow ray of the recorded light sample, by its index in the batch.
+    record_shadow: Option<usize>,
 }
 
 /// The tracer for one scene, lighting and shading.
@@ -284,18 +293,26 @@ pub struct VertexRecord {
 }
 
 /// Receives the decisions a path made, in order, for re-shading
-/// ([`crate::render::reshade`]): every surface vertex, then, when the path ended
-/// in the environment, its escape (along the last vertex's continuation, or the
-/// camera ray).
+/// ([`crate::render::reshade`]): every surface vertex and every see-through
+/// event between them, then, when the path ended in the environment, its escape
+/// (along the last vertex's continuation, the direction glass turned it to, or
+/// the camera ray).
 pub trait PathRecorder {
     /// Whether it records anything. A recorded vertex keeps one light sample
     /// ([`VertexRecord::light`]), so recorded paths take one at their first
     /// vertex too (the estimate stays unbiased, only its variance differs).
     const RECORDS: bool = true;
-    /// A surface vertex was shaded.
-    fn vertex(&mut self, vertex: &VertexRecord);
-    /// The path escaped to the environment along `dir`.
-    fn escape(&mut self, dir: [f32; 3]);
+    /// A surface vertex was shaded. `light_transmittance`: what reached it of its
+    /// light sample through see-through surfaces, per wavelength, when its shadow
+    /// ray crossed any (`None`: it crossed none).
+    fn vertex(&mut self, vertex: &VertexRecord, light_transmittance: Option<&[f32]>);
+    /// The path met a see-through surface (skipped it, or was reflected,
+    /// refracted or transmitted by glass) or was absorbed inside a volume: its
+    /// throughput was multiplied by `factor` per wavelength (`None`: by 1).
+    fn crossed(&mut self, factor: Option<&[f32]>);
+    /// The path escaped to the environment along `dir`, whose radiance counted
+    /// with the multiple importance sampling weight `mis`.
+    fn escape(&mut self, dir: [f32; 3], mis: f32);
 }
 
 /// Records nothing (ordinary rendering; compiles to nothing).
@@ -305,9 +322,11 @@ pub struct NoRecord;
 impl PathRecorder for NoRecord {
     const RECORDS: bool = false;
     #[inline]
-    fn vertex(&mut self, _: &VertexRecord) {}
+    fn vertex(&mut self, _: &VertexRecord, _: Option<&[f32]>) {}
     #[inline]
-    fn escape(&mut self, _: [f32; 3]) {}
+    fn crossed(&mut self, _: Option<&[f32]>) {}
+    #[inline]
+    fn escape(&mut self, _: [f32; 3], _: f32) {}
 }
 
 impl<'a> PathTracer<'a> {
@@ -467,6 +486,7 @@ impl<'a> PathTracer<'a> {
             crossings,
             shadow_active,
             shadow_next,
+            shadow_transmittance,
             scratch,
             ..
         } = buffers;
@@ -488,6 +508,7 @@ impl<'a> PathTracer<'a> {
             inside: None,
             alive: true,
             record: None,
+            record_shadow: None,
         }));
         let use_floor = self.floor.is_some();
         let floor_light_only = self.settings.floor_light_only;
@@ -637,15 +658,25 @@ impl<'a> PathTracer<'a> {
                     for ((o, t), l) in out.iter_mut().zip(throughput.iter()).zip(light.iter()) {
                         *o += t * l * mis;
                     }
-                    recorder.escape(ray_dir);
+                    recorder.escape(ray_dir, mis);
                     lane.alive = false;
                     continue;
                 };
                 if let Some(volume) = lane.inside.and_then(|m| self.shading.see_through().get(m)) {
-                    volume.absorb(hit.t, throughput);
+                    if R::RECORDS {
+                        // The absorption on its own, for the recorder.
+                        weight.fill(1.0);
+                        volume.absorb(hit.t, weight);
+                        scale_and_largest(throughput, weight);
+                        recorder.crossed(Some(weight));
+                    } else {
+                        volume.absorb(hit.t, throughput);
+                    }
                 }
                 if crossing != Crossing::Opaque {
-                    self.cross(hit, crossing, lane, sampler, throughput, weight, f);
+                    self.cross(
+                        hit, crossing, lane, sampler, throughput, weight, f, recorder,
+                    );
                     continue;
                 }
                 let (LookUp::Light(light_sample), Some(plain)) = (found, self.material(hit)) else {
@@ -747,6 +778,7 @@ impl<'a> PathTracer<'a> {
                     shadow_lanes.push(i);
                     if k == 0 {
                         record.light = Some(light_record);
+                        lane.record_shadow = Some(shadow_lanes.len() - 1);
                     }
                 }
                 lane.record = Some(record);
@@ -804,6 +836,14 @@ impl<'a> PathTracer<'a> {
             stats.rays += shadow_rays.len() as u32;
             blocked.clear();
             blocked.resize(shadow_rays.len(), false);
+            // What each recorded shadow ray lets through, for the recorder.
+            let transmittance = if R::RECORDS && self.see_through {
+                shadow_transmittance.clear();
+                shadow_transmittance.resize(shadow_rays.len() * len, 1.0);
+                Some(&mut shadow_transmittance[..])
+            } else {
+                None
+            };
             if self.see_through {
                 stats.rays += self.see_through_shadows(
                     SeeThroughShadows {
@@ -817,6 +857,7 @@ impl<'a> PathTracer<'a> {
                         scratch,
                         weight,
                         f,
+                        transmittance,
                     },
                     use_floor,
                 );
@@ -838,8 +879,13 @@ impl<'a> PathTracer<'a> {
                 }
             }
             for (lane, recorder) in lanes.iter_mut().zip(recorders.iter_mut()) {
+                let shadow = lane.record_shadow.take();
                 if let Some(record) = lane.record.take() {
-                    recorder.vertex(&record);
+                    let transmittance = shadow
+                        .filter(|_| R::RECORDS && self.see_through && record.light.is_some())
+                        .map(|j| &shadow_transmittance[j * len..(j + 1) * len])
+                        .filter(|t| t.iter().any(|&v| v != 1.0));
+                    recorder.vertex(&record, transmittance);
                 }
             }
         }
@@ -875,9 +921,10 @@ impl<'a> PathTracer<'a> {
 
     /// Carries a path across a see-through surface (`crossing` is `Skip` or
     /// `Glass`): on in the same direction, or reflected or refracted by the glass,
-    /// its throughput weighed; the lane dies where the path ends.
+    /// its throughput weighed (and the weight told to `recorder`); the lane dies
+    /// where the path ends.
     #[allow(clippy::too_many_arguments)]
-    fn cross(
+    fn cross<R: PathRecorder>(
         &self,
         hit: &SurfaceHit,
         crossing: Crossing,
@@ -886,6 +933,7 @@ impl<'a> PathTracer<'a> {
         throughput: &mut [f32],
         reflect: &mut [f32],
         transmit: &mut [f32],
+        recorder: &mut R,
     ) {
         lane.alive = false;
         lane.travelled_m += hit.t;
@@ -909,25 +957,29 @@ impl<'a> PathTracer<'a> {
         let mut reflected = false;
         match crossing {
             Crossing::Opaque => return,
-            Crossing::Skip => next = dir,
+            Crossing::Skip => {
+                next = dir;
+                recorder.crossed(None);
+            }
             Crossing::Glass if !glass.is_volume() => {
                 glass.pane(cos_o, reflect, transmit);
                 let p = reflect_probability(reflect, transmit);
-                if sampler.next_1d() < p {
+                let (weight, chosen) = if sampler.next_1d() < p {
                     next = mirror;
                     reflected = true;
-                    let largest = scale_and_largest(throughput, reflect);
-                    throughput.iter_mut().for_each(|t| *t /= p);
-                    if largest <= 0.0 {
-                        return;
-                    }
+                    (reflect, p)
                 } else {
                     next = dir;
-                    let largest = scale_and_largest(throughput, transmit);
-                    throughput.iter_mut().for_each(|t| *t /= 1.0 - p);
-                    if largest <= 0.0 {
-                        return;
-                    }
+                    (transmit, 1.0 - p)
+                };
+                let largest = scale_and_largest(throughput, weight);
+                throughput.iter_mut().for_each(|t| *t /= chosen);
+                if R::RECORDS {
+                    weight.iter_mut().for_each(|w| *w /= chosen);
+                    recorder.crossed(Some(weight));
+                }
+                if largest <= 0.0 {
+                    return;
                 }
             }
             Crossing::Glass => {
@@ -938,6 +990,7 @@ impl<'a> PathTracer<'a> {
                     1.0 / glass.ior()
                 };
                 let fresnel = fresnel_dielectric(cos_o, eta);
+                recorder.crossed(None);
                 if sampler.next_1d() < fresnel {
                     next = mirror;
                     reflected = true;
@@ -998,6 +1051,7 @@ impl<'a> PathTracer<'a> {
             scratch,
             weight,
             f,
+            mut transmittance,
         } = b;
         active.clear();
         active.extend(0..rays.len());
@@ -1036,6 +1090,9 @@ impl<'a> PathTracer<'a> {
                 if !passes || scale_and_largest(contribution, &weight[..len]) <= 0.0 {
                     blocked[j] = true;
                     continue;
+                }
+                if let Some(t) = transmittance.as_deref_mut() {
+                    scale_and_largest(&mut t[j * len..(j + 1) * len], &weight[..len]);
                 }
                 rays[j].origin = RenderGeometry::spawn_origin(hit, dir);
                 next.push(j);
@@ -1121,6 +1178,8 @@ struct SeeThroughShadows<'a> {
     scratch: &'a mut BatchScratch,
     weight: &'a mut [f32],
     f: &'a mut [f32],
+    /// Per ray, when recording: the product of what it crossed lets through.
+    transmittance: Option<&'a mut [f32]>,
 }
 
 /// What weighs a light sample's contribution at a vertex.
@@ -1194,11 +1253,14 @@ mod tests {
     struct Log(Vec<String>);
 
     impl PathRecorder for Log {
-        fn vertex(&mut self, vertex: &VertexRecord) {
-            self.0.push(format!("{vertex:?}"));
+        fn vertex(&mut self, vertex: &VertexRecord, light_transmittance: Option<&[f32]>) {
+            self.0.push(format!("{vertex:?} {light_transmittance:?}"));
         }
-        fn escape(&mut self, dir: [f32; 3]) {
-            self.0.push(format!("escape {dir:?}"));
+        fn crossed(&mut self, factor: Option<&[f32]>) {
+            self.0.push(format!("crossed {factor:?}"));
+        }
+        fn escape(&mut self, dir: [f32; 3], mis: f32) {
+            self.0.push(format!("escape {dir:?} {mis}"));
         }
     }
 

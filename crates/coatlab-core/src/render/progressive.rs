@@ -661,7 +661,7 @@ impl ProgressiveRender {
         let width = self.film.width();
         let len = self.shading.len();
         let record_below = self.path_cache_target();
-        let lengths: Vec<[usize; 4]> = self.cache.tiles.iter().map(TileCache::lengths).collect();
+        let lengths: Vec<[usize; 5]> = self.cache.tiles.iter().map(TileCache::lengths).collect();
         let plan = match &counts {
             Some(counts) => Plan::Adaptive {
                 film: &self.film,

@@ -7,6 +7,27 @@
 //! directions and densities) and the continuation (direction, density, roulette),
 //! plus the colour the path contributed ([`PathCache`]).
 //!
+//! # Glass and alpha
+//!
+//! What a path does at a see-through surface ([`crate::render::glass`]: skip a
+//! masked or blended point, reflect off or pass through a thin pane, reflect off
+//! or refract into a volume, be absorbed inside it) depends on the surface, the
+//! direction and the path's random numbers, never on the paint (painted
+//! materials are never see-through). So are the weights it takes there (R/P or
+//! T/P of a pane, 1 for a skip or a volume's choice, the Beer–Lambert
+//! absorption) and what a shadow ray lets through on its way to the light. The
+//! recording keeps them as spectral factors ([`SeeThroughFactor`]): per vertex
+//! the product of the weights met on the way to it and its light sample's
+//! transmittance, and, when the path met glass after its last vertex, the whole
+//! escape per unit throughput (the radiance along the direction the glass left
+//! it, times its MIS weight, which the glass fixed). The replay multiplies them
+//! in where the tracer did, so a recorded path through glass is re-weighed only
+//! at its paint vertices, as any other; a path painted at its first vertex only
+//! folds them into its two stored spectra. The estimator stays the same sum over
+//! the same recorded paths with the same fixed, paint-independent factors, so
+//! it stays unbiased: c_new,k is the traced path's contribution with every
+//! paint factor f_old replaced by f_new and everything else as traced.
+//!
 //! # The estimator (a control variate)
 //!
 //! With I_old the accumulated image of the old design (many samples) and, per pixel,
@@ -24,7 +45,9 @@
 //! which is small when the edit is (the same paths enter both terms). Paths that
 //! never touch the paint have c_new = c_old and are not stored.
 //!
-//! Where it does not apply: a change of the lobe from or to the ideal mirror (a delta
+//! Where it does not apply: glass and alpha are replayed (above), so a scene with
+//! them re-shades like any other; what is refused is a change of the lobe from or
+//! to the ideal mirror (a delta
 //! cannot be re-weighted; [`ReshadeError::DeltaChanged`]); a lobe wider than the one
 //! the paths were sampled from ([`ReshadeError::LobeWidened`]: a gloss edit, or an
 //! index edit under a gloss reading, whose exponent falls with n), where the weights
@@ -45,7 +68,9 @@
 //! # Memory
 //!
 //! [`PathCache::memory_bytes`]: one [`VertexRecord`] per stored vertex plus one
-//! small header per stored path. See `docs/rendering.md` for measured sizes.
+//! small header per stored path, and one spectrum (with a 12-byte index) per
+//! see-through factor of a path that met glass or alpha. See `docs/rendering.md`
+//! for measured sizes.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -101,12 +126,6 @@ pub enum ReshadeError {
         "the scene has textured materials, which re-shading does not replay: its paths must be traced anew"
     )]
     Textured,
-    /// A material is glass or alpha-blended or masked: its crossings and their
-    /// shadow rays are not recorded.
-    #[error(
-        "the scene has glass or see-through materials, which re-shading does not replay: its paths must be traced anew"
-    )]
-    SeeThrough,
 }
 
 /// One stored path.
@@ -119,9 +138,41 @@ struct CachedPath {
     sample: u32,
     first_vertex: u32,
     vertex_count: u32,
+    /// Its see-through factors, in [`TileCache::factors`].
+    first_factor: u32,
+    factor_count: u32,
     escaped: bool,
     /// XYZ it contributed when traced.
     xyz: [f32; 3],
+}
+
+/// A spectral factor a path met at see-through surfaces (glass, alpha), which
+/// does not depend on the paint: what the replay multiplies in where the tracer
+/// did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct SeeThroughFactor {
+    /// The vertex (index within its path) it belongs to; for
+    /// [`FactorKind::Escape`], the path's vertex count.
+    vertex: u32,
+    kind: FactorKind,
+    /// Index of its spectrum in [`TileCache::spectra`] (or in the recorder's
+    /// scratch while the path is being traced).
+    spectrum: u32,
+}
+
+/// Where a [`SeeThroughFactor`] applies.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum FactorKind {
+    /// To the throughput on the way to the vertex: the weights of the panes
+    /// crossed or reflected off, the skips, a volume's absorption.
+    Before,
+    /// To the vertex's light sample: what its shadow ray let through.
+    Light,
+    /// The escape after the last vertex, when the path met see-through
+    /// surfaces after it: the environment's radiance along the final direction
+    /// times its MIS weight and the factors met on the way (the whole escape,
+    /// per unit throughput).
+    Escape,
 }
 
 /// The recorded paths of one tile of the image.
@@ -133,7 +184,10 @@ pub struct TileCache {
     paths: Vec<CachedPath>,
     vertices: Vec<VertexRecord>,
     compact: Vec<CompactPath>,
-    /// Two spectra per compact path: its light sample and the rest of the path.
+    /// The see-through factors of the paths in `paths`.
+    factors: Vec<SeeThroughFactor>,
+    /// Two spectra per compact path (its light sample and the rest of the path)
+    /// and one per see-through factor.
     spectra: Vec<f32>,
     /// Heap bytes this tile may hold ([`TileCache::memory_bytes`]); `usize::MAX`:
     /// unbounded.
@@ -147,7 +201,7 @@ pub struct TileCache {
     samples: u32,
     /// [`Self::lengths`] and [`Self::samples`] when the pass being recorded began,
     /// so that rolling the pass back also rolls back the sample count.
-    pass_start: Option<([usize; 4], u32)>,
+    pass_start: Option<([usize; 5], u32)>,
 }
 
 /// A path whose only painted vertex is its first, the common case (the camera
@@ -201,6 +255,7 @@ impl TileCache {
             Store::Vertices => grow(&mut self.vertices, extra, pool, overflowed),
             Store::Compact => grow(&mut self.compact, extra, pool, overflowed),
             Store::Spectra => grow(&mut self.spectra, extra, pool, overflowed),
+            Store::Factors => grow(&mut self.factors, extra, pool, overflowed),
         }
     }
 
@@ -209,22 +264,24 @@ impl TileCache {
         self.vertices.clear();
         self.compact.clear();
         self.spectra.clear();
+        self.factors.clear();
         self.overflowed = false;
         self.samples = 0;
         self.pass_start = None;
     }
 
     /// What is stored, to roll back a cancelled pass.
-    pub(crate) fn lengths(&self) -> [usize; 4] {
+    pub(crate) fn lengths(&self) -> [usize; 5] {
         [
             self.paths.len(),
             self.vertices.len(),
             self.compact.len(),
             self.spectra.len(),
+            self.factors.len(),
         ]
     }
 
-    pub(crate) fn truncate(&mut self, lengths: [usize; 4]) {
+    pub(crate) fn truncate(&mut self, lengths: [usize; 5]) {
         // Called with the lengths from before a pass (cancelled or over the
         // budget): that pass's samples are not recorded.
         if let Some((start, samples)) = self.pass_start
@@ -236,15 +293,17 @@ impl TileCache {
         self.vertices.truncate(lengths[1]);
         self.compact.truncate(lengths[2]);
         self.spectra.truncate(lengths[3]);
+        self.factors.truncate(lengths[4]);
     }
 
     /// Rolls back to `lengths` after an overflow and gives the memory back.
-    pub(crate) fn roll_back(&mut self, lengths: [usize; 4]) {
+    pub(crate) fn roll_back(&mut self, lengths: [usize; 5]) {
         self.truncate(lengths);
         self.paths.shrink_to_fit();
         self.vertices.shrink_to_fit();
         self.compact.shrink_to_fit();
         self.spectra.shrink_to_fit();
+        self.factors.shrink_to_fit();
         self.overflowed = false;
     }
 
@@ -253,6 +312,7 @@ impl TileCache {
             + self.vertices.capacity() * size_of::<VertexRecord>()
             + self.compact.capacity() * size_of::<CompactPath>()
             + self.spectra.capacity() * size_of::<f32>()
+            + self.factors.capacity() * size_of::<SeeThroughFactor>()
     }
 }
 
@@ -263,6 +323,7 @@ enum Store {
     Vertices,
     Compact,
     Spectra,
+    Factors,
 }
 
 /// [`TileCache::reserve`] for one vector: doubles its capacity (at least 16), or
@@ -317,6 +378,14 @@ pub(crate) struct TileRecorder<'a> {
     painted_vertices: u32,
     first_painted: bool,
     escaped: bool,
+    /// The product of the see-through factors met since the last vertex, and
+    /// whether any see-through event happened since (a skip or a volume's
+    /// reflection weighs 1 but may turn or continue the path).
+    factor: Vec<f32>,
+    crossed: bool,
+    /// This path's see-through factors so far, their spectra in `factor_spectra`.
+    factors: Vec<SeeThroughFactor>,
+    factor_spectra: Vec<f32>,
 }
 
 impl<'a> TileRecorder<'a> {
@@ -334,6 +403,10 @@ impl<'a> TileRecorder<'a> {
             painted_vertices: 0,
             first_painted: false,
             escaped: false,
+            factor: vec![1.0; tracer.len()],
+            crossed: false,
+            factors: Vec::new(),
+            factor_spectra: Vec::new(),
         }
     }
 
@@ -343,6 +416,15 @@ impl<'a> TileRecorder<'a> {
         self.painted_vertices = 0;
         self.first_painted = false;
         self.escaped = false;
+        self.factor.fill(1.0);
+        self.crossed = false;
+        self.factors.clear();
+        self.factor_spectra.clear();
+    }
+
+    /// Index within the path being traced of its next vertex.
+    fn next_vertex(&self) -> u32 {
+        (self.cache.vertices.len() - self.start) as u32
     }
 
     /// Ends the path traced since [`Self::begin`], at image pixel (`x`, `y`), which
@@ -371,22 +453,39 @@ impl<'a> TileRecorder<'a> {
             self.cache.vertices.truncate(start);
             return;
         }
-        if !self.cache.reserve(Store::Paths, 1) {
+        if !(self.cache.reserve(Store::Paths, 1)
+            && self.cache.reserve(Store::Factors, self.factors.len())
+            && self
+                .cache
+                .reserve(Store::Spectra, self.factor_spectra.len()))
+        {
             self.cache.vertices.truncate(start);
             return;
         }
+        let (first_factor, offset) = (self.cache.factors.len(), self.cache.spectra.len() as u32);
+        self.cache
+            .factors
+            .extend(self.factors.iter().map(|f| SeeThroughFactor {
+                spectrum: f.spectrum + offset,
+                ..*f
+            }));
+        self.cache.spectra.extend_from_slice(&self.factor_spectra);
         self.cache.paths.push(CachedPath {
             pixel,
             sample,
             first_vertex: start as u32,
             vertex_count: (self.cache.vertices.len() - start) as u32,
+            first_factor: first_factor as u32,
+            factor_count: self.factors.len() as u32,
             escaped: self.escaped,
             xyz,
         });
     }
 
     /// Stores the path begun at `self.start` (painted at its first vertex only) in
-    /// compact form.
+    /// compact form. Its first vertex's see-through factors are folded into the
+    /// two spectra (what reached the vertex multiplies both, what its shadow ray
+    /// let through the light sample's).
     fn store_compact(&mut self, pixel: u32, sample: u32, xyz: [f32; 3]) {
         let environment = self.tracer.environment();
         let shading = self.tracer.shading();
@@ -395,6 +494,18 @@ impl<'a> TileRecorder<'a> {
         let vertices = &self.cache.vertices[self.start..];
         let first = vertices[0];
         let offset = self.cache.spectra.len();
+        let (own, rest) = self
+            .factors
+            .split_at(self.factors.partition_point(|f| f.vertex == 0));
+        let spectrum_of = |kind: FactorKind| {
+            own.iter()
+                .find(|f| f.kind == kind)
+                .map(|f| &self.factor_spectra[f.spectrum as usize..][..len])
+        };
+        let (before, transmitted) = (
+            spectrum_of(FactorKind::Before),
+            spectrum_of(FactorKind::Light),
+        );
         // The light sample's radiance times its fixed weights.
         let light = &mut self.buffers.light;
         match first.light {
@@ -402,38 +513,37 @@ impl<'a> TileRecorder<'a> {
                 environment.radiance(l.dir, light);
                 let scale = l.wi[2] * power_heuristic(l.light_pdf, l.bsdf_pdf) / l.light_pdf;
                 light.iter_mut().for_each(|v| *v *= scale);
+                for factor in [before, transmitted].into_iter().flatten() {
+                    light.iter_mut().zip(factor).for_each(|(v, f)| *v *= f);
+                }
             }
             None => light.fill(0.0),
         }
         self.cache.spectra.extend_from_slice(&light[..len]);
         // The rest of the path: unpainted, so it does not change with the paint.
         // Written into `buffers.out`, then appended: no allocation per path.
-        if vertices.len() > 1 {
-            let replayed = replay_path(
-                &vertices[1..],
-                self.escaped,
-                environment,
-                shading,
-                floor,
-                &mut self.buffers,
-            );
-            if replayed.is_err() {
-                self.buffers.out.fill(0.0);
-            }
-        } else {
-            let out = &mut self.buffers.out;
+        let replayed = replay_path(
+            &Recorded {
+                vertices: &vertices[1..],
+                first: 1,
+                previous: first.next,
+                escaped: self.escaped,
+                factors: rest,
+                spectra: &self.factor_spectra,
+            },
+            environment,
+            shading,
+            floor,
+            &mut self.buffers,
+        );
+        let out = &mut self.buffers.out;
+        if replayed.is_err() {
             out.fill(0.0);
-            if self.escaped
-                && let Some(next) = first.next
-            {
-                environment.radiance(next.dir, out);
-                let mis = escape_weight(environment, &next);
-                out.iter_mut().for_each(|v| *v *= mis);
-            }
         }
-        self.cache
-            .spectra
-            .extend_from_slice(&self.buffers.out[..len]);
+        if let Some(before) = before {
+            out.iter_mut().zip(before).for_each(|(v, f)| *v *= f);
+        }
+        self.cache.spectra.extend_from_slice(&out[..len]);
         self.cache.compact.push(CompactPath {
             pixel,
             sample,
@@ -446,25 +556,78 @@ impl<'a> TileRecorder<'a> {
     }
 }
 
+/// Adds a see-through factor of `kind` for the path's vertex `vertex`, its
+/// spectrum appended to `spectra`.
+fn push_factor(
+    factors: &mut Vec<SeeThroughFactor>,
+    spectra: &mut Vec<f32>,
+    vertex: u32,
+    kind: FactorKind,
+    spectrum: &[f32],
+) {
+    factors.push(SeeThroughFactor {
+        vertex,
+        kind,
+        spectrum: spectra.len() as u32,
+    });
+    spectra.extend_from_slice(spectrum);
+}
+
 impl PathRecorder for TileRecorder<'_> {
-    fn vertex(&mut self, vertex: &VertexRecord) {
+    fn vertex(&mut self, vertex: &VertexRecord, light_transmittance: Option<&[f32]>) {
         // Past the limit nothing more is kept in this pass (it is rolled back).
         if self.cache.overflowed || !self.cache.reserve(Store::Vertices, 1) {
             return;
+        }
+        let index = self.next_vertex();
+        if std::mem::take(&mut self.crossed) {
+            if self.factor.iter().any(|&v| v != 1.0) {
+                let (factors, spectra) = (&mut self.factors, &mut self.factor_spectra);
+                push_factor(factors, spectra, index, FactorKind::Before, &self.factor);
+            }
+            self.factor.fill(1.0);
+        }
+        if let Some(transmitted) = light_transmittance
+            && vertex.light.is_some()
+        {
+            let (factors, spectra) = (&mut self.factors, &mut self.factor_spectra);
+            push_factor(factors, spectra, index, FactorKind::Light, transmitted);
         }
         if let Surface::Mesh { material } = vertex.surface
             && self.tracer.shading().is_painted(material)
         {
             self.painted_vertices += 1;
-            if self.cache.vertices.len() == self.start {
+            if index == 0 {
                 self.first_painted = true;
             }
         }
         self.cache.vertices.push(*vertex);
     }
 
-    fn escape(&mut self, _dir: [f32; 3]) {
+    fn crossed(&mut self, factor: Option<&[f32]>) {
+        self.crossed = true;
+        if let Some(factor) = factor {
+            self.factor
+                .iter_mut()
+                .zip(factor)
+                .for_each(|(v, f)| *v *= f);
+        }
+    }
+
+    fn escape(&mut self, dir: [f32; 3], mis: f32) {
         self.escaped = true;
+        if self.crossed {
+            // Turned or weighed by glass since its last vertex: the whole escape
+            // per unit throughput, as the tracer added it.
+            let index = self.next_vertex();
+            let seen = &mut self.buffers.light;
+            self.tracer.environment().radiance(dir, seen);
+            for (v, f) in seen.iter_mut().zip(&self.factor) {
+                *v *= f * mis;
+            }
+            let (factors, spectra) = (&mut self.factors, &mut self.factor_spectra);
+            push_factor(factors, spectra, index, FactorKind::Escape, seen);
+        }
     }
 }
 
@@ -628,9 +791,6 @@ pub fn reshade_prepared(
     }
     if shading.has_textures() {
         return Err(ReshadeError::Textured);
-    }
-    if shading.see_through().any() {
-        return Err(ReshadeError::SeeThrough);
     }
     // A replayed bounce is weighed by the new BSDF over the density it was sampled
     // from. Where the new lobe is wider, that weight grows without bound away from
@@ -992,7 +1152,16 @@ fn replay_tile(
     for path in tile.paths.iter().filter(|p| p.sample < samples) {
         let vertices = &tile.vertices
             [path.first_vertex as usize..(path.first_vertex + path.vertex_count) as usize];
-        replay_path(vertices, path.escaped, environment, shading, floor, buffers)?;
+        let factors = &tile.factors[path.first_factor as usize..][..path.factor_count as usize];
+        let recorded = Recorded {
+            vertices,
+            first: 0,
+            previous: None,
+            escaped: path.escaped,
+            factors,
+            spectra: &tile.spectra,
+        };
+        replay_path(&recorded, environment, shading, floor, buffers)?;
         add(path.pixel, film.xyz_of(&buffers.out), path.xyz);
     }
     Ok(())
@@ -1016,11 +1185,27 @@ impl ReplayBuffers {
     }
 }
 
-/// The contribution of a recorded path under `shading`, into `buffers.out`: the
-/// integrator's sums with its recorded decisions (see [`crate::render::integrator`]).
-fn replay_path(
-    vertices: &[VertexRecord],
+/// A recorded path, or the part of one after its first vertex, as
+/// [`replay_path`] reads it.
+struct Recorded<'a> {
+    vertices: &'a [VertexRecord],
+    /// Index within the path of `vertices[0]` (what the factors count from).
+    first: u32,
+    /// The continuation from the vertex before `vertices`, if the part starts
+    /// after one: an escape right after it goes along it.
+    previous: Option<NextRecord>,
     escaped: bool,
+    /// The path's see-through factors from `first` on, in the order recorded.
+    factors: &'a [SeeThroughFactor],
+    /// Where their spectra are.
+    spectra: &'a [f32],
+}
+
+/// The contribution of a recorded path under `shading`, into `buffers.out`: the
+/// integrator's sums with its recorded decisions (see [`crate::render::integrator`]),
+/// the see-through factors multiplied in where the tracer met them.
+fn replay_path(
+    path: &Recorded<'_>,
     environment: &Environment,
     shading: &Shading,
     floor: Option<&SimpleMaterial>,
@@ -1032,9 +1217,24 @@ fn replay_path(
         f,
         light,
     } = buffers;
+    let len = out.len();
     out.fill(0.0);
     throughput.fill(1.0);
-    for vertex in vertices {
+    let mut factors = path.factors.iter().peekable();
+    let spectrum_of = |factor: &SeeThroughFactor| &path.spectra[factor.spectrum as usize..][..len];
+    for (index, vertex) in (path.first..).zip(path.vertices) {
+        let mut transmitted = None;
+        while let Some(factor) = factors.next_if(|f| f.vertex == index) {
+            match factor.kind {
+                FactorKind::Before => {
+                    for (t, v) in throughput.iter_mut().zip(spectrum_of(factor)) {
+                        *t *= v;
+                    }
+                }
+                FactorKind::Light => transmitted = Some(spectrum_of(factor)),
+                FactorKind::Escape => {}
+            }
+        }
         let material: &dyn SpectralBsdf = match (vertex.surface, floor) {
             (Surface::Mesh { material }, _) => {
                 // A lamp adds its light where the path shaded it, as the tracer did.
@@ -1053,6 +1253,9 @@ fn replay_path(
         if let Some(l) = vertex.light {
             material.eval(l.wi, vertex.wo, f);
             environment.radiance(l.dir, light);
+            if let Some(transmitted) = transmitted {
+                light.iter_mut().zip(transmitted).for_each(|(v, t)| *v *= t);
+            }
             let scale = l.wi[2] * power_heuristic(l.light_pdf, l.bsdf_pdf) / l.light_pdf;
             for (((o, t), fv), lv) in out.iter_mut().zip(&*throughput).zip(&*f).zip(&*light) {
                 *o += t * fv * lv * scale;
@@ -1077,7 +1280,14 @@ fn replay_path(
             }
         }
     }
-    if escaped && let Some(next) = vertices.last().and_then(|v| v.next) {
+    if !path.escaped {
+        return Ok(());
+    }
+    if let Some(seen) = factors.find(|f| f.kind == FactorKind::Escape) {
+        for ((o, t), s) in out.iter_mut().zip(&*throughput).zip(spectrum_of(seen)) {
+            *o += t * s;
+        }
+    } else if let Some(next) = path.vertices.last().map_or(path.previous, |v| v.next) {
         environment.radiance(next.dir, light);
         let mis = escape_weight(environment, &next);
         for ((o, t), lv) in out.iter_mut().zip(&*throughput).zip(&*light) {

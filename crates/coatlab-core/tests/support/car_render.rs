@@ -143,6 +143,13 @@ pub fn car_mask(image: &Image) -> Vec<bool> {
         .collect()
 }
 
+/// The block of the region control (`image_stats::defect_region_around`) on
+/// the car's paint ([`car_mask`] of `a`'s mean): the car's middle is glass,
+/// through which the interior's noise would hide any defect of the paint.
+pub fn paint_region(a: &Replicas) -> Vec<bool> {
+    crate::image_stats::defect_region_around(a, &car_mask(&a.mean))
+}
+
 /// The CIELAB hue angle (degrees) and chroma of the mean colour of `image` over
 /// `mask`, relative to the backdrop's chromaticity at Y = 1.
 pub fn hue(image: &Image, mask: &[bool]) -> (f64, f64) {

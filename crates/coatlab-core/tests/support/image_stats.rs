@@ -526,9 +526,21 @@ pub fn assert_agree_with_controls(
     weights: &Weights,
     what: &str,
 ) -> Comparison {
+    assert_agree_with_controls_in(a, b, weights, what, defect_region(a))
+}
+
+/// [`assert_agree_with_controls`] with the region control's block `region`
+/// (see [`defect_region_around`]).
+pub fn assert_agree_with_controls_in(
+    a: &Replicas,
+    b: &Replicas,
+    weights: &Weights,
+    what: &str,
+    region: Vec<bool>,
+) -> Comparison {
     let comparison = compare(a, b, weights);
     comparison.assert_agree(what);
-    assert_controls(a, b, weights, what);
+    assert_controls_in(a, b, weights, what, region);
     comparison
 }
 
@@ -536,8 +548,15 @@ pub fn assert_agree_with_controls(
 /// noisy pixels (the object in view): where a defect of one material or one
 /// lit region would show.
 pub fn defect_region(a: &Replicas) -> Vec<bool> {
+    defect_region_around(a, &vec![true; a.mean.len()])
+}
+
+/// [`defect_region`] around the centre of the noisy pixels of `centre_of`
+/// alone (one material: where a defect of re-shading its paint would show,
+/// rather than on glass in front of the car's middle).
+pub fn defect_region_around(a: &Replicas, centre_of: &[bool]) -> Vec<bool> {
     let (w, h) = (a.width as usize, a.height as usize);
-    let noisy = |p: usize| a.variance[p].iter().any(|&v| v > 0.0);
+    let noisy = |p: usize| centre_of[p] && a.variance[p].iter().any(|&v| v > 0.0);
     let (mut sx, mut sy, mut n) = (0.0, 0.0, 0.0);
     for p in (0..w * h).filter(|&p| noisy(p)) {
         sx += (p % w) as f64;
@@ -601,12 +620,17 @@ pub const REGION_CONTROL: &str = "5 % of the pixels +2 %";
 /// channel)), applied to the pixels with noise (a noise-free pixel would be
 /// caught by its exact comparison, which says nothing of the statistics).
 pub fn controls(a: &Replicas) -> Vec<(&'static str, Factor)> {
+    controls_in(a, defect_region(a))
+}
+
+/// [`controls`] with the region control's block `region`.
+pub fn controls_in(a: &Replicas, region: Vec<bool>) -> Vec<(&'static str, Factor)> {
     let noisy: Vec<bool> = a
         .variance
         .iter()
         .map(|v| v.iter().any(|&v| v > 0.0))
         .collect();
-    let region: Vec<bool> = defect_region(a)
+    let region: Vec<bool> = region
         .into_iter()
         .zip(&noisy)
         .map(|(r, &n)| r && n)
@@ -631,7 +655,18 @@ pub fn controls(a: &Replicas) -> Vec<(&'static str, Factor)> {
 /// Asserts that the comparison of `a` with `b` rejects each control defect
 /// put into `a`, and prints by which criterion and how far.
 pub fn assert_controls(a: &Replicas, b: &Replicas, weights: &Weights, what: &str) {
-    for (name, factor) in controls(a) {
+    assert_controls_in(a, b, weights, what, defect_region(a));
+}
+
+/// [`assert_controls`] with the region control's block `region`.
+pub fn assert_controls_in(
+    a: &Replicas,
+    b: &Replicas,
+    weights: &Weights,
+    what: &str,
+    region: Vec<bool>,
+) {
+    for (name, factor) in controls_in(a, region) {
         let c = compare(&a.biased(factor), b, weights);
         println!("  control {name}: {}", c.summary());
         assert!(

@@ -103,11 +103,14 @@
 //! `lamp-emitter`, `tail-lamp`, `mirror-glass`, `door-handle`, `interior`, `seat`,
 //! `mirror-housing`. Only `body` matches
 //! the loader's paint-name hints, so the heuristic picks it when the GLB is loaded.
-//! The materials are base colour, roughness and metallic; glass and lenses are meant
-//! to transmit and the lamp emitter to emit once the scene materials carry those.
+//! The materials are base colour, roughness and metallic; the glass and the lamp
+//! lenses are thin-walled panes (`KHR_materials_transmission`, index 1.52), the
+//! windows tinted slightly green-grey and the tail lamps red by their base colour,
+//! and the lamp emitter emits.
 
 use palette::LinSrgb;
 
+use super::transparency::Transparency;
 use super::{Scene, SceneMaterial, TriangleMesh};
 use crate::parameter::{Bounds, Parameter};
 use crate::units::Unit;
@@ -405,15 +408,18 @@ pub fn generate(parameters: &CarParameters) -> Scene {
     let grey = |v: f32| LinSrgb::new(v, v, v);
     let mut materials = vec![
         material("body", LinSrgb::new(0.55, 0.04, 0.03), 0.05, 0.0),
-        material("glass", LinSrgb::new(0.01, 0.012, 0.015), 0.02, 0.0),
+        glass("glass", LinSrgb::new(0.72, 0.78, 0.76)),
         material("tyre", grey(0.025), 0.85, 0.0),
         material("rim", LinSrgb::new(0.91, 0.92, 0.92), 0.22, 1.0),
         material("trim", grey(0.015), 0.45, 0.0),
         material("panel-gap", grey(0.004), 0.9, 0.0),
-        material("headlamp-lens", LinSrgb::new(0.8, 0.81, 0.83), 0.02, 0.0),
+        glass("headlamp-lens", LinSrgb::new(0.97, 0.97, 0.97)),
         material("lamp-reflector", LinSrgb::new(0.9, 0.9, 0.91), 0.08, 1.0),
-        material("lamp-emitter", grey(0.95), 0.3, 0.0),
-        material("tail-lamp", LinSrgb::new(0.12, 0.002, 0.002), 0.02, 0.0),
+        SceneMaterial {
+            emissive: LinSrgb::new(LAMP_RADIANCE, LAMP_RADIANCE, 0.95 * LAMP_RADIANCE),
+            ..material("lamp-emitter", grey(0.95), 0.3, 0.0)
+        },
+        glass("tail-lamp", LinSrgb::new(0.75, 0.015, 0.01)),
         material("mirror-glass", grey(0.9), 0.02, 1.0),
         material("door-handle", LinSrgb::new(0.85, 0.85, 0.86), 0.1, 1.0),
         material("interior", grey(0.03), 0.7, 0.0),
@@ -429,6 +435,23 @@ pub fn generate(parameters: &CarParameters) -> Scene {
         paint_materials: vec![BODY],
         warnings,
         ..Scene::default()
+    }
+}
+
+/// Index of refraction of the car's glass and lamp lenses (soda-lime glass and
+/// polycarbonate lie between 1.50 and 1.59).
+const GLASS_IOR: f32 = 1.52;
+
+/// Radiance of the headlamps' light strips, in units of a white sky of radiance 1
+/// (bright enough to read as lit against the studio's reflections).
+const LAMP_RADIANCE: f32 = 6.0;
+
+/// A thin-walled pane whose transmission `tint` colours (glTF's base colour of a
+/// transmitting material): the windows, the lamp lenses.
+fn glass(name: &str, tint: LinSrgb<f32>) -> SceneMaterial {
+    SceneMaterial {
+        transparency: Transparency::thin_glass(GLASS_IOR),
+        ..material(name, tint, 0.0, 0.0)
     }
 }
 
