@@ -17,12 +17,13 @@ use coatlab_core::scene::Scene;
 #[path = "support/image_stats.rs"]
 mod image_stats;
 use image_stats::{
-    Image, Replicas, Weights, assert_agree_with_controls, compare, film_image, reshaded_image, seed,
+    Image, Replicas, Weights, assert_agree_with_controls_in, compare, film_image, reshaded_image,
+    seed,
 };
 
 #[path = "support/car_render.rs"]
 mod car_render;
-use car_render::{HEIGHT, REPLICAS, WIDTH, red};
+use car_render::{HEIGHT, REPLICAS, WIDTH, paint_region, red};
 
 const PHONG: ShadingModel = ShadingModel::Phong(PhongVariant::BestFit);
 
@@ -96,7 +97,7 @@ fn the_shared_second_pane_matches_an_independent_render_of_its_model() {
                 .expect("re-shade while recording"),
         )
     });
-    assert_agree_with_controls(&all, &fresh, &weights, "all recorded");
+    assert_agree_with_controls_in(&all, &fresh, &weights, "all recorded", paint_region(&all));
     // The cache stopped at 32 of 96 samples: Î_A + mean over 32 of (c_B − c_A).
     // Its noise includes the difference term's over the recorded samples: with
     // 16 recorded the 5 % region control was rejected by ×1.2 to ×1.7 of its
@@ -116,7 +117,13 @@ fn the_shared_second_pane_matches_an_independent_render_of_its_model() {
         last = Some((capped, scene));
         reshaded_image(&shared)
     });
-    assert_agree_with_controls(&capped, &fresh, &weights, "32 of 96 recorded");
+    assert_agree_with_controls_in(
+        &capped,
+        &fresh,
+        &weights,
+        "32 of 96 recorded",
+        paint_region(&capped),
+    );
     // Negative control: the paint pane itself does not pass for Phong.
     let paint = Replicas::from_images(WIDTH, HEIGHT, &paint);
     let c = compare(&paint, &fresh, &weights);
@@ -166,12 +173,19 @@ fn each_combined_pane_is_an_unbiased_image_of_its_own_model() {
     });
     let first = Replicas::from_images(WIDTH, HEIGHT, &first);
     let fresh = |which| car_render::fresh(&red(), which, seed(99), 128);
-    assert_agree_with_controls(&second, &fresh(PHONG), &weights, "combined Phong pane");
-    assert_agree_with_controls(
+    assert_agree_with_controls_in(
+        &second,
+        &fresh(PHONG),
+        &weights,
+        "combined Phong pane",
+        paint_region(&second),
+    );
+    assert_agree_with_controls_in(
         &first,
         &fresh(ShadingModel::Paint),
         &weights,
         "combined paint pane",
+        paint_region(&first),
     );
     let early = own_weights.iter().sum::<f64>() / own_weights.len() as f64;
     let [_, (_, late)] = panes(0, 256);

@@ -16,7 +16,7 @@ use coatlab_core::render::environment::Environment;
 use coatlab_core::render::film::Film;
 use coatlab_core::render::integrator::IntegratorSettings;
 use coatlab_core::render::material::ShadingModel;
-use coatlab_core::render::progressive::RenderSettings;
+use coatlab_core::render::progressive::{RenderScene, RenderSettings};
 use coatlab_core::scene::car::{CarParameters, generate};
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
 
@@ -26,7 +26,14 @@ use sphere::{sphere, sphere_camera, sphere_hit};
 
 #[path = "support/image_stats.rs"]
 mod image_stats;
-use image_stats::{Image, Replicas, Weights, assert_agree_with_controls, film_image, seed};
+use image_stats::{
+    Image, Replicas, Weights, assert_agree_with_controls, assert_agree_with_controls_in,
+    film_image, seed,
+};
+
+#[path = "support/car_render.rs"]
+mod car_render;
+use car_render::{paint_region, pixels_showing};
 
 #[path = "support/render_reference.rs"]
 mod render_reference;
@@ -206,7 +213,7 @@ fn grey_car_in_the_studio() -> impl Fn(u64, u32) -> Film {
 fn grey_car_in_the_studio_with() -> impl Fn(IntegratorSettings, u64, u32) -> Film {
     let grid = WavelengthGrid::visible(8).expect("grid");
     let model = grey_model(grid, GlossExponent::Finite(300.0));
-    let scene = generate(&CarParameters::default());
+    let scene = car_render::car_with_lamps_off();
     let (w, h) = GREY_CAR_SIZE;
     let camera = Camera::framing(scene.mesh.bounds().expect("bounds"), w, h);
     move |integrator, seed, spp| {
@@ -229,9 +236,18 @@ fn grey_car_in_the_studio_with() -> impl Fn(IntegratorSettings, u64, u32) -> Fil
 /// `k` renders of the grey car with `integrator`, seeds `first_seed` + i, at
 /// the samples of [`GREY_CAR_REPLICAS`].
 fn grey_car_replicas(integrator: IntegratorSettings, first_seed: u64, k: usize) -> Replicas {
+    grey_car_replicas_at(integrator, first_seed, k, GREY_CAR_REPLICAS.1)
+}
+
+/// [`grey_car_replicas`] at `spp` samples each.
+fn grey_car_replicas_at(
+    integrator: IntegratorSettings,
+    first_seed: u64,
+    k: usize,
+    spp: u32,
+) -> Replicas {
     let film = grey_car_in_the_studio_with();
     let (w, h) = GREY_CAR_SIZE;
-    let (_, spp) = GREY_CAR_REPLICAS;
     Replicas::collect(w, h, k, |i| {
         film_image(&film(integrator, seed(first_seed + i as u64), spp))
     })
@@ -242,8 +258,8 @@ fn grey_car_replicas(integrator: IntegratorSettings, first_seed: u64, k: usize) 
 fn grey_car_pilot(integrator: IntegratorSettings) -> Replicas {
     let film = grey_car_in_the_studio_with();
     let (w, h) = GREY_CAR_SIZE;
-    Replicas::collect(w, h, 4, |i| {
-        film_image(&film(integrator, seed(90_000 + i as u64), 16))
+    Replicas::collect(w, h, 8, |i| {
+        film_image(&film(integrator, seed(90_000 + i as u64), 32))
     })
 }
 
@@ -252,7 +268,7 @@ fn grey_car_pilot(integrator: IntegratorSettings) -> Replicas {
 /// vertex) estimates the same image as the plain one (light samples over the
 /// sphere with MIS everywhere, one per vertex): the grey car in the studio, floor
 /// in view, X, Y and Z, every control rejected; and the variance of its image
-/// (over replicas) is the lower.
+/// (over replicas) on the floor is below 0.8 of the plain one's.
 #[test]
 fn the_cheaper_estimator_agrees_with_the_plain_one() {
     let plain_settings = IntegratorSettings {
@@ -261,31 +277,53 @@ fn the_cheaper_estimator_agrees_with_the_plain_one() {
         ..IntegratorSettings::default()
     };
     let k = GREY_CAR_REPLICAS.0;
-    let cheaper = grey_car_replicas(IntegratorSettings::default(), 300, k);
+    // Twice the samples of the other comparisons: the paint beside the
+    // headlamps and the interior behind the glass are noisy enough that at 64
+    // a 2 % bias on 5 % of the paint went unseen at one of three seed sets.
+    let spp = 2 * GREY_CAR_REPLICAS.1;
+    let cheaper = grey_car_replicas_at(IntegratorSettings::default(), 300, k, spp);
     // The plain estimator is the noisier, most on the floor: three times the
     // replicas, and weights from both.
-    let plain = grey_car_replicas(plain_settings, 400, 3 * k);
+    let plain = grey_car_replicas_at(plain_settings, 400, 3 * k, spp);
     let weights = Weights::from_pilots(&[
         &grey_car_pilot(IntegratorSettings::default()),
         &grey_car_pilot(plain_settings),
     ]);
-    assert_agree_with_controls(&cheaper, &plain, &weights, "cheaper vs plain");
-    // The variance of one render's image: the replicas' over their count.
-    let one = |r: &Replicas| r.total_variance()[1] * r.count;
-    let ratio = one(&cheaper) / one(&plain);
-    println!("cheaper vs plain: variance of the image's Y ×{ratio:.2}");
-    assert!(ratio < 0.8, "variance ×{ratio:.2} of the plain estimator's");
+    let region = paint_region(&cheaper);
+    assert_agree_with_controls_in(&cheaper, &plain, &weights, "cheaper vs plain", region);
+    // The variance of one render's image over some pixels: the replicas' over
+    // their count. On the floor, where the cheaper estimator takes its direct
+    // light from light samples alone, it is the lower; on the car the variance
+    // is mostly paths through the glass and past the headlamps' reflectors,
+    // which both estimators trace alike, so there it is printed, not asserted.
+    let scene = RenderScene::new(car_render::car_with_lamps_off()).expect("scene");
+    let (w, h) = GREY_CAR_SIZE;
+    let car = pixels_showing(&scene, &Camera::framing(scene.bounds(), w, h), |_| true);
+    let one = |r: &Replicas, on_car: bool| {
+        let pixels = r.variance.iter().zip(&car).filter(|(_, c)| **c == on_car);
+        pixels.map(|(v, _)| v[1]).sum::<f64>() * r.count
+    };
+    let floor = one(&cheaper, false) / one(&plain, false);
+    let body = one(&cheaper, true) / one(&plain, true);
+    println!("cheaper vs plain: variance of Y ×{floor:.2} on the floor, ×{body:.2} on the car");
+    assert!(
+        floor < 0.8,
+        "variance ×{floor:.2} of the plain estimator's on the floor"
+    );
 }
 
 /// Two sets of seeds estimate the same image: X, Y and Z within their noise,
 /// every control rejected.
 #[test]
 fn two_seeds_agree_within_their_noise() {
-    let k = GREY_CAR_REPLICAS.0;
+    // Three times the replicas of the other comparisons: the paint beside the
+    // headlamps and the interior behind the glass are noisy enough that with 8
+    // a side a 2 % bias on 5 % of the paint went unseen (×0.82 of the limit).
+    let k = 3 * GREY_CAR_REPLICAS.0;
     let a = grey_car_replicas(IntegratorSettings::default(), 100, k);
     let b = grey_car_replicas(IntegratorSettings::default(), 200, k);
     let weights = Weights::from_pilot(&grey_car_pilot(IntegratorSettings::default()));
-    assert_agree_with_controls(&a, &b, &weights, "two seeds");
+    assert_agree_with_controls_in(&a, &b, &weights, "two seeds", paint_region(&a));
 }
 
 /// Renders against the stored converged reference (per pixel the mean X, Y and Z

@@ -247,14 +247,22 @@ pub struct PathStats {
     pub rays: u32,
 }
 
+/// A direction leaving a vertex, as the BSDF sees it (its local frame) and as
+/// the environment is looked up (world space).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VertexDirection {
+    /// Unit direction, the vertex's local frame (z along the shading normal).
+    pub local: [f32; 3],
+    /// The same direction in world space.
+    pub world: [f32; 3],
+}
+
 /// The light sample at a vertex that reached the light (unoccluded, non-zero
 /// weight): enough to re-evaluate its contribution with another BSDF.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LightRecord {
-    /// Direction toward the light, local frame.
-    pub wi: [f32; 3],
-    /// The same direction in world space (to look up the environment again).
-    pub dir: [f32; 3],
+    /// Direction toward the light.
+    pub direction: VertexDirection,
     /// Density of the light sample.
     pub light_pdf: f32,
     /// Density with which the BSDF in use would have sampled it (for MIS).
@@ -264,10 +272,8 @@ pub struct LightRecord {
 /// The BSDF sample that continued the path from a vertex.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NextRecord {
-    /// Sampled direction, local frame.
-    pub wi: [f32; 3],
-    /// The same direction in world space.
-    pub dir: [f32; 3],
+    /// The sampled direction.
+    pub direction: VertexDirection,
     /// Its density (for a delta: the probability of choosing the delta).
     pub pdf: f32,
     /// Whether it came from a delta (mirror) component.
@@ -814,8 +820,10 @@ impl<'a> PathTracer<'a> {
                 }
                 if let Some(record) = &mut lane.record {
                     record.next = Some(NextRecord {
-                        wi: sample.wi,
-                        dir: next_dir,
+                        direction: VertexDirection {
+                            local: sample.wi,
+                            world: next_dir,
+                        },
                         pdf: sample.pdf,
                         delta: sample.delta,
                         survive,
@@ -1158,8 +1166,10 @@ impl<'a> PathTracer<'a> {
             t_max: f32::INFINITY,
         });
         Some(LightRecord {
-            wi,
-            dir: light_sample.dir,
+            direction: VertexDirection {
+                local: wi,
+                world: light_sample.dir,
+            },
             light_pdf: light_sample.pdf,
             bsdf_pdf,
         })

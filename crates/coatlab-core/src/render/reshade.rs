@@ -510,8 +510,9 @@ impl<'a> TileRecorder<'a> {
         let light = &mut self.buffers.light;
         match first.light {
             Some(l) => {
-                environment.radiance(l.dir, light);
-                let scale = l.wi[2] * power_heuristic(l.light_pdf, l.bsdf_pdf) / l.light_pdf;
+                environment.radiance(l.direction.world, light);
+                let scale =
+                    l.direction.local[2] * power_heuristic(l.light_pdf, l.bsdf_pdf) / l.light_pdf;
                 light.iter_mut().for_each(|v| *v *= scale);
                 for factor in [before, transmitted].into_iter().flatten() {
                     light.iter_mut().zip(factor).for_each(|(v, f)| *v *= f);
@@ -549,8 +550,10 @@ impl<'a> TileRecorder<'a> {
             sample,
             spectra: offset as u32,
             wo: first.wo,
-            light_wi: first.light.map(|l| l.wi),
-            next: first.next.map(|n| (n.wi, n.pdf, n.delta, n.survive)),
+            light_wi: first.light.map(|l| l.direction.local),
+            next: first
+                .next
+                .map(|n| (n.direction.local, n.pdf, n.delta, n.survive)),
             xyz,
         });
     }
@@ -1251,12 +1254,13 @@ fn replay_path(
             (Surface::Floor, None) => return Ok(()),
         };
         if let Some(l) = vertex.light {
-            material.eval(l.wi, vertex.wo, f);
-            environment.radiance(l.dir, light);
+            material.eval(l.direction.local, vertex.wo, f);
+            environment.radiance(l.direction.world, light);
             if let Some(transmitted) = transmitted {
                 light.iter_mut().zip(transmitted).for_each(|(v, t)| *v *= t);
             }
-            let scale = l.wi[2] * power_heuristic(l.light_pdf, l.bsdf_pdf) / l.light_pdf;
+            let scale =
+                l.direction.local[2] * power_heuristic(l.light_pdf, l.bsdf_pdf) / l.light_pdf;
             for (((o, t), fv), lv) in out.iter_mut().zip(&*throughput).zip(&*f).zip(&*light) {
                 *o += t * fv * lv * scale;
             }
@@ -1273,8 +1277,8 @@ fn replay_path(
                 *t *= fv * scale;
             }
         } else {
-            material.eval(next.wi, vertex.wo, f);
-            let scale = next.wi[2] / (next.pdf * next.survive);
+            material.eval(next.direction.local, vertex.wo, f);
+            let scale = next.direction.local[2] / (next.pdf * next.survive);
             for (t, fv) in throughput.iter_mut().zip(&*f) {
                 *t *= fv * scale;
             }
@@ -1288,7 +1292,7 @@ fn replay_path(
             *o += t * s;
         }
     } else if let Some(next) = path.vertices.last().map_or(path.previous, |v| v.next) {
-        environment.radiance(next.dir, light);
+        environment.radiance(next.direction.world, light);
         let mis = escape_weight(environment, &next);
         for ((o, t), lv) in out.iter_mut().zip(&*throughput).zip(&*light) {
             *o += t * lv * mis;
@@ -1307,6 +1311,6 @@ fn escape_weight(environment: &Environment, next: &NextRecord) -> f32 {
     } else if next.light_only {
         0.0
     } else {
-        power_heuristic(next.pdf, environment.pdf(next.dir))
+        power_heuristic(next.pdf, environment.pdf(next.direction.world))
     }
 }
