@@ -1,12 +1,13 @@
 #!/usr/bin/env python3
 """Checks `coatlab export` files with readers that share no code with Coatlab.
 
-    python3 tools/check_exports.py design.cxf design.txt car.glb
+    python3 tools/check_exports.py [--xsd CxF3_Core.xsd] design.cxf design.txt car.glb
 
-- CxF3 (.cxf): Python's ElementTree, asserting the structure of the CxF3 core
-  schema as ISO 17972-1 / X-Rite's CxF3 documentation lay it out (the official
-  XSD, CxF3_Core.xsd, is not bundled here, so this is a structural check, not a
-  schema validation): root cc:CxF with FileInformation (Creator, an xs:dateTime
+- CxF3 (.cxf): with `--xsd CxF3_Core.xsd`, a validation against X-Rite's
+  official CxF3 core schema by the `xmlschema` package (pip install xmlschema;
+  the schema is not bundled: its licence asks that it travel unmodified with
+  its licence PDF; X-Rite's file is mirrored in github.com/colour-science/colour-cxf).
+  Always, Python's ElementTree asserting what the schema cannot say: root cc:CxF with FileInformation (Creator, an xs:dateTime
   CreationDate), Resources (ObjectCollection, ColorSpecificationCollection) and an
   optional CustomResources holding only elements of other namespaces; every
   Object with ObjectType, Name and a unique Id; every colour value naming a
@@ -39,7 +40,12 @@ def local(tag):
     return tag.split("}", 1)[-1]
 
 
+SCHEMA = None
+
+
 def check_cxf(path):
+    if SCHEMA is not None:
+        SCHEMA.validate(path)
     root = ET.parse(path).getroot()
     assert root.tag == CC + "CxF", root.tag
     children = [c.tag for c in root]
@@ -95,7 +101,8 @@ def check_cxf(path):
         for c in custom:
             assert not c.tag.startswith(CC), f"CustomResources holds a core element {c.tag}"
     assert values > 0, "no spectra"
-    return f"{len(ids)} object(s), {values} spectra, {len(specs)} specifications"
+    valid = "valid against the CxF3 schema, " if SCHEMA is not None else ""
+    return f"{valid}{len(ids)} object(s), {values} spectra, {len(specs)} specifications"
 
 
 def check_cgats(path):
@@ -153,6 +160,12 @@ def check_glb(path):
 
 
 def main(paths):
+    global SCHEMA
+    if paths[:1] == ["--xsd"]:
+        import xmlschema
+
+        SCHEMA = xmlschema.XMLSchema(paths[1])
+        paths = paths[2:]
     checks = {"cxf": check_cxf, "glb": check_glb}
     for path in paths:
         check = checks.get(path.rsplit(".", 1)[-1].lower(), check_cgats)
