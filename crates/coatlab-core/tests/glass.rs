@@ -9,7 +9,7 @@ use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::design::presets;
 use coatlab_core::render::environment::Environment;
 use coatlab_core::render::geometry::RenderGeometry;
-use coatlab_core::render::integrator::{IntegratorSettings, PathBuffers, PathTracer};
+use coatlab_core::render::integrator::{IntegratorSettings, NoRecord, PathBuffers, PathTracer};
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::sampler::PixelSampler;
 use coatlab_core::scene::gltf_loader::{LoadOptions, load};
@@ -180,7 +180,15 @@ fn mean_radiance(mesh: TriangleMesh, pane: SceneMaterial, seed: u64, n: u32) -> 
         let dir = [0.1 * (jx - 0.5), 0.1 * (jy - 0.5), -1.0];
         let length = (dir[0] * dir[0] + dir[1] * dir[1] + 1.0f32).sqrt();
         let dir = dir.map(|d| d / length);
-        tracer.radiance([0.0, 1.5, 3.0], dir, &mut sampler, &mut buffers, &mut out);
+        let origin = [0.0, 1.5, 3.0];
+        tracer.radiance(
+            origin,
+            dir,
+            &mut sampler,
+            &mut buffers,
+            &mut out,
+            &mut NoRecord,
+        );
         let value = f64::from(out.iter().sum::<f32>()) / out.len() as f64;
         sum += value;
         sum2 += value * value;

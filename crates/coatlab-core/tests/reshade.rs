@@ -787,26 +787,11 @@ fn glass_scene() -> Scene {
 /// patches a 2 % bias on 5 % of so few pixels would take many times the samples
 /// to see: the sky keeps the controls' power at a few seconds' cost.)
 fn render_glass(model: &PaintModel, seed: u64, spp: u32, cached: u32) -> ProgressiveRender {
-    use coatlab_core::render::camera::Camera;
-    use coatlab_core::render::progressive::RenderScene;
-
     let scene = glass_scene();
-    let render_scene = RenderScene::new(scene.clone()).expect("scene");
-    let camera = Camera::framing(render_scene.bounds(), GLASS_WIDTH, GLASS_HEIGHT);
-    let mut render = ProgressiveRender::new(
-        Arc::new(render_scene),
-        Arc::new(Environment::uniform(&grid())),
-        shading(&scene, model, ShadingModel::Paint),
-        camera,
-        RenderSettings {
-            seed,
-            ..RenderSettings::default()
-        },
-    )
-    .expect("render");
-    render.set_path_cache_samples(cached);
-    render.render_to(spp, 4);
-    render
+    let sky = Environment::uniform(&grid());
+    let framed = car_render::Framed::new(&scene, sky, GLASS_WIDTH, GLASS_HEIGHT);
+    let shading = shading(&scene, model, ShadingModel::Paint);
+    framed.render(shading, RenderSettings::seeded(seed), spp, cached)
 }
 
 /// Re-shading replays paths through glass and alpha: on [`glass_scene`] the

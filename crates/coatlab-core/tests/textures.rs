@@ -11,7 +11,7 @@ use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::design::presets;
 use coatlab_core::render::environment::Environment;
 use coatlab_core::render::geometry::RenderGeometry;
-use coatlab_core::render::integrator::{IntegratorSettings, PathBuffers, PathTracer};
+use coatlab_core::render::integrator::{IntegratorSettings, NoRecord, PathBuffers, PathTracer};
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::sampler::PixelSampler;
 use coatlab_core::render::texturing::{TexturePoint, surface_parameters};
@@ -332,7 +332,8 @@ fn a_textured_part_renders_with_its_texture() {
             let b1 = 0.1 * jy;
             let b0 = u_from + 0.2 * jx;
             let p: [f32; 3] = std::array::from_fn(|k| p0[k] + b0 * e1[k] + b1 * e2[k] + 2.0 * n[k]);
-            tracer.radiance(p, n.map(|x| -x), &mut sampler, &mut buffers, &mut out);
+            let dir = n.map(|x| -x);
+            tracer.radiance(p, dir, &mut sampler, &mut buffers, &mut out, &mut NoRecord);
             let v = f64::from(out.iter().sum::<f32>()) / out.len() as f64;
             sum += v;
             sum2 += v * v;

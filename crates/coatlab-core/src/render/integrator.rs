@@ -411,20 +411,9 @@ impl<'a> PathTracer<'a> {
     /// Spectral radiance arriving at `origin` from direction `-dir` (the camera ray
     /// `origin + t·dir`, `dir` a unit vector), one estimate, written to `out`.
     /// Random numbers come from `sampler` in a fixed order, so the estimate is a
-    /// function of the sampler's key alone.
+    /// function of the sampler's key alone. `recorder` is told every decision
+    /// the path made ([`NoRecord`] for ordinary rendering).
     pub fn radiance(
-        &self,
-        origin: [f32; 3],
-        dir: [f32; 3],
-        sampler: &mut PixelSampler,
-        buffers: &mut PathBuffers,
-        out: &mut [f32],
-    ) -> PathStats {
-        self.radiance_recorded(origin, dir, sampler, buffers, out, &mut NoRecord)
-    }
-
-    /// [`Self::radiance`], telling `recorder` every decision the path made.
-    pub fn radiance_recorded(
         &self,
         origin: [f32; 3],
         dir: [f32; 3],
@@ -443,7 +432,7 @@ impl<'a> PathTracer<'a> {
         )
     }
 
-    /// [`Self::radiance_recorded`] for several paths at once (at most
+    /// [`Self::radiance`] for several paths at once (at most
     /// [`WAVE_PATHS`] for the batches to pay): camera ray `rays[i]` with
     /// `samplers[i]`, its radiance to `out[i·len..(i+1)·len]`, its decisions to
     /// `recorders[i]`. Each path draws the same random numbers, meets the same
@@ -1307,7 +1296,7 @@ mod tests {
         for ((origin, dir), sampler) in &jobs {
             let mut out = vec![0.0; len];
             let mut log = Log::default();
-            let stats = tracer.radiance_recorded(
+            let stats = tracer.radiance(
                 *origin,
                 *dir,
                 &mut sampler.clone(),

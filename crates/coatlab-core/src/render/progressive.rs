@@ -992,7 +992,7 @@ impl TileJob<'_> {
                         Some((recorder, below)) if sample < *below => {
                             rays += self.trace_wave(&mut wave, tile, &mut buffers, &mut radiance);
                             recorder.begin();
-                            let stats = self.tracer.radiance_recorded(
+                            let stats = self.tracer.radiance(
                                 ray.0,
                                 ray.1,
                                 &mut sampler,

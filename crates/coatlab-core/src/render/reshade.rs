@@ -16,7 +16,7 @@
 //! materials are never see-through). So are the weights it takes there (R/P or
 //! T/P of a pane, 1 for a skip or a volume's choice, the Beer–Lambert
 //! absorption) and what a shadow ray lets through on its way to the light. The
-//! recording keeps them as spectral factors ([`SeeThroughFactor`]): per vertex
+//! recording keeps them as spectral factors (`SeeThroughFactor`): per vertex
 //! the product of the weights met on the way to it and its light sample's
 //! transmittance, and, when the path met glass after its last vertex, the whole
 //! escape per unit throughput (the radiance along the direction the glass left
@@ -223,6 +223,33 @@ struct CompactPath {
     xyz: [f32; 3],
 }
 
+/// Runs `$body` on each of a [`TileCache`]'s five stores (vectors of different
+/// element types, so no loop can), with its index in [`TileCache::lengths`].
+macro_rules! each_store {
+    ($cache:expr, |$store:ident, $i:pat_param| $body:expr) => {{
+        {
+            let ($store, $i) = (&mut $cache.paths, 0);
+            $body;
+        }
+        {
+            let ($store, $i) = (&mut $cache.vertices, 1);
+            $body;
+        }
+        {
+            let ($store, $i) = (&mut $cache.compact, 2);
+            $body;
+        }
+        {
+            let ($store, $i) = (&mut $cache.spectra, 3);
+            $body;
+        }
+        {
+            let ($store, $i) = (&mut $cache.factors, 4);
+            $body;
+        }
+    }};
+}
+
 impl TileCache {
     pub(crate) fn new(origin: [u32; 2], width: u32, height: u32) -> Self {
         Self {
@@ -260,11 +287,7 @@ impl TileCache {
     }
 
     pub(crate) fn clear(&mut self) {
-        self.paths.clear();
-        self.vertices.clear();
-        self.compact.clear();
-        self.spectra.clear();
-        self.factors.clear();
+        each_store!(self, |store, _| store.clear());
         self.overflowed = false;
         self.samples = 0;
         self.pass_start = None;
@@ -289,21 +312,13 @@ impl TileCache {
         {
             self.samples = samples;
         }
-        self.paths.truncate(lengths[0]);
-        self.vertices.truncate(lengths[1]);
-        self.compact.truncate(lengths[2]);
-        self.spectra.truncate(lengths[3]);
-        self.factors.truncate(lengths[4]);
+        each_store!(self, |store, i| store.truncate(lengths[i]));
     }
 
     /// Rolls back to `lengths` after an overflow and gives the memory back.
     pub(crate) fn roll_back(&mut self, lengths: [usize; 5]) {
         self.truncate(lengths);
-        self.paths.shrink_to_fit();
-        self.vertices.shrink_to_fit();
-        self.compact.shrink_to_fit();
-        self.spectra.shrink_to_fit();
-        self.factors.shrink_to_fit();
+        each_store!(self, |store, _| store.shrink_to_fit());
         self.overflowed = false;
     }
 

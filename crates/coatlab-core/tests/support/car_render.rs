@@ -79,27 +79,62 @@ pub fn render_with(
     integrator: IntegratorSettings,
 ) -> (ProgressiveRender, Scene) {
     let scene = car_with_lamps_off();
-    let render_scene = RenderScene::new(scene.clone()).expect("scene");
     // The scene-box framing these comparisons' statistical controls were sized
     // on: with the car's framing (`default_camera`) the re-shade test's control of
     // a 2 % defect on 5 % of the pixels went undetected. Both images of a
     // comparison share the camera, so which view it is is not what is tested.
-    let camera = Camera::framing(render_scene.bounds(), WIDTH, HEIGHT);
-    let mut render = ProgressiveRender::new(
-        Arc::new(render_scene),
-        Arc::new(Environment::studio(&grid())),
-        shading(&scene, model, which),
-        camera,
-        RenderSettings {
-            seed,
-            integrator,
-            ..RenderSettings::default()
-        },
-    )
-    .expect("render");
-    render.set_path_cache_samples(cached);
-    render.render_to(spp, 4);
+    let framed = Framed::new(&scene, Environment::studio(&grid()), WIDTH, HEIGHT);
+    let settings = RenderSettings {
+        integrator,
+        ..RenderSettings::seeded(seed)
+    };
+    let render = framed.render(shading(&scene, model, which), settings, spp, cached);
     (render, scene)
+}
+
+/// A scene under an environment, seen by a camera that frames the scene's
+/// bounds at `width` × `height`.
+pub struct Framed<'a> {
+    scene: &'a Scene,
+    environment: Environment,
+    width: u32,
+    height: u32,
+}
+
+impl<'a> Framed<'a> {
+    pub fn new(scene: &'a Scene, environment: Environment, width: u32, height: u32) -> Self {
+        Self {
+            scene,
+            environment,
+            width,
+            height,
+        }
+    }
+
+    /// A render with `shading` and `settings`, `spp` samples, the first
+    /// `cached` of them recorded.
+    pub fn render(
+        self,
+        shading: Arc<Shading>,
+        settings: RenderSettings,
+        spp: u32,
+        cached: u32,
+    ) -> ProgressiveRender {
+        let render_scene = RenderScene::new(self.scene.clone()).expect("scene");
+        let camera = Camera::framing(render_scene.bounds(), self.width, self.height);
+        let environment = Arc::new(self.environment);
+        let mut render = ProgressiveRender::new(
+            Arc::new(render_scene),
+            environment,
+            shading,
+            camera,
+            settings,
+        )
+        .expect("render");
+        render.set_path_cache_samples(cached);
+        render.render_to(spp, 4);
+        render
+    }
 }
 
 /// Independent replicas an image is estimated from (see `image_stats.rs`).
