@@ -149,8 +149,10 @@ pub fn write_cxf(header: &CxfHeader<'_>, samples: &[Sample]) -> Result<String, R
         if let Some(colour) = s.colour
             && let StatedValue::Lab(lab) = colour.value
         {
-            if !(lab.l >= 0.0) {
-                return Err(unwritable("a CIELAB L* below 0, which CxF3 refuses"));
+            if lab.l.is_nan() || lab.l < 0.0 {
+                return Err(unwritable(
+                    "a CIELAB L* below 0 or not a number, which CxF3 refuses",
+                ));
             }
             let _ = write!(
                 values,
