@@ -3,17 +3,20 @@
 
     python3 tools/check_exports.py [--xsd CxF3_Core.xsd] design.cxf design.txt car.glb
 
-- CxF3 (.cxf): with `--xsd CxF3_Core.xsd`, a validation against X-Rite's
-  official CxF3 core schema by the `xmlschema` package (pip install xmlschema;
-  the schema is not bundled: its licence asks that it travel unmodified with
-  its licence PDF; X-Rite's file is mirrored in github.com/colour-science/colour-cxf).
-  Always, Python's ElementTree asserting what the schema cannot say: root cc:CxF with FileInformation (Creator, an xs:dateTime
+- CxF3 (.cxf): with `--xsd vendor/cxf3/CxF3_Core.xsd`, a validation against
+  X-Rite's official CxF3 core schema 3.0.018 (vendored unmodified with its
+  licence, vendor/cxf3/README.md) by the `xmlschema` package (pip install
+  xmlschema, or Debian's python3-xmlschema); CI runs it on every preset's
+  export (.ci/check-cxf).
+  Always, Python's ElementTree asserting what Coatlab's exports hold beyond what
+  the schema requires: root cc:CxF with FileInformation (Creator, an xs:dateTime
   CreationDate), Resources (ObjectCollection, ColorSpecificationCollection) and an
   optional CustomResources holding only elements of other namespaces; every
   Object with ObjectType, Name and a unique Id; every colour value naming a
   ColorSpecification that exists; every specification with TristimulusSpec
   (Illuminant, Observer, Method) and MeasurementSpec (MeasurementType, one
-  GeometryChoice, a WavelengthRange); spectra within the CIE range.
+  GeometryChoice, a WavelengthRange); spectra within the CIE range; every gloss
+  reading's Method naming its angle (`specular gloss 60°`).
 - CGATS.17 (.txt): a plain tokeniser of the ANSI CGATS.17 layout: keyword
   header, NUMBER_OF_FIELDS equal to the fields declared, NUMBER_OF_SETS equal to
   the rows, every row with that many values.
@@ -93,9 +96,10 @@ def check_cxf(path):
             elif name == "ColorCIELab":
                 for ch in ("L", "A", "B"):
                     float(value.findtext(CC + ch))
-            elif name == "Gloss":
-                float(value.get("Angle"))
-                float(value.text)
+        for gloss in obj.iter(CC + "Gloss"):
+            method = gloss.get("Method") or ""
+            assert re.fullmatch(r"specular gloss \d+(\.\d+)?°", method), f"gloss Method {method!r}"
+            float(gloss.text)
     custom = root.find(CC + "CustomResources")
     if custom is not None:
         for c in custom:

@@ -138,14 +138,15 @@ def main():
 
 
 CXF_HEAD = '<?xml version="1.0" encoding="UTF-8"?>\n<!-- Synthetic spectra, written by tools/make_measurement_fixtures.py -->\n<cc:CxF xmlns:cc="http://colorexchangeformat.com/CxF3-core">\n'
+CREATED = "2026-01-01T12:00:00Z"
 
 
-def spec_xml(id_, geometry_xml, start=400, step=10, illuminant="D65", observer="10_Degree"):
+def spec_xml(id_, geometry_xml, start=400, step=10, illuminant="D65", observer="10_Degree", method="E308_Table6"):
     return f"""      <cc:ColorSpecification Id="{id_}">
         <cc:TristimulusSpec>
           <cc:Illuminant>{illuminant}</cc:Illuminant>
           <cc:Observer>{observer}</cc:Observer>
-          <cc:Method>E308</cc:Method>
+          <cc:Method>{method}</cc:Method>
         </cc:TristimulusSpec>
         <cc:MeasurementSpec>
           <cc:MeasurementType>Spectrum_Reflectance</cc:MeasurementType>
@@ -164,47 +165,69 @@ def cxf(objects, specs):
             + "    </cc:ColorSpecificationCollection>\n  </cc:Resources>\n</cc:CxF>\n")
 
 
+def brdf(a, indent=14):
+    pad = " " * indent
+    return (f'{pad}<cc:BRDFAngle Notation="45as{a}">\n{pad}  <cc:IlluminationAngle>45</cc:IlluminationAngle>\n'
+            f"{pad}  <cc:Aspecular>{a}</cc:Aspecular>\n{pad}</cc:BRDFAngle>")
+
+
+def spectrum(sid, numbers, name=None):
+    named = f' Name="{name}"' if name else ""
+    return (f'          <cc:ReflectanceSpectrum ColorSpecification="{sid}"{named}>'
+            + " ".join(numbers) + "</cc:ReflectanceSpectrum>\n")
+
+
+LAB_45 = ('          <cc:ColorCIELab ColorSpecification="CS_45as45"><cc:L>40.0</cc:L>'
+          "<cc:A>50.0</cc:A><cc:B>30.0</cc:B></cc:ColorCIELab>\n")
+
+
 def write_cxf():
+    """The instrument-like files follow X-Rite's CxF3 core schema (they validate
+    against vendor/cxf3/CxF3_Core.xsd); earlier_layout.cxf holds the same readings
+    in the layout Coatlab's exports wrote before they followed it; the bad_ files
+    are broken on purpose."""
     w = grid(400, 700, 10)
-    # Multi-angle: one ColorSpecification per angle (MultiAngle with child elements
-    # for most, BRDFAngle with attributes for 110°), Lab beside, gloss.
+    w5 = grid(360, 780, 5)
+    sphere_factors = [("CS_SCI", 1.0), ("CS_SCE", 0.97), ("CS_45_0", 0.96)]
+
+    # Multi-angle: one ColorSpecification per angle, a MultiAngle of one BRDFAngle,
+    # except 75° and 110°, two BRDFAngles of one specification that each spectrum
+    # picks by its Name; Lab beside the 45° spectrum; gloss in PhysicalAttributes,
+    # the angle in the Method.
     specs = ""
-    for a in ANGLES:
-        if a == 110:
-            g = f'            <cc:BRDFAngle IlluminationAngle="45" Aspecular="{a}"/>'
-        else:
-            g = (f"            <cc:MultiAngle>\n              <cc:IlluminationAngle>45</cc:IlluminationAngle>\n"
-                 f"              <cc:Aspecular>{a}</cc:Aspecular>\n            </cc:MultiAngle>")
-        specs += spec_xml(f"CS_45as{a}", g)
+    for a in ANGLES[:-2]:
+        specs += spec_xml(f"CS_45as{a}", f"            <cc:MultiAngle>\n{brdf(a)}\n            </cc:MultiAngle>")
+    specs += spec_xml("CS_45flop", f"            <cc:MultiAngle>\n{brdf(75)}\n{brdf(110)}\n            </cc:MultiAngle>")
     objects = ""
-    for i, n, c in [("1", "Signal red", red), ("2", "Deep blue", blue)]:
-        objects += f'      <cc:Object ObjectType="Standard" Name="{n}" Id="{i}">\n        <cc:ColorValues>\n'
+    for i, n, c in [("R1", "Signal red", red), ("B2", "Deep blue", blue)]:
+        objects += (f'      <cc:Object ObjectType="Standard" Name="{n}" Id="{i}">\n'
+                    f"        <cc:CreationDate>{CREATED}</cc:CreationDate>\n        <cc:ColorValues>\n")
         for a in ANGLES:
-            objects += (f'          <cc:ReflectanceSpectrum ColorSpecification="CS_45as{a}">'
-                        + " ".join(values(c, w, factor=FLOP[a])) + "</cc:ReflectanceSpectrum>\n")
-        objects += ('          <cc:ColorCIELab ColorSpecification="CS_45as45"><cc:L>40.0</cc:L>'
-                    "<cc:A>50.0</cc:A><cc:B>30.0</cc:B></cc:ColorCIELab>\n")
-        objects += '          <cc:Gloss Angle="20">88.5</cc:Gloss>\n          <cc:Gloss Angle="60">93.0</cc:Gloss>\n'
-        objects += "        </cc:ColorValues>\n      </cc:Object>\n"
+            sid, name = (f"CS_45as{a}", None) if a < 75 else ("CS_45flop", f"45as{a}")
+            objects += spectrum(sid, values(c, w, factor=FLOP[a]), name)
+        objects += LAB_45
+        objects += ("        </cc:ColorValues>\n        <cc:PhysicalAttributes>\n"
+                    '          <cc:Gloss Method="ISO 2813, 20°">88.5</cc:Gloss>\n'
+                    '          <cc:Gloss Method="60">93.0</cc:Gloss>\n'
+                    "        </cc:PhysicalAttributes>\n      </cc:Object>\n")
     write("multi_angle.cxf", cxf(objects, specs))
 
-    # Sphere SCI and SCE (two spellings), 45:0 single angle, 5 nm from 360 nm.
-    w5 = grid(360, 780, 5)
-    specs = spec_xml("CS_SCI", "            <cc:SphereGeometry>\n              <cc:SpecularComponentIncluded>true</cc:SpecularComponentIncluded>\n            </cc:SphereGeometry>", 360, 5)
-    specs += spec_xml("CS_SCE", '            <cc:SphereGeometry SpecularComponent="Excluded"/>', 360, 5)
-    specs += spec_xml("CS_45_0", "            <cc:SingleAngle>\n              <cc:IlluminationAngle>45</cc:IlluminationAngle>\n              <cc:MeasurementAngle>0</cc:MeasurementAngle>\n            </cc:SingleAngle>", 360, 5)
-    objects = '      <cc:Object ObjectType="Standard" Name="Grey panel" Id="G1">\n        <cc:ColorValues>\n'
-    for sid, f in [("CS_SCI", 1.0), ("CS_SCE", 0.97), ("CS_45_0", 0.96)]:
-        objects += (f'          <cc:ReflectanceSpectrum ColorSpecification="{sid}">'
-                    + " ".join(values(grey, w5, factor=f)) + "</cc:ReflectanceSpectrum>\n")
+    # Sphere SCI and SCE, 45:0 single angle, 5 nm from 360 nm.
+    specs = spec_xml("CS_SCI", "            <cc:SphereGeometry>Specular_Included</cc:SphereGeometry>", 360, 5)
+    specs += spec_xml("CS_SCE", "            <cc:SphereGeometry>Specular_Excluded</cc:SphereGeometry>", 360, 5)
+    specs += spec_xml("CS_45_0", "            <cc:SingleAngle>\n              <cc:SingleAngleConfiguration>Annular</cc:SingleAngleConfiguration>\n              <cc:IlluminationAngle>45</cc:IlluminationAngle>\n              <cc:MeasurementAngle>0</cc:MeasurementAngle>\n            </cc:SingleAngle>", 360, 5)
+    objects = (f'      <cc:Object ObjectType="Standard" Name="Grey panel" Id="G1">\n'
+               f"        <cc:CreationDate>{CREATED}</cc:CreationDate>\n        <cc:ColorValues>\n")
+    for sid, f in sphere_factors:
+        objects += spectrum(sid, values(grey, w5, factor=f))
     objects += "        </cc:ColorValues>\n      </cc:Object>\n"
-    write("sphere_and_45_0.cxf", cxf(objects, specs))
+    good = cxf(objects, specs)
+    write("sphere_and_45_0.cxf", good)
 
     # Malformed CxF.
-    good = cxf(objects, specs)
     write("bad_truncated.cxf", good[: len(good) // 2])
     write("bad_geometry.cxf", good.replace(
-        '<cc:SphereGeometry SpecularComponent="Excluded"/>',
+        "<cc:SphereGeometry>Specular_Excluded</cc:SphereGeometry>",
         '<cc:ConeGeometry HalfAngle="5"/>'))
     write("bad_number.cxf", good.replace("0.4200", "0.42.00", 1) if "0.4200" in good
           else good.replace(values(grey, w5)[3], "n/a", 1))
@@ -213,6 +236,35 @@ def write_cxf():
             + ']>\n<cc:CxF xmlns:cc="http://colorexchangeformat.com/CxF3-core"><cc:Resources>'
             '<cc:ObjectCollection><cc:Object Name="&lol9;"/></cc:ObjectCollection></cc:Resources></cc:CxF>\n')
     write("bad_xml_bomb.cxf", bomb)
+
+    # The same readings in Coatlab's earlier layout (not schema-valid): the angles
+    # directly in MultiAngle, or as attributes of a bare BRDFAngle (110°); the sphere
+    # as a SpecularComponentIncluded child or a SpecularComponent attribute; gloss
+    # with an Angle attribute in ColorValues; no CreationDate; Method E308.
+    specs = ""
+    for a in ANGLES:
+        if a == 110:
+            g = f'            <cc:BRDFAngle IlluminationAngle="45" Aspecular="{a}"/>'
+        else:
+            g = (f"            <cc:MultiAngle>\n              <cc:IlluminationAngle>45</cc:IlluminationAngle>\n"
+                 f"              <cc:Aspecular>{a}</cc:Aspecular>\n            </cc:MultiAngle>")
+        specs += spec_xml(f"CS_45as{a}", g, method="E308")
+    specs += spec_xml("CS_SCI", "            <cc:SphereGeometry>\n              <cc:SpecularComponentIncluded>true</cc:SpecularComponentIncluded>\n            </cc:SphereGeometry>", 360, 5, method="E308")
+    specs += spec_xml("CS_SCE", '            <cc:SphereGeometry SpecularComponent="Excluded"/>', 360, 5, method="E308")
+    specs += spec_xml("CS_45_0", "            <cc:SingleAngle>\n              <cc:IlluminationAngle>45</cc:IlluminationAngle>\n              <cc:MeasurementAngle>0</cc:MeasurementAngle>\n            </cc:SingleAngle>", 360, 5, method="E308")
+    objects = ""
+    for i, n, c in [("R1", "Signal red", red), ("B2", "Deep blue", blue)]:
+        objects += f'      <cc:Object ObjectType="Standard" Name="{n}" Id="{i}">\n        <cc:ColorValues>\n'
+        for a in ANGLES:
+            objects += spectrum(f"CS_45as{a}", values(c, w, factor=FLOP[a]))
+        objects += LAB_45
+        objects += '          <cc:Gloss Angle="20">88.5</cc:Gloss>\n          <cc:Gloss Angle="60">93.0</cc:Gloss>\n'
+        objects += "        </cc:ColorValues>\n      </cc:Object>\n"
+    objects += '      <cc:Object ObjectType="Standard" Name="Grey panel" Id="G1">\n        <cc:ColorValues>\n'
+    for sid, f in sphere_factors:
+        objects += spectrum(sid, values(grey, w5, factor=f))
+    objects += "        </cc:ColorValues>\n      </cc:Object>\n"
+    write("earlier_layout.cxf", cxf(objects, specs))
 
 
 if __name__ == "__main__":

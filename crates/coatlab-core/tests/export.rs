@@ -343,3 +343,293 @@ fn the_gltf_export_loads_back_with_the_designs_material() {
         assert!(close(c["delta_e00"].as_f64(), want.delta_e00), "{c}");
     }
 }
+
+// ---------------------------------------------------------------------------------
+// The CxF3 export against X-Rite's CxF3 core schema (vendor/cxf3/CxF3_Core.xsd),
+// read here so that a drift of the writer fails without CI's Python validation
+// (.ci/check-cxf): for every core element the schema declares globally, the order
+// and presence of its children (sequences, choices, nested choices), its
+// attributes (declared, required ones present) and enumerated values.
+
+mod schema {
+    use roxmltree::{Document, Node};
+
+    const XS: &str = "http://www.w3.org/2001/XMLSchema";
+    const CC: &str = "http://colorexchangeformat.com/CxF3-core";
+
+    pub fn text() -> String {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../vendor/cxf3/CxF3_Core.xsd"
+        );
+        std::fs::read_to_string(path).expect("vendor/cxf3/CxF3_Core.xsd")
+    }
+
+    fn xs<'a, 'i>(node: Node<'a, 'i>, tag: &'a str) -> impl Iterator<Item = Node<'a, 'i>> {
+        node.children()
+            .filter(move |n| n.tag_name().namespace() == Some(XS) && n.tag_name().name() == tag)
+    }
+
+    /// The local part of a `cc:Name` reference.
+    fn local(name: &str) -> &str {
+        name.rsplit(':').next().unwrap_or(name)
+    }
+
+    fn global<'a, 'i>(xsd: &'a Document<'i>, tag: &'a str, name: &str) -> Option<Node<'a, 'i>> {
+        xs(xsd.root_element(), tag).find(|n| n.attribute("name") == Some(name))
+    }
+
+    /// The complexType of a global element, inline or named, with the base of a
+    /// complexContent extension followed.
+    fn complex<'a, 'i>(xsd: &'a Document<'i>, element: Node<'a, 'i>) -> Option<Node<'a, 'i>> {
+        let t = match element.attribute("type") {
+            Some(t) => global(xsd, "complexType", local(t))?,
+            None => xs(element, "complexType").next()?,
+        };
+        match xs(t, "complexContent").next() {
+            Some(c) => {
+                let base = xs(c, "extension").next()?.attribute("base")?;
+                global(xsd, "complexType", local(base))
+            }
+            None => Some(t),
+        }
+    }
+
+    /// One place of a sequence: the names that may fill it, whether it must be
+    /// filled, whether it repeats.
+    struct Slot {
+        names: Vec<String>,
+        required: bool,
+        repeats: bool,
+    }
+
+    fn slot(particle: Node) -> Slot {
+        let names = if particle.tag_name().name() == "choice" {
+            xs(particle, "element")
+                .map(|e| name_of(e).to_owned())
+                .collect()
+        } else {
+            vec![name_of(particle).to_owned()]
+        };
+        Slot {
+            names,
+            required: particle.attribute("minOccurs") != Some("0"),
+            repeats: particle.attribute("maxOccurs") == Some("unbounded"),
+        }
+    }
+
+    fn name_of<'a>(e: Node<'a, '_>) -> &'a str {
+        e.attribute("name")
+            .or_else(|| e.attribute("ref").map(local))
+            .unwrap_or_default()
+    }
+
+    /// The names of `children` against a model group: problems, empty when valid.
+    fn check_group(group: Node, children: &[String], at: &str) -> Vec<String> {
+        let repeats = group.attribute("maxOccurs") == Some("unbounded");
+        if group.tag_name().name() == "choice" {
+            let allowed: Vec<&str> = xs(group, "element").map(name_of).collect();
+            let mut problems: Vec<String> = children
+                .iter()
+                .filter(|c| !allowed.contains(&c.as_str()))
+                .map(|c| format!("{at}: <{c}> is not one of {allowed:?}"))
+                .collect();
+            if children.is_empty() && group.attribute("minOccurs") != Some("0") {
+                problems.push(format!("{at}: none of {allowed:?}"));
+            }
+            if children.len() > 1 && !repeats {
+                problems.push(format!("{at}: {children:?}, where one of {allowed:?} goes"));
+            }
+            return problems;
+        }
+        let slots: Vec<Slot> = group
+            .children()
+            .filter(|n| matches!(n.tag_name().name(), "element" | "choice"))
+            .map(slot)
+            .collect();
+        let mut problems = Vec::new();
+        let mut i = 0;
+        // A repeating sequence (MultiAngle's) is matched again while it takes more.
+        for pass in 0.. {
+            let start = i;
+            for s in &slots {
+                let mut filled = 0;
+                while i < children.len()
+                    && s.names.contains(&children[i])
+                    && (s.repeats || filled == 0)
+                {
+                    i += 1;
+                    filled += 1;
+                }
+                if filled == 0 && s.required && pass == 0 {
+                    problems.push(format!(
+                        "{at}: <{}> missing before child {}",
+                        s.names.join("|"),
+                        i + 1
+                    ));
+                }
+            }
+            if !(repeats && i > start && i < children.len()) {
+                break;
+            }
+        }
+        if let Some(extra) = children.get(i) {
+            problems.push(format!(
+                "{at}: child {} <{extra}> out of the schema's order",
+                i + 1
+            ));
+        }
+        problems
+    }
+
+    /// The declaration of a core element: a local one in its parent's type (where
+    /// GeometryChoice's MultiAngle, SphereGeometry, SingleAngle are), else the
+    /// global one.
+    fn declaration<'a, 'i>(xsd: &'a Document<'i>, node: Node) -> Option<Node<'a, 'i>> {
+        let name = node.tag_name().name();
+        let local = node
+            .parent_element()
+            .filter(|p| p.tag_name().namespace() == Some(CC))
+            .and_then(|p| declaration(xsd, p))
+            .and_then(|p| complex(xsd, p))
+            .and_then(|t| {
+                t.descendants().find(|n| {
+                    n.tag_name().namespace() == Some(XS)
+                        && n.tag_name().name() == "element"
+                        && n.attribute("name") == Some(name)
+                })
+            });
+        local.or_else(|| global(xsd, "element", name))
+    }
+
+    /// Every way `document` departs from the schema (as far as this reads it).
+    pub fn problems(xsd: &Document, document: &str) -> Vec<String> {
+        let doc = Document::parse(document).expect("XML");
+        let mut problems = Vec::new();
+        for node in doc.descendants().filter(|n| n.is_element()) {
+            if node.tag_name().namespace() != Some(CC) {
+                continue;
+            }
+            let name = node.tag_name().name();
+            let at = format!("line {} <{name}>", doc.text_pos_at(node.range().start).row);
+            let Some(decl) = declaration(xsd, node) else {
+                continue;
+            };
+            let children: Vec<String> = node
+                .children()
+                .filter(|n| n.is_element())
+                .map(|n| n.tag_name().name().to_owned())
+                .collect();
+            // The enumerated simple type of the element's value, where it has one.
+            let simple = decl.attribute("type").map(local).or_else(|| {
+                let ext = decl
+                    .descendants()
+                    .find(|n| n.tag_name().name() == "extension")?;
+                ext.attribute("base").map(local)
+            });
+            if let Some(t) = simple.and_then(|t| global(xsd, "simpleType", t)) {
+                let allowed: Vec<&str> = t
+                    .descendants()
+                    .filter(|n| n.tag_name().name() == "enumeration")
+                    .filter_map(|n| n.attribute("value"))
+                    .collect();
+                let value = node.text().unwrap_or_default().trim();
+                if !allowed.is_empty() && !allowed.contains(&value) {
+                    problems.push(format!("{at}: {value:?} is not one of {allowed:?}"));
+                }
+            }
+            let Some(complex) = complex(xsd, decl) else {
+                if !children.is_empty() {
+                    problems.push(format!("{at}: a simple value cannot hold {children:?}"));
+                }
+                continue;
+            };
+            if complex
+                .descendants()
+                .all(|n| n.tag_name().name() != "anyAttribute")
+            {
+                let declared: Vec<Node> = complex
+                    .descendants()
+                    .filter(|n| n.tag_name().name() == "attribute")
+                    .collect();
+                for a in node.attributes().filter(|a| a.namespace().is_none()) {
+                    if !declared
+                        .iter()
+                        .any(|d| d.attribute("name") == Some(a.name()))
+                    {
+                        problems.push(format!("{at}: attribute {} is not declared", a.name()));
+                    }
+                }
+                for d in declared
+                    .iter()
+                    .filter(|d| d.attribute("use") == Some("required"))
+                {
+                    let wanted = d.attribute("name").unwrap_or_default();
+                    if node.attribute(wanted).is_none() {
+                        problems.push(format!("{at}: required attribute {wanted} missing"));
+                    }
+                }
+            }
+            // CustomResources: any elements, of other namespaces only.
+            if complex.descendants().any(|n| n.tag_name().name() == "any") {
+                for c in node.children().filter(|n| n.is_element()) {
+                    if c.tag_name().namespace() == Some(CC) {
+                        problems.push(format!(
+                            "{at}: holds the core element <{}>",
+                            c.tag_name().name()
+                        ));
+                    }
+                }
+                continue;
+            }
+            match xs(complex, "sequence").chain(xs(complex, "choice")).next() {
+                Some(group) => problems.extend(check_group(group, &children, &at)),
+                None if !children.is_empty() && xs(complex, "simpleContent").next().is_some() => {
+                    problems.push(format!("{at}: a simple value cannot hold {children:?}"));
+                }
+                None => {}
+            }
+        }
+        problems
+    }
+}
+
+#[test]
+fn the_cxf_export_follows_the_cxf3_core_schema() {
+    let text = schema::text();
+    let xsd = roxmltree::Document::parse(&text).expect("the schema parses");
+    for slug in ["signal-red", "satin-grey"] {
+        let cxf = to_cxf(&design(slug), "2026-12-02T18:00:00Z").expect("CxF");
+        assert_eq!(schema::problems(&xsd, &cxf), Vec::<String>::new(), "{slug}");
+    }
+    // The instrument-like fixtures follow it too; Coatlab's earlier layout does not,
+    // and the check says where (so it can fail).
+    let fixture = |name: &str| {
+        std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("tests/data/measurements")
+                .join(name),
+        )
+        .expect("fixture")
+    };
+    for name in ["multi_angle.cxf", "sphere_and_45_0.cxf"] {
+        assert_eq!(
+            schema::problems(&xsd, &fixture(name)),
+            Vec::<String>::new(),
+            "{name}"
+        );
+    }
+    let earlier = schema::problems(&xsd, &fixture("earlier_layout.cxf")).join("\n");
+    for wanted in [
+        "<Object>: <CreationDate> missing",
+        "<Method>: \"E308\" is not one of",
+        "<MultiAngle>: child 1 <IlluminationAngle> out of the schema's order",
+        "<GeometryChoice>: <BRDFAngle> is not one of",
+        "<SphereGeometry>: a simple value cannot hold",
+        "<SingleAngle>: <SingleAngleConfiguration> missing",
+        "<ColorValues>: <Gloss> is not one of",
+        "<Gloss>: attribute Angle is not declared",
+    ] {
+        assert!(earlier.contains(wanted), "{wanted:?} not in\n{earlier}");
+    }
+}

@@ -243,7 +243,7 @@ fn cxf_multi_angle_sphere_and_45_0_read_like_the_cgats_files() {
         );
     }
     // Lab beside the 45° spectrum, under the specification's D65/10°; the gloss.
-    let red = m.select(Some("1")).expect("by id");
+    let red = m.select(Some("R1")).expect("by id");
     let at_45 = red
         .readings
         .iter()
@@ -269,10 +269,23 @@ fn cxf_multi_angle_sphere_and_45_0_read_like_the_cgats_files() {
 }
 
 #[test]
+fn cxf_in_coatlabs_earlier_layout_reads_like_the_schema_valid_files() {
+    // The same readings as multi_angle.cxf and sphere_and_45_0.cxf, laid out as
+    // Coatlab's exports wrote them before they followed the CxF3 schema.
+    let earlier = read("earlier_layout.cxf");
+    let valid: Vec<Sample> = [read("multi_angle.cxf"), read("sphere_and_45_0.cxf")]
+        .into_iter()
+        .flat_map(|m| m.samples)
+        .collect();
+    assert_eq!(earlier.samples.len(), 15);
+    assert_eq!(earlier.samples, valid);
+}
+
+#[test]
 fn samples_are_chosen_by_name_id_or_number() {
     let m = read("multi_angle.cxf");
     assert_eq!(m.select(Some("Deep blue")).expect("name").name, "Deep blue");
-    assert_eq!(m.select(Some("2")).expect("id").name, "Deep blue");
+    assert_eq!(m.select(Some("B2")).expect("id").name, "Deep blue");
     let red = read("multi_angle_geometry_field.cgats");
     assert_eq!(red.select(Some("2")).expect("number").name, "Deep blue");
     let e = red.select(None).expect_err("two standards");
@@ -345,9 +358,10 @@ fn inconsistent_or_out_of_range_content_is_refused() {
     // fractions over percentages; a wavelength outside the CIE tables; wavelength
     // columns out of order; a negative reflectance; LAB_L without LAB_A; colours
     // under an illuminant Coatlab lacks, with no spectrum; a CxF colour naming a
-    // specification that is not there.
+    // specification that is not there, or one of several BRDFAngles without naming
+    // which; a CxF gloss whose angle is not stated.
     #[rustfmt::skip]
-    let cases: [(&str, Changes, &[&str]); 7] = [
+    let cases: [(&str, Changes, &[&str]); 9] = [
         (&good, &[("CREATED", "REFLECTANCE_SCALE \"FRACTION\"\nCREATED"), ("0.7999", "79.99")], &["the header says fractions"]),
         (&good, &[("SPECTRAL_NM_380", "SPECTRAL_NM_340")], &["SPECTRAL_NM_340", "line 8"]),
         (&good, &[("SPECTRAL_NM_390", "SPECTRAL_NM_370")], &["SPECTRAL_NM_370"]),
@@ -355,6 +369,8 @@ fn inconsistent_or_out_of_range_content_is_refused() {
         (&lab, &[(" LAB_A", " LAB_Q")], &["LAB_A is missing"]),
         (&lab, &[("ILLUMINANT, D50", "ILLUMINANT, C")], &["\"ILLUMINANT, C\"", "line 4"]),
         (&cxf, &[("ColorSpecification=\"CS_45as15\"", "ColorSpecification=\"CS_nope\"")], &["CS_nope"]),
+        (&cxf, &[(" Name=\"45as75\"", "")], &["line 13", "BRDFAngles 45as75, 45as110", "Notation"]),
+        (&cxf, &[("Method=\"60\"", "Method=\"gloss\"")], &["<Gloss>", "\"gloss\""]),
     ];
     for (text, changes, wanted) in cases {
         let mut spoilt = text.to_owned();
@@ -506,11 +522,12 @@ fn a_multi_angle_measurement_round_trips_through_cgats_and_cxf() {
 // Robustness: a file cut anywhere, or with any byte changed, is read or refused,
 // never a panic.
 
-const FIXTURES: [&str; 4] = [
+const FIXTURES: [&str; 5] = [
     "multi_angle_geometry_field.cgats",
     "spectral_percent_5nm_crlf.txt",
     "multi_angle.cxf",
     "sphere_and_45_0.cxf",
+    "earlier_layout.cxf",
 ];
 
 proptest::proptest! {

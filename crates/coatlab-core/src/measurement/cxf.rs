@@ -5,16 +5,22 @@
 //!   (on the element, else the specification's `WavelengthRange`) in steps of
 //!   `Increment` (on the element, else the `WavelengthRange`);
 //! - `ColorCIELab` (`L`, `A`, `B`) and `ColorCIEXYZ` (`X`, `Y`, `Z`);
-//! - `Gloss` elements, the angle in an `Angle` (or `MeasurementAngle`) attribute and
-//!   the gloss units as the text.
+//! - `Gloss` elements (the schema puts them in `PhysicalAttributes`), the gloss units
+//!   as the text and the angle in the `Method` (`specular gloss 60°`, `60 deg`,
+//!   `60`: the number before `°` or `deg`, or the whole text), or in an `Angle` or
+//!   `MeasurementAngle` attribute.
 //!
 //! Each colour names its `ColorSpecification` (by `Id`), which gives the
 //! illuminant and observer (`TristimulusSpec`) and the geometry
-//! (`MeasurementSpec/GeometryChoice`): `SingleAngle` (`IlluminationAngle`,
-//! `MeasurementAngle`), `SphereGeometry` (`SpecularComponentIncluded` true/false, or
-//! `SpecularComponent` Included/Excluded), `MultiAngle` or `BRDFAngle`
-//! (`IlluminationAngle`, `Aspecular`). Angles and flags may be child elements or
-//! attributes. One sample is made per object and geometry.
+//! (`MeasurementSpec/GeometryChoice`), in the schema's layout: `SingleAngle`
+//! (`IlluminationAngle`, `MeasurementAngle`), `SphereGeometry` (`Specular_Included`,
+//! `Specular_Excluded`), `MultiAngle` of `BRDFAngle`s (`IlluminationAngle`,
+//! `Aspecular`; where it lists several, a colour picks one by naming its `Notation`
+//! in its `Name`). Also read, as Coatlab's exports wrote it before they followed the
+//! schema: `SphereGeometry` with a `SpecularComponentIncluded` (true/false) or
+//! `SpecularComponent` (Included/Excluded), `MultiAngle` or a bare `BRDFAngle` with
+//! the angles directly in it, angles and flags as attributes, `Gloss` with an
+//! `Angle` in `ColorValues`. One sample is made per object and geometry.
 //!
 //! Safety: roxmltree resolves no external entity, and DTDs are refused outright
 //! (CxF3 needs none), so no entity can be declared and an entity-expansion bomb
@@ -60,6 +66,16 @@ pub enum CxfProblem {
         "unknown geometry element <{0}>: expected SingleAngle, SphereGeometry, MultiAngle or BRDFAngle"
     )]
     UnknownGeometry(String),
+    #[error(
+        "its ColorSpecification's MultiAngle lists the BRDFAngles {}: the reading's Name must \
+         be the Notation of one", .0.join(", ")
+    )]
+    AmbiguousAngle(Vec<String>),
+    #[error(
+        "the gloss's angle is not stated: expected an Angle attribute or a Method naming it \
+         (\"specular gloss 60°\"), not {0:?}"
+    )]
+    GlossAngle(String),
     #[error(transparent)]
     Reading(#[from] ReadingProblem),
 }
@@ -71,7 +87,9 @@ struct Specification {
     illuminant: Option<Option<Illuminant>>,
     illuminant_text: String,
     observer: Option<Observer>,
-    geometry: Geometry,
+    /// The geometries it applies to, each with its `Notation`: one, or the several
+    /// `BRDFAngle`s of a `MultiAngle`, of which a reading names one.
+    geometries: Vec<(Option<String>, Geometry)>,
     start_nm: Option<f64>,
     increment_nm: Option<f64>,
 }
@@ -178,9 +196,9 @@ fn read_document(doc: &Document) -> Result<Measurement, Located> {
         let observer = tristimulus
             .and_then(|t| value(t, "Observer"))
             .and_then(parse_observer);
-        let geometry = match find(spec, "GeometryChoice") {
-            Some(choice) => geometry_of(choice, &here, &number)?,
-            None => Geometry::Unspecified,
+        let geometries = match find(spec, "GeometryChoice") {
+            Some(choice) => geometries_of(choice, &here, &number)?,
+            None => vec![(None, Geometry::Unspecified)],
         };
         let range = find(spec, "WavelengthRange");
         let start_nm = match range.and_then(|r| value(r, "StartWL")) {
@@ -197,7 +215,7 @@ fn read_document(doc: &Document) -> Result<Measurement, Located> {
                 illuminant,
                 illuminant_text,
                 observer,
-                geometry,
+                geometries,
                 start_nm,
                 increment_nm,
             },
@@ -212,6 +230,31 @@ fn read_document(doc: &Document) -> Result<Measurement, Located> {
                 .map(|(_, s)| Some(s))
                 .ok_or_else(|| here(node, CxfProblem::UnknownSpecification(id.to_owned()))),
         }
+    };
+    // The geometry of a colour element under its specification.
+    let geometry_at = |node: &Node, spec: Option<&Specification>| -> Result<Geometry, Located> {
+        let Some(spec) = spec else {
+            return Ok(Geometry::Unspecified);
+        };
+        if let [(_, only)] = spec.geometries.as_slice() {
+            return Ok(*only);
+        }
+        let name = node.attribute("Name").map(str::trim);
+        spec.geometries
+            .iter()
+            .find(|(notation, _)| notation.is_some() && notation.as_deref() == name)
+            .map(|(_, g)| *g)
+            .ok_or_else(|| {
+                let notations = spec.geometries.iter();
+                here(
+                    node,
+                    CxfProblem::AmbiguousAngle(
+                        notations
+                            .map(|(n, g)| n.clone().unwrap_or_else(|| g.to_string()))
+                            .collect(),
+                    ),
+                )
+            })
     };
 
     // Spectra are collected raw first: the scale is decided over the whole file.
@@ -301,7 +344,7 @@ fn read_document(doc: &Document) -> Result<Measurement, Located> {
                         .enumerate()
                         .map(|(k, t)| number(&node, &format!("value {}", k + 1), t))
                         .collect::<Result<Vec<_>, _>>()?;
-                    let geometry = spec.map_or(Geometry::Unspecified, |s| s.geometry);
+                    let geometry = geometry_at(&node, spec)?;
                     let raw = RawSpectrum {
                         node_line: doc.text_pos_at(node.range().start).row,
                         element: local(&node),
@@ -340,16 +383,18 @@ fn read_document(doc: &Document) -> Result<Measurement, Located> {
                             )
                         });
                     }
-                    let geometry = spec.map_or(Geometry::Unspecified, |s| s.geometry);
+                    let geometry = geometry_at(&node, spec)?;
                     let entry = (stated, spec.cloned());
                     reading_at(&mut readings, geometry, |r| r.colour.is_none()).colour =
                         Some(entry);
                 }
                 "Gloss" => {
+                    let method = node.attribute("Method").unwrap_or_default();
                     let angle = node
                         .attribute("Angle")
                         .or_else(|| node.attribute("MeasurementAngle"))
-                        .ok_or_else(|| here(&node, CxfProblem::MissingAttribute("Angle")))?;
+                        .or_else(|| angle_in_method(method))
+                        .ok_or_else(|| here(&node, CxfProblem::GlossAngle(method.to_owned())))?;
                     gloss.push(GlossValue {
                         angle_deg: number(&node, "Angle", angle)?,
                         gu: number(&node, "Gloss", node.text().unwrap_or_default())?,
@@ -452,24 +497,51 @@ fn root_line(doc: &Document) -> u32 {
     doc.text_pos_at(doc.root_element().range().start).row
 }
 
-fn geometry_of<H, N>(choice: Node, here: &H, number: &N) -> Result<Geometry, Located>
+/// The angle a gloss `Method` names: the number before `°` or `deg`, or the
+/// whole text where it is a number.
+fn angle_in_method(method: &str) -> Option<&str> {
+    let method = method.trim();
+    if method.parse::<f64>().is_ok() {
+        return Some(method);
+    }
+    // ASCII lowering keeps every byte offset.
+    let end = method
+        .find('°')
+        .or_else(|| method.to_ascii_lowercase().find("deg"))?;
+    let head = method[..end].trim_end();
+    let start = head
+        .char_indices()
+        .rev()
+        .take_while(|(_, c)| c.is_ascii_digit() || *c == '.')
+        .last()?
+        .0;
+    Some(&head[start..])
+}
+
+/// The geometries a `GeometryChoice` states, each with its `Notation` where it has
+/// one (see [`Specification::geometries`]).
+fn geometries_of<H, N>(
+    choice: Node,
+    here: &H,
+    number: &N,
+) -> Result<Vec<(Option<String>, Geometry)>, Located>
 where
     H: Fn(&Node, CxfProblem) -> Located,
     N: Fn(&Node, &str, &str) -> Result<f64, Located>,
 {
     let Some(kind) = choice.children().find(|n| n.is_element()) else {
-        return Ok(Geometry::Unspecified);
+        return Ok(vec![(None, Geometry::Unspecified)]);
     };
-    let angle = |name: &'static str| -> Result<f64, Located> {
-        let text = value(kind, name).ok_or_else(|| here(&kind, CxfProblem::MissingChild(name)))?;
-        number(&kind, name, text)
+    let angle = |node: Node, name: &'static str| -> Result<f64, Located> {
+        let text = value(node, name).ok_or_else(|| here(&node, CxfProblem::MissingChild(name)))?;
+        number(&node, name, text)
     };
-    let hemisphere = |name: &str, deg: f64| -> Result<f64, Located> {
+    let hemisphere = |node: Node, name: &str, deg: f64| -> Result<f64, Located> {
         if deg.abs() < 90.0 {
             Ok(deg)
         } else {
             Err(here(
-                &kind,
+                &node,
                 ReadingProblem::Geometry(GeometryError::OutOfRange {
                     name: name.to_owned(),
                     angle_deg: deg,
@@ -478,35 +550,57 @@ where
             ))
         }
     };
+    let directional = |node: Node| -> Result<Geometry, Located> {
+        let illumination =
+            hemisphere(node, "IlluminationAngle", angle(node, "IlluminationAngle")?)?;
+        let aspecular = angle(node, "Aspecular")?;
+        hemisphere(node, "Aspecular", illumination - aspecular)?;
+        Ok(Geometry::directional(illumination, aspecular))
+    };
+    let one = |geometry| Ok(vec![(None, geometry)]);
     match kind.tag_name().name() {
         "SingleAngle" => {
-            let illumination = hemisphere("IlluminationAngle", angle("IlluminationAngle")?)?;
-            let measurement = hemisphere("MeasurementAngle", angle("MeasurementAngle")?)?;
-            Ok(Geometry::directional(
+            let illumination =
+                hemisphere(kind, "IlluminationAngle", angle(kind, "IlluminationAngle")?)?;
+            let measurement =
+                hemisphere(kind, "MeasurementAngle", angle(kind, "MeasurementAngle")?)?;
+            one(Geometry::directional(
                 illumination,
                 illumination - measurement,
             ))
         }
-        "MultiAngle" | "BRDFAngle" => {
-            let illumination = hemisphere("IlluminationAngle", angle("IlluminationAngle")?)?;
-            let aspecular = angle("Aspecular")?;
-            hemisphere("Aspecular", illumination - aspecular)?;
-            Ok(Geometry::directional(illumination, aspecular))
+        "MultiAngle" => {
+            let angles: Vec<Node> = kind
+                .children()
+                .filter(|n| n.is_element() && n.tag_name().name() == "BRDFAngle")
+                .collect();
+            if angles.is_empty() {
+                // Coatlab's earlier layout: the angles directly in MultiAngle.
+                return one(directional(kind)?);
+            }
+            angles
+                .into_iter()
+                .map(|a| Ok((a.attribute("Notation").map(str::to_owned), directional(a)?)))
+                .collect()
         }
+        "BRDFAngle" => one(directional(kind)?),
         "SphereGeometry" => {
             let included = value(kind, "SpecularComponentIncluded")
                 .map(|t| t.eq_ignore_ascii_case("true") || t == "1")
                 .or_else(|| {
-                    value(kind, "SpecularComponent").and_then(|t| {
-                        let t = t.to_ascii_lowercase();
-                        if t.starts_with("incl") {
-                            Some(true)
-                        } else if t.starts_with("excl") {
-                            Some(false)
-                        } else {
-                            None
-                        }
-                    })
+                    // The schema's Specular_Included as the element's text, or an
+                    // earlier export's SpecularComponent="Included".
+                    let text = value(kind, "SpecularComponent")
+                        .or_else(|| kind.text().map(str::trim))?
+                        .to_ascii_lowercase();
+                    let text = text.strip_prefix("specular_").unwrap_or(&text);
+                    if text.starts_with("incl") {
+                        Some(true)
+                    } else if text.starts_with("excl") {
+                        Some(false)
+                    } else {
+                        None
+                    }
                 })
                 .ok_or_else(|| {
                     here(
@@ -517,7 +611,7 @@ where
                         .into(),
                     )
                 })?;
-            Ok(Geometry::Sphere {
+            one(Geometry::Sphere {
                 specular: if included {
                     SpecularComponent::Included
                 } else {
@@ -526,5 +620,27 @@ where
             })
         }
         other => Err(here(&kind, CxfProblem::UnknownGeometry(other.to_owned()))),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::angle_in_method;
+
+    #[test]
+    fn a_gloss_method_names_its_angle_before_the_degree_sign_or_alone() {
+        for (method, angle) in [
+            ("specular gloss 60°", Some("60")),
+            ("ISO 2813, 20°", Some("20")),
+            ("85.5 °", Some("85.5")),
+            ("GU at 60 deg", Some("60")),
+            ("60", Some("60")),
+            (" 20 ", Some("20")),
+            ("gloss", None),
+            ("°", None),
+            ("ISO 2813", None),
+        ] {
+            assert_eq!(angle_in_method(method), angle, "{method:?}");
+        }
     }
 }

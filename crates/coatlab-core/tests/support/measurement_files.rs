@@ -1,7 +1,8 @@
 //! Measurement files written from spectra, for the tests that read a design's
 //! virtual measurement back: a multi-angle CGATS.17 table (one row per angle, the
-//! geometry in a field, percent, said in the header) and the same as CxF3 (MultiAngle specifications,
-//! fractions). Spectra are `(wavelengths, [(aspecular, values)])`, illumination 45°.
+//! geometry in a field, percent, said in the header) and the same as CxF3 (one
+//! MultiAngle/BRDFAngle specification per angle, fractions; valid against the CxF3
+//! core schema). Spectra are `(wavelengths, [(aspecular, values)])`, illumination 45°.
 
 #![allow(dead_code, reason = "each test file uses some of the helpers")]
 
@@ -35,10 +36,11 @@ pub fn as_cxf(name: &str, (w, angles): &Spectra) -> String {
     let mut values = String::new();
     for (aspecular, r) in angles {
         specs += &format!(
-            "<cc:ColorSpecification Id=\"ma{aspecular}\"><cc:MeasurementSpec><cc:GeometryChoice>\
-             <cc:MultiAngle><cc:IlluminationAngle>45</cc:IlluminationAngle><cc:Aspecular>{aspecular}</cc:Aspecular>\
-             </cc:MultiAngle></cc:GeometryChoice><cc:WavelengthRange StartWL=\"{}\" Increment=\"{step}\"/>\
-             </cc:MeasurementSpec></cc:ColorSpecification>\n",
+            "<cc:ColorSpecification Id=\"ma{aspecular}\"><cc:MeasurementSpec>\
+             <cc:MeasurementType>Spectrum_Reflectance</cc:MeasurementType><cc:GeometryChoice><cc:MultiAngle>\
+             <cc:BRDFAngle Notation=\"45as{aspecular}\"><cc:IlluminationAngle>45</cc:IlluminationAngle>\
+             <cc:Aspecular>{aspecular}</cc:Aspecular></cc:BRDFAngle></cc:MultiAngle></cc:GeometryChoice>\
+             <cc:WavelengthRange StartWL=\"{}\" Increment=\"{step}\"/></cc:MeasurementSpec></cc:ColorSpecification>\n",
             w[0]
         );
         let r: Vec<String> = r.iter().map(f64::to_string).collect();
@@ -49,7 +51,8 @@ pub fn as_cxf(name: &str, (w, angles): &Spectra) -> String {
     }
     format!(
         "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<cc:CxF xmlns:cc=\"http://colorexchangeformat.com/CxF3-core\">\
-         <cc:Resources><cc:ObjectCollection><cc:Object Name=\"{name}\" Id=\"1\"><cc:ColorValues>\n{values}\
+         <cc:Resources><cc:ObjectCollection><cc:Object ObjectType=\"Standard\" Name=\"{name}\" Id=\"O1\">\
+         <cc:CreationDate>2026-01-01T12:00:00Z</cc:CreationDate><cc:ColorValues>\n{values}\
          </cc:ColorValues></cc:Object></cc:ObjectCollection><cc:ColorSpecificationCollection>\n{specs}\
          </cc:ColorSpecificationCollection></cc:Resources></cc:CxF>\n"
     )
