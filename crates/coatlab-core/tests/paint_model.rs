@@ -211,6 +211,10 @@ fn every_simd_path_evaluates_the_same_bits() {
 /// The stated tolerances of the f32 evaluator (see `SpectralPaint`).
 const F32_TOLERANCE: f64 = 1e-3;
 const F32_TOLERANCE_GRAZING: f64 = 5e-2;
+/// The stated tolerance for a coat of n < [`NEAR_UNIT_INDEX`] (as n → 1 the
+/// Fresnel table's error grows toward 85°, on a reflectance below 1e-4).
+const F32_TOLERANCE_NEAR_UNIT_INDEX: f64 = 2e-3;
+const NEAR_UNIT_INDEX: f64 = 1.003;
 
 #[test]
 fn single_precision_agrees_with_double_precision_on_a_real_paint() {
@@ -245,7 +249,8 @@ proptest! {
         let lobe = if paper { LobeKind::Paper } else { LobeKind::Normalised };
         let model = grey_model(rho, n, tau, GlossExponent::Finite(10f64.powf(log_m)), lobe);
         let (worst, grazing) = worst_f32_error(&model);
-        prop_assert!(worst < F32_TOLERANCE, "worst relative f32 error {:e}", worst);
+        let tolerance = if n < NEAR_UNIT_INDEX { F32_TOLERANCE_NEAR_UNIT_INDEX } else { F32_TOLERANCE };
+        prop_assert!(worst < tolerance, "worst relative f32 error {:e}", worst);
         prop_assert!(grazing < F32_TOLERANCE_GRAZING, "worst grazing f32 error {:e}", grazing);
     }
 
