@@ -228,8 +228,8 @@ static void print_ray(const char *label, const float *rays, size_t i, struct Res
     printf("triangle %u at t %.9g\n", b.prim, b.t);
 }
 
-/* Compares two per-ray result lists: rays hit by one and missed by the other are
- * listed (up to 20), rays with different triangles counted. */
+/* Compares two per-ray result lists: rays hit by one and missed by the other, and
+ * rays that hit different triangles, are listed (up to 20) and counted. */
 static void compare(const char *label, const float *rays, size_t count,
                     const struct Result *a, const char *a_name, const struct Result *b,
                     const char *b_name) {
@@ -241,7 +241,7 @@ static void compare(const char *label, const float *rays, size_t count,
       other++;
     else
       *(ha ? &only_a : &only_b) += 1;
-    if (ha != hb && listed++ < 20) print_ray(label, rays, i, a[i], a_name, b[i], b_name);
+    if (listed++ < 20) print_ray(label, rays, i, a[i], a_name, b[i], b_name);
   }
   printf("%s: %zu rays hit by %s only, %zu by %s only, %zu hit different triangles\n", label,
          only_a, a_name, only_b, b_name, other);

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Coatlab's BVH and Intel Embree 4 on the same machine, triangles and rays, in turn.
 # See README.md. Usage: benches/embree/run.sh [ROUNDS]   (WORK=folder, default
-# target/embree; ACCEL_MESH=substring restricts the meshes, as in the accel bench)
+# target/embree; ACCEL_MESH=substring restricts the meshes, as in the accel bench;
+# SIMD_PATHS="avx2 avx512 portable" runs Coatlab's side on each of those paths in
+# every round, default: the path Coatlab chooses itself)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 rounds="${1:-2}"
@@ -33,7 +35,15 @@ ACCEL_DUMP="$work/dump" "$bench" >/dev/null
 
 for round in $(seq "$rounds"); do
   echo "== round $round, load $(cut -d' ' -f1-3 /proc/loadavg)"
-  ACCEL_SUMMARY=1 ACCEL_FILTER="Simd8/Fast/Spatial" "$bench" 2>/dev/null | grep -v -- "---"
+  for simd in ${SIMD_PATHS:-default}; do
+    if [ "$simd" = default ]; then
+      ACCEL_SUMMARY=1 ACCEL_FILTER="Simd8/Fast/Spatial" "$bench" 2>/dev/null | grep -v -- "---"
+    else
+      echo "-- Coatlab on its $simd path (COATLAB_SIMD=$simd)"
+      COATLAB_SIMD="$simd" ACCEL_SUMMARY=1 ACCEL_FILTER="Simd8/Fast/Spatial" "$bench" 2>/dev/null |
+        grep -v -- "---"
+    fi
+  done
   for mesh in "$work"/dump/*.bin; do
     # Every mode available (rtcIntersect1, 8, and 16 where the CPU has AVX-512).
     for quality in medium high; do

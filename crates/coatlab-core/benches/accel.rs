@@ -37,7 +37,8 @@
 //! - `ACCEL_BATCH=1 cargo bench -p coatlab-core --bench accel` compares, on one
 //!   thread and in per-thread CPU time (robust to other processes on the machine),
 //!   single-ray queries with batches of 2–32 rays in flight, for trees built with
-//!   each `ReferenceSplits` setting (with the build's CPU time).
+//!   each `ReferenceSplits` setting (with the build's CPU time); with
+//!   `ACCEL_WHICH=bounce` on the image-order bounces instead of the incoherent rays.
 //! - `ACCEL_CPU=1 …/accel-<hash>` (the bench binary itself, two builds of it in
 //!   turn): the default tree's incoherent and image-order bounce rays through
 //!   `closest_hits` on one thread, on each SIMD path the CPU has, interleaved, M
@@ -543,7 +544,8 @@ fn thread_cpu_time() -> Duration {
         .expect("/proc/thread-self/schedstat (Linux) for ACCEL_BATCH")
 }
 
-/// Incoherent rays through `closest_hit` one by one and through `closest_hits` with
+/// Incoherent rays (with `ACCEL_WHICH=bounce` the image-order bounces) through
+/// `closest_hit` one by one and through `closest_hits` with
 /// 2, 4, 8, 12, 16 and 32 rays in flight, on this thread, `Simd8/Fast` built with
 /// each `ReferenceSplits` setting: M rays per CPU-second (best of 5 interleaved
 /// rounds), the ratio to one by one and to the default setting, and the build's
@@ -573,8 +575,16 @@ fn batch_comparison() {
         ("large triangles", ReferenceSplits::LargeTriangles),
         ("spatial", ReferenceSplits::Spatial),
     ];
+    let which = std::env::var("ACCEL_WHICH").unwrap_or_default();
     for (name, mesh) in meshes() {
-        let rays = queries(&mesh, "incoherent");
+        // The image-order bounces are fewer (about 2·10⁵); repeated up to the
+        // incoherent rays' count, so that a run spans many scheduler ticks (the
+        // CPU-time clock's resolution).
+        let rays: Vec<RayQuery> = {
+            let rays = queries(&mesh, &which);
+            let count = rays.len().max(INCOHERENT_RAYS);
+            rays.iter().cycle().take(count).copied().collect()
+        };
         eprintln!("{name}: load average before: {}", load_average());
         // Builds on this thread, best of 3 CPU times, for each split placement;
         // and on all cores (`threads: 0`), best of 3 wall-clock times.
