@@ -10,23 +10,39 @@
 //! map's noise (|map − reference map|) against that signal: its mean, and the
 //! share of those pixels where the noise is below the signal.
 //!
+//! With RUNS > 1 the comparison is run that many times from other seeds, and the
+//! map's noise at a pixel is also taken as the root mean square of its error over
+//! the runs: one run's |map − reference map| is a single draw of that noise, and
+//! the RMS tells a pixel whose map is noisy from one that drew a value far in the
+//! tail. The pixels where a single run's noise is not below the signal are listed
+//! by what they show.
+//! `COMPARE_ADAPTIVE=1` turns on adaptive sampling (its defaults) in every view;
+//! `COMPARE_MISSES=FILE.png` draws the signal in grey and those pixels in red.
+//!
 //! `cargo run -p coatlab-core --example compare_convergence -- [models|designs]
-//! [SECONDS] [WIDTHxHEIGHT] [REFERENCE_SPP]` (defaults: models, 30, 316x400 —
-//! one pane of the preview's side-by-side layout at its largest — and 256).
+//! [SECONDS] [WIDTHxHEIGHT] [REFERENCE_SPP] [RUNS]` (defaults: models, 30,
+//! 316x400 — one pane of the preview's side-by-side layout at its largest — 256
+//! and 1).
 
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
+use palette::Srgb;
+
 use coatlab_core::colour::{Lab, Xyz, ciede2000};
 use coatlab_core::design::presets;
 use coatlab_core::engine::{
-    Command, CpuBackend, LiveEngine, Output, QualityKnobs, SecondImage, Views,
+    Command, CpuBackend, LiveEngine, Output, QualityKnobs, SecondImage, SecondUpdate, Views,
+    ViewsUpdate,
 };
+use coatlab_core::io::png_write::write_srgb8_png;
 use coatlab_core::paint::phong::PhongVariant;
+use coatlab_core::render::camera::Camera;
 use coatlab_core::render::film::{DisplaySettings, Film, display_lab_of_xyz};
 use coatlab_core::render::material::{Shading, ShadingModel};
-use coatlab_core::render::progressive::{ProgressiveRender, RenderSettings};
+use coatlab_core::render::pick::pick;
+use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
 
 type Image = Vec<[f32; 3]>;
 
@@ -81,31 +97,66 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         other => return Err(format!("unknown mode {other}: models or designs").into()),
     };
-    let mut engine = LiveEngine::new(CpuBackend::default(), design.clone(), Arc::new(|| {}))?;
-    let mut ignore = |_: Output| {};
-    engine.apply(Command::Size(width, height), &mut ignore);
-    engine.apply(Command::Views(views.clone()), &mut ignore);
-    engine.apply(Command::Quality(QualityKnobs::default()), &mut ignore);
-    let never = AtomicBool::new(false);
-    let start = Instant::now();
-    while start.elapsed().as_secs_f64() < seconds {
-        engine.step(&never, &mut ignore);
+    let runs: usize = args.get(4).map_or(Ok(1), |s| s.parse())?;
+    if runs == 0 {
+        return Err("RUNS must be at least 1".into());
     }
-    let elapsed = start.elapsed().as_secs_f64();
+
+    // Each run: a fresh engine of its own seed left alone for `seconds`; the
+    // first run's engine gives the camera, scene and display for the rest.
+    let mut engine = None;
+    let mut panes: Vec<(Image, Image)> = Vec::new();
+    for run in 0..runs {
+        let backend = CpuBackend {
+            settings: RenderSettings {
+                seed: CpuBackend::default()
+                    .settings
+                    .seed
+                    .wrapping_add(run as u64 * 0x9e37_79b9),
+                adaptive: std::env::var_os("COMPARE_ADAPTIVE").map(|_| Default::default()),
+                ..CpuBackend::default().settings
+            },
+        };
+        let mut live = LiveEngine::new(backend, design.clone(), Arc::new(|| {}))?;
+        // How the second pane was last made, as the engine publishes it.
+        let mut source = None;
+        let mut keep = |output: Output| {
+            if let Output::Views(ViewsUpdate {
+                second: SecondUpdate::Set(frame),
+                ..
+            }) = output
+            {
+                source = frame.source;
+            }
+        };
+        live.apply(Command::Size(width, height), &mut keep);
+        live.apply(Command::Views(views.clone()), &mut keep);
+        live.apply(Command::Quality(QualityKnobs::default()), &mut keep);
+        let never = AtomicBool::new(false);
+        let start = Instant::now();
+        while start.elapsed().as_secs_f64() < seconds {
+            live.step(&never, &mut keep);
+        }
+        let elapsed = start.elapsed().as_secs_f64();
+        let first = live.first_image()?;
+        let second = match live.second_image() {
+            SecondImage::Film(film) => film_xyz(film),
+            SecondImage::Reshaded(Ok(image)) => image.xyz,
+            SecondImage::Reshaded(Err(e)) => return Err(e.into()),
+            SecondImage::None => return Err("no second view".into()),
+        };
+        println!(
+            "{mode}, {width}x{height}, run {run}, {elapsed:.1} s: first view {} spp, pairing {:?}, \
+             second pane {source:?}, display {:?}",
+            live.samples_per_pixel(),
+            live.state().pairing,
+            live.display()
+        );
+        panes.push((first, second));
+        engine.get_or_insert(live);
+    }
+    let engine = engine.ok_or("no run")?;
     let display = engine.display();
-    let first = engine.first_image()?;
-    let second = match engine.second_image() {
-        SecondImage::Film(film) => film_xyz(film),
-        SecondImage::Reshaded(Ok(image)) => image.xyz,
-        SecondImage::Reshaded(Err(e)) => return Err(e.into()),
-        SecondImage::None => return Err("no second view".into()),
-    };
-    println!(
-        "{mode}, {width}x{height}, {elapsed:.1} s: first view {} spp, pairing {:?}, display {:?}",
-        engine.samples_per_pixel(),
-        engine.state().pairing,
-        display
-    );
 
     // The references: each view's model (and design) on its own, same camera and
     // grid, in two halves of other seeds.
@@ -159,38 +210,140 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "references: {reference_spp} spp each in {:.0} s; their noise ΔE00 {noise_a:.3} and {noise_b:.3}",
         reference_start.elapsed().as_secs_f64()
     );
-    let (la, lb, lra, lrb) = (
-        labs(&first, &display),
-        labs(&second, &display),
-        labs(&ref_a, &display),
-        labs(&ref_b, &display),
-    );
-    println!(
-        "pane to its own reference, mean ΔE00: first {:.3}, second {:.3} (goal ≤ 0.5)",
-        mean(&delta_e(&la, &lra)),
-        mean(&delta_e(&lb, &lrb))
-    );
-    let map = delta_e(&la, &lb);
+    let (lra, lrb) = (labs(&ref_a, &display), labs(&ref_b, &display));
     let signal = delta_e(&lra, &lrb);
-    let (mut noise_sum, mut signal_sum, mut below, mut count) = (0.0, 0.0, 0usize, 0usize);
-    for (m, s) in map.iter().zip(&signal) {
-        if *s > 1.0 {
-            let noise = (m - s).abs();
-            noise_sum += noise;
-            signal_sum += s;
-            below += usize::from(noise < *s);
-            count += 1;
+    // Per pixel, the sum over runs of the squared error of the map.
+    let mut squared_error = vec![0.0f64; signal.len()];
+    let mut single_run_misses = Vec::new();
+    for (run, (first, second)) in panes.iter().enumerate() {
+        let (la, lb) = (labs(first, &display), labs(second, &display));
+        println!(
+            "run {run}: pane to its own reference, mean ΔE00: first {:.3}, second {:.3} (goal ≤ 0.5)",
+            mean(&delta_e(&la, &lra)),
+            mean(&delta_e(&lb, &lrb))
+        );
+        let map = delta_e(&la, &lb);
+        let (mut noise_sum, mut signal_sum, mut below, mut count) = (0.0, 0.0, 0usize, 0usize);
+        for (i, (m, s)) in map.iter().zip(&signal).enumerate() {
+            squared_error[i] += (m - s) * (m - s);
+            if *s > 1.0 {
+                let noise = (m - s).abs();
+                noise_sum += noise;
+                signal_sum += s;
+                below += usize::from(noise < *s);
+                count += 1;
+                if run == 0 && noise >= *s {
+                    single_run_misses.push(i);
+                }
+            }
+        }
+        println!(
+            "run {run}: map where the models differ by > 1 ({count} of {} pixels): mean signal \
+             {:.2}, mean noise {:.3}, noise below signal on {:.1} % of them; map mean {:.2}, \
+             reference map mean {:.2}",
+            signal.len(),
+            signal_sum / count.max(1) as f64,
+            noise_sum / count.max(1) as f64,
+            100.0 * below as f64 / count.max(1) as f64,
+            mean(&map),
+            mean(&signal)
+        );
+        if run == 0 {
+            describe_misses(&single_run_misses, &map, &signal, &scene, &camera, width);
         }
     }
-    println!(
-        "map where the models differ by > 1 ({count} of {} pixels): mean signal {:.2}, mean noise \
-         {:.3}, noise below signal on {:.1} % of them; map mean {:.2}, reference map mean {:.2}",
-        signal.len(),
-        signal_sum / count.max(1) as f64,
-        noise_sum / count.max(1) as f64,
-        100.0 * below as f64 / count.max(1) as f64,
-        mean(&map),
-        mean(&signal)
-    );
+    if runs > 1 {
+        // The map's noise at a pixel as the root mean square of its error over the
+        // independent runs (one run's |error| is a single draw of it).
+        let (mut below, mut count, mut rms_sum) = (0usize, 0usize, 0.0);
+        let mut misses = Vec::new();
+        for (i, (e, s)) in squared_error.iter().zip(&signal).enumerate() {
+            if *s > 1.0 {
+                let rms = (e / runs as f64).sqrt();
+                rms_sum += rms;
+                below += usize::from(rms < *s);
+                count += 1;
+                if rms >= *s {
+                    misses.push(i);
+                }
+            }
+        }
+        println!(
+            "over {runs} runs: the map's RMS noise where the models differ by > 1: mean {:.3}, \
+             below the signal on {:.2} % of those {count} pixels ({} not)",
+            rms_sum / count.max(1) as f64,
+            100.0 * below as f64 / count.max(1) as f64,
+            misses.len()
+        );
+    }
     Ok(())
+}
+
+/// Where the map's noise is not below its signal: what each such pixel shows
+/// (the material under its centre, by [`pick`]), whether it lies on an outline
+/// (a neighbour shows something else), and the map against the signal there.
+fn describe_misses(
+    misses: &[usize],
+    map: &[f64],
+    signal: &[f64],
+    scene: &RenderScene,
+    camera: &Camera,
+    width: u32,
+) {
+    if misses.is_empty() {
+        return;
+    }
+    let shown =
+        |x: i64, y: i64| pick(scene, camera, x as f32 + 0.5, y as f32 + 0.5).map(|p| p.material);
+    let mut by_material = std::collections::BTreeMap::<String, (usize, usize)>::new();
+    for &i in misses {
+        let (x, y) = ((i % width as usize) as i64, (i / width as usize) as i64);
+        let here = shown(x, y);
+        let outline = [(-1, 0), (1, 0), (0, -1), (0, 1)]
+            .iter()
+            .any(|(dx, dy)| shown(x + dx, y + dy) != here);
+        let name = here.map_or_else(
+            || "floor or background".to_string(),
+            |m| scene.materials()[m as usize].name.clone(),
+        );
+        let entry = by_material.entry(name).or_default();
+        entry.0 += 1;
+        entry.1 += usize::from(outline);
+    }
+    let sorted = |mut values: Vec<f64>| {
+        values.sort_by(f64::total_cmp);
+        values
+    };
+    let ratios = sorted(misses.iter().map(|&i| map[i] / signal[i]).collect());
+    let signals = sorted(misses.iter().map(|&i| signal[i]).collect());
+    let quartiles = |v: &[f64]| [v[v.len() / 4], v[v.len() / 2], v[3 * v.len() / 4]];
+    println!(
+        "the {} pixels where it is not: signal quartiles {:.2?}, map ÷ signal median {:.2}, max \
+         {:.1}; by what they show (pixels, of them on an outline):",
+        misses.len(),
+        quartiles(&signals),
+        ratios[ratios.len() / 2],
+        ratios[ratios.len() - 1]
+    );
+    for (name, (pixels, outline)) in by_material {
+        println!("  {name}: {pixels}, {outline}");
+    }
+    if let Some(path) = std::env::var_os("COMPARE_MISSES") {
+        // The signal as grey (ΔE00 0 black to 10 white), the misses red.
+        let mut pixels: Vec<Srgb<u8>> = signal
+            .iter()
+            .map(|s| {
+                let v = (25.5 * s.min(10.0)) as u8;
+                Srgb::new(v, v, v)
+            })
+            .collect();
+        for &i in misses {
+            pixels[i] = Srgb::new(255, 0, 0);
+        }
+        let height = (signal.len() / width as usize) as u32;
+        match write_srgb8_png(std::path::Path::new(&path), width, height, &pixels) {
+            Ok(()) => println!("misses drawn in {}", path.to_string_lossy()),
+            Err(e) => eprintln!("could not draw the misses: {e}"),
+        }
+    }
 }
