@@ -13,7 +13,7 @@ use coatlab_core::render::environment::Environment;
 use coatlab_core::render::integrator::IntegratorSettings;
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{
-    EditOutcome, FRESH_ONLY_WEIGHT, ProgressiveRender, RenderSettings,
+    EditOutcome, FRESH_ONLY_WEIGHT, ProgressiveRender, RenderScene, RenderSettings,
 };
 use coatlab_core::render::reshade::{BaseImage, ReshadeError, Reshaded, reshade_prepared};
 use coatlab_core::scene::Scene;
@@ -789,7 +789,8 @@ fn glass_scene() -> Scene {
 fn render_glass(model: &PaintModel, seed: u64, spp: u32, cached: u32) -> ProgressiveRender {
     let scene = glass_scene();
     let sky = Environment::uniform(&grid());
-    let framed = car_render::Framed::new(&scene, sky, GLASS_WIDTH, GLASS_HEIGHT);
+    let render_scene = Arc::new(RenderScene::new(scene.clone()).expect("scene"));
+    let framed = car_render::Framed::new(render_scene, sky, GLASS_WIDTH, GLASS_HEIGHT);
     let shading = shading(&scene, model, ShadingModel::Paint);
     framed.render(shading, RenderSettings::seeded(seed), spp, cached)
 }

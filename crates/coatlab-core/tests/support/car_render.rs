@@ -4,7 +4,7 @@
 //! shared-comparison tests.
 #![allow(dead_code)] // each test crate uses its own subset
 
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::design::presets;
@@ -34,6 +34,18 @@ pub fn car_with_lamps_off() -> Scene {
         material.emissive = palette::LinSrgb::new(0.0, 0.0, 0.0);
     }
     scene
+}
+
+/// [`car_with_lamps_off`] and its render scene (BVH built), made once per test
+/// binary and shared by every render and region here: the car is the same each
+/// time, and building it took longer than a 64×36 render of it.
+fn shared_car() -> &'static (Scene, Arc<RenderScene>) {
+    static CAR: OnceLock<(Scene, Arc<RenderScene>)> = OnceLock::new();
+    CAR.get_or_init(|| {
+        let scene = car_with_lamps_off();
+        let render_scene = RenderScene::new(scene.clone()).expect("scene");
+        (scene, Arc::new(render_scene))
+    })
 }
 
 pub fn grid() -> WavelengthGrid {
@@ -78,31 +90,36 @@ pub fn render_with(
     cached: u32,
     integrator: IntegratorSettings,
 ) -> (ProgressiveRender, Scene) {
-    let scene = car_with_lamps_off();
+    let (scene, render_scene) = shared_car();
     // The scene-box framing these comparisons' statistical controls were sized
     // on: with the car's framing (`default_camera`) the re-shade test's control of
     // a 2 % defect on 5 % of the pixels went undetected. Both images of a
     // comparison share the camera, so which view it is is not what is tested.
-    let framed = Framed::new(&scene, Environment::studio(&grid()), WIDTH, HEIGHT);
+    let framed = Framed::new(
+        render_scene.clone(),
+        Environment::studio(&grid()),
+        WIDTH,
+        HEIGHT,
+    );
     let settings = RenderSettings {
         integrator,
         ..RenderSettings::seeded(seed)
     };
-    let render = framed.render(shading(&scene, model, which), settings, spp, cached);
-    (render, scene)
+    let render = framed.render(shading(scene, model, which), settings, spp, cached);
+    (render, scene.clone())
 }
 
 /// A scene under an environment, seen by a camera that frames the scene's
 /// bounds at `width` × `height`.
-pub struct Framed<'a> {
-    scene: &'a Scene,
+pub struct Framed {
+    scene: Arc<RenderScene>,
     environment: Environment,
     width: u32,
     height: u32,
 }
 
-impl<'a> Framed<'a> {
-    pub fn new(scene: &'a Scene, environment: Environment, width: u32, height: u32) -> Self {
+impl Framed {
+    pub fn new(scene: Arc<RenderScene>, environment: Environment, width: u32, height: u32) -> Self {
         Self {
             scene,
             environment,
@@ -120,17 +137,10 @@ impl<'a> Framed<'a> {
         spp: u32,
         cached: u32,
     ) -> ProgressiveRender {
-        let render_scene = RenderScene::new(self.scene.clone()).expect("scene");
-        let camera = Camera::framing(render_scene.bounds(), self.width, self.height);
+        let camera = Camera::framing(self.scene.bounds(), self.width, self.height);
         let environment = Arc::new(self.environment);
-        let mut render = ProgressiveRender::new(
-            Arc::new(render_scene),
-            environment,
-            shading,
-            camera,
-            settings,
-        )
-        .expect("render");
+        let mut render = ProgressiveRender::new(self.scene, environment, shading, camera, settings)
+            .expect("render");
         render.set_path_cache_samples(cached);
         render.render_to(spp, 4);
         render
@@ -235,9 +245,9 @@ pub fn pixels_showing(
 /// (`image_stats::defect_region_on`), framed as [`render_with`] frames it (the
 /// car's bounds) at the size of `a`.
 pub fn paint_region(a: &Replicas) -> Vec<bool> {
-    let scene = RenderScene::new(car_with_lamps_off()).expect("scene");
+    let scene = &shared_car().1;
     let camera = Camera::framing(scene.bounds(), a.width, a.height);
-    crate::image_stats::defect_region_on(a, &paint_pixels(&scene, &camera))
+    crate::image_stats::defect_region_on(a, &paint_pixels(scene, &camera))
 }
 
 /// The CIELAB hue angle (degrees) and chroma of the mean colour of `image` over
