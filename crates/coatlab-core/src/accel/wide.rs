@@ -523,6 +523,33 @@ impl Nodes<'_> {
         } else {
             let node = &self.0[current as usize];
             let (mut mask, entry) = ray.hit_children::<ISA>(node, traversal.t_max * TMAX_WIDEN);
+            // One or two children hit (most steps): the order the sort below
+            // would give, without it.
+            let rest = mask & mask.wrapping_sub(1);
+            if mask != 0 && rest == 0 {
+                let child = node.child[mask.trailing_zeros() as usize];
+                self.fetch(child, fetch_leaf);
+                traversal.current = child;
+                return true;
+            }
+            if rest != 0 && rest & (rest - 1) == 0 {
+                let (a, b) = (
+                    mask.trailing_zeros() as usize,
+                    rest.trailing_zeros() as usize,
+                );
+                let (child_a, child_b) = (node.child[a], node.child[b]);
+                self.fetch(child_a, fetch_leaf);
+                self.fetch(child_b, fetch_leaf);
+                // Nearer first; on equal entries the later child, as the sort's.
+                if entry[a] < entry[b] {
+                    traversal.stack.push(child_b, entry[b]);
+                    traversal.current = child_a;
+                } else {
+                    traversal.stack.push(child_a, entry[a]);
+                    traversal.current = child_b;
+                }
+                return true;
+            }
             if mask != 0 {
                 // Hit children, sorted by decreasing entry distance (insertion
                 // sort: rarely more than three).
