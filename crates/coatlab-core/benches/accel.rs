@@ -785,7 +785,7 @@ fn cpu_rates() {
 /// `ACCEL_ONCE`: the first `ACCEL_RAYS` (default 2¹⁶) incoherent rays (with
 /// `ACCEL_WHICH=bounce` the image-order bounces) through `closest_hits` once on one
 /// thread, for counting instructions a ray with `valgrind --tool=callgrind
-/// --toggle-collect='coatlab_core::accel::Accel::closest_hits'` (docs/benchmarks.md).
+/// --toggle-collect='*simd_path::on_avx2*'`, the AVX2 kernels (docs/benchmarks.md).
 fn once() {
     let count: usize = std::env::var("ACCEL_RAYS")
         .ok()
