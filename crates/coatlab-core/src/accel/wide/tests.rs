@@ -251,7 +251,7 @@ fn no_box_missed<const ISA: u8>() {
             0,
             "an empty slot hit: origin {origin:?}, dir {dir:?}"
         );
-        for i in 0..children {
+        for (i, &entry) in entry.iter().enumerate().take(children) {
             // A box missed by a clear margin is missed: the test is not merely
             // conservative but tight (within 10⁻⁵ of the box's size).
             let entered = exact_slab(&node, i, origin, dir, 1e-5)
@@ -277,9 +277,8 @@ fn no_box_missed<const ISA: u8>() {
                 "child {i} missed: origin {origin:?}, dir {dir:?}, exact entry {near}, exit {far}"
             );
             assert!(
-                f64::from(entry[i]) <= near * f64::from(TMAX_WIDEN) + 1e-30,
-                "child {i}: entry {} beyond the exact {near}: origin {origin:?}, dir {dir:?}",
-                entry[i]
+                f64::from(entry) <= near * f64::from(TMAX_WIDEN) + 1e-30,
+                "child {i}: entry {entry} beyond the exact {near}: origin {origin:?}, dir {dir:?}"
             );
         }
     }
