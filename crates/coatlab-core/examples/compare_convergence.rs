@@ -214,7 +214,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let signal = delta_e(&lra, &lrb);
     // Per pixel, the sum over runs of the squared error of the map.
     let mut squared_error = vec![0.0f64; signal.len()];
-    let mut single_run_misses = Vec::new();
     for (run, (first, second)) in panes.iter().enumerate() {
         let (la, lb) = (labs(first, &display), labs(second, &display));
         println!(
@@ -223,60 +222,91 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             mean(&delta_e(&lb, &lrb))
         );
         let map = delta_e(&la, &lb);
-        let (mut noise_sum, mut signal_sum, mut below, mut count) = (0.0, 0.0, 0usize, 0usize);
-        for (i, (m, s)) in map.iter().zip(&signal).enumerate() {
-            squared_error[i] += (m - s) * (m - s);
-            if *s > 1.0 {
-                let noise = (m - s).abs();
-                noise_sum += noise;
-                signal_sum += s;
-                below += usize::from(noise < *s);
-                count += 1;
-                if run == 0 && noise >= *s {
-                    single_run_misses.push(i);
-                }
-            }
+        for (e, (m, s)) in squared_error.iter_mut().zip(map.iter().zip(&signal)) {
+            *e += (m - s) * (m - s);
         }
+        let noise: Vec<f64> = map
+            .iter()
+            .zip(&signal)
+            .map(|(m, s)| (m - s).abs())
+            .collect();
+        let tally = NoiseTally::of(&noise, &signal);
         println!(
-            "run {run}: map where the models differ by > 1 ({count} of {} pixels): mean signal \
+            "run {run}: map where the models differ by > 1 ({} of {} pixels): mean signal \
              {:.2}, mean noise {:.3}, noise below signal on {:.1} % of them; map mean {:.2}, \
              reference map mean {:.2}",
+            tally.count,
             signal.len(),
-            signal_sum / count.max(1) as f64,
-            noise_sum / count.max(1) as f64,
-            100.0 * below as f64 / count.max(1) as f64,
+            tally.signal_mean,
+            tally.noise_mean,
+            tally.percent_below(),
             mean(&map),
             mean(&signal)
         );
         if run == 0 {
-            describe_misses(&single_run_misses, &map, &signal, &scene, &camera, width);
+            describe_misses(&tally.misses, &map, &signal, &scene, &camera, width);
         }
     }
     if runs > 1 {
         // The map's noise at a pixel as the root mean square of its error over the
         // independent runs (one run's |error| is a single draw of it).
-        let (mut below, mut count, mut rms_sum) = (0usize, 0usize, 0.0);
-        let mut misses = Vec::new();
-        for (i, (e, s)) in squared_error.iter().zip(&signal).enumerate() {
-            if *s > 1.0 {
-                let rms = (e / runs as f64).sqrt();
-                rms_sum += rms;
-                below += usize::from(rms < *s);
+        let rms: Vec<f64> = squared_error
+            .iter()
+            .map(|e| (e / runs as f64).sqrt())
+            .collect();
+        let tally = NoiseTally::of(&rms, &signal);
+        println!(
+            "over {runs} runs: the map's RMS noise where the models differ by > 1: mean {:.3}, \
+             below the signal on {:.2} % of those {} pixels ({} not)",
+            tally.noise_mean,
+            tally.percent_below(),
+            tally.count,
+            tally.misses.len()
+        );
+    }
+    Ok(())
+}
+
+/// The map's noise against its signal over the pixels where the models differ by
+/// more than 1 ΔE00: how many, how many with the noise below the signal, the
+/// means, and the pixels where it is not below.
+struct NoiseTally {
+    count: usize,
+    below: usize,
+    noise_mean: f64,
+    signal_mean: f64,
+    misses: Vec<usize>,
+}
+
+impl NoiseTally {
+    fn of(noise: &[f64], signal: &[f64]) -> NoiseTally {
+        let (mut noise_sum, mut signal_sum) = (0.0, 0.0);
+        let (mut count, mut below, mut misses) = (0, 0, Vec::new());
+        for (i, (&n, &s)) in noise.iter().zip(signal).enumerate() {
+            if s > 1.0 {
+                noise_sum += n;
+                signal_sum += s;
                 count += 1;
-                if rms >= *s {
+                if n < s {
+                    below += 1;
+                } else {
                     misses.push(i);
                 }
             }
         }
-        println!(
-            "over {runs} runs: the map's RMS noise where the models differ by > 1: mean {:.3}, \
-             below the signal on {:.2} % of those {count} pixels ({} not)",
-            rms_sum / count.max(1) as f64,
-            100.0 * below as f64 / count.max(1) as f64,
-            misses.len()
-        );
+        let per = count.max(1) as f64;
+        NoiseTally {
+            count,
+            below,
+            noise_mean: noise_sum / per,
+            signal_mean: signal_sum / per,
+            misses,
+        }
     }
-    Ok(())
+
+    fn percent_below(&self) -> f64 {
+        100.0 * self.below as f64 / self.count.max(1) as f64
+    }
 }
 
 /// Where the map's noise is not below its signal: what each such pixel shows

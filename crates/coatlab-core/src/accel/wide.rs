@@ -525,14 +525,14 @@ impl Nodes<'_> {
             let (mut mask, entry) = ray.hit_children::<ISA>(node, traversal.t_max * TMAX_WIDEN);
             // One or two children hit (most steps): the order the sort below
             // would give, without it.
-            let rest = mask & mask.wrapping_sub(1);
-            if mask != 0 && rest == 0 {
+            if mask.is_power_of_two() {
                 let child = node.child[mask.trailing_zeros() as usize];
                 self.fetch(child, fetch_leaf);
                 traversal.current = child;
                 return true;
             }
-            if rest != 0 && rest & (rest - 1) == 0 {
+            let rest = mask & mask.wrapping_sub(1);
+            if rest.is_power_of_two() {
                 let (a, b) = (
                     mask.trailing_zeros() as usize,
                     rest.trailing_zeros() as usize,
