@@ -444,51 +444,64 @@ impl Accel {
             }
             return;
         };
-        // Rays in flight: (index into `rays`, box ray, sheared ray, closest so far).
+        // A ray in flight: its index into `rays`, its two prepared forms, its closest
+        // hit so far and its traversal, together, so that a step reads one lane.
         struct Lane {
             index: usize,
             box_ray: BoxRay,
             sheared: ShearedRay,
             best: Option<(usize, triangle::LaneHit)>,
+            traversal: Traversal,
         }
         // Unusable rays are skipped below and miss.
         hits.fill(None);
-        let mut traversals: [Traversal; LANES] = std::array::from_fn(|_| Traversal::new());
-        let mut lanes: [Option<Lane>; LANES] = std::array::from_fn(|_| None);
+        let idle = || Lane {
+            index: 0,
+            box_ray: BoxRay::new([0.0; 3], [1.0; 3]),
+            sheared: ShearedRay::new([0.0; 3], [1.0; 3]),
+            best: None,
+            traversal: Traversal::new(),
+        };
+        let mut lanes: [Lane; LANES] = std::array::from_fn(|_| idle());
         let mut next = 0;
-        // The next usable ray from `next` on (unusable ones miss at once).
-        let mut take = |traversal: &mut Traversal| -> Option<Lane> {
+        // Starts the next usable ray from `next` on in `lane` (unusable ones miss at
+        // once); false when none is left.
+        let mut take = |lane: &mut Lane| -> bool {
             while let Some(query) = rays.get(next) {
                 let index = next;
                 next += 1;
                 if usable_ray(query.origin, query.dir, query.t_max) {
-                    traversal.start(query.t_max);
-                    return Some(Lane {
-                        index,
-                        box_ray: BoxRay::new(query.origin, query.dir),
-                        sheared: ShearedRay::new(query.origin, query.dir),
-                        best: None,
-                    });
+                    lane.index = index;
+                    lane.box_ray = BoxRay::new(query.origin, query.dir);
+                    lane.sheared = ShearedRay::new(query.origin, query.dir);
+                    lane.best = None;
+                    lane.traversal.start(query.t_max);
+                    return true;
                 }
             }
-            None
+            false
         };
-        for (lane, traversal) in lanes.iter_mut().zip(traversals.iter_mut()) {
-            *lane = take(traversal);
+        // The lanes in flight are `lanes[..active]`: a lane with no ray left to take
+        // swaps places with the last one in flight, so a step never tests whether
+        // its lane is in use. Which lane a ray runs in does not change its steps,
+        // so neither does this its results.
+        let mut active = 0;
+        while active < LANES && take(&mut lanes[active]) {
+            active += 1;
         }
         // Slices in locals, not reached through `self` at every step (see
         // `wide::Nodes`).
         let tree = tree.nodes();
         let packs: &[TrianglePack<PACK>] = &self.packs;
         let fetch_leaf = |pack: usize, _| fetch_pack(packs, pack);
-        let mut active = lanes.iter().filter(|l| l.is_some()).count();
         while active > 0 {
-            for (slot, traversal) in lanes.iter_mut().zip(traversals.iter_mut()) {
-                let Some(lane) = slot else { continue };
+            let mut i = 0;
+            while let Some(lane) = lanes[..active].get_mut(i) {
                 let Lane {
                     box_ray,
                     sheared,
                     best,
+                    traversal,
                     ..
                 } = lane;
                 let mut leaf = |pack: usize, _, t_max: f32| match sheared
@@ -501,6 +514,7 @@ impl Accel {
                     None => t_max,
                 };
                 if tree.closest_step::<ISA>(box_ray, traversal, &mut leaf, &fetch_leaf) {
+                    i += 1;
                     continue;
                 }
                 // This ray is done: its result, then the next ray in its place.
@@ -509,9 +523,12 @@ impl Accel {
                     triangle: packs[p].id[hit.lane],
                     barycentric: hit.barycentric,
                 });
-                *slot = take(traversal);
-                if slot.is_none() {
+                if take(lane) {
+                    i += 1;
+                } else {
+                    // The last lane in flight takes this one's place and steps next.
                     active -= 1;
+                    lanes.swap(i, active);
                 }
             }
         }

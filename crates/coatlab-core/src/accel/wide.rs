@@ -173,11 +173,11 @@ pub(super) struct Nodes<'a>(&'a [Node]);
 pub(super) struct BoxRay {
     origin: [f32; 3],
     inv_dir: [f32; 3],
-    /// Per axis, 1 where the direction is negative: the ray enters a box by its
+    /// Per axis, whether the direction is negative: the ray enters a box by its
     /// maximum plane on that axis, `Node::bounds[2·axis + 1]`, instead of its minimum.
-    /// (Kept as a bit, not as the plane's index, so that the index
-    /// `2·axis + (bit & 1)` is provably below 6 and needs no bounds check.)
-    negative: [usize; 3],
+    /// (A `bool`, not the plane's index, so that the index `2·axis + bit` is provably
+    /// below 6 with neither a bounds check nor a mask: LLVM knows a `bool` is 0 or 1.)
+    negative: [bool; 3],
 }
 
 /// 16 f32 lanes, aligned for one AVX-512 load.
@@ -203,7 +203,7 @@ impl BoxRay {
         BoxRay {
             origin,
             inv_dir,
-            negative: inv_dir.map(|r| usize::from(r < 0.0)),
+            negative: inv_dir.map(|r| r < 0.0),
         }
     }
 
@@ -218,8 +218,8 @@ impl BoxRay {
             return unsafe { avx512::hit_children(self, node, t_max) };
         }
         let b = &node.bounds;
-        let near = |axis: usize| &b[2 * axis + (self.negative[axis] & 1)];
-        let far = |axis: usize| &b[2 * axis + (!self.negative[axis] & 1)];
+        let near = |axis: usize| &b[2 * axis + usize::from(self.negative[axis])];
+        let far = |axis: usize| &b[2 * axis + usize::from(!self.negative[axis])];
         let (bnx, bny, bnz) = (near(0), near(1), near(2));
         let (bfx, bfy, bfz) = (far(0), far(1), far(2));
         let [ox, oy, oz] = self.origin;
@@ -341,9 +341,9 @@ mod avx512 {
             let axis = |axis: usize| {
                 // The near row in lanes 0–7, the far one in 8–15, chosen by
                 // index as in the portable code (no branch on the ray's signs).
-                let negative = ray.negative[axis] & 1;
-                let near = _mm256_loadu_ps(b[2 * axis + negative].as_ptr());
-                let far = _mm256_loadu_ps(b[2 * axis + (1 - negative)].as_ptr());
+                let negative = ray.negative[axis];
+                let near = _mm256_loadu_ps(b[2 * axis + usize::from(negative)].as_ptr());
+                let far = _mm256_loadu_ps(b[2 * axis + usize::from(!negative)].as_ptr());
                 let planes = _mm512_insertf32x8::<1>(_mm512_castps256_ps512(near), far);
                 _mm512_mul_ps(
                     _mm512_sub_ps(planes, _mm512_set1_ps(ray.origin[axis])),
@@ -448,6 +448,9 @@ pub(super) struct Traversal {
     current: u32,
     /// The closest hit so far (the query's `t_max` before any).
     t_max: f32,
+    /// `t_max · TMAX_WIDEN`, what the node steps compare entry distances with:
+    /// updated at the leaves, which change `t_max`, rather than at every node.
+    t_box: f32,
 }
 
 impl Traversal {
@@ -457,6 +460,7 @@ impl Traversal {
             stack: Stack::new(),
             current: 0,
             t_max: 0.0,
+            t_box: 0.0,
         }
     }
 
@@ -467,6 +471,7 @@ impl Traversal {
         self.stack.overflow.clear();
         self.current = 0;
         self.t_max = t_max;
+        self.t_box = t_max * TMAX_WIDEN;
     }
 }
 
@@ -520,9 +525,10 @@ impl Nodes<'_> {
         if current & LEAF_BIT != 0 {
             let (first, count) = leaf_parts(current);
             traversal.t_max = leaf(first, count, traversal.t_max);
+            traversal.t_box = traversal.t_max * TMAX_WIDEN;
         } else {
             let node = &self.0[current as usize];
-            let (mut mask, entry) = ray.hit_children::<ISA>(node, traversal.t_max * TMAX_WIDEN);
+            let (mut mask, entry) = ray.hit_children::<ISA>(node, traversal.t_box);
             // One or two children hit (most steps): the order the sort below
             // would give, without it.
             if mask.is_power_of_two() {
@@ -580,7 +586,7 @@ impl Nodes<'_> {
             let Some((child, entry)) = traversal.stack.pop() else {
                 return false;
             };
-            if entry <= traversal.t_max * TMAX_WIDEN {
+            if entry <= traversal.t_box {
                 traversal.current = child;
                 return true;
             }
