@@ -426,6 +426,18 @@ impl Stack {
         self.len += 1;
     }
 
+    /// Pops entries until one whose entry distance is within `t_box`, and returns
+    /// its child; `None` when the stack runs out first.
+    #[inline(always)]
+    fn pop_within(&mut self, t_box: f32) -> Option<u32> {
+        loop {
+            let (child, entry) = self.pop()?;
+            if entry <= t_box {
+                return Some(child);
+            }
+        }
+    }
+
     #[inline(always)]
     fn pop(&mut self) -> Option<(u32, f32)> {
         if self.len == 0 {
@@ -499,9 +511,103 @@ impl Nodes<'_> {
         mut leaf: impl FnMut(usize, usize, f32) -> f32,
         fetch_leaf: impl Fn(usize, usize),
     ) {
-        let mut traversal = Traversal::new();
-        traversal.start(t_max);
-        while self.closest_step::<ISA>(ray, &mut traversal, &mut leaf, &fetch_leaf) {}
+        // The steps of `closest_step` over locals rather than a `Traversal` (the same
+        // steps in the same order, so the same results bit for bit). LLVM still
+        // keeps the ray's broadcast origin and reciprocal on the stack, reloading
+        // them at every node: the leaf test inlined into the same loop takes the
+        // vector registers (docs/benchmarks.md).
+        let nodes = self.0;
+        if nodes.is_empty() {
+            return;
+        }
+        let mut stack = Stack::new();
+        let mut current = 0u32;
+        let mut t_max = t_max;
+        let mut t_box = t_max * TMAX_WIDEN;
+        loop {
+            if current & LEAF_BIT != 0 {
+                let (first, count) = leaf_parts(current);
+                t_max = leaf(first, count, t_max);
+                t_box = t_max * TMAX_WIDEN;
+            } else if let Some(next) = self.enter::<ISA>(
+                &nodes[current as usize],
+                ray,
+                t_box,
+                &mut stack,
+                &fetch_leaf,
+            ) {
+                current = next;
+                continue;
+            }
+            match stack.pop_within(t_box) {
+                Some(next) => current = next,
+                None => return,
+            }
+        }
+    }
+
+    /// Tests an inner node's children: pushes the farther hit ones with their entry
+    /// distances (nearest on top) and returns the nearest, which it has asked the
+    /// cache for; `None` when no child is hit within `t_box`.
+    #[inline(always)]
+    fn enter<const ISA: u8>(
+        &self,
+        node: &Node,
+        ray: &BoxRay,
+        t_box: f32,
+        stack: &mut Stack,
+        fetch_leaf: &impl Fn(usize, usize),
+    ) -> Option<u32> {
+        let (mut mask, entry) = ray.hit_children::<ISA>(node, t_box);
+        // One or two children hit (most steps): the order the sort below would
+        // give, without it.
+        if mask.is_power_of_two() {
+            let child = node.child[mask.trailing_zeros() as usize];
+            self.fetch(child, fetch_leaf);
+            return Some(child);
+        }
+        let rest = mask & mask.wrapping_sub(1);
+        if rest.is_power_of_two() {
+            let (a, b) = (
+                mask.trailing_zeros() as usize,
+                rest.trailing_zeros() as usize,
+            );
+            let (child_a, child_b) = (node.child[a], node.child[b]);
+            self.fetch(child_a, fetch_leaf);
+            self.fetch(child_b, fetch_leaf);
+            // Nearer first; on equal entries the later child, as the sort's.
+            return Some(if entry[a] < entry[b] {
+                stack.push(child_b, entry[b]);
+                child_a
+            } else {
+                stack.push(child_a, entry[a]);
+                child_b
+            });
+        }
+        if mask == 0 {
+            return None;
+        }
+        // Hit children, sorted by decreasing entry distance (insertion sort:
+        // rarely more than three).
+        let mut hits = [(0u32, 0.0f32); WIDTH];
+        let mut n = 0;
+        while mask != 0 {
+            let i = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            let item = (node.child[i], entry[i]);
+            self.fetch(item.0, fetch_leaf);
+            let mut j = n;
+            while j > 0 && hits[j - 1].1 < item.1 {
+                hits[j] = hits[j - 1];
+                j -= 1;
+            }
+            hits[j] = item;
+            n += 1;
+        }
+        for &(child, t) in &hits[..n - 1] {
+            stack.push(child, t);
+        }
+        Some(hits[n - 1].0)
     }
 
     /// One step of a closest-hit traversal: visits the traversal's current node or
@@ -526,70 +632,23 @@ impl Nodes<'_> {
             let (first, count) = leaf_parts(current);
             traversal.t_max = leaf(first, count, traversal.t_max);
             traversal.t_box = traversal.t_max * TMAX_WIDEN;
-        } else {
-            let node = &self.0[current as usize];
-            let (mut mask, entry) = ray.hit_children::<ISA>(node, traversal.t_box);
-            // One or two children hit (most steps): the order the sort below
-            // would give, without it.
-            if mask.is_power_of_two() {
-                let child = node.child[mask.trailing_zeros() as usize];
-                self.fetch(child, fetch_leaf);
-                traversal.current = child;
-                return true;
-            }
-            let rest = mask & mask.wrapping_sub(1);
-            if rest.is_power_of_two() {
-                let (a, b) = (
-                    mask.trailing_zeros() as usize,
-                    rest.trailing_zeros() as usize,
-                );
-                let (child_a, child_b) = (node.child[a], node.child[b]);
-                self.fetch(child_a, fetch_leaf);
-                self.fetch(child_b, fetch_leaf);
-                // Nearer first; on equal entries the later child, as the sort's.
-                if entry[a] < entry[b] {
-                    traversal.stack.push(child_b, entry[b]);
-                    traversal.current = child_a;
-                } else {
-                    traversal.stack.push(child_a, entry[a]);
-                    traversal.current = child_b;
-                }
-                return true;
-            }
-            if mask != 0 {
-                // Hit children, sorted by decreasing entry distance (insertion
-                // sort: rarely more than three).
-                let mut hits = [(0u32, 0.0f32); WIDTH];
-                let mut n = 0;
-                while mask != 0 {
-                    let i = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    let item = (node.child[i], entry[i]);
-                    self.fetch(item.0, fetch_leaf);
-                    let mut j = n;
-                    while j > 0 && hits[j - 1].1 < item.1 {
-                        hits[j] = hits[j - 1];
-                        j -= 1;
-                    }
-                    hits[j] = item;
-                    n += 1;
-                }
-                for &(child, t) in &hits[..n - 1] {
-                    traversal.stack.push(child, t);
-                }
-                traversal.current = hits[n - 1].0;
-                return true;
-            }
+        } else if let Some(next) = self.enter::<ISA>(
+            &self.0[current as usize],
+            ray,
+            traversal.t_box,
+            &mut traversal.stack,
+            fetch_leaf,
+        ) {
+            traversal.current = next;
+            return true;
         }
         // Next: the nearest pending child not already beyond the closest hit.
-        loop {
-            let Some((child, entry)) = traversal.stack.pop() else {
-                return false;
-            };
-            if entry <= traversal.t_box {
-                traversal.current = child;
-                return true;
+        match traversal.stack.pop_within(traversal.t_box) {
+            Some(next) => {
+                traversal.current = next;
+                true
             }
+            None => false,
         }
     }
 
