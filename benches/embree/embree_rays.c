@@ -20,7 +20,13 @@
  * bytes after its RTCRayHit/RTCRayHit8/RTCRayHit16, and fails the run if Embree wrote
  * into it (a layout the headers do not describe). That pass also compares each
  * incoherent ray's hit with ours (FILE.hits beside FILE.bin, when present) and with
- * the single-ray mode's, and lists the rays on which they disagree. */
+ * the single-ray mode's, and lists the rays on which they disagree.
+ *
+ * EMBREE_ONCE=incoherent|bounce instead builds the scene once and traces the first
+ * EMBREE_RAYS (default 65536) rays of that set once, in the first mode of MODES, on
+ * one thread, and prints the hit count: for counting instructions a ray under
+ * callgrind (--toggle-collect=rtcIntersect1, or rtcIntersect8), as the Rust
+ * bench's ACCEL_ONCE does for ours. */
 #define _GNU_SOURCE
 #include <embree4/rtcore.h>
 #include <math.h>
@@ -338,9 +344,14 @@ int main(int argc, char **argv) {
              mode_calls[m], mode_names[m] + 6);
   }
 
+  const char *once = getenv("EMBREE_ONCE");
+  if (once && strcmp(once, "incoherent") && strcmp(once, "bounce")) {
+    fprintf(stderr, "EMBREE_ONCE=%s: expected incoherent or bounce\n", once);
+    return 2;
+  }
   double best_build = 1e9;
   RTCScene scene = NULL;
-  for (int run = 0; run < 5; run++) {
+  for (int run = 0; run < (once ? 1 : 5); run++) {
     if (scene) rtcReleaseScene(scene);
     double t0 = now();
     scene = rtcNewScene(device);
@@ -363,6 +374,29 @@ int main(int argc, char **argv) {
   if (error) {
     fprintf(stderr, "Embree error %d\n", error);
     return 1;
+  }
+
+  if (once) {
+    int bounce = !strcmp(once, "bounce");
+    size_t available_rays = bounce ? nb : nr;
+    const char *count_arg = getenv("EMBREE_RAYS");
+    size_t count = count_arg ? strtoull(count_arg, NULL, 10) : 65536;
+    if (count == 0 || count > available_rays) {
+      fprintf(stderr, "EMBREE_RAYS=%s: expected 1 to %zu\n", count_arg ? count_arg : "",
+              available_rays);
+      return 2;
+    }
+    int m = 0;
+    while (m < MODES && !wanted[m]) m++;
+    if (m == MODES) {
+      fprintf(stderr, "%s: no available mode in '%s'\n", argv[1], modes_arg);
+      return 2;
+    }
+    size_t hits;
+    run_once(scene, m, bounce ? rays + 6 * nr : rays, count, 1, NULL, &hits, NULL);
+    printf("%s | embree %s%s %s | %s rays: %zu of %zu hit\n", argv[1], quality_name,
+           robust ? " robust" : "", mode_names[m], once, hits, count);
+    return 0;
   }
 
   /* The checking pass: every mode, both ray sets, guards checked; the incoherent
