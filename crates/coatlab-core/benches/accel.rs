@@ -45,7 +45,8 @@
 //!   rays per CPU-second and per wall-clock second (best of 15 each) and the
 //!   paths' ratios: A/B comparisons of traversal changes and of the SIMD paths on a
 //!   noisy machine.
-//! - `ACCEL_ONCE=1` traces 2¹⁶ rays once, for instruction counts under callgrind.
+//! - `ACCEL_ONCE=1` traces 2¹⁶ rays once, for instruction counts under callgrind
+//!   (`ACCEL_ONCE=single`: one by one through `closest_hit`).
 //! - `ACCEL_DUMP=DIR` writes each mesh and its rays to `DIR/<mesh>.bin` for other
 //!   ray tracers (`benches/embree/`: Intel Embree 4 on the same rays).
 
@@ -786,7 +787,9 @@ fn cpu_rates() {
 /// `ACCEL_WHICH=bounce` the image-order bounces) through `closest_hits` once on one
 /// thread, for counting instructions a ray with `valgrind --tool=callgrind
 /// --toggle-collect='*simd_path::on_avx2*'`, the AVX2 kernels (docs/benchmarks.md).
+/// `ACCEL_ONCE=single`: through `closest_hit` one by one instead.
 fn once() {
+    let single = std::env::var("ACCEL_ONCE").is_ok_and(|v| v == "single");
     let count: usize = std::env::var("ACCEL_RAYS")
         .ok()
         .and_then(|s| s.parse().ok())
@@ -797,8 +800,14 @@ fn once() {
         let rays = queries(&mesh, &which);
         let rays = &rays[..count.min(rays.len())];
         let mut hits = vec![None; rays.len()];
-        for (q, h) in rays.chunks(4096).zip(hits.chunks_mut(4096)) {
-            accel.closest_hits(q, h);
+        if single {
+            for (q, h) in rays.iter().zip(hits.iter_mut()) {
+                *h = accel.closest_hit(q.origin, q.dir, q.t_max);
+            }
+        } else {
+            for (q, h) in rays.chunks(4096).zip(hits.chunks_mut(4096)) {
+                accel.closest_hits(q, h);
+            }
         }
         let hit = hits.iter().filter(|h| h.is_some()).count();
         println!("{name}: {} rays, {hit} hit", rays.len());
