@@ -455,14 +455,18 @@ impl Accel {
         }
         // Unusable rays are skipped below and miss.
         hits.fill(None);
-        let idle = || Lane {
+        // Placeholder rays for the lanes until `take` starts theirs, prepared once.
+        let (idle_box, idle_sheared) = (
+            BoxRay::new([0.0; 3], [1.0; 3]),
+            ShearedRay::new([0.0; 3], [1.0; 3]),
+        );
+        let mut lanes: [Lane; LANES] = std::array::from_fn(|_| Lane {
             index: 0,
-            box_ray: BoxRay::new([0.0; 3], [1.0; 3]),
-            sheared: ShearedRay::new([0.0; 3], [1.0; 3]),
+            box_ray: idle_box,
+            sheared: idle_sheared,
             best: None,
             traversal: Traversal::new(),
-        };
-        let mut lanes: [Lane; LANES] = std::array::from_fn(|_| idle());
+        });
         let mut next = 0;
         // Starts the next usable ray from `next` on in `lane` (unusable ones miss at
         // once); false when none is left.

@@ -511,39 +511,9 @@ impl Nodes<'_> {
         mut leaf: impl FnMut(usize, usize, f32) -> f32,
         fetch_leaf: impl Fn(usize, usize),
     ) {
-        // The steps of `closest_step` over locals rather than a `Traversal` (the same
-        // steps in the same order, so the same results bit for bit). LLVM still
-        // keeps the ray's broadcast origin and reciprocal on the stack, reloading
-        // them at every node: the leaf test inlined into the same loop takes the
-        // vector registers (docs/benchmarks.md).
-        let nodes = self.0;
-        if nodes.is_empty() {
-            return;
-        }
-        let mut stack = Stack::new();
-        let mut current = 0u32;
-        let mut t_max = t_max;
-        let mut t_box = t_max * TMAX_WIDEN;
-        loop {
-            if current & LEAF_BIT != 0 {
-                let (first, count) = leaf_parts(current);
-                t_max = leaf(first, count, t_max);
-                t_box = t_max * TMAX_WIDEN;
-            } else if let Some(next) = self.enter::<ISA>(
-                &nodes[current as usize],
-                ray,
-                t_box,
-                &mut stack,
-                &fetch_leaf,
-            ) {
-                current = next;
-                continue;
-            }
-            match stack.pop_within(t_box) {
-                Some(next) => current = next,
-                None => return,
-            }
-        }
+        let mut traversal = Traversal::new();
+        traversal.start(t_max);
+        while self.closest_step::<ISA>(ray, &mut traversal, &mut leaf, &fetch_leaf) {}
     }
 
     /// Tests an inner node's children: pushes the farther hit ones with their entry
