@@ -51,6 +51,8 @@ pub(super) mod largest_child;
 #[cfg(test)]
 mod tests;
 
+use std::mem::MaybeUninit;
+
 use super::boxes::Bounds;
 use crate::simd_path::isa::{AVX2, AVX512};
 
@@ -397,6 +399,69 @@ fn min(a: f32, b: f32) -> f32 {
     if a < b { a } else { b }
 }
 
+/// Where a node step leaves the hit children it does not visit next.
+trait PushStack {
+    fn push(&mut self, child: u32, entry: f32);
+}
+
+/// Entries of the single-ray query's stack ([`BoundedStack`]): a ray holds at most
+/// 7 entries for each node above its current one, so this is room for 18 levels of
+/// nodes with every child hit; the Lamborghini's tree is 10 nodes deep, and the
+/// default car's rays in `tests/accel.rs` used at most 16 entries.
+const SINGLE_RAY_STACK: usize = 128;
+
+/// The single-ray query's stack: a fixed array, left uninitialised until pushed
+/// (zeroing even 64 entries cost ~49 instructions a ray, more than a node step),
+/// and no heap to spill into, so that a push is never a call, which would take the
+/// node loop's values out of registers. When full it drops the entry and says so
+/// ([`BoundedStack::overflowed`]); the query is then run again with [`Stack`].
+struct BoundedStack<const CAPACITY: usize> {
+    items: [MaybeUninit<(u32, f32)>; CAPACITY],
+    /// `items[..len]` have been written.
+    len: usize,
+    overflowed: bool,
+}
+
+impl<const CAPACITY: usize> BoundedStack<CAPACITY> {
+    #[inline(always)]
+    fn new() -> Self {
+        BoundedStack {
+            items: [const { MaybeUninit::uninit() }; CAPACITY],
+            len: 0,
+            overflowed: false,
+        }
+    }
+
+    /// Pops entries until one whose entry distance is within `t_box`, and returns
+    /// its child; `None` when the stack runs out first.
+    #[inline(always)]
+    fn pop_within(&mut self, t_box: f32) -> Option<u32> {
+        while let Some(len) = self.len.checked_sub(1) {
+            self.len = len;
+            // SAFETY: `items[..len + 1]` have been written (`push` writes an item
+            // before it counts it), and `len < CAPACITY`, as `len + 1` items fit.
+            let (child, entry) = unsafe { self.items.get_unchecked(len).assume_init() };
+            if entry <= t_box {
+                return Some(child);
+            }
+        }
+        None
+    }
+}
+
+impl<const CAPACITY: usize> PushStack for BoundedStack<CAPACITY> {
+    #[inline(always)]
+    fn push(&mut self, child: u32, entry: f32) {
+        match self.items.get_mut(self.len) {
+            Some(slot) => {
+                slot.write((child, entry));
+                self.len += 1;
+            }
+            None => self.overflowed = true,
+        }
+    }
+}
+
 /// Traversal stack: a fixed array with a heap overflow that a tree of ordinary depth
 /// never touches (the fixed part needs no allocation per ray; the overflow keeps
 /// pathological trees correct).
@@ -404,6 +469,18 @@ struct Stack {
     items: [(u32, f32); 64],
     len: usize,
     overflow: Vec<(u32, f32)>,
+}
+
+impl PushStack for Stack {
+    #[inline(always)]
+    fn push(&mut self, child: u32, entry: f32) {
+        if let Some(slot) = self.items.get_mut(self.len) {
+            *slot = (child, entry);
+        } else {
+            self.overflow.push((child, entry));
+        }
+        self.len += 1;
+    }
 }
 
 impl Stack {
@@ -414,16 +491,6 @@ impl Stack {
             len: 0,
             overflow: Vec::new(),
         }
-    }
-
-    #[inline(always)]
-    fn push(&mut self, child: u32, entry: f32) {
-        if let Some(slot) = self.items.get_mut(self.len) {
-            *slot = (child, entry);
-        } else {
-            self.overflow.push((child, entry));
-        }
-        self.len += 1;
     }
 
     /// Pops entries until one whose entry distance is within `t_box`, and returns
@@ -503,6 +570,12 @@ impl Nodes<'_> {
     /// Closest hit: `leaf(first_pack, primitive_count, t_max)` intersects a leaf's
     /// packs and returns the new `t_max` (smaller when it found a closer hit);
     /// `fetch_leaf(first_pack, primitive_count)` may prefetch them.
+    ///
+    /// One ray on its own, with its state in locals and a stack that never
+    /// allocates ([`BoundedStack`]); in the rare tree deep enough to fill that
+    /// stack, the ray is traced again with the stack that grows, which takes the same
+    /// steps as [`Nodes::closest_step`] (so a query's results do not depend on which
+    /// of the two ran, bit for bit).
     #[inline(always)]
     pub fn closest<const ISA: u8>(
         &self,
@@ -511,21 +584,99 @@ impl Nodes<'_> {
         mut leaf: impl FnMut(usize, usize, f32) -> f32,
         fetch_leaf: impl Fn(usize, usize),
     ) {
+        self.closest_within::<ISA, SINGLE_RAY_STACK>(ray, t_max, &mut leaf, &fetch_leaf);
+    }
+
+    /// [`Nodes::closest`] with a bounded stack of `CAPACITY` entries; `true` where
+    /// it filled up and the stack that grows took over.
+    #[inline(always)]
+    pub(super) fn closest_within<const ISA: u8, const CAPACITY: usize>(
+        &self,
+        ray: &BoxRay,
+        t_max: f32,
+        leaf: &mut impl FnMut(usize, usize, f32) -> f32,
+        fetch_leaf: &impl Fn(usize, usize),
+    ) -> bool {
+        if self.closest_bounded::<ISA, CAPACITY>(ray, t_max, leaf, fetch_leaf) {
+            return false;
+        }
+        self.closest_growing::<ISA>(ray, t_max, leaf, fetch_leaf);
+        true
+    }
+
+    /// [`Nodes::closest`] with a stack of `CAPACITY` entries; `false`, with the
+    /// query unfinished, where that stack filled up (the caller then runs it again
+    /// from the start: `leaf` only ever reports real hits, and the second run
+    /// reports the closest last).
+    ///
+    /// The nodes are visited in a loop of their own until a leaf is reached, which
+    /// keeps the ray's values in registers over the node steps (in one loop over
+    /// nodes and leaves alike, LLVM kept them on the stack, as the leaf test needs
+    /// most vector registers; docs/benchmarks.md).
+    #[inline(always)]
+    fn closest_bounded<const ISA: u8, const CAPACITY: usize>(
+        &self,
+        ray: &BoxRay,
+        mut t_max: f32,
+        leaf: &mut impl FnMut(usize, usize, f32) -> f32,
+        fetch_leaf: &impl Fn(usize, usize),
+    ) -> bool {
+        if self.0.is_empty() {
+            return true;
+        }
+        let mut stack = BoundedStack::<CAPACITY>::new();
+        let mut t_box = t_max * TMAX_WIDEN;
+        let mut current = 0u32;
+        loop {
+            let ray = &{ *std::hint::black_box(ray) };
+            while current & LEAF_BIT == 0 {
+                let node = &self.0[current as usize];
+                current = match self.enter::<ISA, false>(node, ray, t_box, &mut stack, fetch_leaf) {
+                    Some(next) => next,
+                    None => match stack.pop_within(t_box) {
+                        Some(next) => next,
+                        None => return !stack.overflowed,
+                    },
+                };
+            }
+            let (first, count) = leaf_parts(current);
+            t_max = leaf(first, count, t_max);
+            t_box = t_max * TMAX_WIDEN;
+            current = match stack.pop_within(t_box) {
+                Some(next) => next,
+                None => return !stack.overflowed,
+            };
+        }
+    }
+
+    /// [`Nodes::closest`] with the stack that grows: the steps of
+    /// [`Nodes::closest_step`] back to back.
+    #[inline(always)]
+    fn closest_growing<const ISA: u8>(
+        &self,
+        ray: &BoxRay,
+        t_max: f32,
+        leaf: &mut impl FnMut(usize, usize, f32) -> f32,
+        fetch_leaf: &impl Fn(usize, usize),
+    ) {
         let mut traversal = Traversal::new();
         traversal.start(t_max);
-        while self.closest_step::<ISA>(ray, &mut traversal, &mut leaf, &fetch_leaf) {}
+        while self.closest_step::<ISA>(ray, &mut traversal, leaf, fetch_leaf) {}
     }
 
     /// Tests an inner node's children: pushes the farther hit ones with their entry
-    /// distances (nearest on top) and returns the nearest, which it has asked the
-    /// cache for; `None` when no child is hit within `t_box`.
+    /// distances (nearest on top), having asked the cache for them, and returns the
+    /// nearest; `None` when no child is hit within `t_box`. With `FETCH_NEXT` it
+    /// asks the cache for the nearest too: a batch's other rays work before it is
+    /// read, whereas one ray on its own reads it at once, and the request would only
+    /// cost instructions (the node's address and bounds check, four prefetches).
     #[inline(always)]
-    fn enter<const ISA: u8>(
+    fn enter<const ISA: u8, const FETCH_NEXT: bool>(
         &self,
         node: &Node,
         ray: &BoxRay,
         t_box: f32,
-        stack: &mut Stack,
+        stack: &mut impl PushStack,
         fetch_leaf: &impl Fn(usize, usize),
     ) -> Option<u32> {
         let (mut mask, entry) = ray.hit_children::<ISA>(node, t_box);
@@ -533,7 +684,9 @@ impl Nodes<'_> {
         // give, without it.
         if mask.is_power_of_two() {
             let child = node.child[mask.trailing_zeros() as usize];
-            self.fetch(child, fetch_leaf);
+            if FETCH_NEXT {
+                self.fetch(child, fetch_leaf);
+            }
             return Some(child);
         }
         let rest = mask & mask.wrapping_sub(1);
@@ -543,16 +696,18 @@ impl Nodes<'_> {
                 rest.trailing_zeros() as usize,
             );
             let (child_a, child_b) = (node.child[a], node.child[b]);
-            self.fetch(child_a, fetch_leaf);
-            self.fetch(child_b, fetch_leaf);
             // Nearer first; on equal entries the later child, as the sort's.
-            return Some(if entry[a] < entry[b] {
-                stack.push(child_b, entry[b]);
-                child_a
+            let ((next, _), (pushed, t)) = if entry[a] < entry[b] {
+                ((child_a, entry[a]), (child_b, entry[b]))
             } else {
-                stack.push(child_a, entry[a]);
-                child_b
-            });
+                ((child_b, entry[b]), (child_a, entry[a]))
+            };
+            if FETCH_NEXT {
+                self.fetch(next, fetch_leaf);
+            }
+            self.fetch(pushed, fetch_leaf);
+            stack.push(pushed, t);
+            return Some(next);
         }
         if mask == 0 {
             return None;
@@ -565,7 +720,6 @@ impl Nodes<'_> {
             let i = mask.trailing_zeros() as usize;
             mask &= mask - 1;
             let item = (node.child[i], entry[i]);
-            self.fetch(item.0, fetch_leaf);
             let mut j = n;
             while j > 0 && hits[j - 1].1 < item.1 {
                 hits[j] = hits[j - 1];
@@ -575,9 +729,14 @@ impl Nodes<'_> {
             n += 1;
         }
         for &(child, t) in &hits[..n - 1] {
+            self.fetch(child, fetch_leaf);
             stack.push(child, t);
         }
-        Some(hits[n - 1].0)
+        let next = hits[n - 1].0;
+        if FETCH_NEXT {
+            self.fetch(next, fetch_leaf);
+        }
+        Some(next)
     }
 
     /// One step of a closest-hit traversal: visits the traversal's current node or
@@ -602,7 +761,7 @@ impl Nodes<'_> {
             let (first, count) = leaf_parts(current);
             traversal.t_max = leaf(first, count, traversal.t_max);
             traversal.t_box = traversal.t_max * TMAX_WIDEN;
-        } else if let Some(next) = self.enter::<ISA>(
+        } else if let Some(next) = self.enter::<ISA, true>(
             &self.0[current as usize],
             ray,
             traversal.t_box,

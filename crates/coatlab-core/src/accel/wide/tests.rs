@@ -1,6 +1,7 @@
 //! Unit tests of the 8-wide tree's private parts: a given top is kept, the AVX
 //! hit mask agrees with the portable one, and so does the AVX-512 slab test; no
-//! path's slab test misses a box that the ray enters.
+//! path's slab test misses a box that the ray enters; the single-ray query's
+//! bounded stack hands over to the growing one without changing a result.
 
 use super::super::test_support::{XorShift, on_path, slivers};
 use super::*;
@@ -286,4 +287,107 @@ fn no_box_missed<const ISA: u8>() {
         checked > 20_000 && missed > 20_000,
         "{checked} boxes entered, {missed} missed"
     );
+}
+
+/// The single-ray query with a stack too small for most rays (one entry) takes
+/// the same steps, once the stack that grows has taken over, as the resumable
+/// traversal: every leaf report and the final closest distance the same, bit for
+/// bit; with the default capacity no ray here needs the hand-over.
+#[test]
+fn a_full_bounded_stack_hands_over_without_changing_a_result() {
+    use crate::simd_path::isa::PORTABLE;
+    let (_, boxes) = slivers(5_000);
+    let tree = WideBvh::build(&boxes, &[], 16, 1);
+    let nodes = tree.nodes();
+    let mut rng = XorShift(0x2545_f491_4f6c_dd1d);
+    let (mut handed_over, mut hits) = (0, 0);
+    for _ in 0..2_000 {
+        let origin: [f32; 3] = std::array::from_fn(|_| 2.0 * rng.uniform() - 0.5);
+        let dir: [f32; 3] = std::array::from_fn(|_| rng.uniform() - 0.5);
+        let ray = BoxRay::new(origin, dir);
+        // Each leaf's boxes stand in for its primitives: the distance to a
+        // primitive is its box's entry distance, so the closest "hit" is decided
+        // by the traversal's order and pruning alone.
+        let trace = |run: &dyn Fn(&mut LeafTest) -> bool| {
+            let mut reports = Vec::new();
+            let handed_over = run(&mut |first, count, t_max| {
+                let mut t_max = t_max;
+                for slots in &tree.pack_slots()[first..first + pack_count(count)] {
+                    for &slot in slots.iter().filter(|&&s| s != u32::MAX) {
+                        let prim = tree.order()[slot as usize] as usize;
+                        let t = exact_entry(&ray, &boxes[prim]).unwrap_or(f32::INFINITY);
+                        if t < t_max {
+                            t_max = t;
+                        }
+                    }
+                }
+                reports.push((first, t_max.to_bits()));
+                t_max
+            });
+            (handed_over, reports)
+        };
+        let (over_default, default) = trace(&|leaf| {
+            nodes.closest_within::<PORTABLE, SINGLE_RAY_STACK>(
+                &ray,
+                f32::INFINITY,
+                &mut |a, b, t| leaf(a, b, t),
+                &|_, _| {},
+            )
+        });
+        let (over_one, one) = trace(&|leaf| {
+            nodes.closest_within::<PORTABLE, 1>(
+                &ray,
+                f32::INFINITY,
+                &mut |a, b, t| leaf(a, b, t),
+                &|_, _| {},
+            )
+        });
+        let (_, growing) = trace(&|leaf| {
+            nodes.closest_growing::<PORTABLE>(
+                &ray,
+                f32::INFINITY,
+                &mut |a, b, t| leaf(a, b, t),
+                &|_, _| {},
+            );
+            false
+        });
+        assert!(!over_default, "the default capacity overflowed");
+        assert_eq!(default, growing, "bounded stack against the growing one");
+        // After a hand-over, the reports of the second run are the growing
+        // stack's, and the last one (the result) is the same.
+        if over_one {
+            handed_over += 1;
+            assert!(
+                one.ends_with(&growing),
+                "hand-over against the growing stack"
+            );
+        } else {
+            assert_eq!(one, growing);
+        }
+        hits += usize::from(
+            growing
+                .last()
+                .is_some_and(|r| f32::from_bits(r.1).is_finite()),
+        );
+    }
+    assert!(
+        handed_over > 100,
+        "only {handed_over} rays filled a one-entry stack"
+    );
+    assert!(hits > 100, "only {hits} rays hit a box");
+}
+
+/// A leaf test as the traversals call it: (first pack, primitive count, t_max) → new t_max.
+type LeafTest<'a> = dyn FnMut(usize, usize, f32) -> f32 + 'a;
+
+/// The entry distance of `ray` into `b` (0 from inside), `None` where it misses.
+fn exact_entry(ray: &BoxRay, b: &Bounds) -> Option<f32> {
+    let (mut near, mut far) = (0.0f32, f32::INFINITY);
+    for axis in 0..3 {
+        let t0 = (b.min[axis] - ray.origin[axis]) * ray.inv_dir[axis];
+        let t1 = (b.max[axis] - ray.origin[axis]) * ray.inv_dir[axis];
+        near = near.max(t0.min(t1));
+        far = far.min(t0.max(t1));
+    }
+    (near <= far).then_some(near)
 }
