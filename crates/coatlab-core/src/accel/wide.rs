@@ -628,6 +628,13 @@ impl Nodes<'_> {
         let mut t_box = t_max * TMAX_WIDEN;
         let mut current = 0u32;
         loop {
+            // A fresh copy of the ray for each run of node steps: its values then
+            // live only across that run, and LLVM keeps them in registers there.
+            // Given the ray itself, LLVM hoisted them out of the outer loop, where
+            // they compete with the leaf test for the vector registers, and it
+            // reloaded each from the stack at every node step (−10 % instructions
+            // a ray with the copy; docs/benchmarks.md). `black_box` stops the copy
+            // from being folded back into the ray.
             let ray = &{ *std::hint::black_box(ray) };
             while current & LEAF_BIT == 0 {
                 let node = &self.0[current as usize];
