@@ -184,12 +184,14 @@ pub(super) struct BoxRay {
 
 /// Where a row of [`Node::bounds`] starts in the node's planes taken as one array
 /// of 48: an enum rather than an integer, so that LLVM knows every start is at most
-/// 40 and a row of 8 from it needs no bounds check, and a start multiplied by 4 is
-/// an x86 address by itself (a row index would need a shift at every step; held as
-/// `bool` signs, the batch rebuilt six row offsets from them at every step: 15
-/// instructions; docs/benchmarks.md).
+/// 40 and a row of 8 from it needs no bounds check; a start times 4 is an x86
+/// address by itself (a row index would need a shift at every step); and 32 bits
+/// wide, so that a batch lane's six starts are six plain loads (as bytes, LLVM
+/// merged the loads and unpacked them with shifts). Held as the direction's signs
+/// instead, the batch rebuilt six row offsets from them at every step, 15
+/// instructions (docs/benchmarks.md).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[repr(u8)]
+#[repr(u32)]
 enum PlaneRow {
     MinX = 0,
     MaxX = 8,
