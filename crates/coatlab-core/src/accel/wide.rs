@@ -28,7 +28,8 @@
 //!   once a closer hit is known); any hit without sorting, stopping at the first hit.
 //!   The closest-hit traversal is a resumable state ([`Traversal`]) advanced one node
 //!   or leaf at a time ([`Nodes::closest_step`]), so that a batch can interleave
-//!   the steps of several rays.
+//!   the steps of several rays; a single ray ([`Nodes::closest`]) takes the same
+//!   steps with its state in locals and its node steps in a loop of their own.
 //!
 //! # Robustness
 //!
