@@ -40,7 +40,8 @@ fn a_given_top_is_the_top_of_the_tree() {
 }
 
 /// The AVX mask (`movemask`) agrees with the portable one on random values, equal
-/// pairs, infinities and NaN (where the CPU has AVX).
+/// pairs, infinities and NaN (where the CPU has AVX), and, without NaN, with one
+/// compare against the smaller of the exit distance and `t_max`.
 #[test]
 fn hit_mask_agrees_with_the_portable_mask() {
     on_path(SimdPath::Avx2, hit_mask_agrees);
@@ -72,15 +73,29 @@ fn hit_mask_agrees() {
         };
         let entry: [f32; WIDTH] = std::array::from_fn(|_| pick());
         let mut limit: [f32; WIDTH] = std::array::from_fn(|_| pick());
+        let picked_t_max = pick();
         // Some exact ties, where `<=` must hold.
         limit[(next() % WIDTH as u64) as usize] = entry[0];
         limit[0] = entry[0];
-        let mask = hit_mask::<AVX2>(&entry, &limit);
+        // The distance limit: sometimes tied with an entry too.
+        let t_max = if next() % 4 == 0 {
+            entry[1]
+        } else {
+            picked_t_max
+        };
+        let mask = hit_mask::<AVX2>(&entry, &limit, t_max);
         assert_eq!(
             mask,
-            hit_mask_portable(&entry, &limit),
-            "{entry:?} {limit:?}"
+            hit_mask_portable(&entry, &limit, t_max),
+            "{entry:?} {limit:?} {t_max}"
         );
+        // The same bits as one compare with the smaller of the two limits (where
+        // no NaN is involved, as in the traversal).
+        if !entry.iter().chain(&limit).any(|x| x.is_nan()) && !t_max.is_nan() {
+            let smaller = limit.map(|l| l.min(t_max));
+            let one = (0..WIDTH).fold(0, |m, i| m | u32::from(entry[i] <= smaller[i]) << i);
+            assert_eq!(mask, one, "{entry:?} {limit:?} {t_max}");
+        }
         seen[usize::from(mask == 0)] = true;
     }
     assert_eq!(seen, [true, true]);
