@@ -487,54 +487,72 @@ impl<const CAPACITY: usize> BoundedStack<CAPACITY> {
         }
     }
 
+    /// Pushes the entry unless the stack is full; whether it did.
+    #[inline(always)]
+    fn try_push(&mut self, child: u32, entry: f32) -> bool {
+        match self.items.get_mut(self.len) {
+            Some(slot) => {
+                slot.write((child, entry));
+                self.len += 1;
+                true
+            }
+            None => false,
+        }
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<(u32, f32)> {
+        let len = self.len.checked_sub(1)?;
+        self.len = len;
+        // SAFETY: `items[..len + 1]` have been written (`try_push` writes an item
+        // before it counts it), and `len < CAPACITY`, as `len + 1` items fit.
+        Some(unsafe { self.items.get_unchecked(len).assume_init() })
+    }
+
     /// Pops entries until one whose entry distance is within `t_box`, and returns
     /// its child; `None` when the stack runs out first.
     #[inline(always)]
     fn pop_within(&mut self, t_box: f32) -> Option<u32> {
-        while let Some(len) = self.len.checked_sub(1) {
-            self.len = len;
-            // SAFETY: `items[..len + 1]` have been written (`push` writes an item
-            // before it counts it), and `len < CAPACITY`, as `len + 1` items fit.
-            let (child, entry) = unsafe { self.items.get_unchecked(len).assume_init() };
-            if entry <= t_box {
-                return Some(child);
-            }
+        pop_within(|| self.pop(), t_box)
+    }
+}
+
+/// Pops entries with `pop` until one whose entry distance is within `t_box`, and
+/// returns its child; `None` when they run out first.
+#[inline(always)]
+fn pop_within(mut pop: impl FnMut() -> Option<(u32, f32)>, t_box: f32) -> Option<u32> {
+    loop {
+        let (child, entry) = pop()?;
+        if entry <= t_box {
+            return Some(child);
         }
-        None
     }
 }
 
 impl<const CAPACITY: usize> PushStack for BoundedStack<CAPACITY> {
     #[inline(always)]
     fn push(&mut self, child: u32, entry: f32) {
-        match self.items.get_mut(self.len) {
-            Some(slot) => {
-                slot.write((child, entry));
-                self.len += 1;
-            }
-            None => self.overflowed = true,
+        if !self.try_push(child, entry) {
+            self.overflowed = true;
         }
     }
 }
 
-/// Traversal stack: a fixed array with a heap overflow that a tree of ordinary depth
-/// never touches (the fixed part needs no allocation per ray; the overflow keeps
-/// pathological trees correct).
+/// Traversal stack that grows: a [`BoundedStack`] with a heap overflow that a tree
+/// of ordinary depth never touches (the fixed part needs neither an allocation nor
+/// zeroing per ray; the overflow keeps pathological trees correct).
 struct Stack {
-    items: [(u32, f32); 64],
-    len: usize,
+    fixed: BoundedStack<64>,
+    /// Entries pushed while `fixed` was full: all newer than its own.
     overflow: Vec<(u32, f32)>,
 }
 
 impl PushStack for Stack {
     #[inline(always)]
     fn push(&mut self, child: u32, entry: f32) {
-        if let Some(slot) = self.items.get_mut(self.len) {
-            *slot = (child, entry);
-        } else {
+        if !self.fixed.try_push(child, entry) {
             self.overflow.push((child, entry));
         }
-        self.len += 1;
     }
 }
 
@@ -542,34 +560,27 @@ impl Stack {
     #[inline(always)]
     fn new() -> Stack {
         Stack {
-            items: [(0, 0.0); 64],
-            len: 0,
+            fixed: BoundedStack::new(),
             overflow: Vec::new(),
         }
+    }
+
+    #[inline(always)]
+    fn clear(&mut self) {
+        self.fixed.len = 0;
+        self.overflow.clear();
     }
 
     /// Pops entries until one whose entry distance is within `t_box`, and returns
     /// its child; `None` when the stack runs out first.
     #[inline(always)]
     fn pop_within(&mut self, t_box: f32) -> Option<u32> {
-        loop {
-            let (child, entry) = self.pop()?;
-            if entry <= t_box {
-                return Some(child);
-            }
-        }
+        pop_within(|| self.pop(), t_box)
     }
 
     #[inline(always)]
     fn pop(&mut self) -> Option<(u32, f32)> {
-        if self.len == 0 {
-            return None;
-        }
-        self.len -= 1;
-        match self.items.get(self.len) {
-            Some(&item) => Some(item),
-            None => self.overflow.pop(),
-        }
+        self.overflow.pop().or_else(|| self.fixed.pop())
     }
 }
 
@@ -601,8 +612,7 @@ impl Traversal {
     /// Starts a new ray at the root with `t_max`.
     #[inline(always)]
     pub fn start(&mut self, t_max: f32) {
-        self.stack.len = 0;
-        self.stack.overflow.clear();
+        self.stack.clear();
         self.current = 0;
         self.t_max = t_max;
         self.t_box = t_max * TMAX_WIDEN;
