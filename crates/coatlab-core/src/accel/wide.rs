@@ -37,7 +37,9 @@
 //! product: no fused `plane · (1/dir) − origin/dir`, whose cancellation error grows
 //! with the distance of the origin from the world origin), and widens the exit
 //! distance by a few ulps as Ize does ("Robust BVH Ray Traversal", JCGT 2013), so a
-//! box is never missed by a ray that hits a primitive inside it. Zero direction
+//! box is never missed by a ray that hits a primitive inside it. The distances'
+//! maxima, minima, widening and compares work on their bits as integers
+//! ([`ordered`]), exact for what the test decides. Zero direction
 //! components are replaced by ±`f32::MIN_POSITIVE`, so no `0 · ∞` NaN arises; and
 //! child boxes are stored one ulp larger on every side, so that a ray with a zero
 //! component (an axis-aligned ray) that hits a primitive has its origin strictly
@@ -79,9 +81,11 @@ const EMPTY: u32 = LEAF_BIT;
 /// this plus log₂ of the primitive count).
 const MEDIAN_DEPTH: usize = 40;
 
-/// The exit distance of a slab test is multiplied by this: 1 + 2γ₃ of Ize's paper
-/// (≈ 1 + 3.6·10⁻⁷) rounded up to 1 + 2⁻²⁰.
-const EXIT_WIDEN: f32 = 1.0 + 1.0 / 1_048_576.0;
+/// The exit distance of a slab test is widened by this many ulps, added to its bits
+/// (a positive f32's ulp is 2⁻²⁴ to 2⁻²³ of it): at least a factor 1 + 2⁻²⁰, which
+/// covers Ize's 1 + 2γ₃ (≈ 1 + 3.6·10⁻⁷). An integer addition where a product would
+/// take four cycles on the chain that one ray's node steps wait on.
+const EXIT_WIDEN_ULPS: i32 = 16;
 /// The current closest distance, compared with a box's entry distance, is widened by
 /// this: the triangle test's distance has its own rounding error, and a box whose
 /// entry distance lies a few ulps beyond an equally distant hit must still be entered
@@ -230,12 +234,6 @@ impl PlaneRow {
     }
 }
 
-/// 16 f32 lanes, aligned for one AVX-512 load.
-#[cfg(target_arch = "x86_64")]
-#[derive(Debug, Clone, Copy)]
-#[repr(C, align(64))]
-struct Lanes16([f32; 16]);
-
 impl BoxRay {
     /// For a finite origin and a finite, non-zero direction.
     #[inline(always)]
@@ -274,61 +272,88 @@ impl BoxRay {
         let [bfx, bfy, bfz] = self.far.map(|row| row.of(node));
         let [ox, oy, oz] = self.origin;
         let [rx, ry, rz] = self.inv_dir;
-        let mut entry = [0.0f32; WIDTH];
-        let mut exit = [0.0f32; WIDTH];
+        let distance = |plane: f32, origin: f32, inv_dir: f32| ordered((plane - origin) * inv_dir);
+        let mut entry = [0i32; WIDTH];
+        let mut beyond = [0i32; WIDTH];
         for i in 0..WIDTH {
-            let tnx = (bnx[i] - ox) * rx;
-            let tny = (bny[i] - oy) * ry;
-            let tnz = (bnz[i] - oz) * rz;
-            let tfx = (bfx[i] - ox) * rx;
-            let tfy = (bfy[i] - oy) * ry;
-            let tfz = (bfz[i] - oz) * rz;
-            // `if` rather than f32::max/min: plain max/min instructions (no NaN
-            // arises here, see the module documentation).
-            let tn = max(max(tnx, tny), max(tnz, 0.0));
-            entry[i] = tn;
-            exit[i] = min(min(tfx, tfy), tfz) * EXIT_WIDEN;
+            let tnx = distance(bnx[i], ox, rx);
+            let tny = distance(bny[i], oy, ry);
+            let tnz = distance(bnz[i], oz, rz);
+            let tfx = distance(bfx[i], ox, rx);
+            let tfy = distance(bfy[i], oy, ry);
+            let tfz = distance(bfz[i], oz, rz);
+            entry[i] = tnx.max(tny).max(tnz.max(0));
+            beyond[i] = exit_beyond(tfx.min(tfy).min(tfz));
         }
-        (hit_mask::<ISA>(&entry, &exit, t_max), entry)
+        let mask = hit_mask::<ISA>(&entry, &beyond, exit_beyond(ordered(t_max)));
+        (mask, entry.map(|e| f32::from_bits(e as u32)))
     }
 }
 
-/// Bit i set where `entry[i] <= exit[i]` and `entry[i] <= t_max` (false for NaN):
-/// the same bits as `entry[i] <= min(exit[i], t_max)`, but the compare with `t_max`
-/// runs beside the exit distances' chain instead of after it (one step waits on the
-/// previous one's mask when a ray is traced on its own: 53 → 50 cycles a node step
-/// in llvm-mca's model; docs/benchmarks.md). With `AVX`, two compares, an `and` and
-/// one `vmovmskps` (LLVM builds the mask of the portable loop with four pack and
-/// logic instructions instead).
+/// A distance as the integer of its bits, which orders non-negative distances as
+/// their values do, and every negative one (−0 included) below every non-negative
+/// one. The slab test takes its maxima and minima and compares on these (Embree
+/// does the same): one cycle each where the f32 forms take four, on the chain that
+/// one ray's node steps wait on (docs/benchmarks.md). Exact for what the traversal
+/// needs: an entry distance is the maximum with +0, so non-negative, and its value is
+/// the f32 maximum's; an exit distance that is negative, as an integer or as a value,
+/// misses the box either way — apart from an exit of exactly −0, the f32 form's hit at
+/// `t = 0` and a miss here, which only a ray whose origin lies exactly on a child
+/// box's far face has: that box is stored one ulp larger than its content, which
+/// then lies wholly behind the ray, and a triangle hit needs `t > 0` anyway.
 #[inline(always)]
-fn hit_mask<const ISA: u8>(entry: &[f32; WIDTH], exit: &[f32; WIDTH], t_max: f32) -> u32 {
+fn ordered(distance: f32) -> i32 {
+    distance.to_bits() as i32
+}
+
+/// The least [`ordered`] distance beyond `exit`, widened by [`EXIT_WIDEN_ULPS`]: a
+/// box is hit where its entry lies below this (so `<`, which x86 compares in one
+/// instruction, in place of `≤`, which needs two). Wrapping, so that no input
+/// panics; an exit as large as +∞ stays far below `i32::MAX`, and a negative one stays
+/// negative.
+#[inline(always)]
+fn exit_beyond(exit: i32) -> i32 {
+    exit.wrapping_add(EXIT_WIDEN_ULPS + 1)
+}
+
+/// Bit i set where `entry[i] < beyond[i]` and `entry[i] < t_beyond` ([`ordered`]
+/// distances): the same bits as `entry[i] < min(beyond[i], t_beyond)`, but the
+/// compare with `t_beyond` runs beside the exit distances' chain instead of after it
+/// (one step waits on the previous one's mask when a ray is traced on its own;
+/// docs/benchmarks.md). With `AVX2`, two compares, an `and` and one `vmovmskps`
+/// (LLVM builds the mask of the portable loop with four pack and logic instructions
+/// instead).
+#[inline(always)]
+fn hit_mask<const ISA: u8>(entry: &[i32; WIDTH], beyond: &[i32; WIDTH], t_beyond: i32) -> u32 {
     #[cfg(target_arch = "x86_64")]
     if ISA >= AVX2 {
         use std::arch::x86_64::{
-            _CMP_LE_OQ, _mm256_and_ps, _mm256_cmp_ps, _mm256_movemask_ps, _mm256_set1_ps,
-            _mm256_setr_ps,
+            _mm256_and_si256, _mm256_castsi256_ps, _mm256_cmpgt_epi32, _mm256_movemask_ps,
+            _mm256_set1_epi32, _mm256_setr_epi32,
         };
-        // SAFETY: `ISA` is AVX2 or above only where AVX is enabled and the CPU has it (see
-        // the module documentation); these intrinsics take and return values only
-        // (no memory access).
+        // SAFETY: `ISA` is AVX2 or above only where AVX2 is enabled and the CPU has
+        // it (see the module documentation); these intrinsics take and return values
+        // only (no memory access).
         return unsafe {
-            let vector =
-                |a: &[f32; WIDTH]| _mm256_setr_ps(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]);
+            let vector = |a: &[i32; WIDTH]| {
+                _mm256_setr_epi32(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7])
+            };
             let entry = vector(entry);
-            let within_exit = _mm256_cmp_ps::<_CMP_LE_OQ>(entry, vector(exit));
-            let within_t_max = _mm256_cmp_ps::<_CMP_LE_OQ>(entry, _mm256_set1_ps(t_max));
-            _mm256_movemask_ps(_mm256_and_ps(within_exit, within_t_max)) as u32
+            let within_exit = _mm256_cmpgt_epi32(vector(beyond), entry);
+            let within_t_max = _mm256_cmpgt_epi32(_mm256_set1_epi32(t_beyond), entry);
+            let both = _mm256_and_si256(within_exit, within_t_max);
+            _mm256_movemask_ps(_mm256_castsi256_ps(both)) as u32
         };
     }
-    hit_mask_portable(entry, exit, t_max)
+    hit_mask_portable(entry, beyond, t_beyond)
 }
 
 /// The portable [`hit_mask`].
 #[inline(always)]
-fn hit_mask_portable(entry: &[f32; WIDTH], exit: &[f32; WIDTH], t_max: f32) -> u32 {
+fn hit_mask_portable(entry: &[i32; WIDTH], beyond: &[i32; WIDTH], t_beyond: i32) -> u32 {
     let mut mask = 0;
     for i in 0..WIDTH {
-        mask |= u32::from(entry[i] <= exit[i] && entry[i] <= t_max) << i;
+        mask |= u32::from(entry[i] < beyond[i] && entry[i] < t_beyond) << i;
     }
     mask
 }
@@ -336,51 +361,75 @@ fn hit_mask_portable(entry: &[f32; WIDTH], exit: &[f32; WIDTH], t_max: f32) -> u
 /// The slab test of [`BoxRay::hit_children`] with AVX-512: per axis, the near
 /// and far planes of the 8 children in one 16-lane register, `(plane − origin) ·
 /// (1/dir)` for both at once; then over the axes the maximum in the near lanes and
-/// the minimum in the far lanes (a maximum, then a masked minimum), and the
-/// compare into a mask register. Lane by lane the portable code's operations in
-/// its order (`maxps`/`minps` take the second operand on ties, as its `max`/`min`
-/// do, and no NaN arises: module documentation), so the same bits.
+/// the minimum in the far lanes of their [`ordered`] bits (a maximum, then a masked
+/// minimum), and the compare into a mask register. Lane by lane the portable code's
+/// operations, so the same bits.
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
     use std::arch::x86_64::{
-        __m512, _CMP_LE_OQ, _mm256_cmp_ps_mask, _mm256_loadu_ps, _mm256_min_ps, _mm256_mul_ps,
-        _mm256_set1_ps, _mm256_storeu_ps, _mm512_castps256_ps512, _mm512_castps512_ps256,
-        _mm512_extractf32x8_ps, _mm512_insertf32x8, _mm512_load_ps, _mm512_mask_min_ps,
-        _mm512_max_ps, _mm512_mul_ps, _mm512_set1_ps, _mm512_sub_ps,
+        __m512i, _mm256_castsi256_ps, _mm256_cmplt_epi32_mask, _mm256_loadu_ps, _mm256_min_epi32,
+        _mm256_set1_epi32, _mm256_storeu_ps, _mm512_add_epi32, _mm512_castps_si512,
+        _mm512_castps256_ps512, _mm512_castsi512_si256, _mm512_extracti32x8_epi32,
+        _mm512_insertf32x8, _mm512_load_si512, _mm512_mask_min_epi32, _mm512_max_epi32,
+        _mm512_mul_ps, _mm512_set1_ps, _mm512_sub_ps,
     };
 
-    use super::{BoxRay, EXIT_WIDEN, Lanes16, Node, WIDTH};
+    use super::{BoxRay, EXIT_WIDEN_ULPS, Node, WIDTH, exit_beyond, ordered};
 
     /// The far lanes, 8–15.
     const FAR: u16 = 0xff00;
 
-    /// Lanes 0–7 zero (the entry distance is at least 0), lanes 8–15 +∞ (no bound
-    /// on the exit distance): the portable code's `max(tnz, 0.0)`, and a no-op
-    /// `min(tfz, ∞)` that keeps the two halves' operations together.
+    /// 16 i32 lanes, aligned for one AVX-512 load.
+    #[repr(C, align(64))]
+    struct Lanes16([i32; 16]);
+
+    /// Lanes 0–7 zero (the entry distance is at least +0), lanes 8–15 `i32::MAX`
+    /// (no bound on the exit distance): the portable code's `max(tnz, 0)`, and a
+    /// no-op minimum that keeps the two halves' operations together.
     static FLOOR: Lanes16 = Lanes16([
-        0.0,
-        0.0,
-        0.0,
-        0.0,
-        0.0,
-        0.0,
-        0.0,
-        0.0,
-        f32::INFINITY,
-        f32::INFINITY,
-        f32::INFINITY,
-        f32::INFINITY,
-        f32::INFINITY,
-        f32::INFINITY,
-        f32::INFINITY,
-        f32::INFINITY,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        i32::MAX,
+        i32::MAX,
+        i32::MAX,
+        i32::MAX,
+        i32::MAX,
+        i32::MAX,
+        i32::MAX,
+        i32::MAX,
+    ]);
+
+    /// What [`exit_beyond`] adds, in the far lanes only.
+    static BEYOND: Lanes16 = Lanes16([
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        0,
+        EXIT_WIDEN_ULPS + 1,
+        EXIT_WIDEN_ULPS + 1,
+        EXIT_WIDEN_ULPS + 1,
+        EXIT_WIDEN_ULPS + 1,
+        EXIT_WIDEN_ULPS + 1,
+        EXIT_WIDEN_ULPS + 1,
+        EXIT_WIDEN_ULPS + 1,
+        EXIT_WIDEN_ULPS + 1,
     ]);
 
     /// The maximum of `a` and `b` in the near lanes, their minimum in the far ones.
     #[inline(always)]
-    unsafe fn near_max_far_min(a: __m512, b: __m512) -> __m512 {
+    unsafe fn near_max_far_min(a: __m512i, b: __m512i) -> __m512i {
         // SAFETY: as in `hit_children`.
-        unsafe { _mm512_mask_min_ps(_mm512_max_ps(a, b), FAR, a, b) }
+        unsafe { _mm512_mask_min_epi32(_mm512_max_epi32(a, b), FAR, a, b) }
     }
 
     /// To be called only where the CPU has AVX-512 F, VL and DQ, and inlined only
@@ -392,33 +441,33 @@ mod avx512 {
         t_max: f32,
     ) -> (u32, [f32; WIDTH]) {
         // SAFETY: the intrinsics need the features the caller guarantees; the loads
-        // read `node.bounds` rows (8 f32 each) and `FLOOR` (16 f32, 64-byte
-        // aligned), all in bounds.
+        // read `node.bounds` rows (8 f32 each) and `FLOOR` and `BEYOND` (16 i32,
+        // 64-byte aligned), all in bounds.
         unsafe {
-            // Axis `axis`: [near planes, far planes] − origin, times 1/dir.
+            // Axis `axis`: [near planes, far planes] − origin, times 1/dir, as
+            // ordered bits.
             let axis = |axis: usize| {
                 // The near row in lanes 0–7, the far one in 8–15, chosen by
                 // index as in the portable code (no branch on the ray's signs).
                 let near = _mm256_loadu_ps(ray.near[axis].of(node).as_ptr());
                 let far = _mm256_loadu_ps(ray.far[axis].of(node).as_ptr());
                 let planes = _mm512_insertf32x8::<1>(_mm512_castps256_ps512(near), far);
-                _mm512_mul_ps(
+                _mm512_castps_si512(_mm512_mul_ps(
                     _mm512_sub_ps(planes, _mm512_set1_ps(ray.origin[axis])),
                     _mm512_set1_ps(ray.inv_dir[axis]),
-                )
+                ))
             };
             let (x, y, z) = (axis(0), axis(1), axis(2));
-            let floor = _mm512_load_ps(FLOOR.0.as_ptr());
+            let floor = _mm512_load_si512(FLOOR.0.as_ptr().cast());
             let both = near_max_far_min(near_max_far_min(x, y), near_max_far_min(z, floor));
-            let entry = _mm512_castps512_ps256(both);
-            let exit = _mm256_mul_ps(
-                _mm512_extractf32x8_ps::<1>(both),
-                _mm256_set1_ps(EXIT_WIDEN),
-            );
-            let limit = _mm256_min_ps(exit, _mm256_set1_ps(t_max));
-            let mask = _mm256_cmp_ps_mask::<_CMP_LE_OQ>(entry, limit);
+            let both = _mm512_add_epi32(both, _mm512_load_si512(BEYOND.0.as_ptr().cast()));
+            let entry = _mm512_castsi512_si256(both);
+            let beyond = _mm512_extracti32x8_epi32::<1>(both);
+            let t_beyond = _mm256_set1_epi32(exit_beyond(ordered(t_max)));
+            let limit = _mm256_min_epi32(beyond, t_beyond);
+            let mask = _mm256_cmplt_epi32_mask(entry, limit);
             let mut out = [0.0f32; WIDTH];
-            _mm256_storeu_ps(out.as_mut_ptr(), entry);
+            _mm256_storeu_ps(out.as_mut_ptr(), _mm256_castsi256_ps(entry));
             (u32::from(mask), out)
         }
     }
@@ -442,16 +491,6 @@ pub(super) fn prefetch<T>(value: &T) {
     }
     #[cfg(not(all(target_arch = "x86_64", target_feature = "sse")))]
     let _ = value;
-}
-
-#[inline(always)]
-fn max(a: f32, b: f32) -> f32 {
-    if a > b { a } else { b }
-}
-
-#[inline(always)]
-fn min(a: f32, b: f32) -> f32 {
-    if a < b { a } else { b }
 }
 
 /// Where a node step leaves the hit children it does not visit next.

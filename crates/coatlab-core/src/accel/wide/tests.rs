@@ -39,9 +39,10 @@ fn a_given_top_is_the_top_of_the_tree() {
     }
 }
 
-/// The AVX mask (`movemask`) agrees with the portable one on random values, equal
-/// pairs, infinities and NaN (where the CPU has AVX), and, without NaN, with one
-/// compare against the smaller of the exit distance and `t_max`.
+/// The AVX2 mask (`movemask`) agrees with the portable one on the [`ordered`]
+/// bits of random distances, zeros of both signs, infinities, NaN and raw integers
+/// from one end of `i32` to the other (where the CPU has AVX2), and with one compare
+/// against the smaller of the two limits.
 #[test]
 fn hit_mask_agrees_with_the_portable_mask() {
     on_path(SimdPath::Avx2, hit_mask_agrees);
@@ -58,47 +59,77 @@ fn hit_mask_agrees() {
         f32::NAN,
         f32::MIN_POSITIVE,
         -2.5,
-    ];
+    ]
+    .map(ordered);
     let mut rng = XorShift(0x9e37_79b9_7f4a_7c15);
     let mut next = move || rng.next();
     let mut seen = [false; 2];
     for _ in 0..20_000 {
         let mut pick = || {
             let r = next();
-            if r % 3 == 0 {
-                specials[(r >> 8) as usize % specials.len()]
-            } else {
-                (r >> 40) as f32 / (1u64 << 20) as f32 - 8.0
+            match r % 4 {
+                0 => specials[(r >> 8) as usize % specials.len()],
+                1 => (r >> 32) as u32 as i32,
+                _ => ordered((r >> 40) as f32 / (1u64 << 20) as f32 - 8.0),
             }
         };
-        let entry: [f32; WIDTH] = std::array::from_fn(|_| pick());
-        let mut limit: [f32; WIDTH] = std::array::from_fn(|_| pick());
-        let picked_t_max = pick();
-        // Some exact ties, where `<=` must hold.
-        limit[(next() % WIDTH as u64) as usize] = entry[0];
-        limit[0] = entry[0];
-        // The distance limit: sometimes tied with an entry too.
-        let t_max = if next() % 4 == 0 {
-            entry[1]
-        } else {
-            picked_t_max
+        let entry: [i32; WIDTH] = std::array::from_fn(|_| pick());
+        let mut beyond: [i32; WIDTH] = std::array::from_fn(|_| pick());
+        let picked_t = pick();
+        // Exact ties, where `<` must not hold, and neighbours, where it must.
+        beyond[(next() % WIDTH as u64) as usize] = entry[0];
+        beyond[0] = entry[0];
+        beyond[1] = entry[1].wrapping_add(1);
+        let t_beyond = match next() % 4 {
+            0 => entry[1],
+            1 => entry[2].wrapping_add(1),
+            _ => picked_t,
         };
-        let mask = hit_mask::<AVX2>(&entry, &limit, t_max);
+        let mask = hit_mask::<AVX2>(&entry, &beyond, t_beyond);
         assert_eq!(
             mask,
-            hit_mask_portable(&entry, &limit, t_max),
-            "{entry:?} {limit:?} {t_max}"
+            hit_mask_portable(&entry, &beyond, t_beyond),
+            "{entry:?} {beyond:?} {t_beyond}"
         );
-        // The same bits as one compare with the smaller of the two limits (where
-        // no NaN is involved, as in the traversal).
-        if !entry.iter().chain(&limit).any(|x| x.is_nan()) && !t_max.is_nan() {
-            let smaller = limit.map(|l| l.min(t_max));
-            let one = (0..WIDTH).fold(0, |m, i| m | u32::from(entry[i] <= smaller[i]) << i);
-            assert_eq!(mask, one, "{entry:?} {limit:?} {t_max}");
-        }
+        let smaller = beyond.map(|l| l.min(t_beyond));
+        let one = (0..WIDTH).fold(0, |m, i| m | u32::from(entry[i] < smaller[i]) << i);
+        assert_eq!(mask, one, "{entry:?} {beyond:?} {t_beyond}");
+        assert_eq!(mask & 1, 0, "a tie is not below");
         seen[usize::from(mask == 0)] = true;
     }
     assert_eq!(seen, [true, true]);
+}
+
+/// [`ordered`] distances order as their values where that matters to the slab
+/// test: among non-negative values (−0 as +0 being the one exception, below it),
+/// every negative value below every non-negative one; [`exit_beyond`] of an exit
+/// lies above the exit widened by at least 1 + 2⁻²⁰ (so a box is never missed for
+/// want of Ize's 1 + 2γ₃), and a negative exit stays below every entry.
+#[test]
+fn ordered_distances_order_as_the_slab_test_needs() {
+    let mut rng = XorShift(0x51f1_5eed_0bad_cafe);
+    let mut value = || {
+        let r = rng.next();
+        let magnitude = f32::from_bits((r >> 33) as u32 % 0x7f80_0001);
+        if r & 1 == 0 { magnitude } else { -magnitude }
+    };
+    for _ in 0..200_000 {
+        let (a, b) = (value(), value());
+        if a >= 0.0 && b >= 0.0 && !(a == 0.0 && b == 0.0) {
+            assert_eq!(ordered(a) < ordered(b), a < b, "{a} {b}");
+        }
+        if a < 0.0 || a.to_bits() == (-0.0f32).to_bits() {
+            assert!(ordered(a) < 0, "{a}");
+            assert!(exit_beyond(ordered(a)) < 0, "{a}");
+        }
+        if a > 0.0 && a < f32::MAX / 2.0 {
+            let widened = f64::from(a) * (1.0 + 2f64.powi(-20));
+            let beyond = f64::from(f32::from_bits(exit_beyond(ordered(a)) as u32));
+            assert!(beyond > widened, "{a}: {beyond} ≤ {widened}");
+        }
+    }
+    assert!(exit_beyond(ordered(f32::INFINITY)) > ordered(f32::INFINITY));
+    assert!(ordered(0.0) < exit_beyond(ordered(0.0)));
 }
 
 /// The AVX-512 slab test (near and far planes in one register) gives the portable one's mask, and its entry distances bit for bit
