@@ -44,7 +44,7 @@
 //!   `closest_hits` on one thread, on each SIMD path the CPU has, interleaved, M
 //!   rays per CPU-second and per wall-clock second (best of 15 each) and the
 //!   paths' ratios: A/B comparisons of traversal changes and of the SIMD paths on a
-//!   noisy machine.
+//!   noisy machine. `ACCEL_CPU=single`: through `closest_hit_on` one by one.
 //! - `ACCEL_ONCE=1` traces 2¹⁶ rays once, for instruction counts under callgrind
 //!   (`ACCEL_ONCE=single`: one by one through `closest_hit`).
 //! - `ACCEL_DUMP=DIR` writes each mesh and its rays to `DIR/<mesh>.bin` for other
@@ -722,7 +722,8 @@ fn queries(mesh: &TriangleMesh, which: &str) -> Vec<RayQuery> {
 
 /// `ACCEL_CPU`: for comparing two builds of this bench run in turn, and the SIMD
 /// paths of one build: each mesh's default tree (built on one thread), then its
-/// incoherent rays and its image-order bounces through `closest_hits_on` in chunks
+/// incoherent rays and its image-order bounces (repeated to as many rays) through
+/// `closest_hits_on` in chunks
 /// of 4096 on this thread, on each SIMD path the CPU has (or only `COATLAB_SIMD`'s
 /// where it is set), 15 rounds of every set on every path in turn; M rays per
 /// second of this thread's CPU time and of wall-clock time, each the best of the
@@ -730,7 +731,9 @@ fn queries(mesh: &TriangleMesh, which: &str) -> Vec<RayQuery> {
 /// time, read from `/proc`, advances by scheduler ticks, so runs of well over
 /// 100 ms are needed; other processes on a shared machine slow single runs by tens
 /// of per cent, which the best of many and the interleaving filter out.)
+/// `ACCEL_CPU=single`: the rays one by one through `closest_hit_on` instead.
 fn cpu_rates() {
+    let one_by_one = std::env::var("ACCEL_CPU").is_ok_and(|v| v == "single");
     let paths: Vec<SimdPath> = match SimdPath::from_env() {
         Ok(Some(path)) => vec![path],
         _ => SimdPath::ALL
@@ -747,7 +750,15 @@ fn cpu_rates() {
             },
         )
         .expect("build");
-        let sets = [queries(&mesh, "incoherent"), queries(&mesh, "bounce")];
+        // The image-order bounces repeated up to the incoherent rays' count, as in
+        // `batch_comparison`: a set of a few tens of milliseconds spans only a few
+        // of the CPU-time clock's steps.
+        let bounces = queries(&mesh, "bounce");
+        let bounces = bounces
+            .iter()
+            .cycle()
+            .take(bounces.len().max(INCOHERENT_RAYS));
+        let sets = [queries(&mesh, "incoherent"), bounces.copied().collect()];
         let mut hits: Vec<Vec<Option<Hit>>> = sets.iter().map(|s| vec![None; s.len()]).collect();
         // Best CPU and wall time for each path and set.
         let mut best = vec![[[Duration::MAX; 2]; 2]; paths.len()];
@@ -755,8 +766,14 @@ fn cpu_rates() {
             for (p, &path) in paths.iter().enumerate() {
                 for (k, rays) in sets.iter().enumerate() {
                     let (cpu, wall) = (thread_cpu_time(), Instant::now());
-                    for (q, h) in rays.chunks(4096).zip(hits[k].chunks_mut(4096)) {
-                        accel.closest_hits_on(path, q, h);
+                    if one_by_one {
+                        for (q, h) in rays.iter().zip(hits[k].iter_mut()) {
+                            *h = accel.closest_hit_on(path, q.origin, q.dir, q.t_max);
+                        }
+                    } else {
+                        for (q, h) in rays.chunks(4096).zip(hits[k].chunks_mut(4096)) {
+                            accel.closest_hits_on(path, q, h);
+                        }
                     }
                     best[p][k][0] = best[p][k][0].min(thread_cpu_time() - cpu);
                     best[p][k][1] = best[p][k][1].min(wall.elapsed());
