@@ -417,7 +417,9 @@ fn summary() {
          shadow Mrays/s 2 cores | image-order bounce Mrays/s 2 cores | \
          image-order bounce one by one Mrays/s 2 cores |"
     );
-    println!("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |");
+    println!(
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
+    );
     for (name, mesh) in meshes() {
         let camera = Camera::three_quarter(&mesh);
         let rays = incoherent_rays(&mesh, INCOHERENT_RAYS, 7);
@@ -453,8 +455,7 @@ fn summary() {
             let (single1, _) = rate(&one, rays.len(), &|| trace_one_by_one(&accel, &rays));
             let (sh2, sh_hits) = rate(&two, rays.len(), &|| trace_shadow(&accel, &rays));
             let (bo2, bo_hits) = rate(&two, bounces.len(), &|| trace_incoherent(&accel, &bounces));
-            let (bo_single2, _) =
-                rate(&two, bounces.len(), &|| trace_one_by_one(&accel, &bounces));
+            let (bo_single2, _) = rate(&two, bounces.len(), &|| trace_one_by_one(&accel, &bounces));
             println!(
                 "| {name} | {} | {label} | {:.1} | {:.1} | {} | {cam1:.2} | {cam2:.2} | {inc1:.2} | \
                  {inc2:.2} | {single1:.2} | {sh2:.2} | {bo2:.2} | {bo_single2:.2} |",
