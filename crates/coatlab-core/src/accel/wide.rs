@@ -317,12 +317,10 @@ fn exit_beyond(exit: i32) -> i32 {
 }
 
 /// Bit i set where `entry[i] < beyond[i]` and `entry[i] < t_beyond` ([`ordered`]
-/// distances): the same bits as `entry[i] < min(beyond[i], t_beyond)`, but the
-/// compare with `t_beyond` runs beside the exit distances' chain instead of after it
-/// (one step waits on the previous one's mask when a ray is traced on its own;
-/// docs/benchmarks.md). With `AVX2`, two compares, an `and` and one `vmovmskps`
-/// (LLVM builds the mask of the portable loop with four pack and logic instructions
-/// instead).
+/// distances), the same bits as `entry[i] < min(beyond[i], t_beyond)`. With `AVX2`,
+/// integer compares and one `vmovmskps` (LLVM builds the mask of the portable loop
+/// with four pack and logic instructions instead); LLVM folds the two compares
+/// into a minimum and one compare, which on integers is as short a chain.
 #[inline(always)]
 fn hit_mask<const ISA: u8>(entry: &[i32; WIDTH], beyond: &[i32; WIDTH], t_beyond: i32) -> u32 {
     #[cfg(target_arch = "x86_64")]
