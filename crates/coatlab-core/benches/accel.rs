@@ -727,9 +727,8 @@ fn queries(mesh: &TriangleMesh, which: &str) -> Vec<RayQuery> {
 /// `ACCEL_CPU`: for comparing two builds of this bench run in turn, and the SIMD
 /// paths of one build: each mesh's default tree (built on one thread), then its
 /// incoherent rays and its image-order bounces (repeated to as many rays) through
-/// `closest_hits_on` in chunks
-/// of 4096 on this thread, on each SIMD path the CPU has (or only `COATLAB_SIMD`'s
-/// where it is set), 15 rounds of every set on every path in turn; M rays per
+/// `closest_hits_on` in chunks of 4096 on this thread, on each SIMD path the CPU has
+/// (or only `COATLAB_SIMD`'s where it is set), 15 rounds of every set on every path in turn; M rays per
 /// second of this thread's CPU time and of wall-clock time, each the best of the
 /// 15, and each path's CPU rate as a ratio to the first path's. (The thread's CPU
 /// time, read from `/proc`, advances by scheduler ticks, so runs of well over

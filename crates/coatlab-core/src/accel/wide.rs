@@ -365,14 +365,14 @@ fn hit_mask_portable(entry: &[i32; WIDTH], beyond: &[i32; WIDTH], t_beyond: i32)
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
     use std::arch::x86_64::{
-        __m512i, _mm256_castsi256_ps, _mm256_cmplt_epi32_mask, _mm256_loadu_ps, _mm256_min_epi32,
-        _mm256_set1_epi32, _mm256_storeu_ps, _mm512_add_epi32, _mm512_castps_si512,
+        __m512i, _mm256_add_epi32, _mm256_castsi256_ps, _mm256_cmplt_epi32_mask, _mm256_loadu_ps,
+        _mm256_min_epi32, _mm256_set1_epi32, _mm256_storeu_ps, _mm512_castps_si512,
         _mm512_castps256_ps512, _mm512_castsi512_si256, _mm512_extracti32x8_epi32,
         _mm512_insertf32x8, _mm512_load_si512, _mm512_mask_min_epi32, _mm512_max_epi32,
         _mm512_mul_ps, _mm512_set1_ps, _mm512_sub_ps,
     };
 
-    use super::{BoxRay, EXIT_WIDEN_ULPS, Node, WIDTH, exit_beyond, ordered};
+    use super::{BoxRay, Node, WIDTH, exit_beyond, ordered};
 
     /// The far lanes, 8–15.
     const FAR: u16 = 0xff00;
@@ -403,26 +403,6 @@ mod avx512 {
         i32::MAX,
     ]);
 
-    /// What [`exit_beyond`] adds, in the far lanes only.
-    static BEYOND: Lanes16 = Lanes16([
-        0,
-        0,
-        0,
-        0,
-        0,
-        0,
-        0,
-        0,
-        EXIT_WIDEN_ULPS + 1,
-        EXIT_WIDEN_ULPS + 1,
-        EXIT_WIDEN_ULPS + 1,
-        EXIT_WIDEN_ULPS + 1,
-        EXIT_WIDEN_ULPS + 1,
-        EXIT_WIDEN_ULPS + 1,
-        EXIT_WIDEN_ULPS + 1,
-        EXIT_WIDEN_ULPS + 1,
-    ]);
-
     /// The maximum of `a` and `b` in the near lanes, their minimum in the far ones.
     #[inline(always)]
     unsafe fn near_max_far_min(a: __m512i, b: __m512i) -> __m512i {
@@ -439,8 +419,8 @@ mod avx512 {
         t_max: f32,
     ) -> (u32, [f32; WIDTH]) {
         // SAFETY: the intrinsics need the features the caller guarantees; the loads
-        // read `node.bounds` rows (8 f32 each) and `FLOOR` and `BEYOND` (16 i32,
-        // 64-byte aligned), all in bounds.
+        // read `node.bounds` rows (8 f32 each) and `FLOOR` (16 i32, 64-byte
+        // aligned), all in bounds.
         unsafe {
             // Axis `axis`: [near planes, far planes] − origin, times 1/dir, as
             // ordered bits.
@@ -458,9 +438,12 @@ mod avx512 {
             let (x, y, z) = (axis(0), axis(1), axis(2));
             let floor = _mm512_load_si512(FLOOR.0.as_ptr().cast());
             let both = near_max_far_min(near_max_far_min(x, y), near_max_far_min(z, floor));
-            let both = _mm512_add_epi32(both, _mm512_load_si512(BEYOND.0.as_ptr().cast()));
             let entry = _mm512_castsi512_si256(both);
-            let beyond = _mm512_extracti32x8_epi32::<1>(both);
+            // `exit_beyond` of each exit: `exit_beyond(0)` is what it adds.
+            let beyond = _mm256_add_epi32(
+                _mm512_extracti32x8_epi32::<1>(both),
+                _mm256_set1_epi32(exit_beyond(0)),
+            );
             let t_beyond = _mm256_set1_epi32(exit_beyond(ordered(t_max)));
             let limit = _mm256_min_epi32(beyond, t_beyond);
             let mask = _mm256_cmplt_epi32_mask(entry, limit);
