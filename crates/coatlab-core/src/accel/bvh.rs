@@ -53,6 +53,14 @@ pub enum AccelError {
     },
     #[error("{count} primitives: more than a BVH with u32 indices can hold")]
     TooManyPrimitives { count: usize },
+    #[error(
+        "{primitives} primitives need more than the {limit} {part} that the tree's child references can address"
+    )]
+    TreeTooLarge {
+        primitives: usize,
+        part: &'static str,
+        limit: usize,
+    },
 }
 
 /// The tree of a [`Bvh`], by layout.
@@ -123,12 +131,19 @@ impl Bvh {
         }
         match options.layout {
             BvhLayout::Simd8 => Ok(Bvh {
-                tree: Tree::Simd8(WideBvh::build(
-                    boxes,
-                    top,
-                    options.quality.sah_bins(),
-                    options.build_threads(),
-                )),
+                tree: Tree::Simd8(
+                    WideBvh::build(
+                        boxes,
+                        top,
+                        options.quality.sah_bins(),
+                        options.build_threads(),
+                    )
+                    .map_err(|e| AccelError::TreeTooLarge {
+                        primitives: boxes.len(),
+                        part: e.part,
+                        limit: e.limit,
+                    })?,
+                ),
                 options: *options,
                 bounds,
             }),

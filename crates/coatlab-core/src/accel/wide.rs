@@ -71,7 +71,8 @@ const _: () = assert!(MAX_LEAF == PACK, "a leaf must be one pack");
 
 /// Child reference: an inner node's index, or, with [`LEAF_BIT`] set, a leaf's first
 /// pack (low [`COUNT_SHIFT`] bits) and primitive count (the bits above, up to
-/// [`MAX_LEAF`]). An empty child slot is a leaf of count 0.
+/// [`MAX_LEAF`]). An empty child slot is a leaf of count 0. The build refuses a tree
+/// with more nodes or packs than these fields hold ([`TreeTooLarge`]).
 const LEAF_BIT: u32 = 1 << 31;
 const COUNT_SHIFT: u32 = 27;
 const INDEX_MASK: u32 = (1 << COUNT_SHIFT) - 1;
@@ -99,6 +100,52 @@ const TMAX_WIDEN: f32 = 1.0 + 1.0 / 65_536.0;
 pub(super) struct Node {
     bounds: [[f32; WIDTH]; 6],
     child: [u32; WIDTH],
+}
+
+/// The child reference of the inner node at `index`; `None` where the index would
+/// reach [`LEAF_BIT`].
+fn node_reference(index: usize) -> Option<u32> {
+    u32::try_from(index)
+        .ok()
+        .filter(|&index| index & LEAF_BIT == 0)
+}
+
+/// The child reference of a leaf of `count` primitives from pack `first_pack`;
+/// `None` where the pack lies beyond what [`INDEX_MASK`] addresses.
+fn leaf_reference(first_pack: usize, count: usize) -> Option<u32> {
+    debug_assert!(count <= MAX_LEAF, "a leaf of {count} primitives");
+    let first_pack = u32::try_from(first_pack)
+        .ok()
+        .filter(|&p| p <= INDEX_MASK)?;
+    Some(LEAF_BIT | ((count as u32) << COUNT_SHIFT) | first_pack)
+}
+
+/// A tree with more nodes or packs than its child references address: 2³¹ nodes or
+/// 2²⁷ packs (a pack holds up to 8 triangles, so the packs are the limit: some
+/// hundreds of millions of triangles). The build checks, because a pack index past
+/// 2²⁷ would run into the count's bits and name another leaf.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct TreeTooLarge {
+    /// "nodes" or "packs".
+    pub part: &'static str,
+    /// The most of them that can be addressed.
+    pub limit: usize,
+}
+
+impl TreeTooLarge {
+    fn nodes() -> TreeTooLarge {
+        TreeTooLarge {
+            part: "nodes",
+            limit: LEAF_BIT as usize,
+        }
+    }
+
+    fn packs() -> TreeTooLarge {
+        TreeTooLarge {
+            part: "packs",
+            limit: INDEX_MASK as usize + 1,
+        }
+    }
 }
 
 impl Node {

@@ -6,7 +6,8 @@ use glam::Vec3A;
 
 use super::super::boxes::{Bounds, BoundsA, NodeBoxes, bin_index, bin_indices};
 use super::{
-    COUNT_SHIFT, LEAF_BIT, MAX_LEAF, MEDIAN_DEPTH, Node, PACK, WIDTH, WideBvh, pack_count,
+    MAX_LEAF, MEDIAN_DEPTH, Node, PACK, TreeTooLarge, WIDTH, WideBvh, leaf_reference,
+    node_reference, pack_count,
 };
 
 impl WideBvh {
@@ -16,10 +17,15 @@ impl WideBvh {
     /// `top`, when not empty, is the top of the binary tree, already partitioned
     /// (the spatial-split pass's, `accel/split.rs`): `boxes` are in its leaves'
     /// order, and the SAH build goes on below each of its leaves.
-    pub fn build(boxes: &[Bounds], top: &[TopNode], bins: usize, threads: usize) -> WideBvh {
+    pub fn build(
+        boxes: &[Bounds],
+        top: &[TopNode],
+        bins: usize,
+        threads: usize,
+    ) -> Result<WideBvh, TreeTooLarge> {
         WideBvh::build_collapsed(boxes, top, bins, threads, |wide, bin| {
             let plan = CollapsePlan::new(bin);
-            wide.collapse(bin, &plan, 0);
+            wide.collapse(bin, &plan, 0).map(|_| ())
         })
     }
 
@@ -30,14 +36,14 @@ impl WideBvh {
         top: &[TopNode],
         bins: usize,
         threads: usize,
-        collapse: impl FnOnce(&mut WideBvh, &[BinNode]),
-    ) -> WideBvh {
+        collapse: impl FnOnce(&mut WideBvh, &[BinNode]) -> Result<(), TreeTooLarge>,
+    ) -> Result<WideBvh, TreeTooLarge> {
         if boxes.is_empty() {
-            return WideBvh {
+            return Ok(WideBvh {
                 nodes: Vec::new(),
                 order: Vec::new(),
                 pack_slots: Vec::new(),
-            };
+            });
         }
         let (bin, order) = binary_tree(boxes, top, bins, threads);
         let mut wide = WideBvh {
@@ -50,19 +56,25 @@ impl WideBvh {
             // A single leaf: a root node with one child.
             let mut node = Node::empty();
             node.set_bounds(0, &root.bounds);
-            node.child[0] = wide.leaf_child(first, count);
+            node.child[0] = wide.leaf_child(first, count)?;
             wide.nodes.push(node);
         } else {
-            collapse(&mut wide, &bin);
+            collapse(&mut wide, &bin)?;
         }
         wide.order = order;
-        wide
+        Ok(wide)
     }
 
     /// Emits the wide node for binary inner node `b` (and, recursively, its subtree)
-    /// as `plan` chose it; returns its index.
-    fn collapse(&mut self, bin: &[BinNode], plan: &CollapsePlan, b: usize) -> u32 {
+    /// as `plan` chose it; returns its child reference.
+    fn collapse(
+        &mut self,
+        bin: &[BinNode],
+        plan: &CollapsePlan,
+        b: usize,
+    ) -> Result<u32, TreeTooLarge> {
         let index = self.nodes.len();
+        let reference = node_reference(index).ok_or_else(TreeTooLarge::nodes)?;
         self.nodes.push(Node::empty());
         let mut roots = Vec::with_capacity(WIDTH);
         plan.node_roots(bin, b, &mut roots);
@@ -71,19 +83,20 @@ impl WideBvh {
             node.set_bounds(i, &bin[r].bounds);
             node.child[i] = if plan.as_leaf[r] {
                 let (first, count) = plan.span[r];
-                self.leaf_child(first as usize, count as usize)
+                self.leaf_child(first as usize, count as usize)?
             } else {
-                self.collapse(bin, plan, r)
+                self.collapse(bin, plan, r)?
             };
         }
         self.nodes[index] = node;
-        index as u32
+        Ok(reference)
     }
 
     /// Allocates the packs of a leaf over slots `first..first + count`; returns its
     /// child reference.
-    pub(super) fn leaf_child(&mut self, first: usize, count: usize) -> u32 {
+    pub(super) fn leaf_child(&mut self, first: usize, count: usize) -> Result<u32, TreeTooLarge> {
         let first_pack = self.pack_slots.len();
+        let reference = leaf_reference(first_pack, count).ok_or_else(TreeTooLarge::packs)?;
         for start in (first..first + count).step_by(PACK) {
             self.pack_slots.push(std::array::from_fn(|lane| {
                 let slot = start + lane;
@@ -94,7 +107,7 @@ impl WideBvh {
                 }
             }));
         }
-        LEAF_BIT | ((count as u32) << COUNT_SHIFT) | first_pack as u32
+        Ok(reference)
     }
 }
 

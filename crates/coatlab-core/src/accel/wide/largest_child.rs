@@ -4,13 +4,16 @@
 
 use super::super::boxes::Bounds;
 use super::build::{BinKind, BinNode, CollapsePlan, NODE_COST, PACK_COST, binary_tree};
-use super::{EMPTY, LEAF_BIT, MAX_LEAF, Node, WIDTH, WideBvh, leaf_parts, pack_count};
+use super::{
+    EMPTY, LEAF_BIT, MAX_LEAF, Node, TreeTooLarge, WIDTH, WideBvh, leaf_parts, pack_count,
+};
 
 impl WideBvh {
     /// The collapse before the SAH plan: opens the largest inner child until there
     /// are 8 children or only leaves.
-    fn collapse_largest(&mut self, bin: &[BinNode], b: usize) -> u32 {
+    fn collapse_largest(&mut self, bin: &[BinNode], b: usize) -> Result<u32, TreeTooLarge> {
         let index = self.nodes.len();
+        let reference = super::node_reference(index).ok_or_else(TreeTooLarge::nodes)?;
         self.nodes.push(Node::empty());
         // Open the largest inner child until there are 8 children or only leaves.
         let mut kids = [0usize; WIDTH];
@@ -41,12 +44,12 @@ impl WideBvh {
         for (i, &k) in kids[..n].iter().enumerate() {
             node.set_bounds(i, &bin[k].bounds);
             node.child[i] = match bin[k].kind {
-                BinKind::Leaf { first, count } => self.leaf_child(first, count),
-                BinKind::Inner { .. } => self.collapse_largest(bin, k),
+                BinKind::Leaf { first, count } => self.leaf_child(first, count)?,
+                BinKind::Inner { .. } => self.collapse_largest(bin, k)?,
             };
         }
         self.nodes[index] = node;
-        index as u32
+        Ok(reference)
     }
 }
 
@@ -78,10 +81,12 @@ pub fn compare_collapses(
 ) -> Result<CollapseCosts, String> {
     let mut bounds = Bounds::empty();
     boxes.iter().for_each(|b| bounds.grow(b));
-    let sah = WideBvh::build(boxes, &[], bins, threads);
+    let too_large = |e: TreeTooLarge| format!("more than {} {}", e.limit, e.part);
+    let sah = WideBvh::build(boxes, &[], bins, threads).map_err(too_large)?;
     let largest = WideBvh::build_collapsed(boxes, &[], bins, threads, |wide, bin| {
-        wide.collapse_largest(bin, 0);
-    });
+        wide.collapse_largest(bin, 0).map(|_| ())
+    })
+    .map_err(too_large)?;
     sah.validate(boxes, Some(bounds))
         .map_err(|e| format!("SAH collapse: {e}"))?;
     largest

@@ -28,7 +28,7 @@ fn a_given_top_is_the_top_of_the_tree() {
     let mut bounds = Bounds::empty();
     boxes.iter().for_each(|b| bounds.grow(b));
     for threads in [1, 2] {
-        let tree = WideBvh::build(&boxes, &top, 16, threads);
+        let tree = WideBvh::build(&boxes, &top, 16, threads).expect("small tree");
         tree.validate(&boxes, Some(bounds)).expect("valid");
         let mut first: Vec<u32> = tree.order[..half].to_vec();
         first.sort_unstable();
@@ -343,7 +343,7 @@ fn no_box_missed<const ISA: u8>() {
 fn a_full_bounded_stack_hands_over_without_changing_a_result() {
     use crate::simd_path::isa::PORTABLE;
     let (_, boxes) = slivers(5_000);
-    let tree = WideBvh::build(&boxes, &[], 16, 1);
+    let tree = WideBvh::build(&boxes, &[], 16, 1).expect("small tree");
     let nodes = tree.nodes();
     let mut rng = XorShift(0x2545_f491_4f6c_dd1d);
     let (mut handed_over, mut hits) = (0, 0);
@@ -436,4 +436,44 @@ fn exact_entry(ray: &BoxRay, b: &Bounds) -> Option<f32> {
         far = far.min(t0.max(t1));
     }
     (near <= far).then_some(near)
+}
+
+/// The last node and the last pack that a child reference can address are
+/// addressed, the next ones are refused (the build then fails with
+/// [`TreeTooLarge`] rather than make a reference that runs into the leaf bit or the
+/// count), every reference reads back as the node or leaf it names, and `validate`
+/// reports a reference past the nodes.
+#[test]
+fn child_references_address_exactly_the_nodes_and_packs_that_fit() {
+    let last_node = LEAF_BIT as usize - 1;
+    assert_eq!(node_reference(last_node), Some(LEAF_BIT - 1));
+    assert_eq!(node_reference(last_node + 1), None);
+    assert_eq!(TreeTooLarge::nodes().limit, last_node + 1);
+    for index in [0, 1, 2, 1_000, 123_456] {
+        assert_eq!(node_reference(index), Some(index as u32));
+    }
+
+    let last_pack = INDEX_MASK as usize;
+    let leaf = leaf_reference(last_pack, MAX_LEAF).expect("the last pack that fits");
+    assert_eq!(leaf_parts(leaf), (last_pack, MAX_LEAF));
+    assert_eq!(leaf_reference(last_pack + 1, 1), None);
+    assert_eq!(TreeTooLarge::packs().limit, last_pack + 1);
+
+    let (_, boxes) = slivers(2_000);
+    let mut bounds = Bounds::empty();
+    boxes.iter().for_each(|b| bounds.grow(b));
+    let mut tree = WideBvh::build(&boxes, &[], 16, 1).expect("small tree");
+    tree.validate(&boxes, Some(bounds)).expect("valid");
+    let inner = (0..WIDTH)
+        .find(|&i| tree.nodes[0].child[i] & LEAF_BIT == 0)
+        .expect("an inner child of the root");
+    let past = tree.nodes.len() as u32;
+    tree.nodes[0].child[inner] = past;
+    let error = tree
+        .validate(&boxes, Some(bounds))
+        .expect_err("a bad reference");
+    assert!(
+        error.contains(&format!("node {past} out of range")),
+        "{error}"
+    );
 }
