@@ -19,7 +19,7 @@
 //!   surface (moved off it with `offset_ray_origin`), cosine-distributed directions
 //!   about the geometric normal's front side, in chunks of 4096 rays, each chunk one
 //!   call of the batch interface `Accel::closest_hits` (and, for comparison, the same
-//!   rays through `closest_hit` one by one);
+//!   chunks through `closest_hits_one_by_one`: one ray at a time);
 //! - shadow: the same rays as any-hit queries (`occluded`) with `t_max = 1 m`;
 //! - image-order bounce: the tracer's first bounce in the order it issues it: camera
 //!   rays of a 1920×1080 image in 16×16 tiles, and for each hit a cosine-distributed
@@ -44,7 +44,8 @@
 //!   `closest_hits` on one thread, on each SIMD path the CPU has, interleaved, M
 //!   rays per CPU-second and per wall-clock second (best of 15 each) and the
 //!   paths' ratios: A/B comparisons of traversal changes and of the SIMD paths on a
-//!   noisy machine. `ACCEL_CPU=single`: through `closest_hit_on` one by one.
+//!   noisy machine. `ACCEL_CPU=single`: one ray at a time
+//!   (`closest_hits_one_by_one_on`).
 //! - `ACCEL_ONCE=1` traces 2¹⁶ rays once, for instruction counts under callgrind
 //!   (`ACCEL_ONCE=single`: one by one through `closest_hit`).
 //! - `ACCEL_DUMP=DIR` writes each mesh and its rays to `DIR/<mesh>.bin` for other
@@ -357,14 +358,14 @@ fn incoherent_hits(accel: &Accel, rays: &[([f32; 3], [f32; 3])]) -> Vec<Option<H
     hits
 }
 
-/// The same rays through `Accel::closest_hit`, one by one.
+/// The same rays one at a time (`Accel::closest_hits_one_by_one`, which is
+/// `closest_hit` for each ray with the SIMD path entered once a chunk).
 fn trace_one_by_one(accel: &Accel, rays: &[([f32; 3], [f32; 3])]) -> usize {
     rays.par_chunks(4096)
         .map(|chunk| {
-            chunk
-                .iter()
-                .filter(|(o, d)| accel.closest_hit(*o, *d, f32::INFINITY).is_some())
-                .count()
+            let mut hits = vec![None; chunk.len()];
+            accel.closest_hits_one_by_one(&chunk_queries(chunk), &mut hits);
+            hits.iter().filter(|h| h.is_some()).count()
         })
         .sum()
 }
@@ -563,11 +564,7 @@ fn batch_comparison() {
     };
     type Trace = fn(&Accel, &[RayQuery], &mut [Option<Hit>]);
     let variants: [(&str, Trace); 8] = [
-        ("one by one", |accel, rays, hits| {
-            for (q, h) in rays.iter().zip(hits.iter_mut()) {
-                *h = accel.closest_hit(q.origin, q.dir, q.t_max);
-            }
-        }),
+        ("one by one", Accel::closest_hits_one_by_one),
         ("batch, 2 lanes", Accel::closest_hits_in_lanes::<2>),
         ("batch, 4 lanes", Accel::closest_hits_in_lanes::<4>),
         ("batch, 8 lanes", Accel::closest_hits_in_lanes::<8>),
@@ -734,7 +731,8 @@ fn queries(mesh: &TriangleMesh, which: &str) -> Vec<RayQuery> {
 /// time, read from `/proc`, advances by scheduler ticks, so runs of well over
 /// 100 ms are needed; other processes on a shared machine slow single runs by tens
 /// of per cent, which the best of many and the interleaving filter out.)
-/// `ACCEL_CPU=single`: the rays one by one through `closest_hit_on` instead.
+/// `ACCEL_CPU=single`: the rays one at a time through `closest_hits_one_by_one_on`
+/// instead.
 fn cpu_rates() {
     let one_by_one = std::env::var("ACCEL_CPU").is_ok_and(|v| v == "single");
     let paths: Vec<SimdPath> = match SimdPath::from_env() {
@@ -770,8 +768,8 @@ fn cpu_rates() {
                 for (k, rays) in sets.iter().enumerate() {
                     let (cpu, wall) = (thread_cpu_time(), Instant::now());
                     if one_by_one {
-                        for (q, h) in rays.iter().zip(hits[k].iter_mut()) {
-                            *h = accel.closest_hit_on(path, q.origin, q.dir, q.t_max);
+                        for (q, h) in rays.chunks(4096).zip(hits[k].chunks_mut(4096)) {
+                            accel.closest_hits_one_by_one_on(path, q, h);
                         }
                     } else {
                         for (q, h) in rays.chunks(4096).zip(hits[k].chunks_mut(4096)) {

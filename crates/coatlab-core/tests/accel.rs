@@ -219,8 +219,8 @@ fn hit_bits(hit: Option<Hit>) -> Option<(u32, u32, [u32; 2])> {
     hit.map(|h| (h.t.to_bits(), h.triangle, h.barycentric.map(f32::to_bits)))
 }
 
-/// `closest_hits` (and its variants with other numbers of rays in flight) gives
-/// exactly `closest_hit`'s result for every ray.
+/// `closest_hits` (and its variants with other numbers of rays in flight) and
+/// `closest_hits_one_by_one` give exactly `closest_hit`'s result for every ray.
 fn check_batch_against_single_rays(accel: &Accel, rays: &[([f32; 3], [f32; 3], f32)]) {
     let queries: Vec<RayQuery> = rays
         .iter()
@@ -232,8 +232,9 @@ fn check_batch_against_single_rays(accel: &Accel, rays: &[([f32; 3], [f32; 3], f
         .collect();
     let mut batch = vec![None; rays.len()];
     type Trace = fn(&Accel, &[RayQuery], &mut [Option<Hit>]);
-    let trace: [Trace; 4] = [
+    let trace: [Trace; 5] = [
         |a, r, h| a.closest_hits(r, h),
+        |a, r, h| a.closest_hits_one_by_one(r, h),
         |a, r, h| a.closest_hits_in_lanes::<1>(r, h),
         |a, r, h| a.closest_hits_in_lanes::<3>(r, h),
         |a, r, h| a.closest_hits_in_lanes::<16>(r, h),
@@ -414,6 +415,16 @@ fn every_simd_path_gives_the_same_hits_bit_for_bit() {
                 .iter()
                 .map(|&(o, d, t)| hit_bits(accel.closest_hit_on(path, o, d, t)))
                 .collect();
+            let mut one_by_one = vec![None; queries.len()];
+            accel.closest_hits_one_by_one_on(path, &queries, &mut one_by_one);
+            assert!(
+                one_by_one
+                    .into_iter()
+                    .map(hit_bits)
+                    .eq(single.iter().copied()),
+                "{}: closest_hits_one_by_one against closest_hit",
+                path.name()
+            );
             let any: Vec<bool> = rays
                 .iter()
                 .map(|&(o, d, t)| accel.occluded_on(path, o, d, t.min(1.0)))
@@ -1062,6 +1073,18 @@ fn batches_with_unusable_rays_and_every_length_agree_with_single_rays() {
     }
     let empty = Accel::build(&TriangleMesh::default()).expect("empty accel");
     check_batch_against_single_rays(&empty, &rays);
+}
+
+#[test]
+#[should_panic(expected = "closest_hits_one_by_one: 1 rays but 2 hit slots")]
+fn rays_one_by_one_with_the_wrong_number_of_hit_slots_is_a_bug() {
+    let accel = Accel::build(&torus(8, 4)).expect("build");
+    let ray = RayQuery {
+        origin: [0.0; 3],
+        dir: [0.0, 0.0, 1.0],
+        t_max: 1.0,
+    };
+    accel.closest_hits_one_by_one(&[ray], &mut [None, None]);
 }
 
 #[test]
