@@ -1075,26 +1075,27 @@ fn batches_with_unusable_rays_and_every_length_agree_with_single_rays() {
     check_batch_against_single_rays(&empty, &rays);
 }
 
-#[test]
-#[should_panic(expected = "closest_hits_one_by_one: 1 rays but 2 hit slots")]
-fn rays_one_by_one_with_the_wrong_number_of_hit_slots_is_a_bug() {
+/// A small tree and one ray, for the calls given the wrong number of hit slots.
+fn a_tree_and_a_ray() -> (Accel, RayQuery) {
     let accel = Accel::build(&torus(8, 4)).expect("build");
     let ray = RayQuery {
         origin: [0.0; 3],
         dir: [0.0, 0.0, 1.0],
         t_max: 1.0,
     };
+    (accel, ray)
+}
+
+#[test]
+#[should_panic(expected = "closest_hits_one_by_one: 1 rays but 2 hit slots")]
+fn rays_one_by_one_with_the_wrong_number_of_hit_slots_is_a_bug() {
+    let (accel, ray) = a_tree_and_a_ray();
     accel.closest_hits_one_by_one(&[ray], &mut [None, None]);
 }
 
 #[test]
 #[should_panic(expected = "closest_hits: 1 rays but 2 hit slots")]
 fn a_batch_with_the_wrong_number_of_hit_slots_is_a_bug() {
-    let accel = Accel::build(&torus(8, 4)).expect("build");
-    let ray = RayQuery {
-        origin: [0.0; 3],
-        dir: [0.0, 0.0, 1.0],
-        t_max: 1.0,
-    };
+    let (accel, ray) = a_tree_and_a_ray();
     accel.closest_hits(&[ray], &mut [None, None]);
 }

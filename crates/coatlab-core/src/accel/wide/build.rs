@@ -73,9 +73,7 @@ impl WideBvh {
         plan: &CollapsePlan,
         b: usize,
     ) -> Result<u32, TreeTooLarge> {
-        let index = self.nodes.len();
-        let reference = node_reference(index).ok_or_else(TreeTooLarge::nodes)?;
-        self.nodes.push(Node::empty());
+        let (index, reference) = self.reserve_node()?;
         let mut roots = Vec::with_capacity(WIDTH);
         plan.node_roots(bin, b, &mut roots);
         let mut node = Node::empty();
@@ -90,6 +88,15 @@ impl WideBvh {
         }
         self.nodes[index] = node;
         Ok(reference)
+    }
+
+    /// Appends an empty node for a collapse to fill in once its children have
+    /// theirs (a node precedes its subtree); returns its index and child reference.
+    pub(super) fn reserve_node(&mut self) -> Result<(usize, u32), TreeTooLarge> {
+        let index = self.nodes.len();
+        let reference = node_reference(index).ok_or_else(TreeTooLarge::nodes)?;
+        self.nodes.push(Node::empty());
+        Ok((index, reference))
     }
 
     /// Allocates the packs of a leaf over slots `first..first + count`; returns its

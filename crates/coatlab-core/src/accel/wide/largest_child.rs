@@ -12,9 +12,7 @@ impl WideBvh {
     /// The collapse before the SAH plan: opens the largest inner child until there
     /// are 8 children or only leaves.
     fn collapse_largest(&mut self, bin: &[BinNode], b: usize) -> Result<u32, TreeTooLarge> {
-        let index = self.nodes.len();
-        let reference = super::node_reference(index).ok_or_else(TreeTooLarge::nodes)?;
-        self.nodes.push(Node::empty());
+        let (index, reference) = self.reserve_node()?;
         // Open the largest inner child until there are 8 children or only leaves.
         let mut kids = [0usize; WIDTH];
         let mut n = 0;
