@@ -304,3 +304,75 @@ fn shared_samples_leave_only_the_noise_of_the_difference() {
         );
     }
 }
+
+/// The shared difference keeps refining at the memory of one recording: once a
+/// recording is complete the render drops it and records the next samples
+/// (`record_next_samples`), and the differences of successive recordings
+/// merged (`ShadingDifference::merged`) are the difference of all their
+/// samples. Two recordings of 8 samples against one of 16, the same render:
+/// the same means (to f32 rounding), variances alike, 16 samples; the second
+/// recording's own difference is not the first's (it holds samples 8–15). A
+/// recording still in progress is not replaced.
+#[test]
+fn successive_recordings_merge_into_the_difference_of_all_their_samples() {
+    let s = seed(7);
+    let phong_of = |r: &ProgressiveRender, scene: &Scene, recorded: u32| {
+        let image = r
+            .reshade_recorded(&shading(scene, PHONG))
+            .expect("re-shade");
+        ShadingDifference::of(&image, r.film(), recorded).expect("same size")
+    };
+    let (whole, scene) = render(ShadingModel::Paint, s, 16, 16);
+    let all = phong_of(&whole, &scene, 16);
+
+    let (mut rolling, _) = render(ShadingModel::Paint, s, 4, 8);
+    assert!(
+        !rolling.record_next_samples(),
+        "a recording at 4 of its 8 samples was replaced"
+    );
+    rolling.render_to(8, 4);
+    let first = phong_of(&rolling, &scene, 8);
+    assert!(rolling.record_next_samples());
+    assert_eq!(rolling.path_cache().samples_per_pixel(), 0);
+    assert!(!rolling.path_cache_complete());
+    rolling.render_to(16, 4);
+    assert_eq!(rolling.path_cache().samples_per_pixel(), 8);
+    assert!(rolling.path_cache_complete());
+    let second = phong_of(&rolling, &scene, 8);
+    let merged = first.merged(&second).expect("same size");
+    assert_eq!(merged.samples(), 16);
+
+    let largest_gap = |a: &ShadingDifference, b: &ShadingDifference| {
+        a.mean_xyz()
+            .iter()
+            .zip(b.mean_xyz())
+            .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs() / (1e-3 + b[c].abs())))
+            .fold(0.0f32, f32::max)
+    };
+    let (merged_gap, halves_gap) = (largest_gap(&merged, &all), largest_gap(&second, &first));
+    println!(
+        "largest relative gap: merged vs all {merged_gap:.2e}, second vs first {halves_gap:.2e}"
+    );
+    assert!(
+        merged_gap < 1e-4,
+        "merged differs from all 16: {merged_gap}"
+    );
+    assert!(
+        halves_gap > 1e-2,
+        "the second recording repeats the first's samples"
+    );
+    let total = |d: &ShadingDifference| {
+        d.variance_of_mean_y()
+            .iter()
+            .map(|&v| f64::from(v))
+            .sum::<f64>()
+    };
+    let ratio = total(&merged) / total(&all);
+    println!("variance of the mean, merged ÷ all: {ratio:.3}");
+    assert!(
+        (0.7..1.4).contains(&ratio),
+        "merged variance ×{ratio} that of all 16"
+    );
+    let one = total(&first) / total(&all);
+    assert!(one > 1.4, "one recording of 8: variance ×{one} that of 16");
+}

@@ -79,6 +79,12 @@ pub trait BackendView: Send {
     fn reshade_recorded(&self, shading: &Shading) -> Result<Reshaded, ReshadeError>;
     /// Samples per pixel the path cache holds.
     fn recorded_samples(&self) -> u32;
+    /// Whether the path cache holds every sample its recording takes.
+    fn recording_complete(&self) -> bool;
+    /// Drops a complete recording and records as many samples per pixel again
+    /// from the next pass on, keeping the film; false (nothing changes) while
+    /// it is incomplete or where the back-end cannot.
+    fn record_next_samples(&mut self) -> bool;
 
     /// The accumulated image.
     fn film(&self) -> &Film;

@@ -91,6 +91,14 @@ impl BackendView for ProgressiveRender {
         self.path_cache().samples_per_pixel()
     }
 
+    fn recording_complete(&self) -> bool {
+        self.path_cache_complete()
+    }
+
+    fn record_next_samples(&mut self) -> bool {
+        ProgressiveRender::record_next_samples(self)
+    }
+
     fn film(&self) -> &Film {
         ProgressiveRender::film(self)
     }

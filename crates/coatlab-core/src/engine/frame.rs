@@ -40,9 +40,11 @@ pub struct Frame {
 #[derive(Debug, Clone, PartialEq)]
 pub enum SecondSource {
     /// Its own render combined with the first view's recorded paths (this many
-    /// samples per pixel) re-shaded into it: the panes share those samples.
+    /// samples per pixel, over its successive recordings) re-shaded into it: the
+    /// panes share those samples.
     Shared {
-        /// Samples per pixel recorded.
+        /// Samples per pixel of the first view's paths the shared difference is
+        /// made of.
         recorded_spp: u32,
         /// The weight (0–1) its own render carries in the pane.
         own_weight: f64,
@@ -163,6 +165,7 @@ pub(super) fn edit_update(
 pub(super) fn shared_update(
     [a, b]: [&impl BackendView; 2],
     [(pane_a, _), (pane_b, own_weight)]: &[(Reshaded, f64); 2],
+    shared_spp: u32,
     [stats_a, stats_b]: [PassStats; 2],
     display: &DisplaySettings,
     (coarse, map_due): (bool, bool),
@@ -174,7 +177,7 @@ pub(super) fn shared_update(
     let second = Frame {
         pixels: display_xyz(&pane_b.xyz, display),
         source: Some(SecondSource::Shared {
-            recorded_spp: a.recorded_samples(),
+            recorded_spp: shared_spp,
             own_weight: *own_weight,
         }),
         ..film_frame(b, stats_b, display, coarse)

@@ -71,11 +71,13 @@ pub const COARSE_FACTOR: u32 = 4;
 /// Samples per pixel whose paths the first view records for re-shading paint
 /// edits (memory bounded by the core's default path-cache budget).
 pub const RESHADE_SAMPLES: u32 = 4;
-/// Samples per pixel the first view records in a comparison, for the second
-/// view to be re-shaded from: the difference between the panes has the noise
-/// of this many samples of the difference. The memory budget
-/// ([`crate::render::progressive::DEFAULT_PATH_CACHE_BUDGET_BYTES`]) stops the
-/// recording earlier if it must.
+/// Samples per pixel of one recording of the first view's paths in a
+/// comparison, for the second view to be re-shaded from. Each complete
+/// recording is merged into the shared difference and the next one takes its
+/// place, so the difference refines with the first view's samples while the
+/// memory stays that of one recording. The memory budget
+/// ([`crate::render::progressive::DEFAULT_PATH_CACHE_BUDGET_BYTES`]) makes a
+/// recording shorter if it must.
 pub const COMPARE_CACHE_SAMPLES: u32 = 16;
 /// The image size an engine starts at, before it is told its pane's.
 pub const INITIAL_SIZE: (u32, u32) = (320, 200);

@@ -17,7 +17,7 @@ use super::frame::{
 };
 use super::live::{LiveEngine, Output, Progress};
 use super::plan::{self, Actions, Outcome, Phase, Restart, Second, Tables};
-use super::views::{SecondSpec, independent_reason, spawn_second_shading};
+use super::views::{Recordings, SecondSpec, independent_reason, spawn_second_shading};
 use super::{COARSE_FACTOR, COMPARE_CACHE_SAMPLES, RESHADE_SAMPLES};
 
 /// Where a step publishes its images and events.
@@ -336,22 +336,31 @@ impl<B: RenderBackend> LiveEngine<B> {
         });
     }
 
-    /// The difference the second shading makes, re-shaded from the first view's
-    /// recorded paths when the map is due and the recording may still have grown
-    /// (once it stopped, the difference is final). A re-shade that cannot be done
-    /// yet keeps the last difference; one that cannot be done at all leaves the
-    /// second view's own render alone.
+    /// The difference the second shading makes, from the first view's recorded
+    /// paths. While the first recording grows it holds every sample of the film
+    /// and is re-shaded when the map is due; each complete recording is re-shaded
+    /// once, merged into the difference, and the first view records the next
+    /// samples in its place, so the difference keeps refining at the memory of
+    /// one recording. A re-shade that cannot be done yet keeps the last
+    /// difference; one that cannot be done at all leaves the second view's own
+    /// render alone.
     fn update_difference(&mut self, due: bool) {
         let Some(shading) = self.views.shared.clone() else {
             return;
         };
-        let frozen = matches!(self.views.difference, Some((_, true)));
-        let size_kept = self
-            .views
-            .difference
-            .as_ref()
-            .is_some_and(|(d, _)| (d.width(), d.height()) == self.views.first.resolution());
-        if size_kept && (frozen || !due) {
+        let size = self.views.first.resolution();
+        let kept = match &self.views.difference {
+            Some((d, recordings)) if (d.width(), d.height()) == size => Some(*recordings),
+            _ => None,
+        };
+        let complete = self.views.first.recording_complete();
+        let wait = match kept {
+            Some(Recordings::Final) => true,
+            Some(Recordings::Merged) => !complete,
+            Some(Recordings::Growing) => !complete && !due,
+            None => false,
+        };
+        if wait {
             return;
         }
         let first = &self.views.first;
@@ -359,13 +368,21 @@ impl<B: RenderBackend> LiveEngine<B> {
         self.counters.pane_reshades += 1;
         let difference = first
             .reshade_recorded(&shading)
-            .and_then(|image| ShadingDifference::of(&image, first.film(), recorded));
+            .and_then(|image| ShadingDifference::of(&image, first.film(), recorded))
+            .and_then(|d| match (&self.views.difference, kept, complete) {
+                (Some((merged, _)), Some(Recordings::Merged), true) => merged.merged(&d),
+                _ => Ok(d),
+            });
         match difference {
-            Ok(d) => {
-                // The recording stopped short of the samples taken: final.
-                let frozen = recorded < first.samples_per_pixel();
-                self.views.difference = Some((d, frozen));
+            Ok(d) if complete => {
+                let recordings = if self.views.first.record_next_samples() {
+                    Recordings::Merged
+                } else {
+                    Recordings::Final
+                };
+                self.views.difference = Some((d, recordings));
             }
+            Ok(d) => self.views.difference = Some((d, Recordings::Growing)),
             Err(ReshadeError::NotReady { .. }) => {}
             Err(e) => {
                 self.views.reason = independent_reason(&e);
@@ -443,10 +460,16 @@ impl<B: RenderBackend> LiveEngine<B> {
             return;
         };
         let stats = self.views.last_stats;
+        let shared_spp = self
+            .views
+            .difference
+            .as_ref()
+            .map_or(0, |(d, _)| d.samples());
         let update = match self.views.shared_panes() {
             Some(Ok(panes)) => shared_update(
                 [&self.views.first, second],
                 &panes,
+                shared_spp,
                 stats,
                 &display,
                 (coarse, due),

@@ -588,6 +588,51 @@ fn a_comparison_shares_the_first_views_paths_and_switching_it_off_drops_the_seco
     assert_built(&engine, &before, retraced(0, 1, 0));
 }
 
+/// The shared difference keeps refining after its first recording: each
+/// complete recording of [`COMPARE_CACHE_SAMPLES`] is merged in and the next
+/// one begins, so the panes' shared samples grow with the first view's (here
+/// to 2 × 16 at 40 spp, the third recording still running, each merged the
+/// pass it completes), at the memory of one recording.
+#[test]
+fn a_comparison_keeps_merging_new_recordings_into_its_shared_difference() {
+    let (mut engine, _) = converged();
+    let target = 2 * COMPARE_CACHE_SAMPLES + 8;
+    apply(
+        &mut engine,
+        Command::Quality(knobs(DEFAULT_WAVELENGTHS, target)),
+    );
+    apply(
+        &mut engine,
+        Command::Views(Views::models(PhongVariant::BestFit)),
+    );
+    let published = converge(&mut engine);
+    assert_eq!(engine.state().pairing, Pairing::Shared);
+    let shared: Vec<(u32, u32)> = published
+        .iter()
+        .filter_map(|u| match &u.second {
+            SecondUpdate::Set(Frame {
+                source: Some(SecondSource::Shared { recorded_spp, .. }),
+                samples_per_pixel,
+                coarse: false,
+                ..
+            }) => Some((*samples_per_pixel, *recorded_spp)),
+            _ => None,
+        })
+        .collect();
+    let at = |spp: u32| shared.iter().find(|(s, _)| *s == spp).map(|(_, r)| *r);
+    let c = COMPARE_CACHE_SAMPLES;
+    // While the first recording grows it is re-shaded when the map is due (at
+    // 1, 2, 4, 8, … spp).
+    assert_eq!(at(c - 1), Some(c / 2), "{shared:?}");
+    assert_eq!(at(c + 1), Some(c), "{shared:?}");
+    assert_eq!(at(2 * c), Some(2 * c), "{shared:?}");
+    assert_eq!(at(target), Some(2 * c), "{shared:?}");
+    assert!(
+        shared.windows(2).all(|w| w[1].1 >= w[0].1),
+        "the shared samples fell: {shared:?}"
+    );
+}
+
 /// A converged engine told to compare the design with one of a thicker coat
 /// (its lobe is the first's, so the first view's paths re-shade into it), and
 /// that second design.
@@ -886,6 +931,12 @@ impl BackendView for CountingView {
     }
     fn recorded_samples(&self) -> u32 {
         BackendView::recorded_samples(&self.render)
+    }
+    fn recording_complete(&self) -> bool {
+        BackendView::recording_complete(&self.render)
+    }
+    fn record_next_samples(&mut self) -> bool {
+        BackendView::record_next_samples(&mut self.render)
     }
     fn film(&self) -> &Film {
         BackendView::film(&self.render)

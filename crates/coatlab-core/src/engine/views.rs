@@ -26,8 +26,8 @@ pub(super) struct ViewSet<V> {
     /// its pane then combines its own render with them.
     pub shared: Option<Arc<Shading>>,
     /// The difference the second shading makes, from the first view's recorded
-    /// paths; `frozen` once the recording stopped (it cannot change any more).
-    pub difference: Option<(ShadingDifference, bool)>,
+    /// paths, and which recordings it is made of.
+    pub difference: Option<(ShadingDifference, Recordings)>,
     /// The second view's shading being built; `None` inside: the design is invalid.
     pub job: Option<JoinHandle<Option<Arc<Shading>>>>,
     /// Why the second view is rendered apart, as the user reads it.
@@ -39,6 +39,17 @@ pub(super) struct ViewSet<V> {
     /// The last passes of the first and the second view (their speed is shown
     /// again with the images).
     pub last_stats: [PassStats; 2],
+}
+
+/// Which of the first view's recordings a shared difference is made of.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Recordings {
+    /// The first recording while it grows: it holds every sample of the film.
+    Growing,
+    /// Complete recordings; the one in progress is merged in when complete.
+    Merged,
+    /// Complete recordings, and the back-end records no more: final.
+    Final,
 }
 
 impl<V: BackendView> ViewSet<V> {

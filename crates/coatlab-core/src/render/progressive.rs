@@ -299,9 +299,18 @@ pub struct ProgressiveRender {
     /// Samples per pixel so far (the next pass's first sample index).
     samples_per_pixel: u32,
     totals: PassStats,
-    /// Paths of the first `cache_target` samples per pixel, for re-shading.
+    /// Paths of `cache_window` samples per pixel from sample `cache_first` on,
+    /// for re-shading.
     cache: PathCache,
+    /// Samples per pixel a recording takes, as asked for.
     cache_target: u32,
+    /// Samples per pixel the current recording takes: `cache_target`, or fewer
+    /// where the budget stopped the recording before it and it was started again
+    /// ([`Self::record_next_samples`]).
+    cache_window: u32,
+    /// The first sample index the current recording holds (0 but after
+    /// [`Self::record_next_samples`]).
+    cache_first: u32,
     /// The recording stopped at the budget: the cache is complete at what it has.
     cache_capped: bool,
     cache_budget_bytes: usize,
@@ -354,6 +363,8 @@ impl ProgressiveRender {
             totals: PassStats::default(),
             cache,
             cache_target: 0,
+            cache_window: 0,
+            cache_first: 0,
             cache_capped: false,
             cache_budget_bytes: DEFAULT_PATH_CACHE_BUDGET_BYTES,
             base: None,
@@ -381,8 +392,36 @@ impl ProgressiveRender {
         if self.cache_capped {
             self.cache.samples_per_pixel()
         } else {
-            self.cache_target
+            self.cache_window
         }
+    }
+
+    /// Whether the path cache holds every sample its recording takes (it can be
+    /// re-shaded, and [`Self::record_next_samples`] can start the next one).
+    pub fn path_cache_complete(&self) -> bool {
+        self.cache_complete()
+    }
+
+    /// Drops the complete recording and records the next samples per pixel
+    /// instead, as many as it held, from the next pass on; the film keeps every
+    /// sample. What a comparison does with its shared paths: the difference it
+    /// re-shades from each recording is an unbiased estimate on fresh samples, so
+    /// the estimates of successive recordings average down at the memory of one
+    /// ([`crate::render::reshade::ShadingDifference::merged`]). False, and nothing
+    /// changes, while the recording is incomplete, and under adaptive sampling
+    /// (the recording takes uniform samples, which would keep every pass
+    /// uniform). The vectors keep their capacity, which the budget counts.
+    pub fn record_next_samples(&mut self) -> bool {
+        if !self.cache_complete() || self.settings.adaptive.is_some() {
+            return false;
+        }
+        self.cache_window = self.path_cache_target();
+        self.cache_capped = false;
+        self.cache_first = self.samples_per_pixel;
+        self.cache.tiles.iter_mut().for_each(TileCache::clear);
+        self.cache.samples_per_pixel = 0;
+        self.prepared_base = None;
+        true
     }
 
     /// Heap memory of every path cache held (the edit base's and the current),
@@ -648,8 +687,12 @@ impl ProgressiveRender {
     ) -> Option<PassStats> {
         let start = Instant::now();
         let first_sample = self.samples_per_pixel;
+        // Samples before `record_below` from `cache_first` on are recorded (a pass
+        // never starts before `cache_first`: a recording starts at the next pass).
+        let record_below = self.cache_first + self.path_cache_target();
+        let recording = first_sample < record_below;
         // The noise map and the allocation count as the pass's time.
-        let counts = self.adaptive_counts(samples, self.path_cache_target());
+        let counts = self.adaptive_counts(samples, record_below);
         let tracer = PathTracer::new(
             self.scene.geometry(),
             &self.environment,
@@ -660,7 +703,6 @@ impl ProgressiveRender {
         let seed = self.settings.seed;
         let width = self.film.width();
         let len = self.shading.len();
-        let record_below = self.path_cache_target();
         let lengths: Vec<[usize; 5]> = self.cache.tiles.iter().map(TileCache::lengths).collect();
         let plan = match &counts {
             Some(counts) => Plan::Adaptive {
@@ -672,7 +714,7 @@ impl ProgressiveRender {
                 samples,
             },
         };
-        if first_sample < record_below {
+        if recording {
             self.cache.paint_is_mirror = paint_is_mirror(&self.shading);
             self.cache.lobe_exponent = self.shading.design().lobe_exponent();
             // What the budget leaves beside the caches held, shared by the tiles.
@@ -701,7 +743,7 @@ impl ProgressiveRender {
                     plan,
                     len,
                 };
-                if counts.is_none() && first_sample < record_below {
+                if counts.is_none() && recording {
                     let mut recorder = TileRecorder::new(cache, &tracer);
                     job.render(tile, Some((&mut recorder, record_below)))
                 } else {
@@ -722,9 +764,13 @@ impl ProgressiveRender {
                 cache.roll_back(length);
             }
             self.cache_capped = true;
-            self.cache.samples_per_pixel = first_sample.min(record_below);
+            self.cache.samples_per_pixel = first_sample
+                .min(record_below)
+                .saturating_sub(self.cache_first);
         } else {
-            self.cache.samples_per_pixel = (first_sample + samples).min(record_below);
+            self.cache.samples_per_pixel = (first_sample + samples)
+                .min(record_below)
+                .saturating_sub(self.cache_first);
         }
         for tile in &self.tiles {
             self.film.merge(tile);
@@ -858,6 +904,8 @@ impl ProgressiveRender {
         self.cache.tiles.iter_mut().for_each(TileCache::clear);
         self.cache.samples_per_pixel = 0;
         self.cache_capped = false;
+        self.cache_window = self.cache_target;
+        self.cache_first = 0;
         self.adaptive_weights = None;
         self.adaptive_passes = 0;
     }

@@ -913,8 +913,9 @@ pub fn reshade_prepared(
 /// The difference a second shading makes to a render's picture, estimated from
 /// the render's recorded paths: per pixel the mean over the recorded samples of
 /// c_B − c_A (the paths evaluated with the second shading less their own
-/// value) and the variance of that mean's Y. It is fixed once the recording
-/// stops, while the render's own film keeps refining; what a comparison's
+/// value) and the variance of that mean's Y. One recording gives one estimate;
+/// the estimates of the render's successive recordings merge into one
+/// ([`Self::merged`]) while its own film keeps refining; what a comparison's
 /// second pane is made of ([`Self::combine`]).
 #[derive(Debug, Clone)]
 pub struct ShadingDifference {
@@ -961,6 +962,54 @@ impl ShadingDifference {
         self.samples
     }
 
+    /// Per pixel (row major) the mean of c_B − c_A, X, Y and Z.
+    pub fn mean_xyz(&self) -> &[[f32; 3]] {
+        &self.xyz
+    }
+
+    /// Per pixel the variance of [`Self::mean_xyz`]'s Y.
+    pub fn variance_of_mean_y(&self) -> &[f32] {
+        &self.variance_y
+    }
+
+    /// This difference and `other`, estimated from other samples of the same
+    /// pixels (a later recording of the same render), as one: per pixel the mean
+    /// over both recordings' samples (each mean weighed by its samples) and the
+    /// variance of that mean. Recordings on different samples are independent,
+    /// so the variance of the merged mean is Σ kᵢ² Vᵢ / (Σ kᵢ)².
+    pub fn merged(&self, other: &Self) -> Result<Self, ReshadeError> {
+        if (self.width, self.height) != (other.width, other.height) {
+            return Err(ReshadeError::SizeChanged);
+        }
+        let (ka, kb) = (f64::from(self.samples), f64::from(other.samples));
+        let k = ka + kb;
+        if k == 0.0 {
+            return Ok(self.clone());
+        }
+        let (wa, wb) = (ka / k, kb / k);
+        let xyz = self
+            .xyz
+            .iter()
+            .zip(&other.xyz)
+            .map(|(a, b)| {
+                std::array::from_fn(|c| (wa * f64::from(a[c]) + wb * f64::from(b[c])) as f32)
+            })
+            .collect();
+        let variance_y = self
+            .variance_y
+            .iter()
+            .zip(&other.variance_y)
+            .map(|(a, b)| (wa * wa * f64::from(*a) + wb * wb * f64::from(*b)) as f32)
+            .collect();
+        Ok(Self {
+            width: self.width,
+            height: self.height,
+            xyz,
+            variance_y,
+            samples: self.samples + other.samples,
+        })
+    }
+
     /// Width, pixels.
     pub fn width(&self) -> u32 {
         self.width
@@ -983,9 +1032,10 @@ impl ShadingDifference {
     /// (a highlight one model samples poorly with the other's paths: own
     /// samples) and where it is clean (the shared samples, which keep the
     /// panes' difference free of noise). While either film has fewer than two
-    /// samples (no variance), both panes come from the other film. The difference's noise stays that of its recorded
-    /// samples while `own`'s falls, so w → 1 and the picture converges to the
-    /// second shading's own render. Returns the picture with the mean of w.
+    /// samples (no variance), both panes come from the other film. Both
+    /// estimates are unbiased and both refine (the difference with each
+    /// recording merged into it, `own` with each pass), so the picture converges
+    /// to the second shading's image. Returns the picture with the mean of w.
     pub fn combine(&self, first: &Film, own: &Film) -> Result<(Reshaded, f64), ReshadeError> {
         self.blend(first, 1.0, own)
     }

@@ -585,7 +585,7 @@ pub fn second_source_label(source: &SecondSource) -> String {
             own_weight,
         } => format!(
             "Shared samples: the second view combines the first view's paths re-shaded \
-             into it ({recorded_spp} spp recorded), so the difference shows the models, \
+             into it ({recorded_spp} spp of them so far), so the difference shows the models, \
              not noise, with its own samples (weight {:.0} %), so it converges to its own model",
             own_weight * 100.0
         ),
