@@ -1369,7 +1369,7 @@ fn the_comparison_re_shades_the_first_views_paths() {
         "{:?}",
         p.second_status()
     );
-    h.get_by_label_contains("Shared samples: the second view combines");
+    h.get_by_label_contains("spp of the first view's paths re-shaded into the second");
     let map = preview(h.state()).delta_e_map().expect("map").clone();
     assert!(map.p95 > 0.5, "paint and Phong differ: p95 {}", map.p95);
 

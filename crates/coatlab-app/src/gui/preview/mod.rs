@@ -584,9 +584,8 @@ pub fn second_source_label(source: &SecondSource) -> String {
             recorded_spp,
             own_weight,
         } => format!(
-            "Shared samples: the second view combines the first view's paths re-shaded \
-             into it ({recorded_spp} spp of them so far), so the difference shows the models, \
-             not noise, with its own samples (weight {:.0} %), so it converges to its own model",
+            "Shared samples: {recorded_spp} spp of the first view's paths re-shaded into the \
+             second, so the difference shows the models, not noise; its own samples weigh {:.0} %",
             own_weight * 100.0
         ),
         SecondSource::Independent { reason } => {

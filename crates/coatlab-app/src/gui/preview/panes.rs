@@ -17,13 +17,15 @@ const PANE_GAP: f32 = 4.0;
 const LEGEND_WIDTH: f32 = 64.0;
 
 impl Preview {
-    /// The picture below the controls, with room for the status line; asks the
-    /// engine for the size that fits its panes.
+    /// The picture below the controls, with room for the status line (and in a
+    /// comparison the line on how its second view is made); asks the engine for
+    /// the size that fits its panes.
     pub(super) fn picture_ui(&mut self, ui: &mut Ui) {
-        let status_height = 22.0;
+        let two = self.compare != CompareMode::Off;
+        let line = ui.text_style_height(&egui::TextStyle::Body) + ui.spacing().item_spacing.y;
+        let status_height = if two { 2.0 } else { 1.0 } * line + 4.0;
         let available = ui.available_size() - egui::vec2(0.0, status_height);
         let (rect, _) = ui.allocate_exact_size(available, egui::Sense::hover());
-        let two = self.compare != CompareMode::Off;
         let pane_size = match (two, self.layout) {
             (true, CompareLayout::SideBySide) => {
                 egui::vec2((rect.width() - PANE_GAP) / 2.0, rect.height())
