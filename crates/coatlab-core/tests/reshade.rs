@@ -491,6 +491,72 @@ fn path_caches_stay_within_their_memory_budget() {
     ));
 }
 
+/// A recording started again (`record_next_samples`, what a comparison does
+/// with each complete recording) stays within the budget and, where the budget
+/// cut the first one short, takes as many samples as that one held; the film
+/// keeps every sample.
+#[test]
+fn a_recording_started_again_keeps_to_the_budget() {
+    let base = red();
+    let (unbounded, scene) = render(&base, ShadingModel::Paint, 5, 4, 4);
+    let budget = unbounded.path_cache_memory_bytes() / 3;
+    let mut render = ProgressiveRender::new(
+        unbounded.scene().clone(),
+        unbounded.environment().clone(),
+        shading(&scene, &base, ShadingModel::Paint),
+        unbounded.camera().clone(),
+        RenderSettings::seeded(5),
+    )
+    .expect("render");
+    render.set_path_cache_samples(4);
+    render.set_path_cache_budget(budget);
+    render.render_to(6, 1);
+    let capped = render.path_cache_target();
+    assert!((1..4).contains(&capped), "cache capped at {capped} spp");
+    for round in 0..3 {
+        assert!(render.record_next_samples(), "round {round}");
+        assert!(!render.path_cache_complete());
+        assert!(
+            !render.record_next_samples(),
+            "an empty recording was started again"
+        );
+        let start = render.samples_per_pixel();
+        render.render_to(start + capped, 1);
+        assert!(render.path_cache_memory_bytes() <= budget);
+        assert!(render.path_cache_complete(), "round {round}");
+        assert_eq!(render.path_cache().samples_per_pixel(), capped);
+        render
+            .reshade_recorded(&shading(&scene, &base, ShadingModel::Paint))
+            .expect("each recording re-shades");
+    }
+    assert_eq!(render.samples_per_pixel(), 6 + 3 * capped);
+    assert_eq!(render.film().samples_per_pixel(), u64::from(6 + 3 * capped));
+}
+
+/// Under adaptive sampling a complete recording is not started again: it takes
+/// uniform samples, and a recording in progress keeps every pass uniform.
+#[test]
+fn adaptive_sampling_keeps_its_first_recording() {
+    let base = red();
+    let (uniform, scene) = render(&base, ShadingModel::Paint, 5, 2, 2);
+    let mut render = ProgressiveRender::new(
+        uniform.scene().clone(),
+        uniform.environment().clone(),
+        shading(&scene, &base, ShadingModel::Paint),
+        uniform.camera().clone(),
+        RenderSettings {
+            adaptive: Some(Default::default()),
+            ..RenderSettings::seeded(5)
+        },
+    )
+    .expect("render");
+    render.set_path_cache_samples(2);
+    render.render_to(2, 1);
+    assert!(render.path_cache_complete());
+    assert!(!render.record_next_samples());
+    assert_eq!(render.path_cache().samples_per_pixel(), 2);
+}
+
 /// A design edit rebuilds only the derived tables the changed field touches, and
 /// gives the same model as building it anew.
 #[test]
