@@ -71,8 +71,8 @@ use crate::render::integrator::{
 };
 use crate::render::material::{Shading, ShadingModel};
 use crate::render::reshade::{
-    BaseImage, PathCache, ReshadeError, Reshaded, TileCache, TileRecorder, paint_is_mirror,
-    reshade, reshade_prepared,
+    BaseImage, PathCache, PathLog, ReshadeError, Reshaded, TileCache, TileRecorder,
+    paint_is_mirror, reshade, reshade_prepared,
 };
 use crate::render::sampler::PixelSampler;
 use crate::render::view::{NamedView, SceneFraming};
@@ -1019,13 +1019,19 @@ struct TileJob<'a> {
 
 impl TileJob<'_> {
     /// Renders the tile; with a recorder, samples below its limit are recorded.
-    /// Returns the rays traced. Samples that are not recorded are traced
-    /// [`WAVE_PATHS`] at a time ([`PathTracer::radiance_wave`], bit for bit the
-    /// same radiance as one by one) and added to the tile in the same order.
+    /// Returns the rays traced. Samples are traced [`WAVE_PATHS`] at a time
+    /// ([`PathTracer::radiance_wave`], bit for bit the same radiance as one by
+    /// one) and added to the tile in the same order; a wave holds recorded or
+    /// unrecorded samples, not both, and a recorded wave's paths are logged and
+    /// handed to the recorder one after another once it is traced.
     fn render(&self, tile: &mut Film, mut recorder: Option<(&mut TileRecorder<'_>, u32)>) -> u64 {
         let mut buffers = PathBuffers::new(self.len);
         let mut radiance = vec![0.0f32; self.len * WAVE_PATHS];
         let mut wave = Wave::default();
+        let mut logs: Vec<PathLog> = Vec::new();
+        if recorder.is_some() {
+            logs.resize_with(WAVE_PATHS, PathLog::default);
+        }
         let [x0, y0] = tile.origin();
         let mut rays = 0u64;
         for y in y0..y0 + tile.height() {
@@ -1036,59 +1042,96 @@ impl TileJob<'_> {
                     let mut sampler = PixelSampler::new(self.seed, pixel_index, sample);
                     let [jx, jy] = sampler.next_2d();
                     let ray = self.camera.ray(x as f32 + jx, y as f32 + jy);
-                    match &mut recorder {
-                        Some((recorder, below)) if sample < *below => {
-                            rays += self.trace_wave(&mut wave, tile, &mut buffers, &mut radiance);
-                            recorder.begin();
-                            let stats = self.tracer.radiance(
-                                ray.0,
-                                ray.1,
-                                &mut sampler,
-                                &mut buffers,
-                                &mut radiance[..self.len],
-                                *recorder,
-                            );
-                            recorder.finish(x, y, tile.xyz_of(&radiance[..self.len]));
-                            rays += u64::from(stats.rays);
-                            tile.add_sample_indexed(x, y, u64::from(sample), &radiance[..self.len]);
-                        }
-                        _ => {
-                            wave.pixels.push([x, y, sample]);
-                            wave.rays.push(ray);
-                            wave.samplers.push(sampler);
-                            if wave.rays.len() == WAVE_PATHS {
-                                rays +=
-                                    self.trace_wave(&mut wave, tile, &mut buffers, &mut radiance);
-                            }
-                        }
+                    let recorded = matches!(&recorder, Some((_, below)) if sample < *below);
+                    if recorded != wave.recorded {
+                        let recorder = recorder.as_mut().map(|(r, _)| &mut **r);
+                        rays += self.trace_wave(
+                            &mut wave,
+                            tile,
+                            &mut buffers,
+                            &mut radiance,
+                            recorder,
+                            &mut logs,
+                        );
+                        wave.recorded = recorded;
+                    }
+                    wave.pixels.push([x, y, sample]);
+                    wave.rays.push(ray);
+                    wave.samplers.push(sampler);
+                    if wave.rays.len() == WAVE_PATHS {
+                        let recorder = recorder.as_mut().map(|(r, _)| &mut **r);
+                        rays += self.trace_wave(
+                            &mut wave,
+                            tile,
+                            &mut buffers,
+                            &mut radiance,
+                            recorder,
+                            &mut logs,
+                        );
                     }
                 }
             }
         }
-        rays + self.trace_wave(&mut wave, tile, &mut buffers, &mut radiance)
+        let recorder = recorder.as_mut().map(|(r, _)| &mut **r);
+        rays + self.trace_wave(
+            &mut wave,
+            tile,
+            &mut buffers,
+            &mut radiance,
+            recorder,
+            &mut logs,
+        )
     }
 
     /// Traces the paths waiting in `wave`, adds them to the tile in order and
-    /// empties it. Returns the rays traced.
+    /// empties it; a recorded wave's paths go to `recorder` in the same order
+    /// (logged in `logs`, one per path, while the wave is traced). Returns the
+    /// rays traced.
     fn trace_wave(
         &self,
         wave: &mut Wave,
         tile: &mut Film,
         buffers: &mut PathBuffers,
         radiance: &mut [f32],
+        recorder: Option<&mut TileRecorder<'_>>,
+        logs: &mut [PathLog],
     ) -> u64 {
         let paths = wave.rays.len();
         if paths == 0 {
             return 0;
         }
         let radiance = &mut radiance[..paths * self.len];
-        let stats = self.tracer.radiance_wave(
-            &wave.rays,
-            &mut wave.samplers,
-            buffers,
-            radiance,
-            &mut [NoRecord; WAVE_PATHS][..paths],
-        );
+        let stats = match recorder.filter(|_| wave.recorded) {
+            Some(recorder) => {
+                let logs = &mut logs[..paths];
+                logs.iter_mut().for_each(PathLog::clear);
+                let stats = self.tracer.radiance_wave(
+                    &wave.rays,
+                    &mut wave.samplers,
+                    buffers,
+                    radiance,
+                    logs,
+                );
+                for ((&[x, y, _], spectrum), log) in wave
+                    .pixels
+                    .iter()
+                    .zip(radiance.chunks_exact(self.len))
+                    .zip(logs.iter())
+                {
+                    recorder.begin();
+                    log.replay_into(recorder);
+                    recorder.finish(x, y, tile.xyz_of(spectrum));
+                }
+                stats
+            }
+            None => self.tracer.radiance_wave(
+                &wave.rays,
+                &mut wave.samplers,
+                buffers,
+                radiance,
+                &mut [NoRecord; WAVE_PATHS][..paths],
+            ),
+        };
         for (&[x, y, sample], spectrum) in wave.pixels.iter().zip(radiance.chunks_exact(self.len)) {
             tile.add_sample_indexed(x, y, u64::from(sample), spectrum);
         }
@@ -1102,6 +1145,8 @@ impl TileJob<'_> {
 /// Pixel samples waiting to be traced together.
 #[derive(Default)]
 struct Wave {
+    /// Whether its samples are recorded.
+    recorded: bool,
     /// Pixel x, y and the sample's index in the pixel's sequence.
     pixels: Vec<[u32; 3]>,
     rays: Vec<([f32; 3], [f32; 3])>,

@@ -379,6 +379,76 @@ fn grow<T>(
     true
 }
 
+/// The decisions of one path traced in a wave, kept until the wave is done and
+/// then handed to the tile's [`TileRecorder`] in the path's turn
+/// ([`Self::replay_into`]): a wave traces its paths' bounces together, while a
+/// tile cache stores each path's records in one run. Reused from wave to wave
+/// (clearing keeps its memory).
+#[derive(Debug, Default)]
+pub(crate) struct PathLog {
+    events: Vec<LoggedEvent>,
+    /// The spectra the events carry, one after another.
+    spectra: Vec<f32>,
+}
+
+/// One call a path made to its recorder; a spectrum's length is kept with it,
+/// its values in [`PathLog::spectra`].
+#[derive(Debug, Clone, Copy)]
+enum LoggedEvent {
+    Vertex(VertexRecord, Option<usize>),
+    Crossed(Option<usize>),
+    Escape([f32; 3], f32),
+}
+
+impl PathLog {
+    pub(crate) fn clear(&mut self) {
+        self.events.clear();
+        self.spectra.clear();
+    }
+
+    /// Hands the logged decisions to `recorder` in the order the path made them.
+    pub(crate) fn replay_into(&self, recorder: &mut impl PathRecorder) {
+        let mut at = 0;
+        let mut take = |len: Option<usize>| {
+            len.map(|len| {
+                let spectrum = &self.spectra[at..at + len];
+                at += len;
+                spectrum
+            })
+        };
+        for event in &self.events {
+            match *event {
+                LoggedEvent::Vertex(vertex, len) => recorder.vertex(&vertex, take(len)),
+                LoggedEvent::Crossed(len) => recorder.crossed(take(len)),
+                LoggedEvent::Escape(dir, mis) => recorder.escape(dir, mis),
+            }
+        }
+    }
+
+    fn keep(&mut self, spectrum: Option<&[f32]>) -> Option<usize> {
+        spectrum.map(|values| {
+            self.spectra.extend_from_slice(values);
+            values.len()
+        })
+    }
+}
+
+impl PathRecorder for PathLog {
+    fn vertex(&mut self, vertex: &VertexRecord, light_transmittance: Option<&[f32]>) {
+        let len = self.keep(light_transmittance);
+        self.events.push(LoggedEvent::Vertex(*vertex, len));
+    }
+
+    fn crossed(&mut self, factor: Option<&[f32]>) {
+        let len = self.keep(factor);
+        self.events.push(LoggedEvent::Crossed(len));
+    }
+
+    fn escape(&mut self, dir: [f32; 3], mis: f32) {
+        self.events.push(LoggedEvent::Escape(dir, mis));
+    }
+}
+
 /// Records one path into a tile cache (see [`PathRecorder`]).
 pub(crate) struct TileRecorder<'a> {
     cache: &'a mut TileCache,
