@@ -606,7 +606,8 @@ impl ProgressiveRender {
 
     /// Records the paths of the first `samples` samples of every pixel that touch
     /// the paint, for [`Self::reshade`] (0: record nothing, the default). Restarts.
-    /// Costs memory ([`PathCache::memory_bytes`]) and a little time while recording.
+    /// Costs memory ([`PathCache::memory_bytes`]) and a little time while recording
+    /// (recorded samples are traced in waves like the rest, their paths logged).
     pub fn set_path_cache_samples(&mut self, samples: u32) {
         self.cache_target = samples;
         self.restart();
