@@ -15,6 +15,8 @@ const MAX_PREVIEW_PIXELS: (u32, u32) = (640, 400);
 const PANE_GAP: f32 = 4.0;
 /// Width kept for the ΔE00 legend, points.
 const LEGEND_WIDTH: f32 = 64.0;
+/// Height kept below the picture for the status line, points.
+const STATUS_HEIGHT: f32 = 22.0;
 
 impl Preview {
     /// The picture below the controls, with room for the status line (and in a
@@ -23,7 +25,11 @@ impl Preview {
     pub(super) fn picture_ui(&mut self, ui: &mut Ui) {
         let two = self.compare != CompareMode::Off;
         let line = ui.text_style_height(&egui::TextStyle::Body) + ui.spacing().item_spacing.y;
-        let status_height = if two { 2.0 } else { 1.0 } * line + 4.0;
+        let status_height = if two {
+            STATUS_HEIGHT + line
+        } else {
+            STATUS_HEIGHT
+        };
         let available = ui.available_size() - egui::vec2(0.0, status_height);
         let (rect, _) = ui.allocate_exact_size(available, egui::Sense::hover());
         let pane_size = match (two, self.layout) {
