@@ -431,6 +431,27 @@ fn edits_in_a_row_share_the_base_and_mirrors_trace_fresh() {
     assert!(render.edit_estimate().is_none());
 }
 
+/// A new render of `like`'s scene, lighting and camera, its paint `model`, with
+/// `settings`, recording `recorded` samples per pixel.
+fn render_like(
+    like: &ProgressiveRender,
+    scene: &Scene,
+    model: &PaintModel,
+    settings: RenderSettings,
+    recorded: u32,
+) -> ProgressiveRender {
+    let mut render = ProgressiveRender::new(
+        like.scene().clone(),
+        like.environment().clone(),
+        shading(scene, model, ShadingModel::Paint),
+        like.camera().clone(),
+        settings,
+    )
+    .expect("render");
+    render.set_path_cache_samples(recorded);
+    render
+}
+
 /// The path caches stay within their budget: a small budget stops the recording
 /// early (the cache is complete at fewer samples and still re-shades), and the
 /// edit base plus the cache being recorded never pass it together.
@@ -441,16 +462,7 @@ fn path_caches_stay_within_their_memory_budget() {
     let full = unbounded.path_cache_memory_bytes();
     assert!(full > 0);
     let budget = full / 3;
-    let scene_arc = unbounded.scene().clone();
-    let mut render = ProgressiveRender::new(
-        scene_arc,
-        unbounded.environment().clone(),
-        shading(&scene, &base, ShadingModel::Paint),
-        unbounded.camera().clone(),
-        RenderSettings::seeded(5),
-    )
-    .expect("render");
-    render.set_path_cache_samples(4);
+    let mut render = render_like(&unbounded, &scene, &base, RenderSettings::seeded(5), 4);
     render.set_path_cache_budget(budget);
     for _ in 0..6 {
         render.render_pass(1);
@@ -500,15 +512,7 @@ fn a_recording_started_again_keeps_to_the_budget() {
     let base = red();
     let (unbounded, scene) = render(&base, ShadingModel::Paint, 5, 4, 4);
     let budget = unbounded.path_cache_memory_bytes() / 3;
-    let mut render = ProgressiveRender::new(
-        unbounded.scene().clone(),
-        unbounded.environment().clone(),
-        shading(&scene, &base, ShadingModel::Paint),
-        unbounded.camera().clone(),
-        RenderSettings::seeded(5),
-    )
-    .expect("render");
-    render.set_path_cache_samples(4);
+    let mut render = render_like(&unbounded, &scene, &base, RenderSettings::seeded(5), 4);
     render.set_path_cache_budget(budget);
     render.render_to(6, 1);
     let capped = render.path_cache_target();
@@ -539,18 +543,11 @@ fn a_recording_started_again_keeps_to_the_budget() {
 fn adaptive_sampling_keeps_its_first_recording() {
     let base = red();
     let (uniform, scene) = render(&base, ShadingModel::Paint, 5, 2, 2);
-    let mut render = ProgressiveRender::new(
-        uniform.scene().clone(),
-        uniform.environment().clone(),
-        shading(&scene, &base, ShadingModel::Paint),
-        uniform.camera().clone(),
-        RenderSettings {
-            adaptive: Some(Default::default()),
-            ..RenderSettings::seeded(5)
-        },
-    )
-    .expect("render");
-    render.set_path_cache_samples(2);
+    let adaptive = RenderSettings {
+        adaptive: Some(Default::default()),
+        ..RenderSettings::seeded(5)
+    };
+    let mut render = render_like(&uniform, &scene, &base, adaptive, 2);
     render.render_to(2, 1);
     assert!(render.path_cache_complete());
     assert!(!render.record_next_samples());

@@ -517,6 +517,27 @@ fn a_pick_toggles_the_material_under_the_point() {
     assert!(apply(&mut engine, Command::TogglePaintAt(0.01, 0.01)).is_empty());
 }
 
+/// The full-size second panes published shared: samples per pixel, the shared
+/// difference's samples per pixel, and the weight of the pane's own render.
+fn shared_panes(published: &[ViewsUpdate]) -> Vec<(u32, u32, f64)> {
+    published
+        .iter()
+        .filter_map(|u| match &u.second {
+            SecondUpdate::Set(Frame {
+                source:
+                    Some(SecondSource::Shared {
+                        recorded_spp,
+                        own_weight,
+                    }),
+                samples_per_pixel,
+                coarse: false,
+                ..
+            }) => Some((*samples_per_pixel, *recorded_spp, *own_weight)),
+            _ => None,
+        })
+        .collect()
+}
+
 /// A comparison shares the first view's paths and gives the second view a
 /// render of its own (one render built, a pass of it for every pass of the
 /// first); its pane says how much its own samples weigh, and that weight grows
@@ -538,17 +559,9 @@ fn a_comparison_shares_the_first_views_paths_and_switching_it_off_drops_the_seco
     let published = converge(&mut engine);
     assert_eq!(engine.state().pairing, Pairing::Shared);
     assert_eq!(engine.recording_target(), COMPARE_CACHE_SAMPLES);
-    let weights: Vec<(u32, f64)> = published
-        .iter()
-        .filter_map(|u| match &u.second {
-            SecondUpdate::Set(Frame {
-                source: Some(SecondSource::Shared { own_weight, .. }),
-                samples_per_pixel,
-                coarse: false,
-                ..
-            }) => Some((*samples_per_pixel, *own_weight)),
-            _ => None,
-        })
+    let weights: Vec<(u32, f64)> = shared_panes(&published)
+        .into_iter()
+        .map(|(spp, _, weight)| (spp, weight))
         .collect();
     println!("own weight by spp: {weights:?}");
     let (&(last_spp, last_weight), &(_, first_weight)) = (
@@ -607,17 +620,9 @@ fn a_comparison_keeps_merging_new_recordings_into_its_shared_difference() {
     );
     let published = converge(&mut engine);
     assert_eq!(engine.state().pairing, Pairing::Shared);
-    let shared: Vec<(u32, u32)> = published
-        .iter()
-        .filter_map(|u| match &u.second {
-            SecondUpdate::Set(Frame {
-                source: Some(SecondSource::Shared { recorded_spp, .. }),
-                samples_per_pixel,
-                coarse: false,
-                ..
-            }) => Some((*samples_per_pixel, *recorded_spp)),
-            _ => None,
-        })
+    let shared: Vec<(u32, u32)> = shared_panes(&published)
+        .into_iter()
+        .map(|(spp, recorded, _)| (spp, recorded))
         .collect();
     let at = |spp: u32| shared.iter().find(|(s, _)| *s == spp).map(|(_, r)| *r);
     let c = COMPARE_CACHE_SAMPLES;

@@ -1026,13 +1026,7 @@ impl TileJob<'_> {
     /// unrecorded samples, not both, and a recorded wave's paths are logged and
     /// handed to the recorder one after another once it is traced.
     fn render(&self, tile: &mut Film, mut recorder: Option<(&mut TileRecorder<'_>, u32)>) -> u64 {
-        let mut buffers = PathBuffers::new(self.len);
-        let mut radiance = vec![0.0f32; self.len * WAVE_PATHS];
-        let mut wave = Wave::default();
-        let mut logs: Vec<PathLog> = Vec::new();
-        if recorder.is_some() {
-            logs.resize_with(WAVE_PATHS, PathLog::default);
-        }
+        let mut wave = Wave::new(self.len, recorder.is_some());
         let [x0, y0] = tile.origin();
         let mut rays = 0u64;
         for y in y0..y0 + tile.height() {
@@ -1045,74 +1039,44 @@ impl TileJob<'_> {
                     let ray = self.camera.ray(x as f32 + jx, y as f32 + jy);
                     let recorded = matches!(&recorder, Some((_, below)) if sample < *below);
                     if recorded != wave.recorded {
-                        let recorder = recorder.as_mut().map(|(r, _)| &mut **r);
-                        rays += self.trace_wave(
-                            &mut wave,
-                            tile,
-                            &mut buffers,
-                            &mut radiance,
-                            recorder,
-                            &mut logs,
-                        );
+                        rays += self.trace_wave(&mut wave, tile, &mut recorder);
                         wave.recorded = recorded;
                     }
                     wave.pixels.push([x, y, sample]);
                     wave.rays.push(ray);
                     wave.samplers.push(sampler);
                     if wave.rays.len() == WAVE_PATHS {
-                        let recorder = recorder.as_mut().map(|(r, _)| &mut **r);
-                        rays += self.trace_wave(
-                            &mut wave,
-                            tile,
-                            &mut buffers,
-                            &mut radiance,
-                            recorder,
-                            &mut logs,
-                        );
+                        rays += self.trace_wave(&mut wave, tile, &mut recorder);
                     }
                 }
             }
         }
-        let recorder = recorder.as_mut().map(|(r, _)| &mut **r);
-        rays + self.trace_wave(
-            &mut wave,
-            tile,
-            &mut buffers,
-            &mut radiance,
-            recorder,
-            &mut logs,
-        )
+        rays + self.trace_wave(&mut wave, tile, &mut recorder)
     }
 
     /// Traces the paths waiting in `wave`, adds them to the tile in order and
-    /// empties it; a recorded wave's paths go to `recorder` in the same order
-    /// (logged in `logs`, one per path, while the wave is traced). Returns the
-    /// rays traced.
+    /// empties it; a recorded wave's paths go to the recorder in the same order
+    /// (logged, one log per path, while the wave is traced). Returns the rays
+    /// traced.
     fn trace_wave(
         &self,
         wave: &mut Wave,
         tile: &mut Film,
-        buffers: &mut PathBuffers,
-        radiance: &mut [f32],
-        recorder: Option<&mut TileRecorder<'_>>,
-        logs: &mut [PathLog],
+        recorder: &mut Option<(&mut TileRecorder<'_>, u32)>,
     ) -> u64 {
         let paths = wave.rays.len();
         if paths == 0 {
             return 0;
         }
-        let radiance = &mut radiance[..paths * self.len];
-        let stats = match recorder.filter(|_| wave.recorded) {
-            Some(recorder) => {
-                let logs = &mut logs[..paths];
+        let radiance = &mut wave.radiance[..paths * self.len];
+        let (rays, samplers, buffers) = (&wave.rays, &mut wave.samplers, &mut wave.buffers);
+        let stats = match recorder.as_mut().filter(|_| wave.recorded) {
+            Some((recorder, _)) => {
+                let logs = &mut wave.logs[..paths];
                 logs.iter_mut().for_each(PathLog::clear);
-                let stats = self.tracer.radiance_wave(
-                    &wave.rays,
-                    &mut wave.samplers,
-                    buffers,
-                    radiance,
-                    logs,
-                );
+                let stats = self
+                    .tracer
+                    .radiance_wave(rays, samplers, buffers, radiance, logs);
                 for ((&[x, y, _], spectrum), log) in wave
                     .pixels
                     .iter()
@@ -1120,14 +1084,14 @@ impl TileJob<'_> {
                     .zip(logs.iter())
                 {
                     recorder.begin();
-                    log.replay_into(recorder);
+                    log.replay_into(*recorder);
                     recorder.finish(x, y, tile.xyz_of(spectrum));
                 }
                 stats
             }
             None => self.tracer.radiance_wave(
-                &wave.rays,
-                &mut wave.samplers,
+                rays,
+                samplers,
                 buffers,
                 radiance,
                 &mut [NoRecord; WAVE_PATHS][..paths],
@@ -1143,8 +1107,7 @@ impl TileJob<'_> {
     }
 }
 
-/// Pixel samples waiting to be traced together.
-#[derive(Default)]
+/// Pixel samples waiting to be traced together, and what tracing them needs.
 struct Wave {
     /// Whether its samples are recorded.
     recorded: bool,
@@ -1152,6 +1115,31 @@ struct Wave {
     pixels: Vec<[u32; 3]>,
     rays: Vec<([f32; 3], [f32; 3])>,
     samplers: Vec<PixelSampler>,
+    buffers: PathBuffers,
+    /// The paths' radiance, one spectrum after another.
+    radiance: Vec<f32>,
+    /// One per path while a recorded wave is traced (none when nothing records).
+    logs: Vec<PathLog>,
+}
+
+impl Wave {
+    /// An empty wave for spectra of `len` wavelengths; `recording`: it may hold
+    /// recorded samples.
+    fn new(len: usize, recording: bool) -> Self {
+        let mut logs = Vec::new();
+        if recording {
+            logs.resize_with(WAVE_PATHS, PathLog::default);
+        }
+        Self {
+            recorded: false,
+            pixels: Vec::with_capacity(WAVE_PATHS),
+            rays: Vec::with_capacity(WAVE_PATHS),
+            samplers: Vec::with_capacity(WAVE_PATHS),
+            buffers: PathBuffers::new(len),
+            radiance: vec![0.0; len * WAVE_PATHS],
+            logs,
+        }
+    }
 }
 
 /// Empty path caches aligned with `tiles`.
