@@ -16,6 +16,10 @@
 //! the RMS tells a pixel whose map is noisy from one that drew a value far in the
 //! tail. The pixels where a single run's noise is not below the signal are listed
 //! by what they show.
+//! In `designs` mode the second design is the second preset, or with
+//! `COMPARE_SECOND_GU=GU` the first preset at another gloss reading (the same
+//! geometry): a variant a designer compares with the original.
+//! `COMPARE_FIRST_GU=GU` sets the first design's reading the same way.
 //! `COMPARE_ADAPTIVE=1` turns on adaptive sampling (its defaults) in every view;
 //! `COMPARE_MISSES=FILE.png` draws the signal in grey and those pixels in red.
 //!
@@ -74,6 +78,14 @@ fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len().max(1) as f64
 }
 
+/// The gloss reading in the environment variable `name`, if it is set.
+fn gloss_reading(name: &str) -> Result<Option<f64>, String> {
+    std::env::var(name)
+        .ok()
+        .map(|gu| gu.parse().map_err(|e| format!("{name} {gu:?}: {e}")))
+        .transpose()
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mode = args.first().map_or("models", String::as_str);
@@ -88,12 +100,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let reference_spp: u32 = args.get(3).map_or(Ok(256), |s| s.parse())?;
 
     let all = presets::all();
-    let design = all.first().ok_or("no preset designs")?.design.clone();
+    let mut design = all.first().ok_or("no preset designs")?.design.clone();
+    let original = design.clone();
+    if let Some(gu) = gloss_reading("COMPARE_FIRST_GU")? {
+        design.name = format!("{} at {gu} GU", design.name);
+        design.gloss.gu = gu;
+    }
     let views = match mode {
         "models" => Views::models(PhongVariant::BestFit),
         "designs" => {
-            let second = &all.get(1).ok_or("a second preset")?.design;
-            Views::designs(ShadingModel::Paint, Some(second))
+            let mut second = all.get(1).ok_or("a second preset")?.design.clone();
+            if let Some(gu) = gloss_reading("COMPARE_SECOND_GU")? {
+                second = original.clone();
+                second.name = format!("{} at {gu} GU", original.name);
+                second.gloss.gu = gu;
+            }
+            Views::designs(ShadingModel::Paint, Some(&second))
         }
         other => return Err(format!("unknown mode {other}: models or designs").into()),
     };
