@@ -35,7 +35,7 @@ use std::time::Instant;
 use palette::Srgb;
 
 use coatlab_core::colour::{Lab, Xyz, ciede2000};
-use coatlab_core::design::presets;
+use coatlab_core::design::{PaintDesign, presets};
 use coatlab_core::engine::{
     Command, CpuBackend, LiveEngine, Output, QualityKnobs, SecondImage, SecondUpdate, Views,
     ViewsUpdate,
@@ -86,6 +86,14 @@ fn gloss_reading(name: &str) -> Result<Option<f64>, String> {
         .transpose()
 }
 
+/// `design` read at `gu` gloss units (the same geometry), named so.
+fn at_gloss(design: &PaintDesign, gu: f64) -> PaintDesign {
+    let mut variant = design.clone();
+    variant.name = format!("{} at {gu} GU", design.name);
+    variant.gloss.gu = gu;
+    variant
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mode = args.first().map_or("models", String::as_str);
@@ -100,21 +108,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let reference_spp: u32 = args.get(3).map_or(Ok(256), |s| s.parse())?;
 
     let all = presets::all();
-    let mut design = all.first().ok_or("no preset designs")?.design.clone();
-    let original = design.clone();
-    if let Some(gu) = gloss_reading("COMPARE_FIRST_GU")? {
-        design.name = format!("{} at {gu} GU", design.name);
-        design.gloss.gu = gu;
-    }
+    let original = &all.first().ok_or("no preset designs")?.design;
+    let design = match gloss_reading("COMPARE_FIRST_GU")? {
+        Some(gu) => at_gloss(original, gu),
+        None => original.clone(),
+    };
     let views = match mode {
         "models" => Views::models(PhongVariant::BestFit),
         "designs" => {
-            let mut second = all.get(1).ok_or("a second preset")?.design.clone();
-            if let Some(gu) = gloss_reading("COMPARE_SECOND_GU")? {
-                second = original.clone();
-                second.name = format!("{} at {gu} GU", original.name);
-                second.gloss.gu = gu;
-            }
+            let second = match gloss_reading("COMPARE_SECOND_GU")? {
+                Some(gu) => at_gloss(original, gu),
+                None => all.get(1).ok_or("a second preset")?.design.clone(),
+            };
             Views::designs(ShadingModel::Paint, Some(&second))
         }
         other => return Err(format!("unknown mode {other}: models or designs").into()),
