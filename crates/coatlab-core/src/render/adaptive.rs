@@ -135,20 +135,10 @@ pub fn neighbourhood_weights(
         .iter()
         .map(|&v| if v.is_finite() { v.max(0.0) } else { largest })
         .collect();
-    let mut raised = vec![0.0f32; clean.len()];
-    for y in 0..height {
-        let (y0, y1) = (y.saturating_sub(1), (y + 1).min(height - 1));
-        for x in 0..width {
-            let (x0, x1) = (x.saturating_sub(1), (x + 1).min(width - 1));
-            let mut m = 0.0f32;
-            for row in clean[y0 * width..(y1 + 1) * width].chunks_exact(width) {
-                for &v in &row[x0..=x1] {
-                    m = m.max(v);
-                }
-            }
-            raised[y * width + x] = m.powf(exponent);
-        }
-    }
+    let raised: Vec<f32> = neighbourhood_max(&clean, width, height)
+        .into_iter()
+        .map(|m| m.powf(exponent))
+        .collect();
     let mean = raised.iter().map(|&v| f64::from(v)).sum::<f64>() / raised.len().max(1) as f64;
     if !(mean > 0.0 && mean.is_finite()) {
         // No noise anywhere (or no estimate): spend evenly.
@@ -161,6 +151,27 @@ pub fn neighbourhood_weights(
         .collect();
     let mean = weights.iter().sum::<f64>() / weights.len() as f64;
     weights.iter().map(|&w| (w / mean) as f32).collect()
+}
+
+/// Each pixel's largest value of its 3 × 3 neighbourhood (clipped at the edges)
+/// in a `width` × `height` map of non-negative values, row major.
+pub fn neighbourhood_max(values: &[f32], width: usize, height: usize) -> Vec<f32> {
+    assert_eq!(values.len(), width * height, "map of the wrong size");
+    let mut largest = vec![0.0f32; values.len()];
+    for y in 0..height {
+        let (y0, y1) = (y.saturating_sub(1), (y + 1).min(height - 1));
+        for x in 0..width {
+            let (x0, x1) = (x.saturating_sub(1), (x + 1).min(width - 1));
+            let mut m = 0.0f32;
+            for row in values[y0 * width..(y1 + 1) * width].chunks_exact(width) {
+                for &v in &row[x0..=x1] {
+                    m = m.max(v);
+                }
+            }
+            largest[y * width + x] = m;
+        }
+    }
+    largest
 }
 
 /// Samples per pixel for one pass of `samples` per pixel on average, by `weights`

@@ -335,6 +335,10 @@ pub struct ProgressiveRender {
     adaptive_weights: Option<(u32, Vec<f32>)>,
     /// Adaptive passes since the last restart (each draws its own rounding offset).
     adaptive_passes: u32,
+    /// Per-pixel weights given from outside ([`Self::set_pass_weights`]): they
+    /// spread each pass's samples in place of adaptive sampling's own until the
+    /// next restart.
+    given_weights: Option<Vec<f32>>,
 }
 
 impl ProgressiveRender {
@@ -375,6 +379,7 @@ impl ProgressiveRender {
             prepared_base: None,
             adaptive_weights: None,
             adaptive_passes: 0,
+            given_weights: None,
         })
     }
 
@@ -412,7 +417,10 @@ impl ProgressiveRender {
     /// (the recording takes uniform samples, which would keep every pass
     /// uniform). The vectors keep their capacity, which the budget counts.
     pub fn record_next_samples(&mut self) -> bool {
-        if !self.cache_complete() || self.settings.adaptive.is_some() {
+        if !self.cache_complete()
+            || self.settings.adaptive.is_some()
+            || self.given_weights.is_some()
+        {
             return false;
         }
         self.cache_window = self.path_cache_target();
@@ -810,13 +818,25 @@ impl ProgressiveRender {
         Some(stats)
     }
 
-    /// The per-pixel sample counts of the next pass when it is adaptive: with
-    /// adaptive sampling on, once every pixel has its uniform samples and the path
+    /// The per-pixel sample counts of the next pass when it is adaptive: by the
+    /// weights given ([`Self::set_pass_weights`]) once the path cache is complete;
+    /// else with adaptive sampling on, once every pixel has its uniform samples and the path
     /// cache (which records uniform samples) is complete. Recomputes the weights
     /// when the samples per pixel have grown by [`RECOMPUTE_GROWTH`].
     fn adaptive_counts(&mut self, samples: u32, record_below: u32) -> Option<Vec<u32>> {
-        let adaptive = self.settings.adaptive?;
         let spp = self.samples_per_pixel;
+        if let Some(weights) = &self.given_weights {
+            if spp < record_below || samples == 0 {
+                return None;
+            }
+            return Some(allocate(
+                weights,
+                samples,
+                self.settings.seed,
+                self.adaptive_passes,
+            ));
+        }
+        let adaptive = self.settings.adaptive?;
         if spp < adaptive.uniform_samples.max(2) || spp < record_below || samples == 0 {
             return None;
         }
@@ -839,6 +859,21 @@ impl ProgressiveRender {
             self.settings.seed,
             self.adaptive_passes,
         ))
+    }
+
+    /// Spreads the samples of every later pass by `weights` (one per pixel, row
+    /// major, mean 1) instead of evenly or by adaptive sampling's own noise map,
+    /// once the path cache is complete (it records uniform samples) and until the
+    /// next restart; keeps the samples. What a comparison rendered apart does to
+    /// spend more of both views' samples where its ΔE00 map is undecided
+    /// ([`crate::engine`]'s guide). `None`, or weights of another size (a view
+    /// resized since), spread them as before. A pixel's value is still the mean
+    /// of its samples and its k-th sample still `PixelSampler(seed, p, k)`, so
+    /// the render stays deterministic for a seed; two views with the same seed
+    /// and weights from the same restart on take the same counts.
+    pub fn set_pass_weights(&mut self, weights: Option<Vec<f32>>) {
+        let pixels = self.film.width() as usize * self.film.height() as usize;
+        self.given_weights = weights.filter(|w| w.len() == pixels);
     }
 
     /// The accumulated image.
@@ -909,6 +944,7 @@ impl ProgressiveRender {
         self.cache_first = 0;
         self.adaptive_weights = None;
         self.adaptive_passes = 0;
+        self.given_weights = None;
     }
 
     /// Restarts with the next pass beginning at sample index `first` of every
