@@ -7,10 +7,15 @@
 //! The scene is the built-in car with a mirror-gloss grey coat in the studio: the
 //! coat reflects the softboxes onto the floor, the caustics adaptive sampling is
 //! for.
+//!
+//! The same for the passes a comparison rendered apart spreads by its ΔE00 map
+//! (`engine::guide`): two views, the mirror coat and a glossy one, their passes
+//! spread by the weights of their map as the live engine does.
 
 use std::sync::Arc;
 
 use coatlab_core::colour::spectrum::WavelengthGrid;
+use coatlab_core::engine::guide::map_guided_weights;
 use coatlab_core::paint::gloss::GlossExponent;
 use coatlab_core::paint::model::{GlossSetting, PaintModel, PaintParams};
 use coatlab_core::render::adaptive::AdaptiveSampling;
@@ -29,13 +34,17 @@ const WIDTH: u32 = 64;
 const HEIGHT: u32 = 36;
 
 fn mirror_car(grid: WavelengthGrid) -> (Arc<RenderScene>, Shading, Camera) {
+    coated_car(grid, GlossExponent::Mirror)
+}
+
+fn coated_car(grid: WavelengthGrid, gloss: GlossExponent) -> (Arc<RenderScene>, Shading, Camera) {
     let model = PaintModel::new(PaintParams::grey(
         grid,
         0.3,
         1.5,
         0.0,
         40.0,
-        GlossSetting::Exponent(GlossExponent::Mirror),
+        GlossSetting::Exponent(gloss),
     ))
     .expect("model");
     let scene = generate(&CarParameters::default());
@@ -172,4 +181,98 @@ fn an_adaptive_render_is_unbiased_against_a_uniform_one() {
         film_image(&render(seed(40 + i as u64), None, 128, 32))
     });
     assert_agree_with_controls(&a, &u, &weights, "adaptive vs uniform");
+}
+
+/// Two views rendered apart, the mirror coat and a glossy one (exponent 400), in
+/// passes of 8 spread by their map's weights from 8 samples on, made again when
+/// the samples have grown by half (as the live engine does); `spp` samples per
+/// pixel on average. The first view's film, then the second's.
+fn render_guided(seed: u64, spp: u32, tile_size: u32) -> [Film; 2] {
+    let grid = WavelengthGrid::visible(8).expect("grid");
+    let environment = Arc::new(Environment::studio(&grid));
+    let settings = RenderSettings {
+        seed,
+        tile_size,
+        ..RenderSettings::default()
+    };
+    let mut views = [GlossExponent::Mirror, GlossExponent::Finite(400.0)].map(|gloss| {
+        let (scene, shading, camera) = coated_car(grid, gloss);
+        ProgressiveRender::new(
+            scene,
+            environment.clone(),
+            Arc::new(shading),
+            camera,
+            settings,
+        )
+        .expect("render")
+    });
+    let mut guided_at = None;
+    while views[0].samples_per_pixel() < spp {
+        let done = views[0].samples_per_pixel();
+        if done >= 8 && guided_at.is_none_or(|at: u32| 2 * done >= 3 * at) {
+            let weights =
+                map_guided_weights(views[0].film(), views[1].film(), &DisplaySettings::MEASURED)
+                    .expect("weights");
+            for view in &mut views {
+                view.set_pass_weights(Some(weights.clone()));
+            }
+            guided_at = Some(done);
+        }
+        for view in &mut views {
+            view.render_pass(8);
+        }
+    }
+    views.map(|view| view.film().clone())
+}
+
+fn counts(film: &Film) -> Vec<u64> {
+    (0..HEIGHT)
+        .flat_map(|y| (0..WIDTH).map(move |x| (x, y)))
+        .map(|(x, y)| film.sample_count(x, y))
+        .collect()
+}
+
+/// Guided passes: the same images and counts on one thread and on three, the
+/// two views' counts equal and uneven, and each pass exactly its samples.
+#[test]
+fn map_guided_views_are_the_same_on_any_number_of_threads_and_take_the_same_counts() {
+    let run = |threads: usize, tile: u32| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool")
+            .install(|| render_guided(5, 48, tile))
+    };
+    let (one, three) = (run(1, 8), run(3, 13));
+    for (a, b) in one.iter().zip(&three) {
+        assert_eq!(counts(a), counts(b));
+        for y in 0..HEIGHT {
+            for x in 0..WIDTH {
+                assert_eq!(a.mean_xyz(x, y), b.mean_xyz(x, y), "pixel {x},{y}");
+            }
+        }
+    }
+    let (first, second) = (counts(&one[0]), counts(&one[1]));
+    assert_eq!(first, second, "the two views took different counts");
+    assert_eq!(first.iter().sum::<u64>(), 48 * u64::from(WIDTH * HEIGHT));
+    let most = first.iter().copied().max().unwrap_or(0);
+    assert!(most >= 96, "no pixel got twice the mean: at most {most}");
+}
+
+/// Each guided view estimates its uniform render: 16 guided renders of 64
+/// samples against 8 uniform ones of 128, X, Y and Z: pixels, tiles and the image
+/// total within the noise, every control rejected.
+#[test]
+fn map_guided_views_are_unbiased_against_uniform_ones() {
+    let weights = Weights::from_pilot(&Replicas::collect(WIDTH, HEIGHT, 4, |i| {
+        film_image(&render(seed(91_000 + i as u64), None, 16, 32))
+    }));
+    let guided: Vec<[Film; 2]> = (0..16)
+        .map(|i| render_guided(seed(61 + i as u64), 64, 32))
+        .collect();
+    let first = Replicas::collect(WIDTH, HEIGHT, 16, |i| film_image(&guided[i][0]));
+    let uniform = Replicas::collect(WIDTH, HEIGHT, 8, |i| {
+        film_image(&render(seed(40 + i as u64), None, 128, 32))
+    });
+    assert_agree_with_controls(&first, &uniform, &weights, "guided mirror vs uniform");
 }

@@ -86,6 +86,11 @@ pub trait BackendView: Send {
     /// it is incomplete or where the back-end cannot.
     fn record_next_samples(&mut self) -> bool;
 
+    /// Spreads every later pass's samples by `weights` (one per pixel, row major,
+    /// mean 1) until the next restart, keeping the samples; `None`: evenly. A
+    /// back-end that cannot spreads them evenly.
+    fn set_pass_weights(&mut self, weights: Option<Vec<f32>>);
+
     /// The accumulated image.
     fn film(&self) -> &Film;
     /// Samples per pixel accumulated since the last restart.

@@ -99,6 +99,10 @@ impl BackendView for ProgressiveRender {
         ProgressiveRender::record_next_samples(self)
     }
 
+    fn set_pass_weights(&mut self, weights: Option<Vec<f32>>) {
+        ProgressiveRender::set_pass_weights(self, weights);
+    }
+
     fn film(&self) -> &Film {
         ProgressiveRender::film(self)
     }

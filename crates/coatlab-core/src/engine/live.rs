@@ -263,6 +263,14 @@ impl<B: RenderBackend> LiveEngine<B> {
         self.state
     }
 
+    /// Whether a comparison rendered apart spends more of both views' samples
+    /// where its ΔE00 map is undecided ([`super::guide`]; on from the start).
+    /// Off, every pass is even: what measuring the guidance compares with. Takes
+    /// effect at the next pass; the samples are kept.
+    pub fn set_map_guidance(&mut self, on: bool) {
+        self.views.map_guidance = on;
+    }
+
     /// What the engine has built and rendered so far.
     pub fn counters(&self) -> EngineCounters {
         self.counters

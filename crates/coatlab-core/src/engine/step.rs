@@ -5,6 +5,7 @@ use std::ops::ControlFlow;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
+use crate::render::adaptive::RECOMPUTE_GROWTH;
 use crate::render::material::Shading;
 use crate::render::progressive::{EditOutcome, PassStats};
 use crate::render::reshade::{ReshadeError, ShadingDifference};
@@ -15,6 +16,7 @@ use super::frame::{
     SecondUpdate, ViewsUpdate, display_of, edit_update, film_frame, map_due, pair_update,
     shared_update,
 };
+use super::guide::map_guided_weights;
 use super::live::{LiveEngine, Output, Progress};
 use super::plan::{self, Actions, Outcome, Phase, Restart, Second, Tables};
 use super::views::{Recordings, SecondSpec, independent_reason, spawn_second_shading};
@@ -448,8 +450,45 @@ impl<B: RenderBackend> LiveEngine<B> {
         self.views.last_stats = [stats_a, stats_b];
         let due = map_due(coarse, spp, self.inputs.quality.max_spp);
         self.update_difference(due);
+        self.guide_passes();
         self.publish_pair(coarse, due, out);
         Progress::Stepped
+    }
+
+    /// Rendered apart, both views' next passes spread their samples by where the
+    /// map is undecided ([`map_guided_weights`]), the weights made again when the
+    /// samples have grown by [`RECOMPUTE_GROWTH`]; shared, evenly (a recording
+    /// takes uniform samples, and the map is the recordings' difference).
+    fn guide_passes(&mut self) {
+        let views = &mut self.views;
+        let Some(second) = views.second.as_mut() else {
+            return;
+        };
+        if !views.map_guidance || views.shared.is_some() {
+            if views.guided_at.take().is_some() {
+                views.first.set_pass_weights(None);
+                second.set_pass_weights(None);
+            }
+            return;
+        }
+        let spp = views.first.samples_per_pixel();
+        // A restart since has dropped the views' weights.
+        if views.guided_at.is_some_and(|at| spp < at) {
+            views.guided_at = None;
+        }
+        let due = views
+            .guided_at
+            .is_none_or(|at| f64::from(spp) >= f64::from(at) * RECOMPUTE_GROWTH);
+        // Weights take effect once the first view's recording is complete.
+        if !due || spp < views.cache_samples.max(2) {
+            return;
+        }
+        if let Some(weights) = map_guided_weights(views.first.film(), second.film(), &views.display)
+        {
+            views.first.set_pass_weights(Some(weights.clone()));
+            second.set_pass_weights(Some(weights));
+            views.guided_at = Some(spp);
+        }
     }
 
     /// Both views of a comparison: the second view's pane shared (combined

@@ -753,6 +753,59 @@ fn a_mirror_against_phong_is_rendered_apart_in_step() {
     assert_eq!(done.render_builds, 1);
 }
 
+/// Per-pixel sample counts of a film, row major.
+fn sample_counts(film: &Film) -> Vec<u64> {
+    (0..film.height())
+        .flat_map(|y| (0..film.width()).map(move |x| film.sample_count(x, y)))
+        .collect()
+}
+
+/// Rendered apart (a glossier design against a satin one: the second lobe is
+/// wider), both views spend more samples where the ΔE00 map is undecided and
+/// take the same counts per pixel; with the guidance off, or before the first
+/// view's recording is complete, every pixel gets the same samples.
+#[test]
+fn views_rendered_apart_spend_their_samples_where_the_map_is_undecided() {
+    const SAMPLES: u32 = 40;
+    let counts = |guided: bool| {
+        let mut engine = engine();
+        engine.set_map_guidance(guided);
+        apply(
+            &mut engine,
+            Command::Quality(knobs(DEFAULT_WAVELENGTHS, SAMPLES)),
+        );
+        let mut satin = design();
+        satin.gloss.gu = 60.0;
+        apply(
+            &mut engine,
+            Command::Views(Views::designs(ShadingModel::Paint, Some(&satin))),
+        );
+        converge_in_pairing(&mut engine, Pairing::Independent);
+        let SecondImage::Film(second) = engine.second_image() else {
+            panic!("the second view is not rendered apart");
+        };
+        let (first, second) = (sample_counts(engine.first().film()), sample_counts(second));
+        let total = u64::from(SAMPLES) * first.len() as u64;
+        assert_eq!(first.iter().sum::<u64>(), total);
+        assert_eq!(first, second, "the views' samples per pixel differ");
+        first
+    };
+    let even = counts(false);
+    assert!(even.iter().all(|&n| n == u64::from(SAMPLES)));
+    let guided = counts(true);
+    let most = guided.iter().copied().max().unwrap_or(0);
+    let least = guided.iter().copied().min().unwrap_or(0);
+    println!("guided: {least} to {most} samples a pixel");
+    assert!(
+        most >= 2 * u64::from(SAMPLES),
+        "the undecided pixels got at most {most} samples"
+    );
+    assert!(
+        least >= u64::from(COMPARE_CACHE_SAMPLES),
+        "a pixel got {least} samples: fewer than the uniform recording"
+    );
+}
+
 #[test]
 fn the_planner_merges_a_batch_into_one_set_of_actions() {
     let refining = State {
@@ -942,6 +995,9 @@ impl BackendView for CountingView {
     }
     fn record_next_samples(&mut self) -> bool {
         BackendView::record_next_samples(&mut self.render)
+    }
+    fn set_pass_weights(&mut self, weights: Option<Vec<f32>>) {
+        BackendView::set_pass_weights(&mut self.render, weights);
     }
     fn film(&self) -> &Film {
         BackendView::film(&self.render)

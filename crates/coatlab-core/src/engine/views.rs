@@ -39,6 +39,12 @@ pub(super) struct ViewSet<V> {
     /// The last passes of the first and the second view (their speed is shown
     /// again with the images).
     pub last_stats: [PassStats; 2],
+    /// Whether views rendered apart spend more samples where the map is
+    /// undecided ([`super::guide`]).
+    pub map_guidance: bool,
+    /// The first view's samples per pixel when both views were last given the
+    /// map's weights; `None`: not given since the last restart.
+    pub guided_at: Option<u32>,
 }
 
 /// Which of the first view's recordings a shared difference is made of.
@@ -66,6 +72,8 @@ impl<V: BackendView> ViewSet<V> {
             cache_samples,
             display: DisplaySettings::default(),
             last_stats: [PassStats::default(); 2],
+            map_guidance: true,
+            guided_at: None,
         }
     }
 

@@ -1,0 +1,251 @@
+//! Map-guided sampling: a comparison rendered apart spends more of both views'
+//! samples on the pixels where its ΔE00 map is still undecided.
+//!
+//! The map is there to show where the two views differ, not the noise of two
+//! renders. Rendered apart, its error at a pixel after n samples in each view is
+//! about s / √n, with s = √(e_A² + e_B²) and e the per-sample perceptual noise of
+//! either film ([`Film::sample_delta_e`]). A pixel whose map reads d is decided
+//! once s / √n ≤ [`NOISE_TO_SIGNAL`] · max(d, [`VISIBLE`]), that is at
+//! n* = (s / ([`NOISE_TO_SIGNAL`] · max(d, [`VISIBLE`])))² samples. Per pixel:
+//!
+//! 1. its shortfall x = n* / n − 1, at least 0; 0 where the map reads less than
+//!    [`UNDECIDED_FROM`] (nothing to show there, or not yet: while n is small the
+//!    noise alone reads above it, and such pixels ask until it does not);
+//! 2. the largest x of its 3 × 3 neighbourhood, as adaptive sampling does
+//!    ([`crate::render::adaptive`]): a pixel's share then depends mostly on its
+//!    neighbours' samples, which keeps its plain mean nearly unbiased, and the
+//!    edge of a highlight gets the samples its middle asks for;
+//! 3. its extra, x − τ clamped to [0, [`MOST_EXTRA`]], with τ the least level at
+//!    which the extra averages no more than 1 / [`LEAST_SHARE`] − 1 over the image:
+//!    the most undecided pixels are served first, and every pixel keeps at
+//!    least [`LEAST_SHARE`] of an even share;
+//! 4. weight 1 + extra, normalised to a mean of 1.
+//!
+//! Where the two views differ by colour the map is decided early everywhere
+//! (its signal is large against its noise) and the weights soon stay even;
+//! where they differ only in the highlights (a design against a glossier or
+//! less glossy variant of itself), those pixels are sampled many times more
+//! than the rest. What it buys and costs: docs/benchmarks.md, "Comparison".
+
+use crate::render::adaptive::neighbourhood_max;
+use crate::render::film::{DisplaySettings, Film};
+
+use super::delta_e::DeltaEMap;
+
+/// Noise to signal at which a pixel of the map counts as decided: below it, a
+/// reading of d is d ± 0.4 d at one standard error, so the noise stays below the
+/// signal in all but about 1 % of such pixels (2.5 standard errors).
+pub const NOISE_TO_SIGNAL: f64 = 0.4;
+/// ΔE00 a designer reads as a visible difference: a pixel's map is decided once
+/// its noise is below [`NOISE_TO_SIGNAL`] times its reading or times this,
+/// whichever is larger (a reading below it needs no finer noise than this).
+pub const VISIBLE: f64 = 1.0;
+/// ΔE00 from which a map reading asks to be decided: half the difference of 1
+/// that a designer reads as visible, so that a pixel whose true difference is
+/// just above 1 but reads lower is still sampled.
+pub const UNDECIDED_FROM: f64 = 0.5;
+/// The most samples a pixel asks for beyond an even share, as a multiple of it:
+/// a few hundred undecided pixels then reach the samples of a render many times
+/// longer without slowing the rest of the image much.
+pub const MOST_EXTRA: f64 = 15.0;
+/// The least share of an even pass any pixel keeps, however many pixels are
+/// undecided, so each pane still converges to its own image everywhere.
+pub const LEAST_SHARE: f64 = 0.5;
+
+/// The weights (one per pixel, row major, mean 1) for the next passes of both
+/// views rendered apart, `a` and `b`, their map seen with `display` (see the
+/// module documentation). `None` while the films differ in size or a pixel has
+/// fewer than two samples in either (no noise estimate yet). Pixels in
+/// parallel where it costs (the map, the noise); the result does not depend on
+/// the thread count.
+pub fn map_guided_weights(a: &Film, b: &Film, display: &DisplaySettings) -> Option<Vec<f32>> {
+    let (width, height) = (a.width() as usize, a.height() as usize);
+    let map = DeltaEMap::between(a, b, display)?;
+    let (noise_a, noise_b) = (a.sample_delta_e(display), b.sample_delta_e(display));
+    let mut shortfall = Vec::with_capacity(width * height);
+    for (i, ((&d, &e_a), &e_b)) in map.values.iter().zip(&noise_a).zip(&noise_b).enumerate() {
+        let (x, y) = ((i % width) as u32, (i / width) as u32);
+        let n = a.sample_count(x, y).min(b.sample_count(x, y)) as f64;
+        if !(e_a.is_finite() && e_b.is_finite() && d.is_finite()) || n < 2.0 {
+            return None;
+        }
+        let d = f64::from(d);
+        let x = if d < UNDECIDED_FROM {
+            0.0f32
+        } else {
+            let s = f64::from(e_a).hypot(f64::from(e_b));
+            let decided_at = (s / (NOISE_TO_SIGNAL * d.max(VISIBLE))).powi(2);
+            (decided_at / n - 1.0).max(0.0) as f32
+        };
+        shortfall.push(x);
+    }
+    let widened: Vec<f64> = neighbourhood_max(&shortfall, width, height)
+        .into_iter()
+        .map(f64::from)
+        .collect();
+    let budget = 1.0 / LEAST_SHARE - 1.0;
+    let level = fill_level(&widened, budget);
+    let extra: Vec<f64> = widened
+        .iter()
+        .map(|&x| (x - level).clamp(0.0, MOST_EXTRA))
+        .collect();
+    let mean = 1.0 + extra.iter().sum::<f64>() / extra.len().max(1) as f64;
+    Some(extra.iter().map(|&x| ((1.0 + x) / mean) as f32).collect())
+}
+
+/// The least level τ ≥ 0 at which the pixels' extra, their shortfall above τ
+/// (at most [`MOST_EXTRA`]), averages no more than `budget`: the most undecided
+/// pixels are served first, and a pixel asks for nothing until the level has
+/// come down to its shortfall. By bisection (the mean falls as τ rises), in a
+/// fixed order.
+fn fill_level(shortfall: &[f64], budget: f64) -> f64 {
+    let mean_above = |level: f64| {
+        shortfall
+            .iter()
+            .map(|&x| (x - level).clamp(0.0, MOST_EXTRA))
+            .sum::<f64>()
+            / shortfall.len().max(1) as f64
+    };
+    if mean_above(0.0) <= budget {
+        return 0.0;
+    }
+    let (mut low, mut high) = (0.0, shortfall.iter().copied().fold(0.0f64, f64::max));
+    for _ in 0..64 {
+        let mid = 0.5 * (low + high);
+        if mean_above(mid) > budget {
+            low = mid;
+        } else {
+            high = mid;
+        }
+    }
+    high
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::colour::spectrum::Channels;
+
+    const SIZE: u32 = 9;
+
+    /// A 9 × 9 linear-sRGB film of `samples` samples per pixel, each pixel's
+    /// samples from `value(x, y, k)`.
+    fn film(samples: u32, value: impl Fn(u32, u32, u32) -> [f32; 3]) -> Film {
+        let mut film = Film::new(SIZE, SIZE, Channels::LinearSrgb);
+        for y in 0..SIZE {
+            for x in 0..SIZE {
+                for k in 0..samples {
+                    film.add_sample(x, y, &value(x, y, k));
+                }
+            }
+        }
+        film
+    }
+
+    fn grey(_: u32, _: u32, _: u32) -> [f32; 3] {
+        [0.2; 3]
+    }
+
+    /// A noisy highlight at (`cx`, `cy`): samples alternate around `level`.
+    fn highlight(cx: u32, cy: u32, level: f32) -> impl Fn(u32, u32, u32) -> [f32; 3] {
+        move |x, y, k| {
+            if (x, y) == (cx, cy) {
+                [level * if k.is_multiple_of(2) { 0.2 } else { 1.8 }; 3]
+            } else {
+                grey(x, y, k)
+            }
+        }
+    }
+
+    fn display() -> DisplaySettings {
+        DisplaySettings::MEASURED
+    }
+
+    fn assert_mean_one(weights: &[f32]) {
+        let mean = weights.iter().map(|&w| f64::from(w)).sum::<f64>() / weights.len() as f64;
+        assert!((mean - 1.0).abs() < 1e-6, "mean weight {mean}");
+    }
+
+    #[test]
+    fn views_that_agree_or_differ_plainly_are_sampled_evenly() {
+        let a = film(8, grey);
+        let same = map_guided_weights(&a, &film(8, grey), &display()).expect("weights");
+        assert!(same.iter().all(|&w| w == 1.0), "{same:?}");
+        // A clearly different colour, noise-free: decided everywhere.
+        let red = film(8, |_, _, _| [0.4, 0.05, 0.05]);
+        let plain = map_guided_weights(&a, &red, &display()).expect("weights");
+        assert!(plain.iter().all(|&w| w == 1.0), "{plain:?}");
+    }
+
+    #[test]
+    fn an_undecided_highlight_and_its_neighbours_get_the_extra_samples() {
+        // Both views see a noisy highlight at the centre, the second brighter.
+        let a = film(8, highlight(4, 4, 1.0));
+        let b = film(8, highlight(4, 4, 1.5));
+        let weights = map_guided_weights(&a, &b, &display()).expect("weights");
+        assert_mean_one(&weights);
+        let at = |x: u32, y: u32| weights[(y * SIZE + x) as usize];
+        let centre = at(4, 4);
+        let even = at(0, 0);
+        assert!(centre > 2.0 * even, "centre {centre}, elsewhere {even}");
+        for y in 0..SIZE {
+            for x in 0..SIZE {
+                let near = x.abs_diff(4) <= 1 && y.abs_diff(4) <= 1;
+                let expected = if near { centre } else { even };
+                assert_eq!(at(x, y), expected, "pixel ({x}, {y})");
+            }
+        }
+        // The same highlight with many more samples is decided: even again.
+        let a = film(4096, highlight(4, 4, 1.0));
+        let b = film(4096, highlight(4, 4, 1.5));
+        let weights = map_guided_weights(&a, &b, &display()).expect("weights");
+        assert!(weights.iter().all(|&w| w == 1.0), "{weights:?}");
+    }
+
+    #[test]
+    fn every_pixel_keeps_its_least_share_however_many_are_undecided() {
+        // Every pixel a noisy highlight that differs between the views, except
+        // the corner.
+        let noisy = |level: f32| {
+            move |x: u32, y: u32, k: u32| {
+                if (x, y) == (0, 0) {
+                    grey(x, y, k)
+                } else {
+                    [level * if (k + x + y).is_multiple_of(2) { 0.05 } else { 1.95 }; 3]
+                }
+            }
+        };
+        let weights = map_guided_weights(&film(4, noisy(1.0)), &film(4, noisy(1.3)), &display())
+            .expect("weights");
+        assert_mean_one(&weights);
+        let least = weights.iter().copied().fold(f32::INFINITY, f32::min);
+        assert!(
+            f64::from(least) >= LEAST_SHARE - 1e-6,
+            "least weight {least}"
+        );
+        let most = weights.iter().copied().fold(0.0f32, f32::max);
+        assert!(f64::from(most) <= 1.0 + MOST_EXTRA, "most weight {most}");
+    }
+
+    #[test]
+    fn the_most_undecided_pixels_are_served_first() {
+        // Ten pixels, a budget of 2 extra samples a pixel on average (20 in all):
+        // the level comes down to 15, where the first pixel's extra is full (15)
+        // and the second's 5; the third, 5 short, gets nothing yet.
+        let shortfall = [40.0, 20.0, 5.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let level = fill_level(&shortfall, 2.0);
+        assert!((level - 15.0).abs() < 1e-9, "level {level}");
+        // A budget that covers every shortfall: no level.
+        assert_eq!(fill_level(&[3.0, 1.0, 0.0], 2.0), 0.0);
+    }
+
+    #[test]
+    fn no_weights_without_a_noise_estimate_or_for_films_of_two_sizes() {
+        assert_eq!(
+            map_guided_weights(&film(1, grey), &film(1, grey), &display()),
+            None
+        );
+        let other = Film::new(SIZE + 1, SIZE, Channels::LinearSrgb);
+        assert_eq!(map_guided_weights(&film(8, grey), &other, &display()), None);
+    }
+}
