@@ -20,6 +20,10 @@
 //! `COMPARE_SECOND_GU=GU` the first preset at another gloss reading (the same
 //! geometry): a variant a designer compares with the original.
 //! `COMPARE_FIRST_GU=GU` sets the first design's reading the same way.
+//! `COMPARE_GUIDANCE=off` renders views apart with even passes (the engine's
+//! map guidance off), `alternate` every other run so (the first off), to measure
+//! what the guidance buys in one invocation (the RMS over runs is then given for
+//! each half); `on`, the default, is the engine as the app runs it.
 //! `COMPARE_ADAPTIVE=1` turns on adaptive sampling (its defaults) in every view;
 //! `COMPARE_MISSES=FILE.png` draws the signal in grey and those pixels in red.
 //!
@@ -128,6 +132,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if runs == 0 {
         return Err("RUNS must be at least 1".into());
     }
+    let guidance = std::env::var("COMPARE_GUIDANCE").unwrap_or_else(|_| "on".to_string());
+    let guided = |run: usize| -> Result<bool, String> {
+        match guidance.as_str() {
+            "on" => Ok(true),
+            "off" => Ok(false),
+            "alternate" => Ok(run % 2 == 1),
+            other => Err(format!("COMPARE_GUIDANCE {other:?}: on, off or alternate")),
+        }
+    };
+    guided(0)?;
 
     // Each run: a fresh engine of its own seed left alone for `seconds`; the
     // first run's engine gives the camera, scene and display for the rest.
@@ -145,6 +159,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             },
         };
         let mut live = LiveEngine::new(backend, design.clone(), Arc::new(|| {}))?;
+        live.set_map_guidance(guided(run)?);
         // How the second pane was last made, as the engine publishes it.
         let mut source = None;
         let mut keep = |output: Output| {
@@ -165,6 +180,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             live.step(&never, &mut keep);
         }
         let elapsed = start.elapsed().as_secs_f64();
+        let totals = live.first().totals();
         let first = live.first_image()?;
         let second = match live.second_image() {
             SecondImage::Film(film) => film_xyz(film),
@@ -173,10 +189,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             SecondImage::None => return Err("no second view".into()),
         };
         println!(
-            "{mode}, {width}x{height}, run {run}, {elapsed:.1} s: first view {} spp, pairing {:?}, \
-             second pane {source:?}, display {:?}",
+            "{mode}, {width}x{height}, run {run}, {elapsed:.1} s: first view {} spp ({:.2} rays a \
+             sample, {:.2} M rays/s in its passes), pairing {:?}, map guidance {}, second pane \
+             {source:?}, display {:?}",
             live.samples_per_pixel(),
+            totals.rays as f64 / totals.samples.max(1) as f64,
+            totals.rays as f64 / totals.seconds.max(1e-9) / 1e6,
             live.state().pairing,
+            if guided(run)? { "on" } else { "off" },
             live.display()
         );
         panes.push((first, second));
@@ -206,7 +226,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             &paint_materials,
         ))
     });
-    let reference = |shading: &Arc<Shading>| -> Result<(Image, f64), Box<dyn std::error::Error>> {
+    type Reference = (Image, f64, [Image; 2]);
+    let reference = |shading: &Arc<Shading>| -> Result<Reference, Box<dyn std::error::Error>> {
         let mut halves = Vec::new();
         for seed in [0x5eed_0101u64, 0x5eed_0202] {
             let mut render = ProgressiveRender::new(
@@ -228,20 +249,41 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .zip(&halves[1])
             .map(|(a, b)| std::array::from_fn(|c| 0.5 * (a[c] + b[c])))
             .collect();
-        Ok((average, noise))
+        let [first_half, second_half]: [Image; 2] = halves.try_into().map_err(|_| "two halves")?;
+        Ok((average, noise, [first_half, second_half]))
     };
     let reference_start = Instant::now();
-    let (ref_a, noise_a) = reference(&shadings[0])?;
-    let (ref_b, noise_b) = reference(&shadings[1])?;
+    let (ref_a, noise_a, halves_a) = reference(&shadings[0])?;
+    let (ref_b, noise_b, halves_b) = reference(&shadings[1])?;
     println!(
         "references: {reference_spp} spp each in {:.0} s; their noise ΔE00 {noise_a:.3} and {noise_b:.3}",
         reference_start.elapsed().as_secs_f64()
     );
     let (lra, lrb) = (labs(&ref_a, &display), labs(&ref_b, &display));
     let signal = delta_e(&lra, &lrb);
-    // Per pixel, the sum over runs of the squared error of the map.
-    let mut squared_error = vec![0.0f64; signal.len()];
+    // The reference map's own noise per pixel: half the difference between the
+    // maps of the references' two halves (one draw of the noise of their mean).
+    let half_maps =
+        [0, 1].map(|h| delta_e(&labs(&halves_a[h], &display), &labs(&halves_b[h], &display)));
+    let reference_noise: Vec<f64> = half_maps[0]
+        .iter()
+        .zip(&half_maps[1])
+        .map(|(m1, m2)| 0.5 * (m1 - m2).abs())
+        .collect();
+    let known = NoiseTally::of(&reference_noise, &signal);
+    println!(
+        "the reference map's own noise where the models differ by > 1: mean {:.3}, below the \
+         signal on {:.1} % of those pixels",
+        known.noise_mean,
+        known.percent_below()
+    );
+    // Per pixel, the sum over runs of the squared error of the map, for the runs
+    // without and with map guidance.
+    let mut squared_error = [vec![0.0f64; signal.len()], vec![0.0f64; signal.len()]];
+    let mut runs_of = [0usize; 2];
     for (run, (first, second)) in panes.iter().enumerate() {
+        let group = usize::from(guided(run)?);
+        runs_of[group] += 1;
         let (la, lb) = (labs(first, &display), labs(second, &display));
         println!(
             "run {run}: pane to its own reference, mean ΔE00: first {:.3}, second {:.3} (goal ≤ 0.5)",
@@ -249,7 +291,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             mean(&delta_e(&lb, &lrb))
         );
         let map = delta_e(&la, &lb);
-        for (e, (m, s)) in squared_error.iter_mut().zip(map.iter().zip(&signal)) {
+        for (e, (m, s)) in squared_error[group].iter_mut().zip(map.iter().zip(&signal)) {
             *e += (m - s) * (m - s);
         }
         let noise: Vec<f64> = map
@@ -274,17 +316,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             describe_misses(&tally.misses, &map, &signal, &scene, &camera, width);
         }
     }
-    if runs > 1 {
+    for (group, (errors, &runs)) in squared_error.iter().zip(&runs_of).enumerate() {
+        if runs < 2 {
+            continue;
+        }
         // The map's noise at a pixel as the root mean square of its error over the
         // independent runs (one run's |error| is a single draw of it).
-        let rms: Vec<f64> = squared_error
-            .iter()
-            .map(|e| (e / runs as f64).sqrt())
-            .collect();
+        let rms: Vec<f64> = errors.iter().map(|e| (e / runs as f64).sqrt()).collect();
         let tally = NoiseTally::of(&rms, &signal);
         println!(
-            "over {runs} runs: the map's RMS noise where the models differ by > 1: mean {:.3}, \
-             below the signal on {:.2} % of those {} pixels ({} not)",
+            "over {runs} runs, map guidance {}: the map's RMS noise where the models differ by \
+             > 1: mean {:.3}, below the signal on {:.2} % of those {} pixels ({} not)",
+            if group == 1 { "on" } else { "off" },
             tally.noise_mean,
             tally.percent_below(),
             tally.count,
