@@ -81,6 +81,13 @@ pub const RESHADE_SAMPLES: u32 = 4;
 /// ([`crate::render::progressive::DEFAULT_PATH_CACHE_BUDGET_BYTES`]) makes a
 /// recording shorter if it must.
 pub const COMPARE_CACHE_SAMPLES: u32 = 16;
+/// How far the two views' gloss-lobe exponents may differ, relative, for the
+/// second to be shared from the first view's paths: a Phong best fit keeps the
+/// paint's exponent to 10⁻⁵, while a design against a variant of itself at
+/// another gloss reading differs by a factor (88 against 80 GU: ×2.5), where
+/// sharing leaves the map noisier than two views rendered apart with map
+/// guidance (docs/benchmarks.md, "Comparison").
+pub const SHARED_LOBE_TOLERANCE: f32 = 0.01;
 /// The image size an engine starts at, before it is told its pane's.
 pub const INITIAL_SIZE: (u32, u32) = (320, 200);
 

@@ -19,7 +19,9 @@ use super::frame::{
 use super::guide::map_guided_weights;
 use super::live::{LiveEngine, Output, Progress};
 use super::plan::{self, Actions, Outcome, Phase, Restart, Second, Tables};
-use super::views::{Recordings, SecondSpec, independent_reason, spawn_second_shading};
+use super::views::{
+    Recordings, SecondSpec, independent_reason, lobes_differ, spawn_second_shading,
+};
 use super::{COARSE_FACTOR, COMPARE_CACHE_SAMPLES, RESHADE_SAMPLES};
 
 /// Where a step publishes its images and events.
@@ -317,14 +319,21 @@ impl<B: RenderBackend> LiveEngine<B> {
             self.advance(Outcome::SecondInvalid);
             return;
         };
-        self.counters.pane_reshades += 1;
-        let shared = match self.views.first.reshade_recorded(&shading) {
-            Ok(_) => true,
-            Err(e) => {
-                self.views.reason = independent_reason(&e);
+        let first_lobe = self.views.first.shading().design().lobe_exponent();
+        let shared =
+            if let Some(reason) = lobes_differ(first_lobe, shading.design().lobe_exponent()) {
+                self.views.reason = reason;
                 false
-            }
-        };
+            } else {
+                self.counters.pane_reshades += 1;
+                match self.views.first.reshade_recorded(&shading) {
+                    Ok(_) => true,
+                    Err(e) => {
+                        self.views.reason = independent_reason(&e);
+                        false
+                    }
+                }
+            };
         // Either way the second view has a render of its own, so its pane
         // converges to its own model's image.
         let existing = self.views.second.take();

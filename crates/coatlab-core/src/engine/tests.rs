@@ -806,6 +806,33 @@ fn views_rendered_apart_spend_their_samples_where_the_map_is_undecided() {
     );
 }
 
+/// Two designs whose gloss lobes differ are rendered apart whichever is the
+/// wider, and say why; a Phong best fit, whose lobe is the paint's, is shared.
+#[test]
+fn designs_whose_lobes_differ_are_rendered_apart_and_say_why() {
+    // The preset against itself at a lower reading: the second lobe narrower.
+    let mut satin = design();
+    satin.gloss.gu -= 8.0;
+    let (mut engine, _) = converged();
+    apply(&mut engine, Command::Design(Box::new(satin)));
+    apply(
+        &mut engine,
+        Command::Views(Views::designs(ShadingModel::Paint, Some(&design()))),
+    );
+    let (_, pane) = converge_in_pairing(&mut engine, Pairing::Independent);
+    assert!(
+        matches!(&pane.source, Some(SecondSource::Independent { reason }) if reason.contains("gloss lobes differ")),
+        "{:?}",
+        pane.source
+    );
+    let (mut engine, _) = converged();
+    apply(
+        &mut engine,
+        Command::Views(Views::models(PhongVariant::BestFit)),
+    );
+    converge_in_pairing(&mut engine, Pairing::Shared);
+}
+
 #[test]
 fn the_planner_merges_a_batch_into_one_set_of_actions() {
     let refining = State {

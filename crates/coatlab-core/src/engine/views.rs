@@ -13,8 +13,8 @@ use crate::render::progressive::PassStats;
 use crate::render::reshade::{ReshadeError, Reshaded, ShadingDifference};
 use crate::scene::SceneMaterial;
 
-use super::ThreadHook;
 use super::backend::BackendView;
+use super::{SHARED_LOBE_TOLERANCE, ThreadHook};
 
 /// The views' renders and what the second view is made of.
 pub(super) struct ViewSet<V> {
@@ -160,6 +160,25 @@ pub(super) fn spawn_second_shading(
             )))
         })
         .ok()
+}
+
+/// Why two views whose gloss lobes have the exponents `first` and `second` are
+/// rendered apart rather than shared, as the user reads it; `None` where the
+/// lobes agree to [`SHARED_LOBE_TOLERANCE`] (or either is a mirror, which the
+/// re-shade refuses with its own reason). Shared paths sampled by one lobe and
+/// re-weighted into another are noisy in the highlights, which is all such
+/// designs differ in; rendered apart, both views spend their samples there
+/// ([`super::guide`]): docs/benchmarks.md, "Comparison".
+pub(super) fn lobes_differ(first: Option<f32>, second: Option<f32>) -> Option<String> {
+    let (Some(a), Some(b)) = (first, second) else {
+        return None;
+    };
+    ((b / a - 1.0).abs() > SHARED_LOBE_TOLERANCE).then(|| {
+        format!(
+            "the gloss lobes differ (exponent {a:.0} against {b:.0}): each view is traced \
+             with its own, more samples where the map is undecided"
+        )
+    })
 }
 
 /// Why the second view cannot be re-shaded from the first view's paths, as the
