@@ -414,8 +414,8 @@ impl ProgressiveRender {
     /// the estimates of successive recordings average down at the memory of one
     /// ([`crate::render::reshade::ShadingDifference::merged`]). False, and nothing
     /// changes, while the recording is incomplete, and under adaptive sampling
-    /// (the recording takes uniform samples, which would keep every pass
-    /// uniform). The vectors keep their capacity, which the budget counts.
+    /// or weights given ([`Self::set_pass_weights`]): the recording takes
+    /// uniform samples, which would keep every pass uniform. The vectors keep their capacity, which the budget counts.
     pub fn record_next_samples(&mut self) -> bool {
         if !self.cache_complete()
             || self.settings.adaptive.is_some()
