@@ -807,7 +807,8 @@ fn views_rendered_apart_spend_their_samples_where_the_map_is_undecided() {
 }
 
 /// Two designs whose gloss lobes differ are rendered apart whichever is the
-/// wider, and say why; a Phong best fit, whose lobe is the paint's, is shared.
+/// wider, and say why; Phong, naive or best fit, whose lobe is the paint's, is
+/// shared.
 #[test]
 fn designs_whose_lobes_differ_are_rendered_apart_and_say_why() {
     // The preset against itself at a lower reading: the second lobe narrower.
@@ -825,12 +826,11 @@ fn designs_whose_lobes_differ_are_rendered_apart_and_say_why() {
         "{:?}",
         pane.source
     );
-    let (mut engine, _) = converged();
-    apply(
-        &mut engine,
-        Command::Views(Views::models(PhongVariant::BestFit)),
-    );
-    converge_in_pairing(&mut engine, Pairing::Shared);
+    for variant in [PhongVariant::BestFit, PhongVariant::Naive] {
+        let (mut engine, _) = converged();
+        apply(&mut engine, Command::Views(Views::models(variant)));
+        converge_in_pairing(&mut engine, Pairing::Shared);
+    }
 }
 
 #[test]
