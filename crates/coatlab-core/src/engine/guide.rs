@@ -85,10 +85,7 @@ pub fn map_guided_weights(a: &Film, b: &Film, display: &DisplaySettings) -> Opti
         .collect();
     let budget = 1.0 / LEAST_SHARE - 1.0;
     let level = fill_level(&widened, budget);
-    let extra: Vec<f64> = widened
-        .iter()
-        .map(|&x| (x - level).clamp(0.0, MOST_EXTRA))
-        .collect();
+    let extra: Vec<f64> = widened.iter().map(|&x| extra_above(x, level)).collect();
     let mean = 1.0 + extra.iter().sum::<f64>() / extra.len().max(1) as f64;
     Some(extra.iter().map(|&x| ((1.0 + x) / mean) as f32).collect())
 }
@@ -102,7 +99,7 @@ fn fill_level(shortfall: &[f64], budget: f64) -> f64 {
     let mean_above = |level: f64| {
         shortfall
             .iter()
-            .map(|&x| (x - level).clamp(0.0, MOST_EXTRA))
+            .map(|&x| extra_above(x, level))
             .sum::<f64>()
             / shortfall.len().max(1) as f64
     };
@@ -119,6 +116,12 @@ fn fill_level(shortfall: &[f64], budget: f64) -> f64 {
         }
     }
     high
+}
+
+/// A pixel's extra at the water level `level`: its shortfall `x` above it, at
+/// most [`MOST_EXTRA`].
+fn extra_above(x: f64, level: f64) -> f64 {
+    (x - level).clamp(0.0, MOST_EXTRA)
 }
 
 #[cfg(test)]

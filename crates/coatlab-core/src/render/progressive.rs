@@ -415,7 +415,8 @@ impl ProgressiveRender {
     /// ([`crate::render::reshade::ShadingDifference::merged`]). False, and nothing
     /// changes, while the recording is incomplete, and under adaptive sampling
     /// or weights given ([`Self::set_pass_weights`]): the recording takes
-    /// uniform samples, which would keep every pass uniform. The vectors keep their capacity, which the budget counts.
+    /// uniform samples, which would keep every pass uniform. The vectors keep
+    /// their capacity, which the budget counts.
     pub fn record_next_samples(&mut self) -> bool {
         if !self.cache_complete()
             || self.settings.adaptive.is_some()
@@ -818,41 +819,38 @@ impl ProgressiveRender {
         Some(stats)
     }
 
-    /// The per-pixel sample counts of the next pass when it is adaptive: by the
-    /// weights given ([`Self::set_pass_weights`]) once the path cache is complete;
-    /// else with adaptive sampling on, once every pixel has its uniform samples and the path
-    /// cache (which records uniform samples) is complete. Recomputes the weights
-    /// when the samples per pixel have grown by [`RECOMPUTE_GROWTH`].
+    /// The per-pixel sample counts of the next pass when it is adaptive, once the
+    /// path cache (which records uniform samples) is complete: by the weights
+    /// given ([`Self::set_pass_weights`]), else with adaptive sampling on, once
+    /// every pixel has its uniform samples, by its noise map, recomputed when the
+    /// samples per pixel have grown by [`RECOMPUTE_GROWTH`].
     fn adaptive_counts(&mut self, samples: u32, record_below: u32) -> Option<Vec<u32>> {
         let spp = self.samples_per_pixel;
-        if let Some(weights) = &self.given_weights {
-            if spp < record_below || samples == 0 {
-                return None;
-            }
-            return Some(allocate(
-                weights,
-                samples,
-                self.settings.seed,
-                self.adaptive_passes,
-            ));
-        }
-        let adaptive = self.settings.adaptive?;
-        if spp < adaptive.uniform_samples.max(2) || spp < record_below || samples == 0 {
+        if spp < record_below || samples == 0 {
             return None;
         }
-        let stale = match &self.adaptive_weights {
-            Some((at, _)) => f64::from(spp) >= f64::from(*at) * RECOMPUTE_GROWTH,
-            None => true,
+        let weights = match &self.given_weights {
+            Some(weights) => weights,
+            None => {
+                let adaptive = self.settings.adaptive?;
+                if spp < adaptive.uniform_samples.max(2) {
+                    return None;
+                }
+                let stale = match &self.adaptive_weights {
+                    Some((at, _)) => f64::from(spp) >= f64::from(*at) * RECOMPUTE_GROWTH,
+                    None => true,
+                };
+                if stale {
+                    // The noise as the display adaptive sampling was tuned with
+                    // shows it (exposure 0, Reinhard): the render does not know the
+                    // viewer's exposure, exposure 0 suits every lighting setup, and
+                    // the tuning's figures (docs/rendering.md) stay valid.
+                    let weights = adaptive.weights(&self.film, &DisplaySettings::MEASURED);
+                    self.adaptive_weights = Some((spp, weights));
+                }
+                &self.adaptive_weights.as_ref()?.1
+            }
         };
-        if stale {
-            // The noise as the display adaptive sampling was tuned with shows it
-            // (exposure 0, Reinhard): the render does not know the viewer's
-            // exposure, exposure 0 suits every lighting setup, and the tuning's
-            // figures (docs/rendering.md) stay valid.
-            let weights = adaptive.weights(&self.film, &DisplaySettings::MEASURED);
-            self.adaptive_weights = Some((spp, weights));
-        }
-        let (_, weights) = self.adaptive_weights.as_ref()?;
         Some(allocate(
             weights,
             samples,
