@@ -26,6 +26,10 @@
 //! each half); `on`, the default, is the engine as the app runs it.
 //! `COMPARE_ADAPTIVE=1` turns on adaptive sampling (its defaults) in every view;
 //! `COMPARE_MISSES=FILE.png` draws the signal in grey and those pixels in red.
+//! `COMPARE_REFERENCES=DIR` keeps the references there and reads them back in a
+//! later run of exactly the same designs, models, size, samples, scene and camera
+//! (a 4 096-spp pair takes a quarter of an hour here); the renderer's code is not
+//! part of that match, so empty the folder when it changes.
 //!
 //! `cargo run -p coatlab-core --example compare_convergence -- [models|designs]
 //! [SECONDS] [WIDTHxHEIGHT] [REFERENCE_SPP] [RUNS]` (defaults: models, 30,
@@ -226,20 +230,50 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             &paint_materials,
         ))
     });
+    // What a reference is of, in words: a stored one is used only where this
+    // matches it exactly.
+    let describe = |design: &PaintDesign, which: ShadingModel| {
+        format!(
+            "{design:?} | {which:?} | {width}x{height} | {reference_spp} spp | scene bounds \
+             {:?}, {} materials | {camera:?}",
+            scene.bounds(),
+            scene.materials().len()
+        )
+    };
+    let descriptions = [
+        describe(&design, views.first),
+        describe(second_design, second_view.model),
+    ];
+    let store = std::env::var_os("COMPARE_REFERENCES").map(std::path::PathBuf::from);
     type Reference = (Image, f64, [Image; 2]);
-    let reference = |shading: &Arc<Shading>| -> Result<Reference, Box<dyn std::error::Error>> {
-        let mut halves = Vec::new();
-        for seed in [0x5eed_0101u64, 0x5eed_0202] {
-            let mut render = ProgressiveRender::new(
-                scene.clone(),
-                environment.clone(),
-                shading.clone(),
-                camera.clone(),
-                RenderSettings::seeded(seed),
-            )?;
-            render.render_to(reference_spp / 2, 4);
-            halves.push(film_xyz(render.film()));
-        }
+    let reference = |shading: &Arc<Shading>,
+                     description: &str|
+     -> Result<Reference, Box<dyn std::error::Error>> {
+        let stored = match &store {
+            Some(dir) => stored_halves(dir, description, (width * height) as usize)?,
+            None => None,
+        };
+        let halves = match stored {
+            Some(halves) => halves,
+            None => {
+                let mut halves = Vec::new();
+                for seed in [0x5eed_0101u64, 0x5eed_0202] {
+                    let mut render = ProgressiveRender::new(
+                        scene.clone(),
+                        environment.clone(),
+                        shading.clone(),
+                        camera.clone(),
+                        RenderSettings::seeded(seed),
+                    )?;
+                    render.render_to(reference_spp / 2, 4);
+                    halves.push(film_xyz(render.film()));
+                }
+                if let Some(dir) = &store {
+                    store_halves(dir, description, &halves)?;
+                }
+                halves
+            }
+        };
         let noise = mean(&delta_e(
             &labs(&halves[0], &display),
             &labs(&halves[1], &display),
@@ -253,8 +287,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Ok((average, noise, [first_half, second_half]))
     };
     let reference_start = Instant::now();
-    let (ref_a, noise_a, halves_a) = reference(&shadings[0])?;
-    let (ref_b, noise_b, halves_b) = reference(&shadings[1])?;
+    let (ref_a, noise_a, halves_a) = reference(&shadings[0], &descriptions[0])?;
+    let (ref_b, noise_b, halves_b) = reference(&shadings[1], &descriptions[1])?;
     println!(
         "references: {reference_spp} spp each in {:.0} s; their noise ΔE00 {noise_a:.3} and {noise_b:.3}",
         reference_start.elapsed().as_secs_f64()
@@ -312,6 +346,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             mean(&map),
             mean(&signal)
         );
+        // The same where the reference map is itself decided (its own noise below
+        // a quarter of the signal), so that what is counted is this run's noise.
+        let decided: Vec<f64> = noise
+            .iter()
+            .zip(&reference_noise)
+            .zip(&signal)
+            .map(|((&n, &r), &s)| if r < 0.25 * s { n } else { f64::NAN })
+            .collect();
+        let on_decided = NoiseTally::of(&decided, &signal);
+        println!(
+            "run {run}: of those, where the reference map is decided ({} pixels), noise below \
+             signal on {:.1} % ({} not)",
+            on_decided.count,
+            on_decided.percent_below(),
+            on_decided.misses.len()
+        );
         if run == 0 {
             describe_misses(&tally.misses, &map, &signal, &scene, &camera, width);
         }
@@ -337,6 +387,77 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     Ok(())
 }
 
+/// A stored reference's file in `dir`: named by a hash of its description (the
+/// file holds the description itself, which decides).
+fn reference_path(dir: &std::path::Path, description: &str) -> std::path::PathBuf {
+    use std::hash::{Hash, Hasher};
+    let mut hasher = std::collections::hash_map::DefaultHasher::new();
+    description.hash(&mut hasher);
+    dir.join(format!("reference-{:016x}.bin", hasher.finish()))
+}
+
+/// The two halves of a reference stored by [`store_halves`] for exactly this
+/// description; `None` where there is none.
+fn stored_halves(
+    dir: &std::path::Path,
+    description: &str,
+    pixels: usize,
+) -> Result<Option<Vec<Image>>, Box<dyn std::error::Error>> {
+    let path = reference_path(dir, description);
+    let bytes = match std::fs::read(&path) {
+        Ok(bytes) => bytes,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(format!("{}: {e}", path.display()).into()),
+    };
+    let Some(newline) = bytes.iter().position(|&b| b == b'\n') else {
+        return Err(format!("{}: no description line", path.display()).into());
+    };
+    if &bytes[..newline] != description.as_bytes() {
+        return Ok(None);
+    }
+    let values = &bytes[newline + 1..];
+    if values.len() != 2 * pixels * 12 {
+        return Err(format!(
+            "{}: {} bytes of values where two halves of {pixels} pixels take {}",
+            path.display(),
+            values.len(),
+            2 * pixels * 12
+        )
+        .into());
+    }
+    let floats: Vec<f32> = values
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect();
+    let halves = floats
+        .chunks_exact(3 * pixels)
+        .map(|half| half.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect())
+        .collect();
+    println!("reference read from {}", path.display());
+    Ok(Some(halves))
+}
+
+/// Stores a reference's two halves under its description (written whole, then
+/// renamed, so a run stopped half way leaves no partial reference).
+fn store_halves(
+    dir: &std::path::Path,
+    description: &str,
+    halves: &[Image],
+) -> Result<(), Box<dyn std::error::Error>> {
+    std::fs::create_dir_all(dir)?;
+    let mut bytes = description.as_bytes().to_vec();
+    bytes.push(b'\n');
+    for value in halves.iter().flatten().flatten() {
+        bytes.extend_from_slice(&value.to_le_bytes());
+    }
+    let path = reference_path(dir, description);
+    let partial = path.with_extension("partial");
+    std::fs::write(&partial, bytes)?;
+    std::fs::rename(&partial, &path)?;
+    println!("reference stored in {}", path.display());
+    Ok(())
+}
+
 /// The map's noise against its signal over the pixels where the models differ by
 /// more than 1 ΔE00: how many, how many with the noise below the signal, the
 /// means, and the pixels where it is not below.
@@ -353,7 +474,8 @@ impl NoiseTally {
         let (mut noise_sum, mut signal_sum) = (0.0, 0.0);
         let (mut count, mut below, mut misses) = (0, 0, Vec::new());
         for (i, (&n, &s)) in noise.iter().zip(signal).enumerate() {
-            if s > 1.0 {
+            // NaN noise: a pixel left out of the tally.
+            if s > 1.0 && !n.is_nan() {
                 noise_sum += n;
                 signal_sum += s;
                 count += 1;
