@@ -24,6 +24,11 @@
 //! map guidance off), `alternate` every other run so (the first off), to measure
 //! what the guidance buys in one invocation (the RMS over runs is then given for
 //! each half); `on`, the default, is the engine as the app runs it.
+//! `COMPARE_SHARE_LOBES=alternate` shares the views of every other run (the
+//! first) whatever their lobes, where the re-shade allows it (a second lobe
+//! no wider than the first), and renders those of the others apart wherever
+//! the lobes differ by more than 1 %, to measure where the engine's limit on a
+//! sharper second lobe belongs.
 //! `COMPARE_ADAPTIVE=1` turns on adaptive sampling (its defaults) in every view;
 //! `COMPARE_MISSES=FILE.png` draws the signal in grey and those pixels in red.
 //! `COMPARE_REFERENCES=DIR` keeps the references there and reads them back in a
@@ -146,6 +151,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     };
     guided(0)?;
+    let sharing = std::env::var("COMPARE_SHARE_LOBES").ok();
+    // How much sharper the second lobe may be and be shared, for a run: the
+    // engine's own limit, or with COMPARE_SHARE_LOBES=alternate any in the even
+    // runs and 1 % in the odd ones.
+    let lobe_narrowing = |run: usize| -> Result<Option<f32>, String> {
+        match sharing.as_deref() {
+            None => Ok(None),
+            Some("alternate") => Ok(Some(if run.is_multiple_of(2) {
+                f32::INFINITY
+            } else {
+                0.01
+            })),
+            Some(other) => Err(format!("COMPARE_SHARE_LOBES {other:?}: alternate")),
+        }
+    };
+    lobe_narrowing(0)?;
 
     // Each run: a fresh engine of its own seed left alone for `seconds`; the
     // first run's engine gives the camera, scene and display for the rest.
@@ -164,6 +185,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let mut live = LiveEngine::new(backend, design.clone(), Arc::new(|| {}))?;
         live.set_map_guidance(guided(run)?);
+        if let Some(narrowing) = lobe_narrowing(run)? {
+            live.set_shared_lobe_narrowing(narrowing);
+        }
         // How the second pane was last made, as the engine publishes it.
         let mut source = None;
         let mut keep = |output: Output| {
@@ -233,6 +257,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // What a reference is of, in words: a stored one is used only where this
     // matches it exactly.
     let describe = |design: &PaintDesign, which: ShadingModel| {
+        // The name is not rendered: a preset and its variant at the preset's own
+        // reading are one reference.
+        let design = PaintDesign {
+            name: String::new(),
+            ..design.clone()
+        };
         format!(
             "{design:?} | {which:?} | {width}x{height} | {reference_spp} spp | scene bounds \
              {:?}, {} materials | {camera:?}",
@@ -311,13 +341,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         known.noise_mean,
         known.percent_below()
     );
-    // Per pixel, the sum over runs of the squared error of the map, for the runs
-    // without and with map guidance.
-    let mut squared_error = [vec![0.0f64; signal.len()], vec![0.0f64; signal.len()]];
-    let mut runs_of = [0usize; 2];
+    // Per pixel, the sum over runs of the squared error of the map, for each way
+    // the runs were made (map guidance on or off, which lobes are shared), with
+    // their count.
+    let mut squared_error = std::collections::BTreeMap::<String, (Vec<f64>, usize)>::new();
     for (run, (first, second)) in panes.iter().enumerate() {
-        let group = usize::from(guided(run)?);
-        runs_of[group] += 1;
+        let way = format!(
+            "map guidance {}, {}",
+            if guided(run)? { "on" } else { "off" },
+            match lobe_narrowing(run)? {
+                None => "the engine's lobe rule",
+                Some(n) if n.is_infinite() => "lobes shared where the re-shade allows",
+                Some(_) => "lobes that differ by more than 1 % rendered apart",
+            }
+        );
+        let (errors, runs) = squared_error
+            .entry(way)
+            .or_insert_with(|| (vec![0.0; signal.len()], 0));
+        *runs += 1;
         let (la, lb) = (labs(first, &display), labs(second, &display));
         println!(
             "run {run}: pane to its own reference, mean ΔE00: first {:.3}, second {:.3} (goal ≤ 0.5)",
@@ -325,7 +366,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             mean(&delta_e(&lb, &lrb))
         );
         let map = delta_e(&la, &lb);
-        for (e, (m, s)) in squared_error[group].iter_mut().zip(map.iter().zip(&signal)) {
+        for (e, (m, s)) in errors.iter_mut().zip(map.iter().zip(&signal)) {
             *e += (m - s) * (m - s);
         }
         let noise: Vec<f64> = map
@@ -366,7 +407,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             describe_misses(&tally.misses, &map, &signal, &scene, &camera, width);
         }
     }
-    for (group, (errors, &runs)) in squared_error.iter().zip(&runs_of).enumerate() {
+    for (way, (errors, runs)) in squared_error {
         if runs < 2 {
             continue;
         }
@@ -375,9 +416,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let rms: Vec<f64> = errors.iter().map(|e| (e / runs as f64).sqrt()).collect();
         let tally = NoiseTally::of(&rms, &signal);
         println!(
-            "over {runs} runs, map guidance {}: the map's RMS noise where the models differ by \
-             > 1: mean {:.3}, below the signal on {:.2} % of those {} pixels ({} not)",
-            if group == 1 { "on" } else { "off" },
+            "over {runs} runs, {way}: the map's RMS noise where the models differ by > 1: mean \
+             {:.3}, below the signal on {:.2} % of those {} pixels ({} not)",
             tally.noise_mean,
             tally.percent_below(),
             tally.count,

@@ -271,6 +271,14 @@ impl<B: RenderBackend> LiveEngine<B> {
         self.views.map_guidance = on;
     }
 
+    /// How much sharper, relative, the second design's lobe may be and still be
+    /// shared ([`super::SHARED_LOBE_NARROWING`] from the start, which is what
+    /// the app runs); for measuring where that limit belongs. Takes effect when
+    /// the second view's shading is next built.
+    pub fn set_shared_lobe_narrowing(&mut self, narrowing: f32) {
+        self.views.lobe_narrowing = narrowing;
+    }
+
     /// What the engine has built and rendered so far.
     pub fn counters(&self) -> EngineCounters {
         self.counters

@@ -81,13 +81,18 @@ pub const RESHADE_SAMPLES: u32 = 4;
 /// ([`crate::render::progressive::DEFAULT_PATH_CACHE_BUDGET_BYTES`]) makes a
 /// recording shorter if it must.
 pub const COMPARE_CACHE_SAMPLES: u32 = 16;
-/// How far the two views' gloss-lobe exponents may differ, relative, for the
-/// second to be shared from the first view's paths: a Phong best fit keeps the
-/// paint's exponent to 10⁻⁵, while a design against a variant of itself at
-/// another gloss reading differs by a factor (88 against 80 GU: ×2.5), where
-/// sharing leaves the map noisier than two views rendered apart with map
-/// guidance (docs/benchmarks.md, "Comparison").
-pub const SHARED_LOBE_TOLERANCE: f32 = 0.01;
+/// How much sharper the second view's gloss lobe may be than the first's,
+/// relative excess of its exponent, for the second to be shared from the first
+/// view's paths (a wider second lobe is never shared beyond the re-shade's 1 %
+/// for its f32 tables: [`crate::render::reshade`]). A Phong best fit keeps the
+/// paint's exponent to 10⁻⁵; a design against a variant of itself at another
+/// gloss reading differs by a factor. Measured on the signal red against
+/// itself at lower readings, shared against rendered apart with map guidance
+/// (docs/benchmarks.md, "Comparison"): up to ×1.42 (86 against 88 GU) sharing
+/// leaves the map's highlights as decided or more and its floor and both panes
+/// cleaner; at ×1.79 (84 against 88 GU) it leaves the highlights, where such
+/// designs differ, noisier than two renders. The limit lies between: ×1.5.
+pub const SHARED_LOBE_NARROWING: f32 = 0.5;
 /// The image size an engine starts at, before it is told its pane's.
 pub const INITIAL_SIZE: (u32, u32) = (320, 200);
 

@@ -320,20 +320,22 @@ impl<B: RenderBackend> LiveEngine<B> {
             return;
         };
         let first_lobe = self.views.first.shading().design().lobe_exponent();
-        let shared =
-            if let Some(reason) = lobes_differ(first_lobe, shading.design().lobe_exponent()) {
-                self.views.reason = reason;
-                false
-            } else {
-                self.counters.pane_reshades += 1;
-                match self.views.first.reshade_recorded(&shading) {
-                    Ok(_) => true,
-                    Err(e) => {
-                        self.views.reason = independent_reason(&e);
-                        false
-                    }
+        let second_lobe = shading.design().lobe_exponent();
+        let shared = if let Some(reason) =
+            lobes_differ(first_lobe, second_lobe, self.views.lobe_narrowing)
+        {
+            self.views.reason = reason;
+            false
+        } else {
+            self.counters.pane_reshades += 1;
+            match self.views.first.reshade_recorded(&shading) {
+                Ok(_) => true,
+                Err(e) => {
+                    self.views.reason = independent_reason(&e);
+                    false
                 }
-            };
+            }
+        };
         // Either way the second view has a render of its own, so its pane
         // converges to its own model's image.
         let existing = self.views.second.take();

@@ -8,6 +8,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use crate::colour::cie::Illuminant;
+use crate::colour::spectrum::WavelengthGrid;
 use crate::design::{PaintDesign, RefractiveIndex, presets};
 use crate::paint::phong::PhongVariant;
 use crate::render::camera::Camera;
@@ -806,25 +807,57 @@ fn views_rendered_apart_spend_their_samples_where_the_map_is_undecided() {
     );
 }
 
-/// Two designs whose gloss lobes differ are rendered apart whichever is the
-/// wider, and say why; Phong, naive or best fit, whose lobe is the paint's, is
-/// shared.
+/// Two designs whose gloss lobes differ are rendered apart, a sharper second
+/// lobe beyond [`SHARED_LOBE_NARROWING`] and any wider one, and say why; a
+/// second lobe a little sharper, and Phong, naive or best fit, whose lobe is
+/// the paint's, are shared.
 #[test]
 fn designs_whose_lobes_differ_are_rendered_apart_and_say_why() {
-    // The preset against itself at a lower reading: the second lobe narrower.
-    let mut satin = design();
-    satin.gloss.gu -= 8.0;
-    let (mut engine, _) = converged();
-    apply(&mut engine, Command::Design(Box::new(satin)));
-    apply(
-        &mut engine,
-        Command::Views(Views::designs(ShadingModel::Paint, Some(&design()))),
-    );
-    let (_, pane) = converge_in_pairing(&mut engine, Pairing::Independent);
-    assert!(
-        matches!(&pane.source, Some(SecondSource::Independent { reason }) if reason.contains("gloss lobes differ")),
-        "{:?}",
-        pane.source
+    let at = |change: f64| {
+        let mut d = design();
+        d.gloss.gu += change;
+        d
+    };
+    let lobe = |d: &PaintDesign| {
+        d.model(WavelengthGrid::visible(8).expect("grid"))
+            .expect("model")
+            .spectral()
+            .lobe_exponent()
+            .expect("a lobe")
+    };
+    // 8 GU less: the preset's lobe more than SHARED_LOBE_NARROWING sharper than
+    // this one's; 0.5 GU less: within it.
+    assert!(lobe(&design()) / lobe(&at(-8.0)) - 1.0 > SHARED_LOBE_NARROWING);
+    assert!(lobe(&design()) / lobe(&at(-0.5)) - 1.0 < SHARED_LOBE_NARROWING);
+    let compare = |first: PaintDesign, second: PaintDesign, narrowing: Option<f32>| {
+        let (mut engine, _) = converged();
+        if let Some(narrowing) = narrowing {
+            engine.set_shared_lobe_narrowing(narrowing);
+        }
+        apply(&mut engine, Command::Design(Box::new(first)));
+        apply(
+            &mut engine,
+            Command::Views(Views::designs(ShadingModel::Paint, Some(&second))),
+        );
+        engine
+    };
+    let apart = |mut engine: LiveEngine| {
+        let (_, pane) = converge_in_pairing(&mut engine, Pairing::Independent);
+        assert!(
+            matches!(&pane.source, Some(SecondSource::Independent { reason }) if reason.contains("gloss lobes differ")),
+            "{:?}",
+            pane.source
+        );
+    };
+    // A much sharper second lobe, and a wider one.
+    apart(compare(at(-8.0), design(), None));
+    apart(compare(design(), at(-0.5), None));
+    // A little sharper: shared; much sharper, with any narrowing allowed (for
+    // measuring): shared too.
+    converge_in_pairing(&mut compare(at(-0.5), design(), None), Pairing::Shared);
+    converge_in_pairing(
+        &mut compare(at(-8.0), design(), Some(f32::INFINITY)),
+        Pairing::Shared,
     );
     for variant in [PhongVariant::BestFit, PhongVariant::Naive] {
         let (mut engine, _) = converged();

@@ -14,7 +14,7 @@ use crate::render::reshade::{ReshadeError, Reshaded, ShadingDifference};
 use crate::scene::SceneMaterial;
 
 use super::backend::BackendView;
-use super::{SHARED_LOBE_TOLERANCE, ThreadHook};
+use super::{SHARED_LOBE_NARROWING, ThreadHook};
 
 /// The views' renders and what the second view is made of.
 pub(super) struct ViewSet<V> {
@@ -45,6 +45,9 @@ pub(super) struct ViewSet<V> {
     /// The first view's samples per pixel when both views were last given the
     /// map's weights; `None`: not given since the last restart.
     pub guided_at: Option<u32>,
+    /// How much sharper the second view's lobe may be and still be shared
+    /// ([`SHARED_LOBE_NARROWING`] unless measuring).
+    pub lobe_narrowing: f32,
 }
 
 /// Which of the first view's recordings a shared difference is made of.
@@ -74,6 +77,7 @@ impl<V: BackendView> ViewSet<V> {
             last_stats: [PassStats::default(); 2],
             map_guidance: true,
             guided_at: None,
+            lobe_narrowing: SHARED_LOBE_NARROWING,
         }
     }
 
@@ -164,16 +168,23 @@ pub(super) fn spawn_second_shading(
 
 /// Why two views whose gloss lobes have the exponents `first` and `second` are
 /// rendered apart rather than shared, as the user reads it; `None` where the
-/// lobes agree to [`SHARED_LOBE_TOLERANCE`] (or either is a mirror, which the
-/// re-shade refuses with its own reason). Shared paths sampled by one lobe and
-/// re-weighted into another are noisy in the highlights, which is all such
-/// designs differ in; rendered apart, both views spend their samples there
-/// ([`super::guide`]): docs/benchmarks.md, "Comparison".
-pub(super) fn lobes_differ(first: Option<f32>, second: Option<f32>) -> Option<String> {
+/// second lobe is at most `narrowing` sharper ([`SHARED_LOBE_NARROWING`] as the
+/// app runs) and no more than 1 % wider (the re-shade's own limit), or either
+/// is a mirror (which the re-shade refuses with its own reason). Shared paths
+/// sampled by one lobe and re-weighted into a much sharper one are noisy in the
+/// highlights, which is all such designs differ in; rendered apart, both views
+/// spend their samples there ([`super::guide`]): docs/benchmarks.md,
+/// "Comparison".
+pub(super) fn lobes_differ(
+    first: Option<f32>,
+    second: Option<f32>,
+    narrowing: f32,
+) -> Option<String> {
     let (Some(a), Some(b)) = (first, second) else {
         return None;
     };
-    ((b / a - 1.0).abs() > SHARED_LOBE_TOLERANCE).then(|| {
+    let excess = b / a - 1.0;
+    (excess > narrowing || excess < -0.01).then(|| {
         format!(
             "the gloss lobes differ (exponent {a:.0} against {b:.0}): each view is traced \
              with its own, more samples where the map is undecided"
