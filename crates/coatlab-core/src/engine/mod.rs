@@ -83,8 +83,8 @@ pub const RESHADE_SAMPLES: u32 = 4;
 pub const COMPARE_CACHE_SAMPLES: u32 = 16;
 /// How much sharper the second view's gloss lobe may be than the first's,
 /// relative excess of its exponent, for the second to be shared from the first
-/// view's paths (a wider second lobe is never shared beyond the re-shade's 1 %
-/// for its f32 tables: [`crate::render::reshade`]). A Phong best fit keeps the
+/// view's paths (a wider second lobe is never shared beyond
+/// [`crate::render::reshade::LOBE_WIDENING_ALLOWED`]). A Phong best fit keeps the
 /// paint's exponent to 10⁻⁵; a design against a variant of itself at another
 /// gloss reading differs by a factor. Measured on the signal red against
 /// itself at lower readings, shared against rendered apart with map guidance

@@ -10,7 +10,7 @@ use crate::design::PaintDesign;
 use crate::render::film::DisplaySettings;
 use crate::render::material::{Shading, ShadingModel};
 use crate::render::progressive::PassStats;
-use crate::render::reshade::{ReshadeError, Reshaded, ShadingDifference};
+use crate::render::reshade::{LOBE_WIDENING_ALLOWED, ReshadeError, Reshaded, ShadingDifference};
 use crate::scene::SceneMaterial;
 
 use super::backend::BackendView;
@@ -169,7 +169,7 @@ pub(super) fn spawn_second_shading(
 /// Why two views whose gloss lobes have the exponents `first` and `second` are
 /// rendered apart rather than shared, as the user reads it; `None` where the
 /// second lobe is at most `narrowing` sharper ([`SHARED_LOBE_NARROWING`] as the
-/// app runs) and no more than 1 % wider (the re-shade's own limit), or either
+/// app runs) and no wider than the re-shade allows ([`LOBE_WIDENING_ALLOWED`]), or either
 /// is a mirror (which the re-shade refuses with its own reason). Shared paths
 /// sampled by one lobe and re-weighted into a much sharper one are noisy in the
 /// highlights, which is all such designs differ in; rendered apart, both views
@@ -184,7 +184,7 @@ pub(super) fn lobes_differ(
         return None;
     };
     let excess = b / a - 1.0;
-    (excess > narrowing || excess < -0.01).then(|| {
+    (excess > narrowing || excess < -LOBE_WIDENING_ALLOWED).then(|| {
         format!(
             "the gloss lobes differ (exponent {a:.0} against {b:.0}): each view is traced \
              with its own, more samples where the map is undecided"

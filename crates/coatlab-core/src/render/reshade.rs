@@ -88,6 +88,12 @@ use crate::render::integrator::{
 };
 use crate::render::material::{Shading, SimpleMaterial, SurfaceExtras};
 
+/// How much wider, relative, a re-shaded lobe may be than the recorded one
+/// (its exponent this much smaller) and still be re-weighted: what the f32
+/// tables of one design can differ by, not a wider lobe
+/// ([`ReshadeError::LobeWidened`]).
+pub const LOBE_WIDENING_ALLOWED: f32 = 0.01;
+
 /// Why a re-shade cannot be done.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum ReshadeError {
@@ -885,9 +891,9 @@ pub fn reshade_prepared(
     // the old lobe's axis (its second moment diverges once the exponent halves):
     // unbiased in theory, but at the recorded sample counts the highlights read up
     // to a third too dark (tests/reshade.rs). A narrower lobe keeps the weight
-    // bounded by the ratio of the exponents. The 1 % allows for the f32 tables.
+    // bounded by the ratio of the exponents.
     if let (Some(recorded), Some(wanted)) = (cache.lobe_exponent, shading.design().lobe_exponent())
-        && wanted < 0.99 * recorded
+        && wanted < (1.0 - LOBE_WIDENING_ALLOWED) * recorded
     {
         return Err(ReshadeError::LobeWidened { recorded, wanted });
     }
