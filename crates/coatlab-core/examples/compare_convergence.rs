@@ -53,6 +53,7 @@ use coatlab_core::engine::{
     Command, CpuBackend, LiveEngine, Output, QualityKnobs, SecondImage, SecondUpdate, Views,
     ViewsUpdate,
 };
+use coatlab_core::io::atomic::write_bytes_atomically;
 use coatlab_core::io::png_write::write_srgb8_png;
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::camera::Camera;
@@ -477,8 +478,8 @@ fn stored_halves(
     Ok(Some(halves))
 }
 
-/// Stores a reference's two halves under its description (written whole, then
-/// renamed, so a run stopped half way leaves no partial reference).
+/// Stores a reference's two halves under its description (atomically, so a run
+/// stopped half way leaves no partial reference).
 fn store_halves(
     dir: &std::path::Path,
     description: &str,
@@ -491,9 +492,7 @@ fn store_halves(
         bytes.extend_from_slice(&value.to_le_bytes());
     }
     let path = reference_path(dir, description);
-    let partial = path.with_extension("partial");
-    std::fs::write(&partial, bytes)?;
-    std::fs::rename(&partial, &path)?;
+    write_bytes_atomically(&path, &bytes)?;
     println!("reference stored in {}", path.display());
     Ok(())
 }
