@@ -31,6 +31,12 @@
 //! sharper second lobe belongs.
 //! `COMPARE_ADAPTIVE=1` turns on adaptive sampling (its defaults) in every view;
 //! `COMPARE_MISSES=FILE.png` draws the signal in grey and those pixels in red.
+//! `COMPARE_EXPLAIN=X,Y` compares nothing: it traces 65 536 samples of pixel
+//! (X, Y) in each view's model and prints how that pixel's estimate is made up —
+//! the mean, quantiles of the samples and the brightest samples' paths (what each
+//! vertex was, its light sample's and continuation's densities, how the path
+//! ended) — to tell a firefly from a highlight that few samples reach (a
+//! second is SECONDS enough: the runs only set up the scene).
 //! `COMPARE_REFERENCES=DIR` keeps the references there and reads them back in a
 //! later run of exactly the same designs, models, size, samples, scene and camera
 //! (a 4 096-spp pair takes a quarter of an hour here); the renderer's code is not
@@ -57,10 +63,17 @@ use coatlab_core::io::atomic::write_bytes_atomically;
 use coatlab_core::io::png_write::write_srgb8_png;
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::camera::Camera;
+use coatlab_core::render::environment::Environment;
 use coatlab_core::render::film::{DisplaySettings, Film, display_lab_of_xyz};
+use coatlab_core::render::geometry::Surface;
+use coatlab_core::render::integrator::{
+    IntegratorSettings, PathBuffers, PathRecorder, PathTracer, VertexRecord,
+};
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::pick::pick;
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
+use coatlab_core::render::sampler::PixelSampler;
+use coatlab_core::scene::SceneMaterial;
 
 type Image = Vec<[f32; 3]>;
 
@@ -121,6 +134,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let reference_spp: u32 = args.get(3).map_or(Ok(256), |s| s.parse())?;
 
+    let explain = match std::env::var("COMPARE_EXPLAIN") {
+        Ok(xy) => {
+            let pixel = xy
+                .split_once(',')
+                .and_then(|(x, y)| Some((x.trim().parse().ok()?, y.trim().parse().ok()?)))
+                .filter(|&(x, y): &(u32, u32)| x < width && y < height);
+            Some(pixel.ok_or(format!(
+                "COMPARE_EXPLAIN {xy:?}: a pixel X,Y inside {width}x{height}"
+            ))?)
+        }
+        Err(_) => None,
+    };
     let all = presets::all();
     let original = &all.first().ok_or("no preset designs")?.design;
     let design = match gloss_reading("COMPARE_FIRST_GU")? {
@@ -237,6 +262,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // The references: each view's model (and design) on its own, same camera and
     // grid, in two halves of other seeds.
     let camera = engine.first().camera().clone();
+    if (camera.width(), camera.height()) != (width, height) {
+        return Err(format!(
+            "after {seconds} s the engine still shows its coarse start ({}x{}): give it longer",
+            camera.width(),
+            camera.height()
+        )
+        .into());
+    }
     let scene = engine.first().scene().clone();
     let environment = engine.first().environment().clone();
     let grid = engine.grid();
@@ -317,6 +350,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let [first_half, second_half]: [Image; 2] = halves.try_into().map_err(|_| "two halves")?;
         Ok((average, noise, [first_half, second_half]))
     };
+    if let Some((x, y)) = explain {
+        for (view, shading) in shadings.iter().enumerate() {
+            explain_pixel(&scene, &environment, shading, &camera, [x, y, width], view);
+        }
+        return Ok(());
+    }
     let reference_start = Instant::now();
     let (ref_a, noise_a, halves_a) = reference(&shadings[0], &descriptions[0])?;
     let (ref_b, noise_b, halves_b) = reference(&shadings[1], &descriptions[1])?;
@@ -606,5 +645,113 @@ fn describe_misses(
             Ok(()) => println!("misses drawn in {}", path.to_string_lossy()),
             Err(e) => eprintln!("could not draw the misses: {e}"),
         }
+    }
+}
+
+/// `COMPARE_EXPLAIN`: traces [`EXPLAINED_SAMPLES`] samples of one pixel one by one
+/// (`pixel`: x, y and the image's width) in `shading`'s model and prints their
+/// mean, quantiles of the samples' brightness (the mean over wavelengths of the
+/// spectral radiance) and the brightest samples with their paths. Recorded paths
+/// take one light sample at their first vertex, not the preview's two, so the
+/// spread is a little wider than the preview's; the mean is the same.
+fn explain_pixel(
+    scene: &RenderScene,
+    environment: &Environment,
+    shading: &Shading,
+    camera: &Camera,
+    [x, y, width]: [u32; 3],
+    view: usize,
+) {
+    let tracer = PathTracer::new(
+        scene.geometry(),
+        environment,
+        shading,
+        IntegratorSettings::default(),
+    );
+    let len = shading.len();
+    let mut buffers = PathBuffers::new(len);
+    let mut radiance = vec![0.0f32; len];
+    let mut samples: Vec<(f32, String)> = Vec::with_capacity(EXPLAINED_SAMPLES as usize);
+    for sample in 0..EXPLAINED_SAMPLES {
+        let mut sampler = PixelSampler::new(0x5eed_0303, y * width + x, sample);
+        let [jx, jy] = sampler.next_2d();
+        let (origin, dir) = camera.ray(x as f32 + jx, y as f32 + jy);
+        let mut path = PathWords {
+            materials: scene.materials(),
+            words: String::new(),
+        };
+        tracer.radiance(
+            origin,
+            dir,
+            &mut sampler,
+            &mut buffers,
+            &mut radiance,
+            &mut path,
+        );
+        samples.push((radiance.iter().sum::<f32>() / len as f32, path.words));
+    }
+    let mean = samples.iter().map(|s| f64::from(s.0)).sum::<f64>() / samples.len() as f64;
+    samples.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let above = |share: f64| samples[(share * samples.len() as f64) as usize].0;
+    println!(
+        "view {view}, pixel ({x}, {y}), {EXPLAINED_SAMPLES} samples: mean {mean:.4}; median \
+         {:.4}, brightest 10 % from {:.4}, 1 % from {:.4}, 0.1 % from {:.4}; the brightest:",
+        above(0.5),
+        above(0.1),
+        above(0.01),
+        above(0.001)
+    );
+    for (value, words) in samples.iter().take(8) {
+        println!(
+            "  {value:.3} ({:.1e} of the sum):{words}",
+            f64::from(*value) / (mean * samples.len() as f64)
+        );
+    }
+}
+
+/// Samples `COMPARE_EXPLAIN` traces of its pixel.
+const EXPLAINED_SAMPLES: u32 = 1 << 16;
+
+/// A path in words, as the tracer reports its decisions.
+struct PathWords<'a> {
+    materials: &'a [SceneMaterial],
+    words: String,
+}
+
+impl PathRecorder for PathWords<'_> {
+    fn vertex(&mut self, vertex: &VertexRecord, light_transmittance: Option<&[f32]>) {
+        let name = match vertex.surface {
+            Surface::Mesh { material } => self.materials[material as usize].name.as_str(),
+            Surface::Floor => "floor",
+        };
+        self.words += &format!(" {name} (cos to viewer {:.2}", vertex.wo[2]);
+        if let Some(light) = &vertex.light {
+            let through = if light_transmittance.is_some() {
+                " through see-through surfaces"
+            } else {
+                ""
+            };
+            self.words += &format!(
+                "; lit{through}, densities light {:.2e} BSDF {:.2e}",
+                light.light_pdf, light.bsdf_pdf
+            );
+        }
+        if let Some(next) = &vertex.next {
+            let delta = if next.delta { " delta" } else { "" };
+            self.words += &format!("; on{delta}, density {:.2e}", next.pdf);
+        }
+        self.words += ")";
+    }
+
+    fn crossed(&mut self, factor: Option<&[f32]>) {
+        let mean = factor.map_or(1.0, |f| f.iter().sum::<f32>() / f.len() as f32);
+        self.words += &format!(" crossed ×{mean:.2}");
+    }
+
+    fn escape(&mut self, dir: [f32; 3], mis: f32) {
+        self.words += &format!(
+            " out along ({:.2}, {:.2}, {:.2}), MIS weight {mis:.3}",
+            dir[0], dir[1], dir[2]
+        );
     }
 }
