@@ -35,8 +35,10 @@
 //! (X, Y) in each view's model and prints how that pixel's estimate is made up —
 //! the mean, quantiles of the samples and the brightest samples' paths (what each
 //! vertex was, its light sample's and continuation's densities, how the path
-//! ended) — to tell a firefly from a highlight that few samples reach (a
-//! second is SECONDS enough: the runs only set up the scene).
+//! ended) — to tell a firefly from a highlight that few samples reach — and the
+//! standard deviation of a 64-sample mean over 256 seeds, the error a sampling
+//! change is judged by (a second is SECONDS enough: the runs only set up the
+//! scene).
 //! `COMPARE_REFERENCES=DIR` keeps the references there and reads them back in a
 //! later run of exactly the same designs, models, size, samples, scene and camera
 //! (a 4 096-spp pair takes a quarter of an hour here); the renderer's code is not
@@ -67,7 +69,7 @@ use coatlab_core::render::environment::Environment;
 use coatlab_core::render::film::{DisplaySettings, Film, display_lab_of_xyz};
 use coatlab_core::render::geometry::Surface;
 use coatlab_core::render::integrator::{
-    IntegratorSettings, PathBuffers, PathRecorder, PathTracer, VertexRecord,
+    IntegratorSettings, NoRecord, PathBuffers, PathRecorder, PathTracer, VertexRecord,
 };
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::pick::pick;
@@ -707,7 +709,44 @@ fn explain_pixel(
             f64::from(*value) / (mean * samples.len() as f64)
         );
     }
+    // How far a pixel's mean of N samples strays, from the spread of such means
+    // over other seeds: the error the sampler leaves, stratification included
+    // (the samples of one seed are not independent, so the spread of single
+    // samples above does not give it).
+    let means: Vec<f64> = (0..SPREAD_SEEDS)
+        .map(|seed| {
+            let sum: f64 = (0..SPREAD_SAMPLES)
+                .map(|sample| {
+                    let mut sampler = PixelSampler::new(0x5eed_0404 + seed, y * width + x, sample);
+                    let [jx, jy] = sampler.next_2d();
+                    let (origin, dir) = camera.ray(x as f32 + jx, y as f32 + jy);
+                    tracer.radiance(
+                        origin,
+                        dir,
+                        &mut sampler,
+                        &mut buffers,
+                        &mut radiance,
+                        &mut NoRecord,
+                    );
+                    f64::from(radiance.iter().sum::<f32>() / len as f32)
+                })
+                .sum();
+            sum / f64::from(SPREAD_SAMPLES)
+        })
+        .collect();
+    let centre = means.iter().sum::<f64>() / means.len() as f64;
+    let spread =
+        (means.iter().map(|m| (m - centre).powi(2)).sum::<f64>() / (means.len() - 1) as f64).sqrt();
+    println!(
+        "  the mean of {SPREAD_SAMPLES} samples over {SPREAD_SEEDS} seeds: {centre:.4}, standard \
+         deviation {spread:.5} ({:.2} % of the mean)",
+        100.0 * spread / centre
+    );
 }
+
+/// `COMPARE_EXPLAIN`'s spread of a pixel's mean: seeds, and samples a seed.
+const SPREAD_SEEDS: u64 = 256;
+const SPREAD_SAMPLES: u32 = 64;
 
 /// Samples `COMPARE_EXPLAIN` traces of its pixel.
 const EXPLAINED_SAMPLES: u32 = 1 << 16;
