@@ -674,23 +674,20 @@ fn explain_pixel(
     let mut buffers = PathBuffers::new(len);
     let mut radiance = vec![0.0f32; len];
     let mut samples: Vec<(f32, String)> = Vec::with_capacity(EXPLAINED_SAMPLES as usize);
+    let mut one = OneSample {
+        tracer: &tracer,
+        camera,
+        buffers: &mut buffers,
+        radiance: &mut radiance,
+        pixel: [x, y, width],
+    };
     for sample in 0..EXPLAINED_SAMPLES {
-        let mut sampler = PixelSampler::new(0x5eed_0303, y * width + x, sample);
-        let [jx, jy] = sampler.next_2d();
-        let (origin, dir) = camera.ray(x as f32 + jx, y as f32 + jy);
         let mut path = PathWords {
             materials: scene.materials(),
             words: String::new(),
         };
-        tracer.radiance(
-            origin,
-            dir,
-            &mut sampler,
-            &mut buffers,
-            &mut radiance,
-            &mut path,
-        );
-        samples.push((radiance.iter().sum::<f32>() / len as f32, path.words));
+        let value = one.brightness(0x5eed_0303, sample, &mut path);
+        samples.push((value, path.words));
     }
     let mean = samples.iter().map(|s| f64::from(s.0)).sum::<f64>() / samples.len() as f64;
     samples.sort_by(|a, b| b.0.total_cmp(&a.0));
@@ -716,20 +713,7 @@ fn explain_pixel(
     let means: Vec<f64> = (0..SPREAD_SEEDS)
         .map(|seed| {
             let sum: f64 = (0..SPREAD_SAMPLES)
-                .map(|sample| {
-                    let mut sampler = PixelSampler::new(0x5eed_0404 + seed, y * width + x, sample);
-                    let [jx, jy] = sampler.next_2d();
-                    let (origin, dir) = camera.ray(x as f32 + jx, y as f32 + jy);
-                    tracer.radiance(
-                        origin,
-                        dir,
-                        &mut sampler,
-                        &mut buffers,
-                        &mut radiance,
-                        &mut NoRecord,
-                    );
-                    f64::from(radiance.iter().sum::<f32>() / len as f32)
-                })
+                .map(|sample| f64::from(one.brightness(0x5eed_0404 + seed, sample, &mut NoRecord)))
                 .sum();
             sum / f64::from(SPREAD_SAMPLES)
         })
@@ -750,6 +734,37 @@ const SPREAD_SAMPLES: u32 = 64;
 
 /// Samples `COMPARE_EXPLAIN` traces of its pixel.
 const EXPLAINED_SAMPLES: u32 = 1 << 16;
+
+/// One pixel's samples, traced one at a time.
+struct OneSample<'a> {
+    tracer: &'a PathTracer<'a>,
+    camera: &'a Camera,
+    buffers: &'a mut PathBuffers,
+    radiance: &'a mut [f32],
+    /// x, y and the image's width.
+    pixel: [u32; 3],
+}
+
+impl OneSample<'_> {
+    /// Sample `sample` of the pixel in a render with `seed`: its brightness (the
+    /// mean over wavelengths of the spectral radiance), its path told to
+    /// `recorder`.
+    fn brightness(&mut self, seed: u64, sample: u32, recorder: &mut impl PathRecorder) -> f32 {
+        let [x, y, width] = self.pixel;
+        let mut sampler = PixelSampler::new(seed, y * width + x, sample);
+        let [jx, jy] = sampler.next_2d();
+        let (origin, dir) = self.camera.ray(x as f32 + jx, y as f32 + jy);
+        self.tracer.radiance(
+            origin,
+            dir,
+            &mut sampler,
+            self.buffers,
+            self.radiance,
+            recorder,
+        );
+        self.radiance.iter().sum::<f32>() / self.radiance.len() as f32
+    }
+}
 
 /// A path in words, as the tracer reports its decisions.
 struct PathWords<'a> {
