@@ -651,11 +651,13 @@ fn describe_misses(
 }
 
 /// `COMPARE_EXPLAIN`: traces [`EXPLAINED_SAMPLES`] samples of one pixel one by one
-/// (`pixel`: x, y and the image's width) in `shading`'s model and prints their
-/// mean, quantiles of the samples' brightness (the mean over wavelengths of the
-/// spectral radiance) and the brightest samples with their paths. Recorded paths
-/// take one light sample at their first vertex, not the preview's two, so the
-/// spread is a little wider than the preview's; the mean is the same.
+/// (`pixel`: x, y and the image's width) in `shading`'s model, with the
+/// integrator's default settings as the preview has them, and prints their mean,
+/// quantiles of the samples' brightness (the mean over wavelengths of the spectral
+/// radiance) and the brightest samples with their paths; then the spread of the
+/// pixel's mean over seeds. Recorded paths take one light sample at their first
+/// vertex, not the preview's two, so the listed samples spread a little wider than
+/// the preview's (the mean is the same); the spread over seeds is the preview's.
 fn explain_pixel(
     scene: &RenderScene,
     environment: &Environment,
