@@ -3,18 +3,24 @@
 //!
 //! The map is there to show where the two views differ, not the noise of two
 //! renders. Rendered apart, its error at a pixel after n samples in each view is
-//! about s / √n, with s = √(e_A² + e_B²) and e the per-sample perceptual noise of
-//! either film ([`Film::sample_delta_e`]). A pixel whose map reads d is decided
-//! once s / √n ≤ [`NOISE_TO_SIGNAL`] · max(d, [`VISIBLE`]), that is at
-//! n* = (s / ([`NOISE_TO_SIGNAL`] · max(d, [`VISIBLE`])))² samples. Per pixel:
+//! about σ = s / √n, with s = √(e_A² + e_B²) and e the per-sample perceptual
+//! noise of either film ([`Film::sample_delta_e`]). A pixel whose map reads d is
+//! decided once σ ≤ [`NOISE_TO_SIGNAL`] · max(d − σ, [`VISIBLE`]): against the
+//! reading less one error, since a reading the noise has pushed up must not lower
+//! its own bar. That holds from n* samples ([`samples_to_decide`]). Per pixel:
 //!
-//! 1. its shortfall x = n* / n − 1, at least 0; 0 where the map reads less than
-//!    [`UNDECIDED_FROM`] (nothing to show there, or not yet: while n is small the
-//!    noise alone reads above it, and such pixels ask until it does not);
+//! 1. its shortfall x = n* / n − 1, at least 0, where s is the largest of its
+//!    3 × 3 neighbourhood: at a highlight's edge a few percent of the samples
+//!    find the highlight, and a pixel that has not drawn one yet reads nearly
+//!    noise-free beside neighbours that have; 0 where the map reads less than
+//!    [`UNDECIDED_FROM`] across that neighbourhood (nothing to show there, or not
+//!    yet: while n is small the noise alone reads above it, and such pixels ask
+//!    until it does not);
 //! 2. the largest x of its 3 × 3 neighbourhood, as adaptive sampling does
 //!    ([`crate::render::adaptive`]): a pixel's share then depends mostly on its
 //!    neighbours' samples, which keeps its plain mean nearly unbiased, and the
-//!    edge of a highlight gets the samples its middle asks for;
+//!    edge of a highlight gets the samples its middle asks for (with step 1,
+//!    an undecided pixel's samples spread over its 5 × 5 neighbourhood);
 //! 3. its extra, x − τ clamped to [0, [`MOST_EXTRA`]], with τ the least level at
 //!    which the extra averages no more than 1 / [`LEAST_SHARE`] − 1 over the image:
 //!    the most undecided pixels are served first, and every pixel keeps at
@@ -62,19 +68,39 @@ pub fn map_guided_weights(a: &Film, b: &Film, display: &DisplaySettings) -> Opti
     let (width, height) = (a.width() as usize, a.height() as usize);
     let map = DeltaEMap::between(a, b, display)?;
     let (noise_a, noise_b) = (a.sample_delta_e(display), b.sample_delta_e(display));
+    // A pixel of fewer than two samples has no noise estimate yet.
+    if map
+        .values
+        .iter()
+        .chain(&noise_a)
+        .chain(&noise_b)
+        .any(|v| !v.is_finite())
+    {
+        return None;
+    }
+    let noise: Vec<f32> = noise_a
+        .iter()
+        .zip(&noise_b)
+        .map(|(&e_a, &e_b)| e_a.hypot(e_b))
+        .collect();
+    let noise_near = neighbourhood_max(&noise, width, height);
+    let reading_near = neighbourhood_max(&map.values, width, height);
     let mut shortfall = Vec::with_capacity(width * height);
-    for (i, ((&d, &e_a), &e_b)) in map.values.iter().zip(&noise_a).zip(&noise_b).enumerate() {
+    for (i, (&d, (&s, &d_near))) in map
+        .values
+        .iter()
+        .zip(noise_near.iter().zip(&reading_near))
+        .enumerate()
+    {
         let (x, y) = ((i % width) as u32, (i / width) as u32);
         let n = a.sample_count(x, y).min(b.sample_count(x, y)) as f64;
-        if !(e_a.is_finite() && e_b.is_finite() && d.is_finite()) || n < 2.0 {
+        if n < 2.0 {
             return None;
         }
-        let d = f64::from(d);
-        let x = if d < UNDECIDED_FROM {
+        let x = if f64::from(d_near) < UNDECIDED_FROM {
             0.0f32
         } else {
-            let s = f64::from(e_a).hypot(f64::from(e_b));
-            let decided_at = (s / (NOISE_TO_SIGNAL * d.max(VISIBLE))).powi(2);
+            let decided_at = samples_to_decide(f64::from(s), f64::from(d));
             (decided_at / n - 1.0).max(0.0) as f32
         };
         shortfall.push(x);
@@ -88,6 +114,17 @@ pub fn map_guided_weights(a: &Film, b: &Film, display: &DisplaySettings) -> Opti
     let extra: Vec<f64> = widened.iter().map(|&x| extra_above(x, level)).collect();
     let mean = 1.0 + extra.iter().sum::<f64>() / extra.len().max(1) as f64;
     Some(extra.iter().map(|&x| ((1.0 + x) / mean) as f32).collect())
+}
+
+/// Samples a pixel's map needs before it is decided, with per-sample noise
+/// `noise` (s) and the map reading `reading` (d): the least n at which σ = s / √n
+/// ≤ [`NOISE_TO_SIGNAL`] · max(d − σ, [`VISIBLE`]). That holds when σ is within
+/// either bound, [`NOISE_TO_SIGNAL`] · [`VISIBLE`] or [`NOISE_TO_SIGNAL`] · d /
+/// (1 + [`NOISE_TO_SIGNAL`]), so n* is the smaller of the two counts.
+fn samples_to_decide(noise: f64, reading: f64) -> f64 {
+    let to_visible = (noise / (NOISE_TO_SIGNAL * VISIBLE)).powi(2);
+    let to_reading = ((1.0 + NOISE_TO_SIGNAL) * noise / (NOISE_TO_SIGNAL * reading)).powi(2);
+    to_visible.min(to_reading)
 }
 
 /// The least level τ ≥ 0 at which the pixels' extra, their shortfall above τ
@@ -191,9 +228,11 @@ mod tests {
         let centre = at(4, 4);
         let even = at(0, 0);
         assert!(centre > 2.0 * even, "centre {centre}, elsewhere {even}");
+        // Its neighbours, whose own samples are noise-free, take the centre's
+        // noise as theirs and ask as it does; their neighbours share in that.
         for y in 0..SIZE {
             for x in 0..SIZE {
-                let near = x.abs_diff(4) <= 1 && y.abs_diff(4) <= 1;
+                let near = x.abs_diff(4) <= 2 && y.abs_diff(4) <= 2;
                 let expected = if near { centre } else { even };
                 assert_eq!(at(x, y), expected, "pixel ({x}, {y})");
             }
@@ -208,10 +247,10 @@ mod tests {
     #[test]
     fn every_pixel_keeps_its_least_share_however_many_are_undecided() {
         // Every pixel a noisy highlight that differs between the views, except
-        // the first two rows.
+        // the first three rows.
         let noisy = |level: f32| {
             move |x: u32, y: u32, k: u32| {
-                if y <= 1 {
+                if y <= 2 {
                     grey(x, y, k)
                 } else {
                     [level
@@ -226,10 +265,18 @@ mod tests {
         let weights = map_guided_weights(&film(4, noisy(0.3)), &film(4, noisy(0.33)), &display())
             .expect("weights");
         assert_mean_one(&weights);
-        // Every row but the first asks for more (the second through its
-        // neighbours).
+        // Six rows are undecided and two more ask through their neighbours
+        // (the third row's noise is theirs, the second row shares the third's
+        // shortfall): more than the budget serves, so the most undecided rows
+        // take it all and the first row, asking nothing, keeps exactly its
+        // least share.
         let asking = weights.iter().filter(|&&w| w > weights[0]).count();
-        assert_eq!(asking, (SIZE * (SIZE - 1)) as usize);
+        assert!(asking >= 2 * SIZE as usize, "{asking} pixels ask");
+        assert!(
+            (f64::from(weights[0]) - LEAST_SHARE).abs() < 1e-6,
+            "the first row's weight {}",
+            weights[0]
+        );
         let least = weights.iter().copied().fold(f32::INFINITY, f32::min);
         assert!(
             f64::from(least) >= LEAST_SHARE - 1e-6,
@@ -237,6 +284,33 @@ mod tests {
         );
         let most = weights.iter().copied().fold(0.0f32, f32::max);
         assert!(f64::from(most) <= 1.0 + MOST_EXTRA, "most weight {most}");
+    }
+
+    #[test]
+    fn a_reading_is_decided_against_itself_less_its_error() {
+        let s = 2.0;
+        // Readings up to 1 + NOISE_TO_SIGNAL are held to the visible difference.
+        let to_visible = (s / (NOISE_TO_SIGNAL * VISIBLE)).powi(2);
+        for d in [0.0, 0.5, 1.0, 1.4] {
+            assert!(
+                (samples_to_decide(s, d) - to_visible).abs() < 1e-9,
+                "reading {d}"
+            );
+        }
+        // Above, at the count it gives, the error is NOISE_TO_SIGNAL times the
+        // reading less that error, exactly.
+        for d in [1.5, 2.0, 5.0, 30.0] {
+            let sigma = s / samples_to_decide(s, d).sqrt();
+            let bound = NOISE_TO_SIGNAL * (d - sigma).max(VISIBLE);
+            assert!(
+                (sigma - bound).abs() < 1e-9,
+                "reading {d}: error {sigma}, bound {bound}"
+            );
+            // More samples than the reading alone would ask for: it may be
+            // high only because of the noise.
+            let by_reading = (s / (NOISE_TO_SIGNAL * d)).powi(2);
+            assert!(samples_to_decide(s, d) > 1.9 * by_reading, "reading {d}");
+        }
     }
 
     #[test]
