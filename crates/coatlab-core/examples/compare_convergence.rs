@@ -200,6 +200,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // first run's engine gives the camera, scene and display for the rest.
     let mut engine = None;
     let mut panes: Vec<(Image, Image)> = Vec::new();
+    // The first run's samples in each pixel of its first view.
+    let mut first_counts: Vec<u64> = Vec::new();
     for run in 0..runs {
         let backend = CpuBackend {
             settings: RenderSettings {
@@ -256,6 +258,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             live.display()
         );
         panes.push((first, second));
+        if run == 0 {
+            let film = live.first().film();
+            first_counts = (0..film.height())
+                .flat_map(|y| (0..film.width()).map(move |x| (x, y)))
+                .map(|(x, y)| film.sample_count(x, y))
+                .collect();
+        }
         engine.get_or_insert(live);
     }
     let engine = engine.ok_or("no run")?;
@@ -447,6 +456,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
         if run == 0 {
             describe_misses(&tally.misses, &map, &signal, &scene, &camera, width);
+            for &i in &tally.misses {
+                println!(
+                    "  miss ({}, {}): map {:.2}, signal {:.2}, {} samples in the first view",
+                    i % width as usize,
+                    i / width as usize,
+                    map[i],
+                    signal[i],
+                    first_counts.get(i).copied().unwrap_or(0)
+                );
+            }
         }
     }
     for (way, (errors, runs)) in squared_error {
