@@ -15,7 +15,8 @@
 //! the runs: one run's |map − reference map| is a single draw of that noise, and
 //! the RMS tells a pixel whose map is noisy from one that drew a value far in the
 //! tail. The pixels where a single run's noise is not below the signal are listed
-//! by what they show.
+//! by what they show, and one by one with the map, the signal and the first
+//! view's samples there.
 //! In `designs` mode the second design is the second preset, or with
 //! `COMPARE_SECOND_GU=GU` the first preset at another gloss reading (the same
 //! geometry): a variant a designer compares with the original.

@@ -266,8 +266,8 @@ mod tests {
             .expect("weights");
         assert_mean_one(&weights);
         // Six rows are undecided and two more ask through their neighbours
-        // (the third row's noise is theirs, the second row shares the third's
-        // shortfall): more than the budget serves, so the most undecided rows
+        // (the third row takes the fourth's noise, the second shares the
+        // third's shortfall): more than the budget serves, so the most undecided rows
         // take it all and the first row, asking nothing, keeps exactly its
         // least share.
         let asking = weights.iter().filter(|&&w| w > weights[0]).count();
