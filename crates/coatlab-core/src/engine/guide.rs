@@ -54,6 +54,14 @@ pub const UNDECIDED_FROM: f64 = 0.5;
 /// a few hundred undecided pixels then reach the samples of a render many times
 /// longer without slowing the rest of the image much.
 pub const MOST_EXTRA: f64 = 15.0;
+/// The weights are made again when the first view's samples per pixel have grown
+/// by this factor: a pixel at a highlight's edge that has just drawn the
+/// highlight is served soon after. Measured against adaptive sampling's ×1.5
+/// (docs/benchmarks.md, "Comparison"): the map's noise on gloss variants' signal
+/// pixels 0.62–0.70 against 0.67–0.78; ×1.1 left 10–20 % fewer samples (the
+/// weights cost about a third of a sample per pixel each time) and decided no
+/// more.
+pub const REWEIGH_GROWTH: f64 = 1.2;
 /// The least share of an even pass any pixel keeps, however many pixels are
 /// undecided, so each pane still converges to its own image everywhere.
 pub const LEAST_SHARE: f64 = 0.5;

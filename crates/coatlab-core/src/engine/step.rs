@@ -5,7 +5,6 @@ use std::ops::ControlFlow;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
-use crate::render::adaptive::RECOMPUTE_GROWTH;
 use crate::render::material::Shading;
 use crate::render::progressive::{EditOutcome, PassStats};
 use crate::render::reshade::{ReshadeError, ShadingDifference};
@@ -16,7 +15,7 @@ use super::frame::{
     SecondUpdate, ViewsUpdate, display_of, edit_update, film_frame, map_due, pair_update,
     shared_update,
 };
-use super::guide::map_guided_weights;
+use super::guide::{REWEIGH_GROWTH, map_guided_weights};
 use super::live::{LiveEngine, Output, Progress};
 use super::plan::{self, Actions, Outcome, Phase, Restart, Second, Tables};
 use super::views::{
@@ -468,7 +467,7 @@ impl<B: RenderBackend> LiveEngine<B> {
 
     /// Rendered apart, both views' next passes spread their samples by where the
     /// map is undecided ([`map_guided_weights`]), the weights made again when the
-    /// samples have grown by [`RECOMPUTE_GROWTH`]; shared, evenly (a recording
+    /// samples have grown by [`REWEIGH_GROWTH`]; shared, evenly (a recording
     /// takes uniform samples, and the map is the recordings' difference).
     fn guide_passes(&mut self) {
         let views = &mut self.views;
@@ -489,7 +488,7 @@ impl<B: RenderBackend> LiveEngine<B> {
         }
         let due = views
             .guided_at
-            .is_none_or(|at| f64::from(spp) >= f64::from(at) * RECOMPUTE_GROWTH);
+            .is_none_or(|at| f64::from(spp) >= f64::from(at) * REWEIGH_GROWTH);
         // Weights take effect once the first view's recording is complete.
         if !due || spp < views.cache_samples.max(2) {
             return;
