@@ -7,7 +7,7 @@
 //! noise of either film ([`Film::sample_delta_e`]). A pixel whose map reads d is
 //! decided once σ ≤ [`NOISE_TO_SIGNAL`] · max(d − σ, [`VISIBLE`]): against the
 //! reading less one error, since a reading the noise has pushed up must not lower
-//! its own bar. That holds from n* samples ([`samples_to_decide`]). Per pixel:
+//! its own bar. That holds from n* samples (`samples_to_decide`). Per pixel:
 //!
 //! 1. its shortfall x = n* / n − 1, at least 0, where s is the largest of its
 //!    3 × 3 neighbourhood: at a highlight's edge a few percent of the samples
