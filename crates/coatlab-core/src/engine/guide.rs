@@ -76,7 +76,8 @@ pub fn map_guided_weights(a: &Film, b: &Film, display: &DisplaySettings) -> Opti
     let (width, height) = (a.width() as usize, a.height() as usize);
     let map = DeltaEMap::between(a, b, display)?;
     let (noise_a, noise_b) = (a.sample_delta_e(display), b.sample_delta_e(display));
-    // A pixel of fewer than two samples has no noise estimate yet.
+    // A pixel of fewer than two samples in either film has no noise estimate yet
+    // (`sample_delta_e` reads infinite there), so past this every n is at least 2.
     if map
         .values
         .iter()
@@ -102,9 +103,6 @@ pub fn map_guided_weights(a: &Film, b: &Film, display: &DisplaySettings) -> Opti
     {
         let (x, y) = ((i % width) as u32, (i / width) as u32);
         let n = a.sample_count(x, y).min(b.sample_count(x, y)) as f64;
-        if n < 2.0 {
-            return None;
-        }
         let x = if f64::from(d_near) < UNDECIDED_FROM {
             0.0f32
         } else {
