@@ -1228,6 +1228,12 @@ fn a_file_chosen_in_the_system_dialog_opens_while_the_ui_keeps_drawing() {
     assert!(h.state().file_dialogs().is_waiting());
     assert!(h.query_by_label("Waiting for the file dialog…").is_some());
     assert_ne!(h.state().design(), &deep_blue());
+    // The dialog's thread asks when the scheduler runs it, which five frames do
+    // not promise.
+    wait_until(&mut h, "the system dialog to be asked", |_| {
+        !fake.requests().is_empty()
+    });
+    assert!(h.state().file_dialogs().is_waiting());
     let asked = fake.requests();
     assert_eq!(asked.len(), 1);
     assert!(!asked[0].save && asked[0].extensions == ["toml"]);
