@@ -12,10 +12,8 @@
 //! 1. its shortfall x = n* / n − 1, at least 0, where s is the largest of its
 //!    3 × 3 neighbourhood: at a highlight's edge a few percent of the samples
 //!    find the highlight, and a pixel that has not drawn one yet reads nearly
-//!    noise-free beside neighbours that have; 0 where the map reads less than
-//!    [`UNDECIDED_FROM`] across that neighbourhood (nothing to show there, or not
-//!    yet: while n is small the noise alone reads above it, and such pixels ask
-//!    until it does not);
+//!    noise-free beside neighbours that have; 0 unless the views differ there
+//!    beyond their noise (below);
 //! 2. the largest x of its 3 × 3 neighbourhood, as adaptive sampling does
 //!    ([`crate::render::adaptive`]): a pixel's share then depends mostly on its
 //!    neighbours' samples, which keeps its plain mean nearly unbiased, and the
@@ -26,6 +24,18 @@
 //!    the most undecided pixels are served first, and every pixel keeps at
 //!    least [`LEAST_SHARE`] of an even share;
 //! 4. weight 1 + extra, normalised to a mean of 1.
+//!
+//! A pixel asks only where the map of the views' 3 × 3 mean colours reads at
+//! least [`UNDECIDED_FROM`] somewhere in its 3 × 3 neighbourhood, or where its own
+//! reading less its error is at least [`VISIBLE`]. Averaging nine pixels divides
+//! their noise by about three, while a difference that spans pixels (a highlight
+//! moved, widened or dimmed) stays; a lone pixel that plainly differs asks by its
+//! own reading. Without the first test, pixels that differ only by their noise
+//! (floor, glass, most of a gloss variant's image) read above [`UNDECIDED_FROM`]
+//! often enough to take over half of the samples, since `s` over-states the
+//! noise of the sampler's stratified means most where a pixel is well behaved
+//! ([`Film::variance_of_mean_xyz`]), and the few hundred pixels that do differ
+//! were held to half their extra.
 //!
 //! Where the two views differ by colour the map is decided early everywhere
 //! (its signal is large against its noise) and the weights soon stay even;
@@ -46,14 +56,17 @@ pub const NOISE_TO_SIGNAL: f64 = 0.4;
 /// its noise is below [`NOISE_TO_SIGNAL`] times its reading or times this,
 /// whichever is larger (a reading below it needs no finer noise than this).
 pub const VISIBLE: f64 = 1.0;
-/// ΔE00 from which a map reading asks to be decided: half the difference of 1
-/// that a designer reads as visible, so that a pixel whose true difference is
-/// just above 1 but reads lower is still sampled.
+/// ΔE00 from which the map of the views' 3 × 3 means asks to be decided: half
+/// the difference of 1 that a designer reads as visible, so that pixels whose
+/// true difference is just above 1 but read lower are still sampled.
 pub const UNDECIDED_FROM: f64 = 0.5;
 /// The most samples a pixel asks for beyond an even share, as a multiple of it:
 /// a few hundred undecided pixels then reach the samples of a render many times
-/// longer without slowing the rest of the image much.
-pub const MOST_EXTRA: f64 = 15.0;
+/// longer without slowing the rest of the image much. At a gloss variant's
+/// highlight fringe, where a percent of the samples find the highlight, the map
+/// needs some 20–30 times the image's mean samples; measured against 15 and 63
+/// (docs/benchmarks.md, "Comparison").
+pub const MOST_EXTRA: f64 = 31.0;
 /// The weights are made again when the first view's samples per pixel have grown
 /// by this factor: a pixel at a highlight's edge that has just drawn the
 /// highlight is served soon after. Measured against adaptive sampling's ×1.5
@@ -93,7 +106,14 @@ pub fn map_guided_weights(a: &Film, b: &Film, display: &DisplaySettings) -> Opti
         .map(|(&e_a, &e_b)| e_a.hypot(e_b))
         .collect();
     let noise_near = neighbourhood_max(&noise, width, height);
-    let reading_near = neighbourhood_max(&map.values, width, height);
+    let coarse = DeltaEMap::between_xyz(
+        a.width(),
+        a.height(),
+        &neighbourhood_means(a),
+        &neighbourhood_means(b),
+        display,
+    )?;
+    let reading_near = neighbourhood_max(&coarse.values, width, height);
     let mut shortfall = Vec::with_capacity(width * height);
     for (i, (&d, (&s, &d_near))) in map
         .values
@@ -103,7 +123,8 @@ pub fn map_guided_weights(a: &Film, b: &Film, display: &DisplaySettings) -> Opti
     {
         let (x, y) = ((i % width) as u32, (i / width) as u32);
         let n = a.sample_count(x, y).min(b.sample_count(x, y)) as f64;
-        let x = if f64::from(d_near) < UNDECIDED_FROM {
+        let sigma = f64::from(s) / n.sqrt();
+        let x = if f64::from(d_near) < UNDECIDED_FROM && f64::from(d) - sigma < VISIBLE {
             0.0f32
         } else {
             let decided_at = samples_to_decide(f64::from(s), f64::from(d));
@@ -120,6 +141,38 @@ pub fn map_guided_weights(a: &Film, b: &Film, display: &DisplaySettings) -> Opti
     let extra: Vec<f64> = widened.iter().map(|&x| extra_above(x, level)).collect();
     let mean = 1.0 + extra.iter().sum::<f64>() / extra.len().max(1) as f64;
     Some(extra.iter().map(|&x| ((1.0 + x) / mean) as f32).collect())
+}
+
+/// Each pixel's mean XYZ averaged over its 3 × 3 neighbourhood (the pixels of it
+/// inside the image).
+fn neighbourhood_means(film: &Film) -> Vec<[f32; 3]> {
+    let (width, height) = (film.width(), film.height());
+    let means: Vec<[f64; 3]> = (0..height)
+        .flat_map(|y| (0..width).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let m = film.mean_xyz(x, y);
+            [m.x, m.y, m.z]
+        })
+        .collect();
+    let (w, h) = (width as usize, height as usize);
+    let mut out = Vec::with_capacity(w * h);
+    for y in 0..h {
+        let (y0, y1) = (y.saturating_sub(1), (y + 1).min(h - 1));
+        for x in 0..w {
+            let (x0, x1) = (x.saturating_sub(1), (x + 1).min(w - 1));
+            let mut sum = [0.0f64; 3];
+            for yy in y0..=y1 {
+                for m in &means[yy * w + x0..=yy * w + x1] {
+                    for k in 0..3 {
+                        sum[k] += m[k];
+                    }
+                }
+            }
+            let count = ((y1 - y0 + 1) * (x1 - x0 + 1)) as f64;
+            out.push(sum.map(|v| (v / count) as f32));
+        }
+    }
+    out
 }
 
 /// Samples a pixel's map needs before it is decided, with per-sample noise
@@ -251,6 +304,41 @@ mod tests {
     }
 
     #[test]
+    fn a_pixel_that_differs_only_by_its_noise_does_not_ask() {
+        // Both views the same noisy grey (each sample half or one and a half
+        // times the mean); in the second, the pixels within `reach` of the
+        // centre read a tenth brighter.
+        let noisy = |drift: f32, reach: u32| {
+            move |x: u32, y: u32, k: u32| {
+                let near = x.abs_diff(4) <= reach && y.abs_diff(4) <= reach;
+                let level = if near { 0.2 * drift } else { 0.2 };
+                [level
+                    * if (k + x + y).is_multiple_of(2) {
+                        0.5
+                    } else {
+                        1.5
+                    }; 3]
+            }
+        };
+        // At the centre alone: about what eight such samples' noise moves a
+        // mean by, so the map reads a visible difference there, but the views'
+        // 3 × 3 means barely differ and its own reading is within its error.
+        let (a, b) = (film(8, noisy(1.0, 0)), film(8, noisy(1.1, 0)));
+        let map = DeltaEMap::between(&a, &b, &display()).expect("map");
+        let centre = map.values[(4 * SIZE + 4) as usize];
+        assert!(f64::from(centre) > VISIBLE, "the centre reads {centre}");
+        let weights = map_guided_weights(&a, &b, &display()).expect("weights");
+        assert!(weights.iter().all(|&w| w == 1.0), "{weights:?}");
+        // The same over the centre's 3 × 3 is a difference of the views: its
+        // pixels read it plainly enough, and the pixels around them, which read
+        // none, ask until their noise could not hide one.
+        let (a, b) = (film(8, noisy(1.0, 1)), film(8, noisy(1.1, 1)));
+        let weights = map_guided_weights(&a, &b, &display()).expect("weights");
+        let (beside, corner) = (weights[(4 * SIZE + 2) as usize], weights[0]);
+        assert!(beside > 2.0 * corner, "beside {beside}, corner {corner}");
+    }
+
+    #[test]
     fn every_pixel_keeps_its_least_share_however_many_are_undecided() {
         // Every pixel a noisy highlight that differs between the views, except
         // the first three rows.
@@ -321,11 +409,12 @@ mod tests {
 
     #[test]
     fn the_most_undecided_pixels_are_served_first() {
-        // Ten pixels, a budget of 2 extra samples a pixel on average (20 in all):
-        // the level comes down to 15, where the first pixel's extra is full (15)
-        // and the second's 5; the third, 5 short, gets nothing yet.
-        let shortfall = [40.0, 20.0, 5.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
-        let level = fill_level(&shortfall, 2.0);
+        // Ten pixels and a budget of MOST_EXTRA + 5 extra samples in all: the
+        // level comes down to 15, where the first pixel's extra is full
+        // (MOST_EXTRA) and the second's 5; the third, 5 short, gets nothing yet.
+        let mut shortfall = [0.0; 10];
+        shortfall[..3].copy_from_slice(&[MOST_EXTRA + 25.0, 20.0, 5.0]);
+        let level = fill_level(&shortfall, (MOST_EXTRA + 5.0) / 10.0);
         assert!((level - 15.0).abs() < 1e-9, "level {level}");
         // A budget that covers every shortfall: no level.
         assert_eq!(fill_level(&[3.0, 1.0, 0.0], 2.0), 0.0);
