@@ -113,18 +113,18 @@ pub fn map_guided_weights(a: &Film, b: &Film, display: &DisplaySettings) -> Opti
         &neighbourhood_means(b),
         display,
     )?;
-    let reading_near = neighbourhood_max(&coarse.values, width, height);
+    let coarse_near = neighbourhood_max(&coarse.values, width, height);
     let mut shortfall = Vec::with_capacity(width * height);
-    for (i, (&d, (&s, &d_near))) in map
+    for (i, (&d, (&s, &coarse_d))) in map
         .values
         .iter()
-        .zip(noise_near.iter().zip(&reading_near))
+        .zip(noise_near.iter().zip(&coarse_near))
         .enumerate()
     {
         let (x, y) = ((i % width) as u32, (i / width) as u32);
         let n = a.sample_count(x, y).min(b.sample_count(x, y)) as f64;
         let sigma = f64::from(s) / n.sqrt();
-        let x = if f64::from(d_near) < UNDECIDED_FROM && f64::from(d) - sigma < VISIBLE {
+        let x = if f64::from(coarse_d) < UNDECIDED_FROM && f64::from(d) - sigma < VISIBLE {
             0.0f32
         } else {
             let decided_at = samples_to_decide(f64::from(s), f64::from(d));
