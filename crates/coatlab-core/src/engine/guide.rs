@@ -43,7 +43,7 @@
 //! less glossy variant of itself), those pixels are sampled many times more
 //! than the rest. What it buys and costs: docs/benchmarks.md, "Comparison".
 
-use crate::render::adaptive::neighbourhood_max;
+use crate::render::adaptive::{neighbourhood_fold, neighbourhood_max};
 use crate::render::film::{DisplaySettings, Film};
 
 use super::delta_e::DeltaEMap;
@@ -146,33 +146,24 @@ pub fn map_guided_weights(a: &Film, b: &Film, display: &DisplaySettings) -> Opti
 /// Each pixel's mean XYZ averaged over its 3 × 3 neighbourhood (the pixels of it
 /// inside the image).
 fn neighbourhood_means(film: &Film) -> Vec<[f32; 3]> {
-    let (width, height) = (film.width(), film.height());
-    let means: Vec<[f64; 3]> = (0..height)
-        .flat_map(|y| (0..width).map(move |x| (x, y)))
+    let means: Vec<[f64; 3]> = (0..film.height())
+        .flat_map(|y| (0..film.width()).map(move |x| (x, y)))
         .map(|(x, y)| {
             let m = film.mean_xyz(x, y);
             [m.x, m.y, m.z]
         })
         .collect();
-    let (w, h) = (width as usize, height as usize);
-    let mut out = Vec::with_capacity(w * h);
-    for y in 0..h {
-        let (y0, y1) = (y.saturating_sub(1), (y + 1).min(h - 1));
-        for x in 0..w {
-            let (x0, x1) = (x.saturating_sub(1), (x + 1).min(w - 1));
-            let mut sum = [0.0f64; 3];
-            for yy in y0..=y1 {
-                for m in &means[yy * w + x0..=yy * w + x1] {
-                    for k in 0..3 {
-                        sum[k] += m[k];
-                    }
-                }
-            }
-            let count = ((y1 - y0 + 1) * (x1 - x0 + 1)) as f64;
-            out.push(sum.map(|v| (v / count) as f32));
-        }
-    }
-    out
+    let (width, height) = (film.width() as usize, film.height() as usize);
+    neighbourhood_fold(
+        &means,
+        width,
+        height,
+        ([0.0f64; 3], 0u32),
+        |(sum, count), m| (std::array::from_fn(|k| sum[k] + m[k]), count + 1),
+    )
+    .into_iter()
+    .map(|(sum, count)| sum.map(|v| (v / f64::from(count)) as f32))
+    .collect()
 }
 
 /// Samples a pixel's map needs before it is decided, with per-sample noise

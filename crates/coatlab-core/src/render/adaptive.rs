@@ -156,22 +156,35 @@ pub fn neighbourhood_weights(
 /// Each pixel's largest value of its 3 × 3 neighbourhood (clipped at the edges)
 /// in a `width` × `height` map of non-negative values, row major.
 pub fn neighbourhood_max(values: &[f32], width: usize, height: usize) -> Vec<f32> {
+    neighbourhood_fold(values, width, height, 0.0f32, |m, &v| m.max(v))
+}
+
+/// Each pixel's 3 × 3 neighbourhood (clipped at the edges) of a `width` ×
+/// `height` map, row major, folded from `init` by `fold` row by row, left to
+/// right.
+pub fn neighbourhood_fold<T, A: Copy>(
+    values: &[T],
+    width: usize,
+    height: usize,
+    init: A,
+    fold: impl Fn(A, &T) -> A,
+) -> Vec<A> {
     assert_eq!(values.len(), width * height, "map of the wrong size");
-    let mut largest = vec![0.0f32; values.len()];
+    let mut folded = Vec::with_capacity(values.len());
     for y in 0..height {
         let (y0, y1) = (y.saturating_sub(1), (y + 1).min(height - 1));
         for x in 0..width {
             let (x0, x1) = (x.saturating_sub(1), (x + 1).min(width - 1));
-            let mut m = 0.0f32;
+            let mut acc = init;
             for row in values[y0 * width..(y1 + 1) * width].chunks_exact(width) {
-                for &v in &row[x0..=x1] {
-                    m = m.max(v);
+                for v in &row[x0..=x1] {
+                    acc = fold(acc, v);
                 }
             }
-            largest[y * width + x] = m;
+            folded.push(acc);
         }
     }
-    largest
+    folded
 }
 
 /// Samples per pixel for one pass of `samples` per pixel on average, by `weights`
