@@ -42,6 +42,13 @@ fn render_with_integrator(
     car_render::render_with(&red(), which, seed, spp, recorded, integrator)
 }
 
+/// Per pixel the samples `r`'s path cache holds.
+fn recorded_per_pixel(r: &ProgressiveRender) -> Vec<u32> {
+    let film = r.film();
+    r.path_cache()
+        .recorded_per_pixel(film.width(), film.height())
+}
+
 fn shading(scene: &Scene, which: ShadingModel) -> Arc<Shading> {
     car_render::shading(scene, &red(), which)
 }
@@ -156,7 +163,8 @@ fn each_combined_pane_is_an_unbiased_image_of_its_own_model() {
         let reshaded = a
             .reshade_recorded(&shading(&scene, PHONG))
             .expect("re-shade");
-        let difference = ShadingDifference::of(&reshaded, a.film(), 8).expect("same size");
+        let counts = recorded_per_pixel(&a);
+        let difference = ShadingDifference::of(&reshaded, a.film(), 8, counts).expect("same size");
         [
             difference.combine_first(a.film(), b.film()),
             difference.combine(a.film(), b.film()),
@@ -320,7 +328,7 @@ fn successive_recordings_merge_into_the_difference_of_all_their_samples() {
         let image = r
             .reshade_recorded(&shading(scene, PHONG))
             .expect("re-shade");
-        ShadingDifference::of(&image, r.film(), recorded).expect("same size")
+        ShadingDifference::of(&image, r.film(), recorded, recorded_per_pixel(r)).expect("same size")
     };
     let (whole, scene) = render(ShadingModel::Paint, s, 16, 16);
     let all = phong_of(&whole, &scene, 16);
@@ -375,4 +383,85 @@ fn successive_recordings_merge_into_the_difference_of_all_their_samples() {
     );
     let one = total(&first) / total(&all);
     assert!(one > 1.4, "one recording of 8: variance ×{one} that of 16");
+}
+
+/// Recordings of passes spread by per-pixel weights (what a comparison's map
+/// guidance gives): each holds every sample of its passes, so a pixel's
+/// recorded samples are its film's, and the merged differences of two such
+/// recordings are the difference of one recording of both halves' passes, to
+/// f32 rounding: each pixel's means weighed by its own samples in each (a
+/// pixel's share of a pass is drawn afresh every pass, so its two halves hold
+/// different numbers of samples).
+#[test]
+fn recordings_of_weighted_passes_hold_each_pixels_own_samples_and_merge_by_them() {
+    let s = seed(11);
+    // Mean 1: the left half of the image at 0.3 of an even share, the right at
+    // 1.7 (a pass of 4 gives them 1.2 and 6.8 samples a pixel: whole samples
+    // drawn by pixel and pass).
+    let weights: Vec<f32> = (0..WIDTH * HEIGHT)
+        .map(|i| if i % WIDTH < WIDTH / 2 { 0.3 } else { 1.7 })
+        .collect();
+    let weighted = |recorded: u32| {
+        let (mut r, scene) = render(ShadingModel::Paint, s, 0, recorded);
+        r.set_pass_weights(Some(weights.clone()));
+        (r, scene)
+    };
+    let phong_of = |r: &ProgressiveRender, scene: &Scene| {
+        let image = r
+            .reshade_recorded(&shading(scene, PHONG))
+            .expect("re-shade");
+        let recorded = r.path_cache().samples_per_pixel();
+        ShadingDifference::of(&image, r.film(), recorded, recorded_per_pixel(r)).expect("same size")
+    };
+    let (mut whole, scene) = weighted(16);
+    whole.render_to(16, 4);
+    assert!(whole.path_cache_complete());
+    let film = whole.film();
+    let film_counts: Vec<u32> = (0..film.height())
+        .flat_map(|y| (0..film.width()).map(move |x| film.sample_count(x, y) as u32))
+        .collect();
+    assert_eq!(recorded_per_pixel(&whole), film_counts);
+    let half_mean = |right: bool| {
+        let of: Vec<u32> = film_counts
+            .iter()
+            .enumerate()
+            .filter(|&(i, _)| (i as u32 % WIDTH >= WIDTH / 2) == right)
+            .map(|(_, &n)| n)
+            .collect();
+        f64::from(of.iter().sum::<u32>()) / of.len() as f64
+    };
+    println!(
+        "samples a pixel, left {:.1}, right {:.1}",
+        half_mean(false),
+        half_mean(true)
+    );
+    assert!(half_mean(true) > 2.0 * half_mean(false));
+    let all = phong_of(&whole, &scene);
+
+    let (mut rolling, _) = weighted(8);
+    rolling.render_to(8, 4);
+    assert!(rolling.path_cache_complete());
+    let first = phong_of(&rolling, &scene);
+    assert!(rolling.record_next_samples(), "weights refused a recording");
+    rolling.render_to(16, 4);
+    assert!(rolling.path_cache_complete());
+    let second = phong_of(&rolling, &scene);
+    assert_ne!(
+        first.counts(),
+        second.counts(),
+        "the halves hold the same counts"
+    );
+    let merged = first.merged(&second).expect("same size");
+    assert_eq!(merged.counts(), all.counts());
+    let largest_gap = merged
+        .mean_xyz()
+        .iter()
+        .zip(all.mean_xyz())
+        .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs() / (1e-3 + b[c].abs())))
+        .fold(0.0f32, f32::max);
+    println!("largest relative gap, merged vs one recording: {largest_gap:.2e}");
+    assert!(
+        largest_gap < 1e-4,
+        "merged differs from one recording: {largest_gap}"
+    );
 }

@@ -77,8 +77,11 @@ pub trait BackendView: Send {
     /// The recorded paths re-shaded with `shading` (the picture this view would
     /// show with it), without tracing.
     fn reshade_recorded(&self, shading: &Shading) -> Result<Reshaded, ReshadeError>;
-    /// Samples per pixel the path cache holds.
+    /// Samples per pixel the path cache holds (the pixels' mean where its
+    /// passes were spread by weights).
     fn recorded_samples(&self) -> u32;
+    /// Per pixel (row major) the samples the path cache holds.
+    fn recorded_per_pixel(&self) -> Vec<u32>;
     /// Whether the path cache holds every sample its recording takes.
     fn recording_complete(&self) -> bool;
     /// Drops a complete recording and records as many samples per pixel again

@@ -91,6 +91,11 @@ impl BackendView for ProgressiveRender {
         self.path_cache().samples_per_pixel()
     }
 
+    fn recorded_per_pixel(&self) -> Vec<u32> {
+        let (width, height) = self.resolution();
+        self.path_cache().recorded_per_pixel(width, height)
+    }
+
     fn recording_complete(&self) -> bool {
         self.path_cache_complete()
     }

@@ -380,7 +380,9 @@ impl<B: RenderBackend> LiveEngine<B> {
         self.counters.pane_reshades += 1;
         let difference = first
             .reshade_recorded(&shading)
-            .and_then(|image| ShadingDifference::of(&image, first.film(), recorded))
+            .and_then(|image| {
+                ShadingDifference::of(&image, first.film(), recorded, first.recorded_per_pixel())
+            })
             .and_then(|d| match (&self.views.difference, kept, complete) {
                 (Some((merged, _)), Some(Recordings::Merged), true) => merged.merged(&d),
                 _ => Ok(d),

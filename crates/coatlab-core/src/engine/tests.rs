@@ -1050,6 +1050,9 @@ impl BackendView for CountingView {
     fn recorded_samples(&self) -> u32 {
         BackendView::recorded_samples(&self.render)
     }
+    fn recorded_per_pixel(&self) -> Vec<u32> {
+        BackendView::recorded_per_pixel(&self.render)
+    }
     fn recording_complete(&self) -> bool {
         BackendView::recording_complete(&self.render)
     }

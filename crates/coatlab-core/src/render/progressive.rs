@@ -412,16 +412,15 @@ impl ProgressiveRender {
     /// sample. What a comparison does with its shared paths: the difference it
     /// re-shades from each recording is an unbiased estimate on fresh samples, so
     /// the estimates of successive recordings average down at the memory of one
-    /// ([`crate::render::reshade::ShadingDifference::merged`]). False, and nothing
-    /// changes, while the recording is incomplete, and under adaptive sampling
-    /// or weights given ([`Self::set_pass_weights`]): the recording takes
-    /// uniform samples, which would keep every pass uniform. The vectors keep
-    /// their capacity, which the budget counts.
+    /// ([`crate::render::reshade::ShadingDifference::merged`]). Under weights
+    /// given ([`Self::set_pass_weights`]) a recording holds every sample of its
+    /// passes, as many per pixel as the weights gave it. False, and nothing
+    /// changes, while the recording is incomplete, and under adaptive sampling,
+    /// whose passes are uniform while a recording takes samples, so that
+    /// recording on would keep every pass uniform. The vectors keep their
+    /// capacity, which the budget counts.
     pub fn record_next_samples(&mut self) -> bool {
-        if !self.cache_complete()
-            || self.settings.adaptive.is_some()
-            || self.given_weights.is_some()
-        {
+        if !self.cache_complete() || self.settings.adaptive.is_some() {
             return false;
         }
         self.cache_window = self.path_cache_target();
@@ -753,9 +752,16 @@ impl ProgressiveRender {
                     plan,
                     len,
                 };
-                if counts.is_none() && recording {
+                if recording {
+                    // A pass spread by weights is recorded whole: its samples of
+                    // a pixel start at the pixel's own count, not at one index.
+                    let below = if counts.is_some() {
+                        u32::MAX
+                    } else {
+                        record_below
+                    };
                     let mut recorder = TileRecorder::new(cache, &tracer);
-                    job.render(tile, Some((&mut recorder, record_below)))
+                    job.render(tile, Some((&mut recorder, below)))
                 } else {
                     job.render(tile, None)
                 }
@@ -777,10 +783,13 @@ impl ProgressiveRender {
             self.cache.samples_per_pixel = first_sample
                 .min(record_below)
                 .saturating_sub(self.cache_first);
-        } else {
-            self.cache.samples_per_pixel = (first_sample + samples)
-                .min(record_below)
-                .saturating_sub(self.cache_first);
+        } else if recording {
+            let end = if counts.is_some() {
+                first_sample + samples
+            } else {
+                (first_sample + samples).min(record_below)
+            };
+            self.cache.samples_per_pixel = end.saturating_sub(self.cache_first);
         }
         for tile in &self.tiles {
             self.film.merge(tile);
@@ -819,18 +828,19 @@ impl ProgressiveRender {
         Some(stats)
     }
 
-    /// The per-pixel sample counts of the next pass when it is adaptive, once the
-    /// path cache (which records uniform samples) is complete: by the weights
-    /// given ([`Self::set_pass_weights`]), else with adaptive sampling on, once
-    /// every pixel has its uniform samples, by its noise map, recomputed when the
-    /// samples per pixel have grown by [`RECOMPUTE_GROWTH`].
+    /// The per-pixel sample counts of the next pass when it is uneven: by the
+    /// weights given ([`Self::set_pass_weights`]), else with adaptive sampling
+    /// on, once the path cache (which then records uniform samples) is complete
+    /// and every pixel has its uniform samples, by its noise map, recomputed
+    /// when the samples per pixel have grown by [`RECOMPUTE_GROWTH`].
     fn adaptive_counts(&mut self, samples: u32, record_below: u32) -> Option<Vec<u32>> {
         let spp = self.samples_per_pixel;
-        if spp < record_below || samples == 0 {
+        if samples == 0 {
             return None;
         }
         let weights = match &self.given_weights {
             Some(weights) => weights,
+            None if spp < record_below => return None,
             None => {
                 let adaptive = self.settings.adaptive?;
                 if spp < adaptive.uniform_samples.max(2) {
@@ -861,9 +871,10 @@ impl ProgressiveRender {
 
     /// Spreads the samples of every later pass by `weights` (one per pixel, row
     /// major, mean 1) instead of evenly or by adaptive sampling's own noise map,
-    /// once the path cache is complete (it records uniform samples) and until the
-    /// next restart; keeps the samples. What a comparison rendered apart does to
-    /// spend more of both views' samples where its ΔE00 map is undecided
+    /// until the next restart; keeps the samples. A recording of paths then
+    /// holds every sample of its passes, more of some pixels than of others
+    /// ([`PathCache::recorded_per_pixel`]). What a comparison does to spend
+    /// more of both views' samples where its ΔE00 map is undecided
     /// ([`crate::engine`]'s guide). `None`, or weights of another size (a view
     /// resized since), spread them as before. A pixel's value is still the mean
     /// of its samples and its k-th sample still `PixelSampler(seed, p, k)`, so

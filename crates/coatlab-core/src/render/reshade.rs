@@ -202,12 +202,13 @@ pub struct TileCache {
     /// recordings are rolled back and recording stops (see
     /// [`PathCache::memory_bytes`]).
     overflowed: bool,
-    /// Samples per pixel recorded into this tile so far (the next pass's first
-    /// sample index, which the recorder is not told).
-    samples: u32,
-    /// [`Self::lengths`] and [`Self::samples`] when the pass being recorded began,
-    /// so that rolling the pass back also rolls back the sample count.
-    pass_start: Option<([usize; 5], u32)>,
+    /// Per pixel of the tile (row major), the samples recorded so far: the
+    /// next recorded sample's index. A pass spread by per-pixel weights records
+    /// more samples of some pixels than of others.
+    counts: Vec<u32>,
+    /// [`Self::lengths`] and [`Self::counts`] when the pass being recorded
+    /// began, so that rolling the pass back also rolls back the counts.
+    pass_start: Option<([usize; 5], Vec<u32>)>,
 }
 
 /// A path whose only painted vertex is its first, the common case (the camera
@@ -262,8 +263,14 @@ impl TileCache {
             origin,
             width,
             height,
+            counts: vec![0; width as usize * height as usize],
             ..Self::default()
         }
+    }
+
+    /// The samples recorded of the tile's pixel `pixel` (row major in the tile).
+    pub(crate) fn recorded(&self, pixel: usize) -> u32 {
+        self.counts[pixel]
     }
 
     /// Draws this tile's growth from `pool`, the bytes left in the budget that all
@@ -295,7 +302,7 @@ impl TileCache {
     pub(crate) fn clear(&mut self) {
         each_store!(self, |store, _| store.clear());
         self.overflowed = false;
-        self.samples = 0;
+        self.counts.fill(0);
         self.pass_start = None;
     }
 
@@ -313,10 +320,10 @@ impl TileCache {
     pub(crate) fn truncate(&mut self, lengths: [usize; 5]) {
         // Called with the lengths from before a pass (cancelled or over the
         // budget): that pass's samples are not recorded.
-        if let Some((start, samples)) = self.pass_start
-            && start == lengths
+        if let Some((start, counts)) = &self.pass_start
+            && *start == lengths
         {
-            self.samples = samples;
+            self.counts.copy_from_slice(counts);
         }
         each_store!(self, |store, i| store.truncate(lengths[i]));
     }
@@ -461,11 +468,6 @@ pub(crate) struct TileRecorder<'a> {
     tracer: &'a PathTracer<'a>,
     buffers: ReplayBuffers,
     start: usize,
-    /// The tile's recorded samples per pixel when this pass began.
-    first_sample: u32,
-    /// The last pixel finished (tile index) and its sample's offset in this pass:
-    /// a pass traces all its samples of a pixel in a row.
-    last: Option<(u32, u32)>,
     painted_vertices: u32,
     first_painted: bool,
     escaped: bool,
@@ -482,15 +484,12 @@ pub(crate) struct TileRecorder<'a> {
 impl<'a> TileRecorder<'a> {
     pub(crate) fn new(cache: &'a mut TileCache, tracer: &'a PathTracer<'a>) -> Self {
         let start = cache.vertices.len();
-        let first_sample = cache.samples;
-        cache.pass_start = Some((cache.lengths(), first_sample));
+        cache.pass_start = Some((cache.lengths(), cache.counts.clone()));
         Self {
             cache,
             tracer,
             buffers: ReplayBuffers::new(tracer.len()),
             start,
-            first_sample,
-            last: None,
             painted_vertices: 0,
             first_painted: false,
             escaped: false,
@@ -523,13 +522,9 @@ impl<'a> TileRecorder<'a> {
     pub(crate) fn finish(&mut self, x: u32, y: u32, xyz: Xyz) {
         let start = self.start;
         let pixel = (y - self.cache.origin[1]) * self.cache.width + (x - self.cache.origin[0]);
-        let offset = match self.last {
-            Some((last, offset)) if last == pixel => offset + 1,
-            _ => 0,
-        };
-        self.last = Some((pixel, offset));
-        let sample = self.first_sample + offset;
-        self.cache.samples = self.cache.samples.max(sample + 1);
+        let count = &mut self.cache.counts[pixel as usize];
+        let sample = *count;
+        *count += 1;
         if self.painted_vertices == 0 || self.cache.overflowed {
             self.cache.vertices.truncate(start);
             return;
@@ -725,8 +720,10 @@ impl PathRecorder for TileRecorder<'_> {
     }
 }
 
-/// The paths recorded for re-shading: the first
-/// [`PathCache::samples_per_pixel`] samples of every pixel that touched the paint.
+/// The paths recorded for re-shading: of every pixel's recorded samples, those
+/// that touched the paint. Every pixel has [`PathCache::samples_per_pixel`]
+/// recorded samples, unless the recorded passes were spread by per-pixel
+/// weights ([`PathCache::recorded_per_pixel`]).
 #[derive(Debug, Clone, Default)]
 pub struct PathCache {
     pub(crate) tiles: Vec<TileCache>,
@@ -738,9 +735,28 @@ pub struct PathCache {
 }
 
 impl PathCache {
-    /// Samples per pixel recorded.
+    /// Samples per pixel recorded: every pixel's, or with passes spread by
+    /// per-pixel weights, the passes' samples per pixel (the pixels' mean).
     pub fn samples_per_pixel(&self) -> u32 {
         self.samples_per_pixel
+    }
+
+    /// Per pixel of the `width` × `height` image the cache was recorded for (row
+    /// major), its recorded samples.
+    pub fn recorded_per_pixel(&self, width: u32, height: u32) -> Vec<u32> {
+        let mut counts = vec![0; width as usize * height as usize];
+        for tile in &self.tiles {
+            for (row, tile_row) in tile
+                .counts
+                .chunks_exact(tile.width.max(1) as usize)
+                .enumerate()
+            {
+                let start =
+                    (tile.origin[1] as usize + row) * width as usize + tile.origin[0] as usize;
+                counts[start..start + tile_row.len()].copy_from_slice(tile_row);
+            }
+        }
+        counts
     }
 
     /// Stored paths (those that touched the paint).
@@ -850,14 +866,17 @@ pub fn reshade(
         environment,
         shading,
         floor,
-        cache.samples_per_pixel,
+        u32::MAX,
     )
 }
 
 /// [`reshade`] from a prepared [`BaseImage`] of `film` (the film supplies only
 /// its colour-matching weights) and only the first `samples` recorded samples of
-/// every pixel (clamped to 1 ..= [`PathCache::samples_per_pixel`]): about
+/// every pixel (at least 1; all of a pixel's where it has fewer): about
 /// `samples`/K of the work, for a first image the moment an edit arrives.
+/// Each pixel's mean is over its own recorded samples, so a recording that
+/// holds more samples of some pixels than of others (passes spread by
+/// per-pixel weights) gives every pixel its own estimate from all it has.
 ///
 /// Each recorded sample alone gives an unbiased estimate of the difference the
 /// edit makes, so the mean over the first `samples` of them does too, only
@@ -901,8 +920,7 @@ pub fn reshade_prepared(
         .floor()
         .filter(|_| floor)
         .map(|f| SimpleMaterial::lambertian(&f.reflectance));
-    let used = samples.clamp(1, cache.samples_per_pixel.max(1));
-    let k = f64::from(used);
+    let used = samples.max(1);
     let width = base.width as usize;
     let mut xyz = vec![[0.0f32; 3]; base.xyz.len()];
     let mut variance_y = vec![0.0f32; base.variance_y.len()];
@@ -963,15 +981,19 @@ pub fn reshade_prepared(
                     let (tx, ty) = (p % tile.width as usize, p / tile.width as usize);
                     let i = ty * width + tile.origin[0] as usize + tx;
                     let (v, var) = (&mut xyz_rows[i], &mut var_rows[i]);
-                    // Mean and variance of the difference over the samples used (the
-                    // paths not stored have a difference of exactly 0).
+                    // Mean and variance of the difference over the pixel's samples
+                    // used (the paths not stored have a difference of exactly 0;
+                    // a stored path makes the count at least 1).
+                    let recorded = tile.recorded(p);
+                    let used = used.min(recorded);
+                    let k = f64::from(used);
                     for c in 0..3 {
                         v[c] += (s[c] / k) as f32;
                     }
                     if used > 1 {
                         let mean = s[1] / k;
                         *var += (((s[3] - k * mean * mean) / (k - 1.0)).max(0.0) / k) as f32;
-                    } else if cache.samples_per_pixel > 1 {
+                    } else if recorded > 1 {
                         *var += s[3] as f32;
                     }
                 }
@@ -1000,15 +1022,25 @@ pub struct ShadingDifference {
     xyz: Vec<[f32; 3]>,
     variance_y: Vec<f32>,
     samples: u32,
+    /// Per pixel, the recorded samples its mean is over.
+    counts: Vec<u32>,
 }
 
 impl ShadingDifference {
     /// The difference in `reshaded` (the recorded paths of the render whose
     /// film is `film` re-shaded with the second shading, from `samples` recorded
-    /// samples per pixel) less the film's means and variances as they were when
-    /// it was re-shaded.
-    pub fn of(reshaded: &Reshaded, film: &Film, samples: u32) -> Result<Self, ReshadeError> {
-        if (reshaded.width, reshaded.height) != (film.width(), film.height()) {
+    /// samples per pixel, `counts` per pixel: [`PathCache::samples_per_pixel`]
+    /// and [`PathCache::recorded_per_pixel`]) less the film's means and
+    /// variances as they were when it was re-shaded.
+    pub fn of(
+        reshaded: &Reshaded,
+        film: &Film,
+        samples: u32,
+        counts: Vec<u32>,
+    ) -> Result<Self, ReshadeError> {
+        if (reshaded.width, reshaded.height) != (film.width(), film.height())
+            || counts.len() != reshaded.xyz.len()
+        {
             return Err(ReshadeError::SizeChanged);
         }
         let base = BaseImage::of(film);
@@ -1030,12 +1062,20 @@ impl ShadingDifference {
             xyz,
             variance_y,
             samples,
+            counts,
         })
     }
 
-    /// Recorded samples per pixel the difference was estimated from.
+    /// Recorded samples per pixel the difference was estimated from (the
+    /// pixels' mean where the recordings' passes were spread by weights).
     pub fn samples(&self) -> u32 {
         self.samples
+    }
+
+    /// Per pixel (row major) the recorded samples its difference was estimated
+    /// from.
+    pub fn counts(&self) -> &[u32] {
+        &self.counts
     }
 
     /// Per pixel (row major) the mean of c_B − c_A, X, Y and Z.
@@ -1050,39 +1090,46 @@ impl ShadingDifference {
 
     /// This difference and `other`, estimated from other samples of the same
     /// pixels (a later recording of the same render), as one: per pixel the mean
-    /// over both recordings' samples (each mean weighed by its samples) and the
-    /// variance of that mean. Recordings on different samples are independent,
-    /// so the variance of the merged mean is Σ kᵢ² Vᵢ / (Σ kᵢ)².
+    /// over both recordings' samples (each mean weighed by the pixel's samples
+    /// in it) and the variance of that mean. Recordings on different samples
+    /// are independent, so the variance of the merged mean is
+    /// Σ kᵢ² Vᵢ / (Σ kᵢ)².
     pub fn merged(&self, other: &Self) -> Result<Self, ReshadeError> {
         if (self.width, self.height) != (other.width, other.height) {
             return Err(ReshadeError::SizeChanged);
         }
-        let (ka, kb) = (f64::from(self.samples), f64::from(other.samples));
-        let k = ka + kb;
-        if k == 0.0 {
-            return Ok(self.clone());
+        let pixels = self.xyz.len();
+        let (mut xyz, mut variance_y) = (Vec::with_capacity(pixels), Vec::with_capacity(pixels));
+        for i in 0..pixels {
+            let (ka, kb) = (f64::from(self.counts[i]), f64::from(other.counts[i]));
+            let k = ka + kb;
+            let (wa, wb) = if k == 0.0 {
+                (1.0, 0.0)
+            } else {
+                (ka / k, kb / k)
+            };
+            let (a, b) = (self.xyz[i], other.xyz[i]);
+            xyz.push(std::array::from_fn(|c| {
+                (wa * f64::from(a[c]) + wb * f64::from(b[c])) as f32
+            }));
+            let (va, vb) = (
+                f64::from(self.variance_y[i]),
+                f64::from(other.variance_y[i]),
+            );
+            variance_y.push((wa * wa * va + wb * wb * vb) as f32);
         }
-        let (wa, wb) = (ka / k, kb / k);
-        let xyz = self
-            .xyz
-            .iter()
-            .zip(&other.xyz)
-            .map(|(a, b)| {
-                std::array::from_fn(|c| (wa * f64::from(a[c]) + wb * f64::from(b[c])) as f32)
-            })
-            .collect();
-        let variance_y = self
-            .variance_y
-            .iter()
-            .zip(&other.variance_y)
-            .map(|(a, b)| (wa * wa * f64::from(*a) + wb * wb * f64::from(*b)) as f32)
-            .collect();
         Ok(Self {
             width: self.width,
             height: self.height,
             xyz,
             variance_y,
             samples: self.samples + other.samples,
+            counts: self
+                .counts
+                .iter()
+                .zip(&other.counts)
+                .map(|(a, b)| a + b)
+                .collect(),
         })
     }
 
