@@ -465,3 +465,64 @@ fn recordings_of_weighted_passes_hold_each_pixels_own_samples_and_merge_by_them(
         "merged differs from one recording: {largest_gap}"
     );
 }
+
+/// The variance of the panes' difference in Y that the map guidance reads
+/// (`ShadingDifference::panes_difference_variance_y`), summed over the image,
+/// against the spread of that difference over independent replicas: above it,
+/// as every variance estimated from a pixel's stratified samples is
+/// (tests/render.rs, `film_variance_overstates_the_replica_spread`), and less
+/// than three times it. Measured ×2.2; the panes' own variances summed, which
+/// leave out that the panes share the difference, give ×6.2, and the shared
+/// difference's variance alone ×3.4. Each replica: a paint render recording
+/// every sample and a Phong render of its own with the same seed, as the
+/// engine's two views are.
+#[test]
+fn the_panes_difference_variance_follows_the_spread_over_replicas() {
+    const SPP: u32 = 16;
+    const K: usize = 16;
+    let pixels = (WIDTH * HEIGHT) as usize;
+    let mut predicted = 0.0;
+    let mut differences: Vec<Vec<f64>> = Vec::with_capacity(K);
+    for i in 0..K {
+        let s = seed(300 + i as u64);
+        let (a, scene) = render(ShadingModel::Paint, s, SPP, SPP);
+        let (b, _) = render(PHONG, s, SPP, 0);
+        let image = a
+            .reshade_recorded(&shading(&scene, PHONG))
+            .expect("re-shade");
+        let d = ShadingDifference::of(&image, a.film(), SPP, recorded_per_pixel(&a))
+            .expect("same size");
+        let (first, _) = d.combine_first(a.film(), b.film()).expect("first pane");
+        let (second, _) = d.combine(a.film(), b.film()).expect("second pane");
+        let variance = d
+            .panes_difference_variance_y(a.film(), b.film())
+            .expect("same size");
+        predicted += variance.iter().map(|&v| f64::from(v)).sum::<f64>() / K as f64;
+        differences.push(
+            first
+                .xyz
+                .iter()
+                .zip(&second.xyz)
+                .map(|(p, q)| f64::from(q[1]) - f64::from(p[1]))
+                .collect(),
+        );
+    }
+    let measured: f64 = (0..pixels)
+        .map(|p| {
+            let mean = differences.iter().map(|d| d[p]).sum::<f64>() / K as f64;
+            differences
+                .iter()
+                .map(|d| (d[p] - mean).powi(2))
+                .sum::<f64>()
+                / (K - 1) as f64
+        })
+        .sum();
+    let ratio = predicted / measured;
+    println!(
+        "panes' difference, variance of Y summed: predicted {predicted:.3e}, over replicas {measured:.3e}, ratio {ratio:.2}"
+    );
+    assert!(
+        (1.0..3.0).contains(&ratio),
+        "predicted ×{ratio:.2} the replicas' spread"
+    );
+}

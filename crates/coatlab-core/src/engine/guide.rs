@@ -1,10 +1,17 @@
-//! Map-guided sampling: a comparison rendered apart spends more of both views'
-//! samples on the pixels where its ΔE00 map is still undecided.
+//! Map-guided sampling: a comparison spends more of both views' samples on the
+//! pixels where its ΔE00 map is still undecided.
 //!
 //! The map is there to show where the two views differ, not the noise of two
 //! renders. Rendered apart, its error at a pixel after n samples in each view is
 //! about σ = s / √n, with s = √(e_A² + e_B²) and e the per-sample perceptual
-//! noise of either film ([`Film::sample_delta_e`]). A pixel whose map reads d is
+//! noise of either film ([`Film::sample_delta_e`]). Shared, the map is between
+//! the two panes, whose difference is mostly the shared difference of the first
+//! view's recorded paths; its error is what one standard error of that
+//! difference's Y moves the colour by
+//! ([`crate::render::reshade::ShadingDifference::panes_difference_variance_y`]),
+//! and s = σ √n with n the first view's samples (its recordings take every
+//! sample of its passes, so a pixel's recorded samples grow with its weight,
+//! [`crate::render::reshade::PathCache::recorded_per_pixel`]). A pixel whose map reads d is
 //! decided once σ ≤ [`NOISE_TO_SIGNAL`] · max(d − σ, [`VISIBLE`]): against the
 //! reading less one error, since a reading the noise has pushed up must not lower
 //! its own bar. That holds from n* samples (`samples_to_decide`). Per pixel:
@@ -43,8 +50,11 @@
 //! less glossy variant of itself), those pixels are sampled many times more
 //! than the rest. What it buys and costs: docs/benchmarks.md, "Comparison".
 
+use rayon::prelude::*;
+
+use crate::colour::{Xyz, ciede2000};
 use crate::render::adaptive::{neighbourhood_fold, neighbourhood_max};
-use crate::render::film::{DisplaySettings, Film};
+use crate::render::film::{DisplaySettings, Film, display_lab_of_xyz};
 
 use super::delta_e::DeltaEMap;
 
@@ -86,7 +96,6 @@ pub const LEAST_SHARE: f64 = 0.5;
 /// parallel where it costs (the map, the noise); the result does not depend on
 /// the thread count.
 pub fn map_guided_weights(a: &Film, b: &Film, display: &DisplaySettings) -> Option<Vec<f32>> {
-    let (width, height) = (a.width() as usize, a.height() as usize);
     let map = DeltaEMap::between(a, b, display)?;
     let (noise_a, noise_b) = (a.sample_delta_e(display), b.sample_delta_e(display));
     // A pixel of fewer than two samples in either film has no noise estimate yet
@@ -105,33 +114,128 @@ pub fn map_guided_weights(a: &Film, b: &Film, display: &DisplaySettings) -> Opti
         .zip(&noise_b)
         .map(|(&e_a, &e_b)| e_a.hypot(e_b))
         .collect();
-    let noise_near = neighbourhood_max(&noise, width, height);
+    let width = a.width();
+    let samples: Vec<f64> = (0..map.values.len())
+        .map(|i| {
+            let (x, y) = (i as u32 % width, i as u32 / width);
+            a.sample_count(x, y).min(b.sample_count(x, y)) as f64
+        })
+        .collect();
     let coarse = DeltaEMap::between_xyz(
         a.width(),
         a.height(),
-        &neighbourhood_means(a),
-        &neighbourhood_means(b),
+        &neighbourhood_means(&film_means(a), a.width(), a.height()),
+        &neighbourhood_means(&film_means(b), b.width(), b.height()),
         display,
     )?;
-    let coarse_near = neighbourhood_max(&coarse.values, width, height);
-    let mut shortfall = Vec::with_capacity(width * height);
-    for (i, (&d, (&s, &coarse_d))) in map
-        .values
+    Some(weights_from(
+        &map.values,
+        &noise,
+        &samples,
+        &coarse.values,
+        (a.width(), a.height()),
+    ))
+}
+
+/// [`map_guided_weights`] for a shared comparison: its panes `first` and
+/// `second` (each a mean XYZ per pixel), the variance of the second's Y less
+/// the first's per pixel (`difference_variance_y`, what
+/// [`crate::render::reshade::ShadingDifference::panes_difference_variance_y`]
+/// gives) and the first view's film, whose samples per pixel the panes' noise
+/// falls with (its recordings take the same share of the weights as its
+/// passes). The map's error at a pixel is the ΔE00 that one standard error of
+/// that Y moves the second pane's colour by, along its own chromaticity: the
+/// panes' variance is known for Y only. `None` while a pixel has fewer than two
+/// samples or the sizes differ.
+pub fn shared_map_guided_weights(
+    first: &[[f32; 3]],
+    second: &[[f32; 3]],
+    difference_variance_y: &[f32],
+    film: &Film,
+    display: &DisplaySettings,
+) -> Option<Vec<f32>> {
+    let (width, height) = (film.width(), film.height());
+    let pixels = width as usize * height as usize;
+    if difference_variance_y.len() != pixels {
+        return None;
+    }
+    let map = DeltaEMap::between_xyz(width, height, first, second, display)?;
+    let lab = |v: [f64; 3]| display_lab_of_xyz(Xyz::new(v[0], v[1], v[2]), display);
+    let samples: Vec<f64> = (0..pixels)
+        .map(|i| film.sample_count(i as u32 % width, i as u32 / width) as f64)
+        .collect();
+    if samples.iter().any(|&n| n < 2.0) {
+        return None;
+    }
+    let noise: Vec<f32> = second
+        .par_iter()
+        .zip(difference_variance_y.par_iter())
+        .zip(samples.par_iter())
+        .map(|((&colour, &variance), &n)| {
+            let c = colour.map(f64::from);
+            let se = f64::from(variance).max(0.0).sqrt();
+            // The direction a change of Y moves the colour in: its own
+            // chromaticity, or white where it has no luminance to scale.
+            let along = if c[1] > 1e-9 {
+                c.map(|v| v / c[1])
+            } else {
+                [0.9505, 1.0, 1.089]
+            };
+            let at = |sign: f64| {
+                lab(std::array::from_fn(|k| {
+                    (c[k] + sign * se * along[k]).max(0.0)
+                }))
+            };
+            let centre = lab(c);
+            let delta = ciede2000(centre, at(1.0)).max(ciede2000(centre, at(-1.0)));
+            if delta.is_finite() {
+                (delta * n.sqrt()) as f32
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let widen = |v: &[[f32; 3]]| {
+        let means: Vec<[f64; 3]> = v.iter().map(|c| c.map(f64::from)).collect();
+        neighbourhood_means(&means, width, height)
+    };
+    let coarse = DeltaEMap::between_xyz(width, height, &widen(first), &widen(second), display)?;
+    Some(weights_from(
+        &map.values,
+        &noise,
+        &samples,
+        &coarse.values,
+        (width, height),
+    ))
+}
+
+/// The weights from a map's readings `map`, its per-sample noise `noise` (s)
+/// and samples `samples` (n), and the map of 3 × 3 means `coarse`, all per
+/// pixel of an image of `size` (see the module documentation).
+fn weights_from(
+    map: &[f32],
+    noise: &[f32],
+    samples: &[f64],
+    coarse: &[f32],
+    size: (u32, u32),
+) -> Vec<f32> {
+    let (width, height) = (size.0 as usize, size.1 as usize);
+    let noise_near = neighbourhood_max(noise, width, height);
+    let coarse_near = neighbourhood_max(coarse, width, height);
+    let shortfall: Vec<f32> = map
         .iter()
         .zip(noise_near.iter().zip(&coarse_near))
-        .enumerate()
-    {
-        let (x, y) = ((i % width) as u32, (i / width) as u32);
-        let n = a.sample_count(x, y).min(b.sample_count(x, y)) as f64;
-        let sigma = f64::from(s) / n.sqrt();
-        let x = if f64::from(coarse_d) < UNDECIDED_FROM && f64::from(d) - sigma < VISIBLE {
-            0.0f32
-        } else {
-            let decided_at = samples_to_decide(f64::from(s), f64::from(d));
-            (decided_at / n - 1.0).max(0.0) as f32
-        };
-        shortfall.push(x);
-    }
+        .zip(samples)
+        .map(|((&d, (&s, &coarse_d)), &n)| {
+            let sigma = f64::from(s) / n.sqrt();
+            if f64::from(coarse_d) < UNDECIDED_FROM && f64::from(d) - sigma < VISIBLE {
+                0.0
+            } else {
+                let decided_at = samples_to_decide(f64::from(s), f64::from(d));
+                (decided_at / n - 1.0).max(0.0) as f32
+            }
+        })
+        .collect();
     let widened: Vec<f64> = neighbourhood_max(&shortfall, width, height)
         .into_iter()
         .map(f64::from)
@@ -140,24 +244,27 @@ pub fn map_guided_weights(a: &Film, b: &Film, display: &DisplaySettings) -> Opti
     let level = fill_level(&widened, budget);
     let extra: Vec<f64> = widened.iter().map(|&x| extra_above(x, level)).collect();
     let mean = 1.0 + extra.iter().sum::<f64>() / extra.len().max(1) as f64;
-    Some(extra.iter().map(|&x| ((1.0 + x) / mean) as f32).collect())
+    extra.iter().map(|&x| ((1.0 + x) / mean) as f32).collect()
 }
 
-/// Each pixel's mean XYZ averaged over its 3 × 3 neighbourhood (the pixels of it
-/// inside the image).
-fn neighbourhood_means(film: &Film) -> Vec<[f32; 3]> {
-    let means: Vec<[f64; 3]> = (0..film.height())
+/// Each pixel's mean XYZ, row major.
+fn film_means(film: &Film) -> Vec<[f64; 3]> {
+    (0..film.height())
         .flat_map(|y| (0..film.width()).map(move |x| (x, y)))
         .map(|(x, y)| {
             let m = film.mean_xyz(x, y);
             [m.x, m.y, m.z]
         })
-        .collect();
-    let (width, height) = (film.width() as usize, film.height() as usize);
+        .collect()
+}
+
+/// Each of `means` (row major, `width` × `height`) averaged over its 3 × 3
+/// neighbourhood (the pixels of it inside the image).
+fn neighbourhood_means(means: &[[f64; 3]], width: u32, height: u32) -> Vec<[f32; 3]> {
     neighbourhood_fold(
-        &means,
-        width,
-        height,
+        means,
+        width as usize,
+        height as usize,
         ([0.0f64; 3], 0u32),
         |(sum, count), m| (std::array::from_fn(|k| sum[k] + m[k]), count + 1),
     )
@@ -409,6 +516,65 @@ mod tests {
         assert!((level - 15.0).abs() < 1e-9, "level {level}");
         // A budget that covers every shortfall: no level.
         assert_eq!(fill_level(&[3.0, 1.0, 0.0], 2.0), 0.0);
+    }
+
+    /// Shared panes that differ by a little over 2 ΔE00 on the 3 × 3 pixels
+    /// around the centre, and agree precisely elsewhere: where the variance of
+    /// their difference makes that reading uncertain, those pixels and their
+    /// neighbours ask for more samples; where it is precise, the weights stay
+    /// even.
+    #[test]
+    fn shared_panes_ask_where_their_difference_is_uncertain() {
+        let pixels = (SIZE * SIZE) as usize;
+        let centre = |i: usize| {
+            let (x, y) = (i as u32 % SIZE, i as u32 / SIZE);
+            x.abs_diff(SIZE / 2) <= 1 && y.abs_diff(SIZE / 2) <= 1
+        };
+        let first = vec![[0.19f32, 0.2, 0.22]; pixels];
+        let second: Vec<[f32; 3]> = (0..pixels)
+            .map(|i| {
+                if centre(i) {
+                    [0.217, 0.228, 0.251]
+                } else {
+                    first[i]
+                }
+            })
+            .collect();
+        let map = DeltaEMap::between_xyz(SIZE, SIZE, &first, &second, &display()).expect("map");
+        println!("the centre reads {:.2}", map.values[pixels / 2]);
+        assert!((2.0..3.0).contains(&map.values[pixels / 2]));
+        let films = film(8, grey);
+        let weights_with = |standard_error: f32| {
+            let variance: Vec<f32> = (0..pixels)
+                .map(|i| {
+                    if centre(i) {
+                        standard_error.powi(2)
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            shared_map_guided_weights(&first, &second, &variance, &films, &display())
+                .expect("weights")
+        };
+        let uncertain = weights_with(0.03);
+        assert_mean_one(&uncertain);
+        // The block's noise spreads to its neighbours (the largest noise of a
+        // 3 × 3 neighbourhood) and their shortfall twice more: everything
+        // within three pixels of the centre may ask, the corners do not.
+        let most = uncertain.iter().copied().fold(0.0f32, f32::max);
+        let least = uncertain.iter().copied().fold(f32::INFINITY, f32::min);
+        let corner = uncertain[0];
+        println!("uncertain: {least:.2} to {most:.2}, corner {corner:.2}");
+        assert_eq!(corner, least);
+        assert!(most > 2.0 * corner, "most {most}, corner {corner}");
+        let precise = weights_with(1e-5);
+        assert!(
+            precise.iter().all(|&w| (w - 1.0).abs() < 1e-6),
+            "{precise:?}"
+        );
+        // A variance of another size: no weights.
+        assert!(shared_map_guided_weights(&first, &second, &[0.0], &films, &display()).is_none());
     }
 
     #[test]

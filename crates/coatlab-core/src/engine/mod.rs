@@ -21,7 +21,7 @@
 //! | `views` | the first view, and the second: shared or rendered apart |
 //! | [`frame`] | the published images |
 //! | [`delta_e`] | the ΔE00 map between the views |
-//! | [`guide`] | rendered apart, both views' samples spent where the map is undecided |
+//! | [`guide`] | both views' samples (and shared, the first view's recordings) spent where the map is undecided |
 //! | [`backend`], [`cpu`] | the seam for a back-end, and the CPU path tracer behind it |
 //! | [`events`] | loads, failures, the scene as shown |
 //! | [`thread`] | the engine on a render thread, commands in, images out |

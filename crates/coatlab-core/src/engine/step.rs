@@ -15,7 +15,7 @@ use super::frame::{
     SecondUpdate, ViewsUpdate, display_of, edit_update, film_frame, map_due, pair_update,
     shared_update,
 };
-use super::guide::{REWEIGH_GROWTH, map_guided_weights};
+use super::guide::{REWEIGH_GROWTH, map_guided_weights, shared_map_guided_weights};
 use super::live::{LiveEngine, Output, Progress};
 use super::plan::{self, Actions, Outcome, Phase, Restart, Second, Tables};
 use super::views::{
@@ -467,22 +467,25 @@ impl<B: RenderBackend> LiveEngine<B> {
         Progress::Stepped
     }
 
-    /// Rendered apart, both views' next passes spread their samples by where the
-    /// map is undecided ([`map_guided_weights`]), the weights made again when the
-    /// samples have grown by [`REWEIGH_GROWTH`]; shared, evenly (a recording
-    /// takes uniform samples, and the map is the recordings' difference).
+    /// Both views' next passes spread their samples by where the map is
+    /// undecided ([`map_guided_weights`] rendered apart, [`shared_map_guided_weights`]
+    /// shared, whose recordings then take the same share), the weights made
+    /// again when the samples have grown by [`REWEIGH_GROWTH`].
     fn guide_passes(&mut self) {
         let views = &mut self.views;
         let Some(second) = views.second.as_mut() else {
             return;
         };
-        if !views.map_guidance || views.shared.is_some() {
+        if !views.map_guidance {
             if views.guided_at.take().is_some() {
                 views.first.set_pass_weights(None);
                 second.set_pass_weights(None);
             }
             return;
         }
+        let Some(second) = views.second.as_ref() else {
+            return;
+        };
         let spp = views.first.samples_per_pixel();
         // A restart since has dropped the views' weights.
         if views.guided_at.is_some_and(|at| spp < at) {
@@ -491,11 +494,33 @@ impl<B: RenderBackend> LiveEngine<B> {
         let due = views
             .guided_at
             .is_none_or(|at| f64::from(spp) >= f64::from(at) * REWEIGH_GROWTH);
-        // Weights take effect once the first view's recording is complete.
         if !due || spp < views.cache_samples.max(2) {
             return;
         }
-        if let Some(weights) = map_guided_weights(views.first.film(), second.film(), &views.display)
+        let weights = if views.shared.is_some() {
+            let Some(Ok([(first_pane, _), (second_pane, _)])) = views.shared_panes() else {
+                return;
+            };
+            let Some((difference, _)) = &views.difference else {
+                return;
+            };
+            let (first_film, second_film) = (views.first.film(), second.film());
+            let Ok(variance) = difference.panes_difference_variance_y(first_film, second_film)
+            else {
+                return;
+            };
+            shared_map_guided_weights(
+                &first_pane.xyz,
+                &second_pane.xyz,
+                &variance,
+                first_film,
+                &views.display,
+            )
+        } else {
+            map_guided_weights(views.first.film(), second.film(), &views.display)
+        };
+        if let Some(weights) = weights
+            && let Some(second) = views.second.as_mut()
         {
             views.first.set_pass_weights(Some(weights.clone()));
             second.set_pass_weights(Some(weights));

@@ -807,6 +807,75 @@ fn views_rendered_apart_spend_their_samples_where_the_map_is_undecided() {
     );
 }
 
+/// Shared (paint against Phong), both views' passes and the first view's
+/// recordings spend more samples where the ΔE00 map of the panes is undecided:
+/// the views take the same counts per pixel, and the shared difference holds
+/// more recorded samples of a pixel the more samples its films have; with the
+/// guidance off, every pixel gets the same samples and the same recorded ones.
+#[test]
+fn shared_views_and_their_recordings_spend_their_samples_where_the_map_is_undecided() {
+    const SAMPLES: u32 = 64;
+    let counts = |guided: bool| {
+        let mut engine = engine();
+        engine.set_map_guidance(guided);
+        apply(
+            &mut engine,
+            Command::Quality(knobs(DEFAULT_WAVELENGTHS, SAMPLES)),
+        );
+        apply(
+            &mut engine,
+            Command::Views(Views::models(PhongVariant::Naive)),
+        );
+        converge_in_pairing(&mut engine, Pairing::Shared);
+        let second = engine.views.second.as_ref().expect("a second view");
+        let (first, second) = (
+            sample_counts(engine.first().film()),
+            sample_counts(second.film()),
+        );
+        let total = u64::from(SAMPLES) * first.len() as u64;
+        assert_eq!(first.iter().sum::<u64>(), total);
+        assert_eq!(first, second, "the views' samples per pixel differ");
+        let (difference, _) = engine
+            .views
+            .difference
+            .as_ref()
+            .expect("a shared difference");
+        let recorded: Vec<u64> = difference.counts().iter().map(|&k| u64::from(k)).collect();
+        (first, recorded)
+    };
+    let (even, even_recorded) = counts(false);
+    assert!(even.iter().all(|&n| n == u64::from(SAMPLES)));
+    assert!(
+        even_recorded.iter().all(|&k| k == even_recorded[0]),
+        "even passes recorded unevenly"
+    );
+    let (guided, recorded) = counts(true);
+    let most = guided.iter().copied().max().unwrap_or(0);
+    let least = guided.iter().copied().min().unwrap_or(0);
+    println!("guided: {least} to {most} samples a pixel");
+    assert!(
+        most >= 2 * u64::from(SAMPLES),
+        "the undecided pixels got at most {most} samples"
+    );
+    // Recorded samples follow the film's: the pixels with the most samples hold
+    // more recorded ones than those with the fewest.
+    let recorded_where = |n: u64| {
+        let of: Vec<u64> = guided
+            .iter()
+            .zip(&recorded)
+            .filter(|&(&g, _)| g == n)
+            .map(|(_, &k)| k)
+            .collect();
+        of.iter().sum::<u64>() as f64 / of.len() as f64
+    };
+    let (at_most, at_least) = (recorded_where(most), recorded_where(least));
+    println!("recorded: {at_least:.1} where least sampled, {at_most:.1} where most");
+    assert!(
+        at_most > 1.5 * at_least,
+        "recorded {at_most:.1} samples where the films have {most}, {at_least:.1} where {least}"
+    );
+}
+
 /// Two designs whose gloss lobes differ are rendered apart, a sharper second
 /// lobe beyond [`SHARED_LOBE_NARROWING`] and any wider one, and say why; a
 /// second lobe a little sharper, and Phong, naive or best fit, whose lobe is

@@ -1176,43 +1176,92 @@ impl ShadingDifference {
         self.blend(second, -1.0, first)
     }
 
-    /// `own` blended with `base` + `sign` × this difference, as [`Self::combine`]
-    /// describes.
-    fn blend(&self, base: &Film, sign: f64, own: &Film) -> Result<(Reshaded, f64), ReshadeError> {
-        let (first, size) = (base, (self.width, self.height));
-        if (first.width(), first.height()) != size || (own.width(), own.height()) != size {
+    /// Per pixel of `first`'s and `second`'s panes ([`Self::combine_first`],
+    /// [`Self::combine`]), the variance of the second pane's Y less the first
+    /// pane's: what the noise of the panes' ΔE00 map is made of. With the
+    /// panes' weights w₁ and w₂ of their own films, the difference is
+    /// (1 − w₁ − w₂)(A − B) + (2 − w₁ − w₂)·D, A and B the films and D this
+    /// difference; taken as independent (D shares some of A's samples, a
+    /// covariance the sum leaves out), its variance is
+    /// (1 − w₁ − w₂)²(V_A + V_B) + (2 − w₁ − w₂)² V_D.
+    pub fn panes_difference_variance_y(
+        &self,
+        first: &Film,
+        second: &Film,
+    ) -> Result<Vec<f32>, ReshadeError> {
+        let first_pane = self.pixel_estimates(second, -1.0, first)?;
+        let second_pane = self.pixel_estimates(first, 1.0, second)?;
+        let (w1, w2) = (
+            self.own_weights(&first_pane, second, -1.0, first),
+            self.own_weights(&second_pane, first, 1.0, second),
+        );
+        Ok(first_pane
+            .iter()
+            .zip(&second_pane)
+            .zip(w1.iter().zip(&w2))
+            .zip(&self.variance_y)
+            .map(|(((p1, p2), (w1, w2)), &v_d)| {
+                // Each pane's own variance is its own film's: A's for the first,
+                // B's for the second.
+                let (v_a, v_b) = (p1.own_variance, p2.own_variance);
+                let films = 1.0 - w1 - w2;
+                let shared = 2.0 - w1 - w2;
+                (films * films * (v_a + v_b) + shared * shared * f64::from(v_d)) as f32
+            })
+            .collect())
+    }
+
+    /// Per pixel: `base` + `sign` × this difference (the shared estimate) and
+    /// its variance of Y, and `own`'s mean and variance of Y (0 where not
+    /// finite, so it drops out of the sums).
+    fn pixel_estimates(
+        &self,
+        base: &Film,
+        sign: f64,
+        own: &Film,
+    ) -> Result<Vec<PaneEstimates>, ReshadeError> {
+        let size = (self.width, self.height);
+        if (base.width(), base.height()) != size || (own.width(), own.height()) != size {
             return Err(ReshadeError::SizeChanged);
         }
-        let (width, height) = (self.width as usize, self.height as usize);
-        // Per pixel: the shared estimate, its variance of Y, the own estimate
-        // and its variance (0 where not finite, so it drops out of the sums).
-        let pixels: Vec<([f64; 3], f64, [f64; 3], f64)> = (0..height * width)
+        let width = self.width as usize;
+        Ok((0..self.xyz.len())
             .into_par_iter()
             .map(|i| {
                 let (x, y) = ((i % width) as u32, (i / width) as u32);
-                let m = first.mean_xyz(x, y);
+                let m = base.mean_xyz(x, y);
                 let d = self.xyz[i].map(|v| sign * f64::from(v));
                 let finite = |v: f64| if v.is_finite() { v } else { 0.0 };
-                let vs =
-                    finite(first.variance_of_mean_xyz(x, y)[1]) + f64::from(self.variance_y[i]);
                 let o = own.mean_xyz(x, y);
-                let vo = finite(own.variance_of_mean_xyz(x, y)[1]);
-                (
-                    [m.x + d[0], m.y + d[1], m.z + d[2]],
-                    vs,
-                    [o.x, o.y, o.z],
-                    vo,
-                )
+                PaneEstimates {
+                    shared: [m.x + d[0], m.y + d[1], m.z + d[2]],
+                    shared_variance: finite(base.variance_of_mean_xyz(x, y)[1])
+                        + f64::from(self.variance_y[i]),
+                    own: [o.x, o.y, o.z],
+                    own_variance: finite(own.variance_of_mean_xyz(x, y)[1]),
+                }
             })
-            .collect();
+            .collect())
+    }
+
+    /// Per pixel the weight of the pane's own film in its blend (see
+    /// [`Self::combine`]).
+    fn own_weights(
+        &self,
+        pixels: &[PaneEstimates],
+        base: &Film,
+        sign: f64,
+        own: &Film,
+    ) -> Vec<f64> {
+        let (width, height) = (self.width as usize, self.height as usize);
         let blocks_x = width.div_ceil(COMBINE_BLOCK);
         let block_of =
             |i: usize| (i / width / COMBINE_BLOCK) * blocks_x + (i % width) / COMBINE_BLOCK;
         let mut sums = vec![[0.0f64; 2]; blocks_x * height.div_ceil(COMBINE_BLOCK)];
         for (i, p) in pixels.iter().enumerate() {
             let b = &mut sums[block_of(i)];
-            b[0] += p.1;
-            b[1] += p.3;
+            b[0] += p.shared_variance;
+            b[1] += p.own_variance;
         }
         // A film of fewer than two samples has no variance (it reads as 0, as if
         // certain), so it cannot take part in the weighing. While the second
@@ -1232,27 +1281,43 @@ impl ShadingDifference {
         } else {
             None
         };
-        let mut weight_sum = 0.0;
-        let (mut xyz, mut variance_y) = (Vec::with_capacity(pixels.len()), Vec::new());
-        variance_y.reserve(pixels.len());
-        for (i, (s, vs, o, vo)) in pixels.into_iter().enumerate() {
-            let b = sums[block_of(i)];
-            let (rest_s, rest_o) = ((b[0] - vs).max(0.0), (b[1] - vo).max(0.0));
-            let w = if let Some(w) = fixed_weight {
-                w
-            } else if rest_s + rest_o > 0.0 {
-                rest_s / (rest_s + rest_o)
-            } else {
-                // No neighbour has any noise (the sky): its own samples, as
-                // the pixel's own variances must not choose.
-                1.0
-            };
-            weight_sum += w;
-            let keep = 1.0 - w;
-            xyz.push(std::array::from_fn(|c| (keep * s[c] + w * o[c]) as f32));
-            variance_y.push((keep * keep * vs + w * w * vo) as f32);
-        }
-        let mean_weight = weight_sum / xyz.len().max(1) as f64;
+        pixels
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let b = sums[block_of(i)];
+                let rest_s = (b[0] - p.shared_variance).max(0.0);
+                let rest_o = (b[1] - p.own_variance).max(0.0);
+                if let Some(w) = fixed_weight {
+                    w
+                } else if rest_s + rest_o > 0.0 {
+                    rest_s / (rest_s + rest_o)
+                } else {
+                    // No neighbour has any noise (the sky): its own samples, as
+                    // the pixel's own variances must not choose.
+                    1.0
+                }
+            })
+            .collect()
+    }
+
+    /// `own` blended with `base` + `sign` × this difference, as [`Self::combine`]
+    /// describes.
+    fn blend(&self, base: &Film, sign: f64, own: &Film) -> Result<(Reshaded, f64), ReshadeError> {
+        let pixels = self.pixel_estimates(base, sign, own)?;
+        let weights = self.own_weights(&pixels, base, sign, own);
+        let mean_weight = weights.iter().sum::<f64>() / weights.len().max(1) as f64;
+        let (xyz, variance_y) = pixels
+            .iter()
+            .zip(&weights)
+            .map(|(p, &w)| {
+                let keep = 1.0 - w;
+                let xyz: [f32; 3] =
+                    std::array::from_fn(|c| (keep * p.shared[c] + w * p.own[c]) as f32);
+                let variance = (keep * keep * p.shared_variance + w * w * p.own_variance) as f32;
+                (xyz, variance)
+            })
+            .unzip();
         Ok((
             Reshaded {
                 width: self.width,
@@ -1263,6 +1328,15 @@ impl ShadingDifference {
             mean_weight,
         ))
     }
+}
+
+/// One pixel of a pane before its blend: the shared estimate and the pane's
+/// own film's, each with its variance of Y.
+struct PaneEstimates {
+    shared: [f64; 3],
+    shared_variance: f64,
+    own: [f64; 3],
+    own_variance: f64,
 }
 
 /// Side of the blocks of pixels whose variances set the weights of
