@@ -21,8 +21,8 @@
 //! `COMPARE_SECOND_GU=GU` the first preset at another gloss reading (the same
 //! geometry): a variant a designer compares with the original.
 //! `COMPARE_FIRST_GU=GU` sets the first design's reading the same way.
-//! `COMPARE_GUIDANCE=off` renders views apart with even passes (the engine's
-//! map guidance off), `alternate` every other run so (the first off), to measure
+//! `COMPARE_GUIDANCE=off` renders both views with even passes (the engine's
+//! map guidance off, shared or apart), `alternate` every other run so (the first off), to measure
 //! what the guidance buys in one invocation (the RMS over runs is then given for
 //! each half); `on`, the default, is the engine as the app runs it.
 //! `COMPARE_SHARE_LOBES=alternate` shares the views of every other run (the
