@@ -32,6 +32,8 @@
 //! sharper second lobe belongs.
 //! `COMPARE_ADAPTIVE=1` turns on adaptive sampling (its defaults) in every view;
 //! `COMPARE_MISSES=FILE.png` draws the signal in grey and those pixels in red.
+//! `COMPARE_PANES=PREFIX` writes the first run's panes as shown (its display
+//! settings) to PREFIX-first.png and PREFIX-second.png, to look at.
 //! `COMPARE_EXPLAIN=X,Y` compares nothing: it traces 65 536 samples of pixel
 //! (X, Y) in each view's model and prints how that pixel's estimate is made up —
 //! the mean, quantiles of the samples and the brightest samples' paths (what each
@@ -67,7 +69,7 @@ use coatlab_core::io::png_write::write_srgb8_png;
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::camera::Camera;
 use coatlab_core::render::environment::Environment;
-use coatlab_core::render::film::{DisplaySettings, Film, display_lab_of_xyz};
+use coatlab_core::render::film::{DisplaySettings, Film, display_lab_of_xyz, display_xyz_srgba};
 use coatlab_core::render::geometry::Surface;
 use coatlab_core::render::integrator::{
     IntegratorSettings, NoRecord, PathBuffers, PathRecorder, PathTracer, VertexRecord,
@@ -258,6 +260,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             if guided(run)? { "on" } else { "off" },
             live.display()
         );
+        if run == 0
+            && let Some(prefix) = std::env::var_os("COMPARE_PANES")
+        {
+            for (which, pane) in [("first", &first), ("second", &second)] {
+                let path = format!("{}-{which}.png", prefix.to_string_lossy());
+                let pixels: Vec<Srgb<u8>> = display_xyz_srgba(pane, &live.display())
+                    .into_iter()
+                    .map(|p| p.color)
+                    .collect();
+                write_srgb8_png(std::path::Path::new(&path), width, height, &pixels)?;
+                println!("{which} pane written to {path}");
+            }
+        }
         panes.push((first, second));
         if run == 0 {
             let film = live.first().film();
