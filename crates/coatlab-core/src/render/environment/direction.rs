@@ -6,7 +6,12 @@ use std::f64::consts::PI;
 
 use glam::DVec3;
 
-use super::fast_math::sin_cos_fast;
+use super::fast_math::{atan2_approx, sin_cos_fast};
+
+/// How far from an azimuth bound (and from ±π) the polynomial arctangent's
+/// answer must lie to decide which side of it a direction is on: 50 times its
+/// error bound, 2e-8 rad.
+const GUESS_SLACK: f64 = 1e-6;
 
 /// A unit direction being looked up, with its azimuth computed at most once (an
 /// `atan2`, shared by the map's column and every emitter's azimuth test).
@@ -24,6 +29,28 @@ impl Query {
     /// φ = atan2(x, z), in [−π, π].
     pub(super) fn azimuth(&mut self) -> f64 {
         *self.azimuth.get_or_insert_with(|| self.d.x.atan2(self.d.z))
+    }
+
+    /// Whether φ lies in [`low`, `high`], exactly as the exact φ answers: from
+    /// the polynomial arctangent (error below 2e-8 rad) where that lies more
+    /// than [`GUESS_SLACK`] from both bounds and from ±π (near which it may
+    /// answer the other end of the range), else from [`Self::azimuth`]. An
+    /// emitter's test then costs an `atan2` only for the few directions that
+    /// graze its edge.
+    #[inline]
+    pub(super) fn azimuth_within(&mut self, low: f64, high: f64) -> bool {
+        if let Some(azimuth) = self.azimuth {
+            return (low..=high).contains(&azimuth);
+        }
+        if let Some(guess) = atan2_approx(self.d.x, self.d.z)
+            && (guess - low).abs() > GUESS_SLACK
+            && (guess - high).abs() > GUESS_SLACK
+            && guess.abs() < PI - GUESS_SLACK
+        {
+            return (low..=high).contains(&guess);
+        }
+        let azimuth = self.azimuth();
+        (low..=high).contains(&azimuth)
     }
 }
 
@@ -90,6 +117,47 @@ pub(super) fn direction_from_azimuth_elevation(azimuth: f64, elevation: f64) -> 
 mod tests {
     use super::*;
     use crate::sampling::test_support::uniform;
+
+    /// An azimuth range answers for every direction as the exact azimuth does:
+    /// random directions, and directions within 1e-12 to 1e-5 rad of each
+    /// bound and of ±π, for ranges inside (−π, π), reaching either end, and
+    /// past it.
+    #[test]
+    fn azimuth_ranges_answer_as_the_exact_azimuth_does() {
+        let ranges = [
+            [-0.4, 0.9],
+            [1.0, 2.5],
+            [-PI, -2.0],
+            [2.0, PI],
+            [3.0, 3.5],
+            [-3.5, -3.0],
+            [-PI, PI],
+        ];
+        let mut state = 29;
+        let mut azimuths: Vec<f64> = (0..200_000)
+            .map(|_| (2.0 * uniform(&mut state) - 1.0) * PI)
+            .collect();
+        for bound in ranges.iter().flatten().chain(&[PI, -PI, 0.0]) {
+            for offset in [1e-12, 1e-10, 1e-8, 3e-8, 1e-7, 1e-6, 2e-6, 1e-5] {
+                azimuths.extend([bound - offset, *bound, bound + offset]);
+            }
+        }
+        let mut checked = 0;
+        for &a in &azimuths {
+            let y = 2.0 * uniform(&mut state) - 1.0;
+            let d = direction_from_azimuth_y(a, y);
+            for [low, high] in ranges {
+                let exact = (low..=high).contains(&d.x.atan2(d.z));
+                assert_eq!(
+                    Query::new(d).azimuth_within(low, high),
+                    exact,
+                    "azimuth {a} in [{low}, {high}]"
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 1_000_000);
+    }
 
     /// Directions built with the fast sine and cosine round to the f32 numbers
     /// of the libm ones, bit for bit: random (azimuth, y), quadrant edges, the

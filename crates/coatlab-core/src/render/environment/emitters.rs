@@ -77,7 +77,7 @@ impl Shape {
     pub(super) fn contains(&self, q: &mut Query) -> bool {
         match self {
             Shape::LatLong { azimuth, y } => {
-                (y[0]..=y[1]).contains(&q.d.y) && (azimuth[0]..=azimuth[1]).contains(&q.azimuth())
+                (y[0]..=y[1]).contains(&q.d.y) && q.azimuth_within(azimuth[0], azimuth[1])
             }
             Shape::Cap {
                 axis,
