@@ -11,10 +11,11 @@
 //! ([`crate::render::reshade::ShadingDifference::panes_difference_variance_y`]),
 //! and s = σ √n with n the first view's samples (its recordings take every
 //! sample of its passes, so a pixel's recorded samples grow with its weight,
-//! [`crate::render::reshade::PathCache::recorded_per_pixel`]). A pixel whose map reads d is
-//! decided once σ ≤ [`NOISE_TO_SIGNAL`] · max(d − σ, [`VISIBLE`]): against the
-//! reading less one error, since a reading the noise has pushed up must not lower
-//! its own bar. That holds from n* samples (`samples_to_decide`). Per pixel:
+//! [`crate::render::reshade::PathCache::recorded_per_pixel`]). A pixel whose
+//! map reads d is decided once σ ≤ [`NOISE_TO_SIGNAL`] · max(d − σ, [`VISIBLE`]):
+//! against the reading less one error, since a reading the noise has pushed up
+//! must not lower its own bar. That holds from n* samples (`samples_to_decide`).
+//! Per pixel:
 //!
 //! 1. its shortfall x = n* / n − 1, at least 0, where s is the largest of its
 //!    3 × 3 neighbourhood: at a highlight's edge a few percent of the samples

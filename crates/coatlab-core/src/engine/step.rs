@@ -19,7 +19,7 @@ use super::guide::{REWEIGH_GROWTH, map_guided_weights, shared_map_guided_weights
 use super::live::{LiveEngine, Output, Progress};
 use super::plan::{self, Actions, Outcome, Phase, Restart, Second, Tables};
 use super::views::{
-    Recordings, SecondSpec, independent_reason, lobes_differ, spawn_second_shading,
+    Recordings, SecondSpec, ViewSet, independent_reason, lobes_differ, spawn_second_shading,
 };
 use super::{COARSE_FACTOR, COMPARE_CACHE_SAMPLES, RESHADE_SAMPLES};
 
@@ -468,24 +468,22 @@ impl<B: RenderBackend> LiveEngine<B> {
     }
 
     /// Both views' next passes spread their samples by where the map is
-    /// undecided ([`map_guided_weights`] rendered apart, [`shared_map_guided_weights`]
-    /// shared, whose recordings then take the same share), the weights made
-    /// again when the samples have grown by [`REWEIGH_GROWTH`].
+    /// undecided ([`map_weights`]), the weights made again when the samples
+    /// have grown by [`REWEIGH_GROWTH`].
     fn guide_passes(&mut self) {
         let views = &mut self.views;
-        let Some(second) = views.second.as_mut() else {
+        if views.second.is_none() {
             return;
-        };
+        }
         if !views.map_guidance {
             if views.guided_at.take().is_some() {
                 views.first.set_pass_weights(None);
-                second.set_pass_weights(None);
+                if let Some(second) = views.second.as_mut() {
+                    second.set_pass_weights(None);
+                }
             }
             return;
         }
-        let Some(second) = views.second.as_ref() else {
-            return;
-        };
         let spp = views.first.samples_per_pixel();
         // A restart since has dropped the views' weights.
         if views.guided_at.is_some_and(|at| spp < at) {
@@ -494,32 +492,12 @@ impl<B: RenderBackend> LiveEngine<B> {
         let due = views
             .guided_at
             .is_none_or(|at| f64::from(spp) >= f64::from(at) * REWEIGH_GROWTH);
+        // From the first complete recording on: shared, the difference exists;
+        // apart, each pixel's noise is estimated from that many samples.
         if !due || spp < views.cache_samples.max(2) {
             return;
         }
-        let weights = if views.shared.is_some() {
-            let Some(Ok([(first_pane, _), (second_pane, _)])) = views.shared_panes() else {
-                return;
-            };
-            let Some((difference, _)) = &views.difference else {
-                return;
-            };
-            let (first_film, second_film) = (views.first.film(), second.film());
-            let Ok(variance) = difference.panes_difference_variance_y(first_film, second_film)
-            else {
-                return;
-            };
-            shared_map_guided_weights(
-                &first_pane.xyz,
-                &second_pane.xyz,
-                &variance,
-                first_film,
-                &views.display,
-            )
-        } else {
-            map_guided_weights(views.first.film(), second.film(), &views.display)
-        };
-        if let Some(weights) = weights
+        if let Some(weights) = map_weights(views)
             && let Some(second) = views.second.as_mut()
         {
             views.first.set_pass_weights(Some(weights.clone()));
@@ -604,6 +582,30 @@ impl<B: RenderBackend> LiveEngine<B> {
             out(Output::Views(update));
         }
     }
+}
+
+/// The weights for both views' next passes from where their map is undecided:
+/// rendered apart, the films' map ([`map_guided_weights`]); shared, the panes'
+/// ([`shared_map_guided_weights`], whose recordings then take the same share).
+/// `None` where there is no map to read yet.
+fn map_weights<V: BackendView>(views: &ViewSet<V>) -> Option<Vec<f32>> {
+    let second = views.second.as_ref()?;
+    let (first_film, second_film) = (views.first.film(), second.film());
+    if views.shared.is_none() {
+        return map_guided_weights(first_film, second_film, &views.display);
+    }
+    let [(first_pane, _), (second_pane, _)] = views.shared_panes()?.ok()?;
+    let (difference, _) = views.difference.as_ref()?;
+    let variance = difference
+        .panes_difference_variance_y(first_film, second_film)
+        .ok()?;
+    shared_map_guided_weights(
+        &first_pane.xyz,
+        &second_pane.xyz,
+        &variance,
+        first_film,
+        &views.display,
+    )
 }
 
 fn publish(

@@ -761,6 +761,43 @@ fn sample_counts(film: &Film) -> Vec<u64> {
         .collect()
 }
 
+/// A comparison `views` refined to `samples` samples per pixel in `pairing`,
+/// with the map guidance on or off: the engine, and the first view's samples
+/// per pixel, which the second view's film holds too and which add up to
+/// `samples` a pixel (both checked).
+fn compared_counts(
+    guided: bool,
+    samples: u32,
+    views: Views,
+    pairing: Pairing,
+) -> (LiveEngine, Vec<u64>) {
+    let mut engine = engine();
+    engine.set_map_guidance(guided);
+    apply(
+        &mut engine,
+        Command::Quality(knobs(DEFAULT_WAVELENGTHS, samples)),
+    );
+    apply(&mut engine, Command::Views(views));
+    converge_in_pairing(&mut engine, pairing);
+    let second = engine.views.second.as_ref().expect("a second view");
+    let (first, second) = (
+        sample_counts(engine.first().film()),
+        sample_counts(second.film()),
+    );
+    let total = u64::from(samples) * first.len() as u64;
+    assert_eq!(first.iter().sum::<u64>(), total);
+    assert_eq!(first, second, "the views' samples per pixel differ");
+    (engine, first)
+}
+
+/// The fewest and the most samples of any pixel in `counts`, printed.
+fn least_and_most(counts: &[u64]) -> (u64, u64) {
+    let most = counts.iter().copied().max().unwrap_or(0);
+    let least = counts.iter().copied().min().unwrap_or(0);
+    println!("guided: {least} to {most} samples a pixel");
+    (least, most)
+}
+
 /// Rendered apart (a glossier design against a satin one: the second lobe is
 /// wider), both views spend more samples where the ΔE00 map is undecided and
 /// take the same counts per pixel; with the guidance off, or before the first
@@ -768,35 +805,13 @@ fn sample_counts(film: &Film) -> Vec<u64> {
 #[test]
 fn views_rendered_apart_spend_their_samples_where_the_map_is_undecided() {
     const SAMPLES: u32 = 40;
-    let counts = |guided: bool| {
-        let mut engine = engine();
-        engine.set_map_guidance(guided);
-        apply(
-            &mut engine,
-            Command::Quality(knobs(DEFAULT_WAVELENGTHS, SAMPLES)),
-        );
-        let mut satin = design();
-        satin.gloss.gu = 60.0;
-        apply(
-            &mut engine,
-            Command::Views(Views::designs(ShadingModel::Paint, Some(&satin))),
-        );
-        converge_in_pairing(&mut engine, Pairing::Independent);
-        let SecondImage::Film(second) = engine.second_image() else {
-            panic!("the second view is not rendered apart");
-        };
-        let (first, second) = (sample_counts(engine.first().film()), sample_counts(second));
-        let total = u64::from(SAMPLES) * first.len() as u64;
-        assert_eq!(first.iter().sum::<u64>(), total);
-        assert_eq!(first, second, "the views' samples per pixel differ");
-        first
-    };
+    let mut satin = design();
+    satin.gloss.gu = 60.0;
+    let views = Views::designs(ShadingModel::Paint, Some(&satin));
+    let counts = |guided| compared_counts(guided, SAMPLES, views.clone(), Pairing::Independent).1;
     let even = counts(false);
     assert!(even.iter().all(|&n| n == u64::from(SAMPLES)));
-    let guided = counts(true);
-    let most = guided.iter().copied().max().unwrap_or(0);
-    let least = guided.iter().copied().min().unwrap_or(0);
-    println!("guided: {least} to {most} samples a pixel");
+    let (least, most) = least_and_most(&counts(true));
     assert!(
         most >= 2 * u64::from(SAMPLES),
         "the undecided pixels got at most {most} samples"
@@ -815,26 +830,9 @@ fn views_rendered_apart_spend_their_samples_where_the_map_is_undecided() {
 #[test]
 fn shared_views_and_their_recordings_spend_their_samples_where_the_map_is_undecided() {
     const SAMPLES: u32 = 64;
-    let counts = |guided: bool| {
-        let mut engine = engine();
-        engine.set_map_guidance(guided);
-        apply(
-            &mut engine,
-            Command::Quality(knobs(DEFAULT_WAVELENGTHS, SAMPLES)),
-        );
-        apply(
-            &mut engine,
-            Command::Views(Views::models(PhongVariant::Naive)),
-        );
-        converge_in_pairing(&mut engine, Pairing::Shared);
-        let second = engine.views.second.as_ref().expect("a second view");
-        let (first, second) = (
-            sample_counts(engine.first().film()),
-            sample_counts(second.film()),
-        );
-        let total = u64::from(SAMPLES) * first.len() as u64;
-        assert_eq!(first.iter().sum::<u64>(), total);
-        assert_eq!(first, second, "the views' samples per pixel differ");
+    let counts = |guided| {
+        let views = Views::models(PhongVariant::Naive);
+        let (engine, first) = compared_counts(guided, SAMPLES, views, Pairing::Shared);
         let (difference, _) = engine
             .views
             .difference
@@ -850,9 +848,7 @@ fn shared_views_and_their_recordings_spend_their_samples_where_the_map_is_undeci
         "even passes recorded unevenly"
     );
     let (guided, recorded) = counts(true);
-    let most = guided.iter().copied().max().unwrap_or(0);
-    let least = guided.iter().copied().min().unwrap_or(0);
-    println!("guided: {least} to {most} samples a pixel");
+    let (least, most) = least_and_most(&guided);
     assert!(
         most >= 2 * u64::from(SAMPLES),
         "the undecided pixels got at most {most} samples"
