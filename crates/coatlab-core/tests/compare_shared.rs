@@ -10,7 +10,7 @@ use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::film::{DisplaySettings, display_lab_of_xyz};
 use coatlab_core::render::integrator::IntegratorSettings;
 use coatlab_core::render::material::{Shading, ShadingModel};
-use coatlab_core::render::progressive::ProgressiveRender;
+use coatlab_core::render::progressive::{ProgressiveRender, RenderSettings};
 use coatlab_core::render::reshade::{ReshadeError, ShadingDifference};
 use coatlab_core::scene::Scene;
 
@@ -525,4 +525,32 @@ fn the_panes_difference_variance_follows_the_spread_over_replicas() {
         (1.0..3.0).contains(&ratio),
         "predicted ×{ratio:.2} the replicas' spread"
     );
+}
+
+/// A pass cancelled before any tile ran leaves the recorded counts as they
+/// were, whether the recording is complete or still taking samples. Tiles of
+/// 4 × 4 pixels, so that some see only the backdrop and store no path: their
+/// counts must not roll back to before the last recorded pass.
+#[test]
+fn a_cancelled_pass_leaves_the_recorded_counts_as_they_were() {
+    let cancelled = std::sync::atomic::AtomicBool::new(true);
+    for (spp, recorded) in [(8, 8), (8, 16)] {
+        let settings = RenderSettings {
+            tile_size: 4,
+            ..RenderSettings::seeded(seed(13))
+        };
+        let (mut r, _) =
+            car_render::render_with_settings(&red(), ShadingModel::Paint, spp, recorded, settings);
+        let before = recorded_per_pixel(&r);
+        assert!(
+            before.iter().all(|&k| k == spp),
+            "{spp} spp recorded unevenly"
+        );
+        assert!(r.render_pass_cancellable(1, &cancelled).is_none());
+        assert_eq!(
+            recorded_per_pixel(&r),
+            before,
+            "a cancelled pass changed the counts ({spp} of {recorded} recorded)"
+        );
+    }
 }

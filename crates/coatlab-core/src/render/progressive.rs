@@ -733,6 +733,7 @@ impl ProgressiveRender {
             let pool = Arc::new(std::sync::atomic::AtomicUsize::new(room));
             for cache in &mut self.cache.tiles {
                 cache.set_pool(pool.clone());
+                cache.begin_pass();
             }
         }
         let rays: u64 = self
@@ -790,6 +791,7 @@ impl ProgressiveRender {
                 (first_sample + samples).min(record_below)
             };
             self.cache.samples_per_pixel = end.saturating_sub(self.cache_first);
+            self.cache.tiles.iter_mut().for_each(TileCache::end_pass);
         }
         for tile in &self.tiles {
             self.film.merge(tile);

@@ -207,7 +207,8 @@ pub struct TileCache {
     /// more samples of some pixels than of others.
     counts: Vec<u32>,
     /// [`Self::lengths`] and [`Self::counts`] when the pass being recorded
-    /// began, so that rolling the pass back also rolls back the counts.
+    /// began ([`Self::begin_pass`]), so that rolling the pass back also rolls
+    /// back the counts; `None` outside a recorded pass.
     pass_start: Option<([usize; 5], Vec<u32>)>,
 }
 
@@ -306,6 +307,17 @@ impl TileCache {
         self.pass_start = None;
     }
 
+    /// Notes where a recorded pass begins, for [`Self::truncate`]: before any
+    /// tile of the pass runs, since a cancelled pass may skip a tile whole.
+    pub(crate) fn begin_pass(&mut self) {
+        self.pass_start = Some((self.lengths(), self.counts.clone()));
+    }
+
+    /// The recorded pass is done: nothing to roll back any more.
+    pub(crate) fn end_pass(&mut self) {
+        self.pass_start = None;
+    }
+
     /// What is stored, to roll back a cancelled pass.
     pub(crate) fn lengths(&self) -> [usize; 5] {
         [
@@ -319,11 +331,12 @@ impl TileCache {
 
     pub(crate) fn truncate(&mut self, lengths: [usize; 5]) {
         // Called with the lengths from before a pass (cancelled or over the
-        // budget): that pass's samples are not recorded.
-        if let Some((start, counts)) = &self.pass_start
-            && *start == lengths
+        // budget): that pass's samples are not recorded. A pass that was not
+        // recorded has nothing to roll back.
+        if let Some((start, counts)) = self.pass_start.take()
+            && start == lengths
         {
-            self.counts.copy_from_slice(counts);
+            self.counts = counts;
         }
         each_store!(self, |store, i| store.truncate(lengths[i]));
     }
@@ -484,7 +497,6 @@ pub(crate) struct TileRecorder<'a> {
 impl<'a> TileRecorder<'a> {
     pub(crate) fn new(cache: &'a mut TileCache, tracer: &'a PathTracer<'a>) -> Self {
         let start = cache.vertices.len();
-        cache.pass_start = Some((cache.lengths(), cache.counts.clone()));
         Self {
             cache,
             tracer,

@@ -90,6 +90,21 @@ pub fn render_with(
     cached: u32,
     integrator: IntegratorSettings,
 ) -> (ProgressiveRender, Scene) {
+    let settings = RenderSettings {
+        integrator,
+        ..RenderSettings::seeded(seed)
+    };
+    render_with_settings(model, which, spp, cached, settings)
+}
+
+/// [`render`] with the render's settings as given.
+pub fn render_with_settings(
+    model: &PaintModel,
+    which: ShadingModel,
+    spp: u32,
+    cached: u32,
+    settings: RenderSettings,
+) -> (ProgressiveRender, Scene) {
     let (scene, render_scene) = shared_car();
     // The scene-box framing these comparisons' statistical controls were sized
     // on: with the car's framing (`default_camera`) the re-shade test's control of
@@ -101,10 +116,6 @@ pub fn render_with(
         WIDTH,
         HEIGHT,
     );
-    let settings = RenderSettings {
-        integrator,
-        ..RenderSettings::seeded(seed)
-    };
     let render = framed.render(shading(scene, model, which), settings, spp, cached);
     (render, scene.clone())
 }
