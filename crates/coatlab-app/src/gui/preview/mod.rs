@@ -476,11 +476,13 @@ impl Preview {
         }
         self.scene_ui(ui, &mut requests);
         self.picture_ui(ui);
-        ui.label(RichText::new(self.status_line()).weak());
+        // One line each, as `picture_ui` leaves room for: in a narrow window
+        // the rest is elided and shown on hover.
+        ui.add(egui::Label::new(RichText::new(self.status_line()).weak()).truncate());
         if self.compare != CompareMode::Off
             && let Some(source) = self.status[1].as_ref().and_then(|f| f.source.as_ref())
         {
-            ui.label(RichText::new(second_source_label(source)).weak());
+            ui.add(egui::Label::new(RichText::new(second_source_label(source)).weak()).truncate());
         }
         requests
     }
@@ -585,7 +587,8 @@ pub fn second_source_label(source: &SecondSource) -> String {
             own_weight,
         } => format!(
             "Shared samples: {recorded_spp} spp of the first view's paths re-shaded into the \
-             second, so the difference shows the models, not noise; its own samples weigh {:.0} %",
+             second (more where the map is undecided), so the difference shows the models; its \
+             own samples weigh {:.0} %",
             own_weight * 100.0
         ),
         SecondSource::Independent { reason } => {
