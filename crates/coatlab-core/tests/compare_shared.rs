@@ -49,6 +49,15 @@ fn recorded_per_pixel(r: &ProgressiveRender) -> Vec<u32> {
         .recorded_per_pixel(film.width(), film.height())
 }
 
+/// The difference Phong makes to `r`'s picture, from all its recorded paths.
+fn phong_difference(r: &ProgressiveRender, scene: &Scene) -> ShadingDifference {
+    let image = r
+        .reshade_recorded(&shading(scene, PHONG))
+        .expect("re-shade");
+    let recorded = r.path_cache().samples_per_pixel();
+    ShadingDifference::of(&image, r.film(), recorded, recorded_per_pixel(r)).expect("same size")
+}
+
 fn shading(scene: &Scene, which: ShadingModel) -> Arc<Shading> {
     car_render::shading(scene, &red(), which)
 }
@@ -160,11 +169,7 @@ fn each_combined_pane_is_an_unbiased_image_of_its_own_model() {
         let s = seed(500 + i);
         let (a, scene) = render(ShadingModel::Paint, s, spp, 8);
         let (b, _) = render(PHONG, s, spp, 0);
-        let reshaded = a
-            .reshade_recorded(&shading(&scene, PHONG))
-            .expect("re-shade");
-        let counts = recorded_per_pixel(&a);
-        let difference = ShadingDifference::of(&reshaded, a.film(), 8, counts).expect("same size");
+        let difference = phong_difference(&a, &scene);
         [
             difference.combine_first(a.film(), b.film()),
             difference.combine(a.film(), b.film()),
@@ -324,14 +329,8 @@ fn shared_samples_leave_only_the_noise_of_the_difference() {
 #[test]
 fn successive_recordings_merge_into_the_difference_of_all_their_samples() {
     let s = seed(7);
-    let phong_of = |r: &ProgressiveRender, scene: &Scene, recorded: u32| {
-        let image = r
-            .reshade_recorded(&shading(scene, PHONG))
-            .expect("re-shade");
-        ShadingDifference::of(&image, r.film(), recorded, recorded_per_pixel(r)).expect("same size")
-    };
     let (whole, scene) = render(ShadingModel::Paint, s, 16, 16);
-    let all = phong_of(&whole, &scene, 16);
+    let all = phong_difference(&whole, &scene);
 
     let (mut rolling, _) = render(ShadingModel::Paint, s, 4, 8);
     assert!(
@@ -339,14 +338,14 @@ fn successive_recordings_merge_into_the_difference_of_all_their_samples() {
         "a recording at 4 of its 8 samples was replaced"
     );
     rolling.render_to(8, 4);
-    let first = phong_of(&rolling, &scene, 8);
+    let first = phong_difference(&rolling, &scene);
     assert!(rolling.record_next_samples());
     assert_eq!(rolling.path_cache().samples_per_pixel(), 0);
     assert!(!rolling.path_cache_complete());
     rolling.render_to(16, 4);
     assert_eq!(rolling.path_cache().samples_per_pixel(), 8);
     assert!(rolling.path_cache_complete());
-    let second = phong_of(&rolling, &scene, 8);
+    let second = phong_difference(&rolling, &scene);
     let merged = first.merged(&second).expect("same size");
     assert_eq!(merged.samples(), 16);
 
@@ -406,13 +405,6 @@ fn recordings_of_weighted_passes_hold_each_pixels_own_samples_and_merge_by_them(
         r.set_pass_weights(Some(weights.clone()));
         (r, scene)
     };
-    let phong_of = |r: &ProgressiveRender, scene: &Scene| {
-        let image = r
-            .reshade_recorded(&shading(scene, PHONG))
-            .expect("re-shade");
-        let recorded = r.path_cache().samples_per_pixel();
-        ShadingDifference::of(&image, r.film(), recorded, recorded_per_pixel(r)).expect("same size")
-    };
     let (mut whole, scene) = weighted(16);
     whole.render_to(16, 4);
     assert!(whole.path_cache_complete());
@@ -436,16 +428,16 @@ fn recordings_of_weighted_passes_hold_each_pixels_own_samples_and_merge_by_them(
         half_mean(true)
     );
     assert!(half_mean(true) > 2.0 * half_mean(false));
-    let all = phong_of(&whole, &scene);
+    let all = phong_difference(&whole, &scene);
 
     let (mut rolling, _) = weighted(8);
     rolling.render_to(8, 4);
     assert!(rolling.path_cache_complete());
-    let first = phong_of(&rolling, &scene);
+    let first = phong_difference(&rolling, &scene);
     assert!(rolling.record_next_samples(), "weights refused a recording");
     rolling.render_to(16, 4);
     assert!(rolling.path_cache_complete());
-    let second = phong_of(&rolling, &scene);
+    let second = phong_difference(&rolling, &scene);
     assert_ne!(
         first.counts(),
         second.counts(),
@@ -487,11 +479,7 @@ fn the_panes_difference_variance_follows_the_spread_over_replicas() {
         let s = seed(300 + i as u64);
         let (a, scene) = render(ShadingModel::Paint, s, SPP, SPP);
         let (b, _) = render(PHONG, s, SPP, 0);
-        let image = a
-            .reshade_recorded(&shading(&scene, PHONG))
-            .expect("re-shade");
-        let d = ShadingDifference::of(&image, a.film(), SPP, recorded_per_pixel(&a))
-            .expect("same size");
+        let d = phong_difference(&a, &scene);
         let (first, _) = d.combine_first(a.film(), b.film()).expect("first pane");
         let (second, _) = d.combine(a.film(), b.film()).expect("second pane");
         let variance = d
