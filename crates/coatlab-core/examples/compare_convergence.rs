@@ -15,8 +15,9 @@
 //! the runs: one run's |map − reference map| is a single draw of that noise, and
 //! the RMS tells a pixel whose map is noisy from one that drew a value far in the
 //! tail. The pixels where a single run's noise is not below the signal are listed
-//! by what they show, and one by one with the map, the signal and the first
-//! view's samples there.
+//! by what they show, and one by one with the map, the signal, the first
+//! view's samples there, and each pane's CIELAB beside its reference's (whether
+//! the error is one of lightness or of hue).
 //! In `designs` mode the second design is the second preset, or with
 //! `COMPARE_SECOND_GU=GU` the first preset at another gloss reading (the same
 //! geometry): a variant a designer compares with the original.
@@ -473,13 +474,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if run == 0 {
             describe_misses(&tally.misses, &map, &signal, &scene, &camera, width);
             for &i in &tally.misses {
+                let lab = |l: &Lab| format!("({:.1}, {:.1}, {:.1})", l.l, l.a, l.b);
                 println!(
-                    "  miss ({}, {}): map {:.2}, signal {:.2}, {} samples in the first view",
+                    "  miss ({}, {}): map {:.2}, signal {:.2}, {} samples in the first view; \
+                     L*a*b* first {} (reference {}), second {} (reference {})",
                     i % width as usize,
                     i / width as usize,
                     map[i],
                     signal[i],
-                    first_counts.get(i).copied().unwrap_or(0)
+                    first_counts.get(i).copied().unwrap_or(0),
+                    lab(&la[i]),
+                    lab(&lra[i]),
+                    lab(&lb[i]),
+                    lab(&lrb[i]),
                 );
             }
         }
