@@ -4,7 +4,7 @@
 use rayon::prelude::*;
 
 use crate::colour::{Xyz, ciede2000};
-use crate::render::film::{DisplaySettings, Film, display_lab_of_xyz};
+use crate::render::film::{DisplaySettings, DisplayTransform, Film};
 
 /// Per-pixel ΔE00 between two renders of the same view.
 #[derive(Debug, Clone, PartialEq)]
@@ -34,6 +34,8 @@ impl DeltaEMap {
         if (b.width(), b.height()) != (width, height) || width == 0 || height == 0 {
             return None;
         }
+        let transform = DisplayTransform::of(display);
+        let lab = |film: &Film, x, y| transform.lab_of_xyz(film.mean_xyz(x, y));
         // Rows in parallel: a 640×400 map is ~0.25 M CIEDE2000 evaluations.
         let values: Vec<f32> = (0..height)
             .into_par_iter()
@@ -42,7 +44,7 @@ impl DeltaEMap {
                     if a.sample_count(x, y) == 0 || b.sample_count(x, y) == 0 {
                         return f32::NAN;
                     }
-                    ciede2000(a.display_lab(x, y, display), b.display_lab(x, y, display)) as f32
+                    ciede2000(lab(a, x, y), lab(b, x, y)) as f32
                 })
             })
             .collect();
@@ -62,11 +64,9 @@ impl DeltaEMap {
         if a.len() != n || b.len() != n || n == 0 {
             return None;
         }
+        let transform = DisplayTransform::of(display);
         let lab = |v: [f32; 3]| {
-            display_lab_of_xyz(
-                Xyz::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2])),
-                display,
-            )
+            transform.lab_of_xyz(Xyz::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2])))
         };
         let values: Vec<f32> = a
             .par_iter()

@@ -55,7 +55,7 @@ use rayon::prelude::*;
 
 use crate::colour::{Xyz, ciede2000};
 use crate::render::adaptive::{neighbourhood_fold, neighbourhood_max};
-use crate::render::film::{DisplaySettings, Film, display_lab_of_xyz};
+use crate::render::film::{DisplaySettings, DisplayTransform, Film};
 
 use super::delta_e::DeltaEMap;
 
@@ -161,7 +161,8 @@ pub fn shared_map_guided_weights(
         return None;
     }
     let map = DeltaEMap::between_xyz(width, height, first, second, display)?;
-    let lab = |v: [f64; 3]| display_lab_of_xyz(Xyz::new(v[0], v[1], v[2]), display);
+    let transform = DisplayTransform::of(display);
+    let lab = |v: [f64; 3]| transform.lab_of_xyz(Xyz::new(v[0], v[1], v[2]));
     let samples: Vec<f64> = (0..pixels)
         .map(|i| film.sample_count(i as u32 % width, i as u32 / width) as f64)
         .collect();

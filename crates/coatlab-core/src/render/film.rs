@@ -72,9 +72,9 @@ pub mod display;
 pub mod part;
 
 pub use display::{
-    BadExposure, DisplayChoice, DisplaySettings, Exposure, PBR_NEUTRAL_DESATURATION,
-    PBR_NEUTRAL_F90, PBR_NEUTRAL_START_COMPRESSION, ToneMapping, UnknownToneMapping,
-    display_lab_of_xyz, display_xyz, display_xyz_srgba,
+    BadExposure, DisplayChoice, DisplaySettings, DisplayTransform, Exposure,
+    PBR_NEUTRAL_DESATURATION, PBR_NEUTRAL_F90, PBR_NEUTRAL_START_COMPRESSION, ToneMapping,
+    UnknownToneMapping, display_lab_of_xyz, display_xyz, display_xyz_srgba,
 };
 use display::{display_lab_of, display_matrix, encode, encode_lut, mul, tone_map};
 
@@ -767,9 +767,7 @@ impl Film {
     /// shown in by [`Self::to_display`] before 8-bit quantisation: what a viewer
     /// sees, and what the error of a render is measured on.
     pub fn display_lab(&self, x: u32, y: u32, settings: &DisplaySettings) -> Lab {
-        let m = display_matrix(settings.adapt_white, settings.exposure_stops);
-        let xyz = self.mean_xyz(x, y);
-        display_lab_of(&m, settings.tone_mapping, xyz)
+        DisplayTransform::of(settings).lab_of_xyz(self.mean_xyz(x, y))
     }
 
     /// How far the displayed picture still is from the converged one: per pixel,

@@ -25,7 +25,7 @@ use crate::colour::{Xyz, ciede2000};
 use crate::io::atomic::write_bytes_atomically;
 use crate::io::tagged::{TAGGED_HEADER_BYTES, tagged_header};
 use crate::render::camera::Camera;
-use crate::render::film::{DisplaySettings, Film, display_lab_of_xyz};
+use crate::render::film::{DisplaySettings, DisplayTransform, Film};
 use crate::render::geometry::Surface;
 use crate::render::progressive::RenderScene;
 
@@ -331,11 +331,9 @@ pub fn image_error(
 ) -> Result<ImageError, ImageErrorError> {
     image.check_same_size(reference)?;
     check_same_size([image.width, image.height], [masks.width, masks.height])?;
+    let transform = DisplayTransform::of(display);
     let lab = |p: &[f32; 3]| {
-        display_lab_of_xyz(
-            Xyz::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])),
-            display,
-        )
+        transform.lab_of_xyz(Xyz::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])))
     };
     let mut errors: Vec<f64> = image
         .pixels
@@ -369,7 +367,7 @@ pub fn image_error(
         (counts[i] > 0).then(|| {
             let n = counts[i] as f64;
             let mean_of =
-                |s: [f64; 3]| display_lab_of_xyz(Xyz::new(s[0] / n, s[1] / n, s[2] / n), display);
+                |s: [f64; 3]| transform.lab_of_xyz(Xyz::new(s[0] / n, s[1] / n, s[2] / n));
             ciede2000(mean_of(sums[i][0]), mean_of(sums[i][1]))
         })
     });
@@ -405,6 +403,7 @@ fn io_error(path: &Path) -> impl Fn(std::io::Error) -> ImageErrorError + '_ {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::render::film::display_lab_of_xyz;
 
     fn uniform(width: u32, height: u32, xyz: [f32; 3]) -> XyzImage {
         XyzImage::new(width, height, vec![xyz; (width * height) as usize]).unwrap()

@@ -339,10 +339,35 @@ pub fn display_xyz_srgba(xyz: &[[f32; 3]], settings: &DisplaySettings) -> Vec<Sr
 }
 
 /// CIELAB of the colour a mean XYZ is displayed in with `settings`, as
-/// [`Film::display_lab`] gives it for a film's pixel.
+/// [`Film::display_lab`] gives it for a film's pixel. For many colours, prepare
+/// the settings once ([`DisplayTransform`]): their matrix costs about as much as
+/// the colour's own conversion.
 pub fn display_lab_of_xyz(xyz: Xyz, settings: &DisplaySettings) -> Lab {
-    let m = display_matrix(settings.adapt_white, settings.exposure_stops);
-    display_lab_of(&m, settings.tone_mapping, xyz)
+    DisplayTransform::of(settings).lab_of_xyz(xyz)
+}
+
+/// [`DisplaySettings`] prepared for converting many colours: the matrix of their
+/// white adaptation and exposure, made once, and their tone mapping.
+#[derive(Debug, Clone, Copy)]
+pub struct DisplayTransform {
+    matrix: Mat3f,
+    tone_mapping: ToneMapping,
+}
+
+impl DisplayTransform {
+    /// The transform of `settings`.
+    pub fn of(settings: &DisplaySettings) -> Self {
+        Self {
+            matrix: display_matrix(settings.adapt_white, settings.exposure_stops),
+            tone_mapping: settings.tone_mapping,
+        }
+    }
+
+    /// [`display_lab_of_xyz`] with these settings.
+    #[inline]
+    pub fn lab_of_xyz(&self, xyz: Xyz) -> Lab {
+        display_lab_of(&self.matrix, self.tone_mapping, xyz)
+    }
 }
 
 pub(super) fn display_lab_of(m: &Mat3f, tone_mapping: ToneMapping, xyz: Xyz) -> Lab {
