@@ -97,13 +97,16 @@ pub fn ciede2000(lab1: Lab, lab2: Lab) -> f64 {
     let (l2, a2, b2) = (lab2.l, lab2.a, lab2.b);
 
     // Compensate a* for the neutral-axis ellipse (G factor).
-    let c_bar = 0.5 * (a1.hypot(b1) + a2.hypot(b2));
+    // √(a² + b²) rather than `hypot`: Lab components are far from overflow, and
+    // `hypot`'s care costs as much as the rest of a map pixel's arithmetic.
+    let norm = |a: f64, b: f64| (a * a + b * b).sqrt();
+    let c_bar = 0.5 * (norm(a1, b1) + norm(a2, b2));
     let c_bar7 = c_bar.powi(7);
     let g = 0.5 * (1.0 - (c_bar7 / (c_bar7 + 25f64.powi(7))).sqrt());
     let a1p = (1.0 + g) * a1;
     let a2p = (1.0 + g) * a2;
-    let c1p = a1p.hypot(b1);
-    let c2p = a2p.hypot(b2);
+    let c1p = norm(a1p, b1);
+    let c2p = norm(a2p, b2);
     let hue_deg = |b: f64, ap: f64| {
         if b == 0.0 && ap == 0.0 {
             0.0
@@ -146,10 +149,19 @@ pub fn ciede2000(lab1: Lab, lab2: Lab) -> f64 {
     };
 
     // Weighting functions and the blue-region rotation term.
-    let t = 1.0 - 0.17 * (h_bar_p - 30.0).to_radians().cos()
-        + 0.24 * (2.0 * h_bar_p).to_radians().cos()
-        + 0.32 * (3.0 * h_bar_p + 6.0).to_radians().cos()
-        - 0.20 * (4.0 * h_bar_p - 63.0).to_radians().cos();
+    // cos(k·h̄′ + φ) for k = 1…4 from one sine and cosine of h̄′ (the multiple
+    // angles by their recurrences, the phases by angle addition).
+    let (s1, c1) = h_bar_p.to_radians().sin_cos();
+    let (c2, s2) = (2.0 * c1 * c1 - 1.0, 2.0 * s1 * c1);
+    let (c3, s3) = (c2 * c1 - s2 * s1, s2 * c1 + c2 * s1);
+    let (c4, s4) = (2.0 * c2 * c2 - 1.0, 2.0 * s2 * c2);
+    // cos(x + φ) = cos x cos φ − sin x sin φ, with cos φ and sin φ of −30°, 6°, −63°.
+    let shifted =
+        |c: f64, s: f64, (cos_phase, sin_phase): (f64, f64)| c * cos_phase - s * sin_phase;
+    let t = 1.0 - 0.17 * shifted(c1, s1, (0.866_025_403_784_438_6, -0.5))
+        + 0.24 * c2
+        + 0.32 * shifted(c3, s3, (0.994_521_895_368_273_3, 0.104_528_463_267_653_47))
+        - 0.20 * shifted(c4, s4, (0.453_990_499_739_546_8, -0.891_006_524_188_367_9));
     let delta_theta_deg = 30.0 * (-((h_bar_p - 275.0) / 25.0).powi(2)).exp();
     let c_bar_p7 = c_bar_p.powi(7);
     let r_c = 2.0 * (c_bar_p7 / (c_bar_p7 + 25f64.powi(7))).sqrt();
