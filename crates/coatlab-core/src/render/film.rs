@@ -76,7 +76,7 @@ pub use display::{
     PBR_NEUTRAL_DESATURATION, PBR_NEUTRAL_F90, PBR_NEUTRAL_START_COMPRESSION, ToneMapping,
     UnknownToneMapping, display_lab_of_xyz, display_xyz, display_xyz_srgba,
 };
-use display::{display_lab_of, display_matrix, encode, encode_lut, mul, tone_map};
+use display::{display_matrix, encode, encode_lut, mul, tone_map};
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -781,7 +781,7 @@ impl Film {
     /// degree of freedom: only the mean over many pixels is an estimate; the 95th
     /// percentile mixes the pixels' spread with that per-pixel noise.
     pub fn noise_estimate(&self, settings: &DisplaySettings, stride: u32) -> Option<NoiseEstimate> {
-        let m = display_matrix(settings.adapt_white, settings.exposure_stops);
+        let transform = DisplayTransform::of(settings);
         let stride = stride.max(1) as usize;
         let mut errors = Vec::new();
         for y in (0..self.height as usize).step_by(stride) {
@@ -793,16 +793,12 @@ impl Film {
                 };
                 let n = p.count as f64;
                 let mean = p.sum.map(|s| s / n);
-                let a = display_lab_of(
-                    &m,
-                    settings.tone_mapping,
-                    Xyz::new(mean[0], mean[1], mean[2]),
-                );
-                let b = display_lab_of(
-                    &m,
-                    settings.tone_mapping,
-                    Xyz::new(mean[0] + error[0], mean[1] + error[1], mean[2] + error[2]),
-                );
+                let a = transform.lab_of_xyz(Xyz::new(mean[0], mean[1], mean[2]));
+                let b = transform.lab_of_xyz(Xyz::new(
+                    mean[0] + error[0],
+                    mean[1] + error[1],
+                    mean[2] + error[2],
+                ));
                 let delta = ciede2000(a, b);
                 if delta.is_finite() {
                     errors.push(delta);
@@ -835,8 +831,7 @@ impl Film {
     /// Pixels in parallel; the result does not depend on the thread count.
     pub fn sample_delta_e(&self, settings: &DisplaySettings) -> Vec<f32> {
         use rayon::prelude::*;
-        let m = display_matrix(settings.adapt_white, settings.exposure_stops);
-        let tone_mapping = settings.tone_mapping;
+        let transform = DisplayTransform::of(settings);
         self.pixels
             .par_iter()
             .zip(self.squares.par_iter())
@@ -849,7 +844,7 @@ impl Film {
                 let se = variance.map(f64::sqrt);
                 let at = |sign: f64| {
                     let v: [f64; 3] = std::array::from_fn(|k| (mean[k] + sign * se[k]).max(0.0));
-                    display_lab_of(&m, tone_mapping, Xyz::new(v[0], v[1], v[2]))
+                    transform.lab_of_xyz(Xyz::new(v[0], v[1], v[2]))
                 };
                 let centre = at(0.0);
                 let delta = ciede2000(centre, at(1.0)).max(ciede2000(centre, at(-1.0)));

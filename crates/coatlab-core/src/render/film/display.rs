@@ -370,7 +370,7 @@ impl DisplayTransform {
     }
 }
 
-pub(super) fn display_lab_of(m: &Mat3f, tone_mapping: ToneMapping, xyz: Xyz) -> Lab {
+fn display_lab_of(m: &Mat3f, tone_mapping: ToneMapping, xyz: Xyz) -> Lab {
     let rgb = tone_map(
         mul(m, [xyz.x as f32, xyz.y as f32, xyz.z as f32]),
         tone_mapping,
