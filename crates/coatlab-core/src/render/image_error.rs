@@ -3,8 +3,9 @@
 //!
 //! Images are compared as mean CIE XYZ per pixel (white at Y = 1, what a
 //! [`Film`] accumulates), each pixel taken through the display pipeline
-//! ([`display_lab_of_xyz`]: exposure, tone mapping, clipping to the sRGB gamut) to
-//! CIELAB, so the error is the CIEDE2000 of the colours on screen:
+//! ([`crate::render::film::display_lab_of_xyz`]: exposure, tone mapping, clipping
+//! to the sRGB gamut) to CIELAB, so the error is the CIEDE2000 of the colours on
+//! screen:
 //!
 //! - per pixel: mean and 95th percentile of ΔE00 — noise and bias together;
 //! - per region ([`Region`]): ΔE00 between the displayed colours of the region's
