@@ -53,7 +53,6 @@
 
 use rayon::prelude::*;
 
-use crate::colour::{Xyz, ciede2000};
 use crate::render::adaptive::{neighbourhood_fold, neighbourhood_max};
 use crate::render::film::{DisplaySettings, DisplayTransform, Film};
 
@@ -162,7 +161,6 @@ pub fn shared_map_guided_weights(
     }
     let map = DeltaEMap::between_xyz(width, height, first, second, display)?;
     let transform = DisplayTransform::of(display);
-    let lab = |v: [f64; 3]| transform.lab_of_xyz(Xyz::new(v[0], v[1], v[2]));
     let samples: Vec<f64> = (0..pixels)
         .map(|i| film.sample_count(i as u32 % width, i as u32 / width) as f64)
         .collect();
@@ -183,13 +181,7 @@ pub fn shared_map_guided_weights(
             } else {
                 [0.9505, 1.0, 1.089]
             };
-            let at = |sign: f64| {
-                lab(std::array::from_fn(|k| {
-                    (c[k] + sign * se * along[k]).max(0.0)
-                }))
-            };
-            let centre = lab(c);
-            let delta = ciede2000(centre, at(1.0)).max(ciede2000(centre, at(-1.0)));
+            let delta = transform.delta_e_of_offset(c, along.map(|a| se * a));
             if delta.is_finite() {
                 (delta * n.sqrt()) as f32
             } else {

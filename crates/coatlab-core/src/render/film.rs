@@ -841,13 +841,8 @@ impl Film {
                 };
                 let n = p.count as f64;
                 let mean = p.sum.map(|s| s / n);
-                let se = variance.map(f64::sqrt);
-                let at = |sign: f64| {
-                    let v: [f64; 3] = std::array::from_fn(|k| (mean[k] + sign * se[k]).max(0.0));
-                    transform.lab_of_xyz(Xyz::new(v[0], v[1], v[2]))
-                };
-                let centre = at(0.0);
-                let delta = ciede2000(centre, at(1.0)).max(ciede2000(centre, at(-1.0)));
+                // The mean is never negative (nor are its samples' X, Y, Z).
+                let delta = transform.delta_e_of_offset(mean, variance.map(f64::sqrt));
                 if delta.is_finite() {
                     (delta * n.sqrt()) as f32
                 } else {

@@ -12,7 +12,8 @@ use thiserror::Error;
 use super::Film;
 
 use crate::colour::{
-    Lab, SRGB_LUMINANCE, Xyz, lab_from_xyz, linear_srgb_from_xyz, srgb_white, xyz_from_linear_srgb,
+    Lab, SRGB_LUMINANCE, Xyz, ciede2000, lab_from_xyz, linear_srgb_from_xyz, srgb_white,
+    xyz_from_linear_srgb,
 };
 
 /// Entries of the sRGB encoding table: 2¹⁶ over [0, 1], fine enough that the
@@ -367,6 +368,21 @@ impl DisplayTransform {
     #[inline]
     pub fn lab_of_xyz(&self, xyz: Xyz) -> Lab {
         display_lab_of(&self.matrix, self.tone_mapping, xyz)
+    }
+
+    /// The CIEDE2000 by which moving the colour `xyz` by `offset`, up or down,
+    /// moves what is displayed, whichever moves it more (a colour moved up may be
+    /// clipped white already; one moved down is held at 0 in each component):
+    /// how far one standard error `offset` of a mean moves its displayed colour.
+    pub fn delta_e_of_offset(&self, xyz: [f64; 3], offset: [f64; 3]) -> f64 {
+        let lab = |v: [f64; 3]| self.lab_of_xyz(Xyz::new(v[0], v[1], v[2]));
+        let moved = |sign: f64| {
+            lab(std::array::from_fn(|k| {
+                (xyz[k] + sign * offset[k]).max(0.0)
+            }))
+        };
+        let centre = lab(xyz);
+        ciede2000(centre, moved(1.0)).max(ciede2000(centre, moved(-1.0)))
     }
 }
 
