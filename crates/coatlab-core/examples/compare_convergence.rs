@@ -14,7 +14,9 @@
 //! map's noise at a pixel is also taken as the root mean square of its error over
 //! the runs: one run's |map − reference map| is a single draw of that noise, and
 //! the RMS tells a pixel whose map is noisy from one that drew a value far in the
-//! tail. The pixels where a single run's noise is not below the signal are listed
+//! tail (with 16 runs, a pixel whose noise is 0.7 of its signal has its RMS reach
+//! the signal about once in a hundred); counted, like one run's noise, also where
+//! the reference map is decided, with what those pixels show. The pixels where a single run's noise is not below the signal are listed
 //! by what they show, and one by one with the map, the signal, the first
 //! view's samples there, and each pane's CIELAB beside its reference's (whether
 //! the error is one of lightness or of hue).
@@ -455,15 +457,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             mean(&map),
             mean(&signal)
         );
-        // The same where the reference map is itself decided (its own noise below
-        // a quarter of the signal), so that what is counted is this run's noise.
-        let decided: Vec<f64> = noise
-            .iter()
-            .zip(&reference_noise)
-            .zip(&signal)
-            .map(|((&n, &r), &s)| if r < 0.25 * s { n } else { f64::NAN })
-            .collect();
-        let on_decided = NoiseTally::of(&decided, &signal);
+        // The same where the reference map is itself decided, so that what is
+        // counted is this run's noise.
+        let on_decided = NoiseTally::where_reference_decided(&noise, &reference_noise, &signal);
         println!(
             "run {run}: of those, where the reference map is decided ({} pixels), noise below \
              signal on {:.1} % ({} not)",
@@ -506,6 +502,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             tally.percent_below(),
             tally.count,
             tally.misses.len()
+        );
+        // Where the reference map is decided, as for one run: the reference's own
+        // noise is then not what makes a pixel's RMS reach its signal.
+        let on_decided = NoiseTally::where_reference_decided(&rms, &reference_noise, &signal);
+        let shown: Vec<String> =
+            misses_by_what_they_show(&on_decided.misses, &scene, &camera, width)
+                .into_iter()
+                .map(|(name, (pixels, _))| format!("{name} {pixels}"))
+                .collect();
+        println!(
+            "over {runs} runs, {way}: of those, where the reference map is decided ({} pixels), \
+             RMS noise below the signal on {:.2} % ({} not: {})",
+            on_decided.count,
+            on_decided.percent_below(),
+            on_decided.misses.len(),
+            shown.join(", ")
         );
     }
     Ok(())
@@ -618,25 +630,36 @@ impl NoiseTally {
         }
     }
 
+    /// [`Self::of`] over the pixels where the reference map is itself decided:
+    /// its own noise `reference_noise` below a quarter of the signal.
+    fn where_reference_decided(
+        noise: &[f64],
+        reference_noise: &[f64],
+        signal: &[f64],
+    ) -> NoiseTally {
+        let decided: Vec<f64> = noise
+            .iter()
+            .zip(reference_noise)
+            .zip(signal)
+            .map(|((&n, &r), &s)| if r < 0.25 * s { n } else { f64::NAN })
+            .collect();
+        NoiseTally::of(&decided, signal)
+    }
+
     fn percent_below(&self) -> f64 {
         100.0 * self.below as f64 / self.count.max(1) as f64
     }
 }
 
-/// Where the map's noise is not below its signal: what each such pixel shows
-/// (the material under its centre, by [`pick`]), whether it lies on an outline
-/// (a neighbour shows something else), and the map against the signal there.
-fn describe_misses(
+/// `misses` (pixel indices) by what each shows (the material under its centre, by
+/// [`pick`], or the floor or background): per name, the pixels and those of them
+/// on an outline (a neighbour shows something else).
+fn misses_by_what_they_show(
     misses: &[usize],
-    map: &[f64],
-    signal: &[f64],
     scene: &RenderScene,
     camera: &Camera,
     width: u32,
-) {
-    if misses.is_empty() {
-        return;
-    }
+) -> std::collections::BTreeMap<String, (usize, usize)> {
     let shown =
         |x: i64, y: i64| pick(scene, camera, x as f32 + 0.5, y as f32 + 0.5).map(|p| p.material);
     let mut by_material = std::collections::BTreeMap::<String, (usize, usize)>::new();
@@ -654,6 +677,24 @@ fn describe_misses(
         entry.0 += 1;
         entry.1 += usize::from(outline);
     }
+    by_material
+}
+
+/// Where the map's noise is not below its signal: what each such pixel shows
+/// (the material under its centre, by [`pick`]), whether it lies on an outline
+/// (a neighbour shows something else), and the map against the signal there.
+fn describe_misses(
+    misses: &[usize],
+    map: &[f64],
+    signal: &[f64],
+    scene: &RenderScene,
+    camera: &Camera,
+    width: u32,
+) {
+    if misses.is_empty() {
+        return;
+    }
+    let by_material = misses_by_what_they_show(misses, scene, camera, width);
     let sorted = |mut values: Vec<f64>| {
         values.sort_by(f64::total_cmp);
         values
