@@ -28,8 +28,9 @@
 //!   stratified dimension pair) share the camera ray and the hit.
 //!
 //! After [`IntegratorSettings::roulette_start`] bounces, Russian roulette ends paths
-//! with probability 1 − min(0.95, max_λ throughput) and divides the survivors by
-//! the survival probability, which keeps the estimate unbiased. Paths also end at
+//! with probability 1 − q, q = max_λ throughput held within
+//! [[`ROULETTE_LEAST_SURVIVAL`], 0.95], and divides the survivors by q, which keeps
+//! the estimate unbiased. Paths also end at
 //! [`IntegratorSettings::max_bounces`] (a bias toward darker images, taken to be far
 //! below the noise for the car; no measurement of it is recorded).
 //!
@@ -83,11 +84,27 @@ impl Default for IntegratorSettings {
     fn default() -> Self {
         Self {
             max_bounces: 8,
-            roulette_start: 3,
+            roulette_start: 4,
             first_light_samples: 2,
             floor_light_only: true,
         }
     }
+}
+
+/// The least survival probability Russian roulette gives a path: a path of low
+/// throughput that survives is divided by at most 1/0.3. Without it, the dark
+/// pixels lit over several bounces (the cabin seen through the glass, the floor
+/// beside and under the car) took most of their light from the few paths that
+/// survived at a throughput of a few percent, each weighing tens of times the
+/// pixel's mean, and a comparison's map missed its signal there more than twice
+/// as often in a 30 s run (docs/benchmarks.md, "Comparison").
+pub const ROULETTE_LEAST_SURVIVAL: f32 = 0.3;
+
+/// The probability that Russian roulette lets a path go on whose largest
+/// throughput over the wavelengths is `largest`.
+#[inline]
+fn roulette_survival(largest: f32) -> f32 {
+    largest.clamp(ROULETTE_LEAST_SURVIVAL, 0.95)
 }
 
 /// Most light samples at the first vertex ([`IntegratorSettings::first_light_samples`]).
@@ -801,7 +818,7 @@ impl<'a> PathTracer<'a> {
                 }
                 let mut survive = 1.0;
                 if lane.bounce + 1 >= self.settings.roulette_start {
-                    survive = largest.min(0.95);
+                    survive = roulette_survival(largest);
                     if u_roulette >= survive {
                         continue;
                     }
@@ -1339,6 +1356,18 @@ mod tests {
         // The scene is not trivial: paths hit the car, the floor and the light.
         assert!(alone.iter().any(|&v| v > 0.0));
         assert!(alone_rays as usize > 2 * jobs.len());
+    }
+
+    #[test]
+    fn roulette_keeps_dim_paths_at_the_least_survival_and_bright_ones_at_most_095() {
+        assert_eq!(roulette_survival(0.01), ROULETTE_LEAST_SURVIVAL);
+        assert_eq!(
+            roulette_survival(ROULETTE_LEAST_SURVIVAL),
+            ROULETTE_LEAST_SURVIVAL
+        );
+        assert_eq!(roulette_survival(0.6), 0.6);
+        assert_eq!(roulette_survival(0.95), 0.95);
+        assert_eq!(roulette_survival(3.0), 0.95);
     }
 
     #[test]
