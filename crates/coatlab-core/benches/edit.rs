@@ -28,7 +28,7 @@ use coatlab_core::colour::ciede2000;
 use coatlab_core::colour::spectrum::{TabulatedSpectrum, WavelengthGrid};
 use coatlab_core::design::{PaintDesign, RefractiveIndex, presets};
 use coatlab_core::render::environment::Environment;
-use coatlab_core::render::film::{DisplaySettings, display_lab_of_xyz, display_xyz};
+use coatlab_core::render::film::{DisplaySettings, DisplayTransform, display_xyz};
 use coatlab_core::render::material::{Shading, ShadingModel};
 use coatlab_core::render::progressive::{
     EditOutcome, ProgressiveRender, RenderScene, RenderSettings,
@@ -86,15 +86,17 @@ impl Setup {
 /// with `display`.
 fn mean_delta_e(xyz: &[[f32; 3]], reference: &ProgressiveRender, display: &DisplaySettings) -> f64 {
     let film = reference.film();
+    let transform = DisplayTransform::of(display);
     let (mut sum, mut count) = (0.0, 0usize);
     for y in (0..HEIGHT).step_by(STRIDE as usize) {
         for x in (0..WIDTH).step_by(STRIDE as usize) {
             let v = xyz[(y * WIDTH + x) as usize];
-            let lab = display_lab_of_xyz(
-                coatlab_core::colour::Xyz::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2])),
-                display,
-            );
-            sum += ciede2000(lab, film.display_lab(x, y, display));
+            let lab = transform.lab_of_xyz(coatlab_core::colour::Xyz::new(
+                f64::from(v[0]),
+                f64::from(v[1]),
+                f64::from(v[2]),
+            ));
+            sum += ciede2000(lab, transform.lab_of_xyz(film.mean_xyz(x, y)));
             count += 1;
         }
     }

@@ -72,7 +72,7 @@ use coatlab_core::io::png_write::write_srgb8_png;
 use coatlab_core::paint::phong::PhongVariant;
 use coatlab_core::render::camera::Camera;
 use coatlab_core::render::environment::Environment;
-use coatlab_core::render::film::{DisplaySettings, Film, display_lab_of_xyz, display_xyz_srgba};
+use coatlab_core::render::film::{DisplaySettings, DisplayTransform, Film, display_xyz_srgba};
 use coatlab_core::render::geometry::Surface;
 use coatlab_core::render::integrator::{
     IntegratorSettings, NoRecord, PathBuffers, PathRecorder, PathTracer, VertexRecord,
@@ -96,11 +96,12 @@ fn film_xyz(film: &Film) -> Image {
 }
 
 fn labs(image: &Image, display: &DisplaySettings) -> Vec<Lab> {
+    let transform = DisplayTransform::of(display);
     image
         .iter()
         .map(|v| {
             let [x, y, z] = v.map(f64::from);
-            display_lab_of_xyz(Xyz::new(x, y, z), display)
+            transform.lab_of_xyz(Xyz::new(x, y, z))
         })
         .collect()
 }

@@ -91,13 +91,14 @@ impl Default for IntegratorSettings {
     }
 }
 
-/// The least survival probability Russian roulette gives a path: a path of low
-/// throughput that survives is divided by at most 1/0.3. Without it, the dark
-/// pixels lit over several bounces (the cabin seen through the glass, the floor
-/// beside and under the car) took most of their light from the few paths that
-/// survived at a throughput of a few percent, each weighing tens of times the
-/// pixel's mean, and a comparison's map missed its signal there more than twice
-/// as often in a 30 s run (docs/benchmarks.md, "Comparison").
+/// The least survival probability Russian roulette gives a path, so that a
+/// surviving path of low throughput is weighted up by at most 1/0.3. With the
+/// throughput alone as the survival probability, the dark pixels lit over several
+/// bounces (the cabin seen through the glass, the floor beside and under the car)
+/// take most of their light from the few paths that survive at a throughput of a
+/// few percent, each weighing tens of times the pixel's mean; a comparison's map
+/// then misses its signal there more than twice as often in a 30 s run
+/// (docs/benchmarks.md, "Comparison").
 pub const ROULETTE_LEAST_SURVIVAL: f32 = 0.3;
 
 /// The probability that Russian roulette lets a path go on whose largest
