@@ -141,8 +141,22 @@ pub(super) fn write_between_markers(path: &Path, table: &str) -> Result<(), Fail
 
 /// Error against time, log–log, every case; the front of each case joined.
 pub(super) fn plot_svg(rows: &[Row], primary: &str) -> String {
-    let (w, h) = (720.0f64, 480.0f64);
-    let (left, right, top, bottom) = (70.0, 200.0, 30.0, 50.0);
+    let mut cases: Vec<&str> = Vec::new();
+    for r in rows {
+        if !cases.contains(&r.case.as_str()) {
+            cases.push(&r.case);
+        }
+    }
+    // The legend's column is as wide as its longest label (about 7 px a character
+    // at 12 px sans-serif), so no case name runs past the picture's edge.
+    let longest_label = cases
+        .iter()
+        .map(|c| c.chars().count())
+        .chain(std::iter::once("filled, joined: Pareto front".len()))
+        .max()
+        .unwrap_or(0);
+    let (left, right, top, bottom) = (70.0, 40.0 + 7.0 * longest_label as f64, 30.0, 50.0);
+    let (w, h) = (520.0 + right, 480.0f64);
     let finite: Vec<&Row> = rows
         .iter()
         .filter(|r| {
@@ -213,12 +227,6 @@ pub(super) fn plot_svg(rows: &[Row], primary: &str) -> String {
     let colours = [
         "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b",
     ];
-    let mut cases: Vec<&str> = Vec::new();
-    for r in rows {
-        if !cases.contains(&r.case.as_str()) {
-            cases.push(&r.case);
-        }
-    }
     for (ci, case) in cases.iter().enumerate() {
         let colour = colours[ci % colours.len()];
         let mut front: Vec<&&Row> = finite
