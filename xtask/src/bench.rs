@@ -45,7 +45,7 @@ use report::{
 
 /// Bumped whenever the renderer or the protocol changes what a reference holds:
 /// part of every cache key, so stale references are never compared against.
-pub const PROTOCOL_VERSION: u32 = 1;
+pub const PROTOCOL_VERSION: u32 = 2;
 /// The protocol's image size: small enough that the sweep runs in minutes on two
 /// shared cores, large enough for region means over hundreds of pixels.
 pub const PROTOCOL_SIZE: (u32, u32) = (320, 180);
