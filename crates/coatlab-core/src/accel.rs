@@ -527,10 +527,12 @@ impl Accel {
             }
             false
         };
-        // The lanes in flight are `lanes[..active]`: a lane with no ray left to take
-        // swaps places with the last one in flight, so a step never tests whether
-        // its lane is in use. Which lane a ray runs in does not change its steps,
+        // The lanes in flight are `lanes[order[..active]]`: a lane with no ray left
+        // to take swaps its place in `order` with the last one in flight, so a step
+        // never tests whether its lane is in use, and no lane (its stack is most of
+        // a kilobyte) is copied. Which lane a ray runs in does not change its steps,
         // so neither does this its results.
+        let mut order: [usize; LANES] = std::array::from_fn(|i| i);
         let mut active = 0;
         while active < LANES && take(&mut lanes[active]) {
             active += 1;
@@ -542,7 +544,8 @@ impl Accel {
         let fetch_leaf = |pack: usize, _| fetch_pack(packs, pack);
         while active > 0 {
             let mut i = 0;
-            while let Some(lane) = lanes[..active].get_mut(i) {
+            while let Some(&slot) = order[..active].get(i) {
+                let lane = &mut lanes[slot];
                 let Lane {
                     box_ray,
                     sheared,
@@ -574,7 +577,7 @@ impl Accel {
                 } else {
                     // The last lane in flight takes this one's place and steps next.
                     active -= 1;
-                    lanes.swap(i, active);
+                    order.swap(i, active);
                 }
             }
         }
