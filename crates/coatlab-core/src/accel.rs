@@ -529,9 +529,9 @@ impl Accel {
         };
         // The lanes in flight are `lanes[order[..active]]`: a lane with no ray left
         // to take swaps its place in `order` with the last one in flight, so a step
-        // never tests whether its lane is in use, and no lane (its stack is most of
-        // a kilobyte) is copied. Which lane a ray runs in does not change its steps,
-        // so neither does this its results.
+        // never tests whether its lane is in use, and no lane (about 600 bytes,
+        // most of them its stack) is copied. Which lane a ray runs in does not
+        // change its steps, so neither does this its results.
         let mut order: [usize; LANES] = std::array::from_fn(|i| i);
         let mut active = 0;
         while active < LANES && take(&mut lanes[active]) {

@@ -139,6 +139,9 @@ pub(super) fn write_between_markers(path: &Path, table: &str) -> Result<(), Fail
         .or_fail(status::CANT_CREATE)
 }
 
+/// The plot legend's last line: how a point on the Pareto front is drawn.
+const FRONT_LEGEND: &str = "filled, joined: Pareto front";
+
 /// Error against time, log–log, every case; the front of each case joined.
 pub(super) fn plot_svg(rows: &[Row], primary: &str) -> String {
     let mut cases: Vec<&str> = Vec::new();
@@ -152,7 +155,7 @@ pub(super) fn plot_svg(rows: &[Row], primary: &str) -> String {
     let longest_label = cases
         .iter()
         .map(|c| c.chars().count())
-        .chain(std::iter::once("filled, joined: Pareto front".len()))
+        .chain(std::iter::once(FRONT_LEGEND.chars().count()))
         .max()
         .unwrap_or(0);
     let (left, right, top, bottom) = (70.0, 40.0 + 7.0 * longest_label as f64, 30.0, 50.0);
@@ -275,7 +278,7 @@ pub(super) fn plot_svg(rows: &[Row], primary: &str) -> String {
     let ly = top + 10.0 + 18.0 * cases.len() as f64;
     let _ = writeln!(
         s,
-        r##"<text x="{:.1}" y="{:.1}" fill="#555">filled, joined: Pareto front</text>"##,
+        r##"<text x="{:.1}" y="{:.1}" fill="#555">{FRONT_LEGEND}</text>"##,
         w - right + 8.0,
         ly + 8.0
     );
