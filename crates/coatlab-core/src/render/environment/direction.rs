@@ -14,16 +14,31 @@ use super::fast_math::{atan2_approx, sin_cos_fast};
 const GUESS_SLACK: f64 = 1e-6;
 
 /// A unit direction being looked up, with its azimuth computed at most once (an
-/// `atan2`, shared by the map's column and every emitter's azimuth test).
+/// `atan2`, shared by the map's column and every emitter's azimuth test), and so
+/// its polynomial guess.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Query {
     pub(super) d: DVec3,
     pub(super) azimuth: Option<f64>,
+    /// [`atan2_approx`] of the direction, once asked for.
+    guess: Option<Option<f64>>,
 }
 
 impl Query {
     pub(super) fn new(d: DVec3) -> Self {
-        Self { d, azimuth: None }
+        Self {
+            d,
+            azimuth: None,
+            guess: None,
+        }
+    }
+
+    /// The polynomial arctangent's φ (within 2e-8 rad; `None` at the poles).
+    #[inline]
+    pub(super) fn azimuth_guess(&mut self) -> Option<f64> {
+        *self
+            .guess
+            .get_or_insert_with(|| atan2_approx(self.d.x, self.d.z))
     }
 
     /// φ = atan2(x, z), in [−π, π].
@@ -42,7 +57,7 @@ impl Query {
         if let Some(azimuth) = self.azimuth {
             return (low..=high).contains(&azimuth);
         }
-        if let Some(guess) = atan2_approx(self.d.x, self.d.z)
+        if let Some(guess) = self.azimuth_guess()
             && (guess - low).abs() > GUESS_SLACK
             && (guess - high).abs() > GUESS_SLACK
             && guess.abs() < PI - GUESS_SLACK

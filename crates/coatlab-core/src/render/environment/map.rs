@@ -8,7 +8,7 @@ use std::f64::consts::PI;
 use glam::DVec3;
 
 use super::direction::{Query, azimuth_of_column, direction_from_azimuth_y_f32};
-use super::fast_math::{acos_approx, atan2_approx};
+use super::fast_math::acos_approx;
 use crate::sampling::{AliasEntry, Distribution1D, ONE_BELOW};
 
 /// Piecewise-constant spectral radiance over an equirectangular grid of texels
@@ -117,11 +117,11 @@ impl RadianceMap {
     /// at the poles), where only the exact `atan2` decides. An escape's look-up
     /// then costs no `atan2` but in a few cases in 10⁴.
     #[inline]
-    pub(super) fn column_without_atan2(&self, q: &Query) -> Option<usize> {
+    pub(super) fn column_without_atan2(&self, q: &mut Query) -> Option<usize> {
         if q.azimuth.is_some() {
             return None;
         }
-        let azimuth = atan2_approx(q.d.x, q.d.z)?;
+        let azimuth = q.azimuth_guess()?;
         let scale = self.width as f64 / (2.0 * PI);
         let x = (0.5 - azimuth / (2.0 * PI)) * self.width as f64;
         let col = x.floor();
@@ -341,7 +341,7 @@ mod tests {
         for d in directions.iter().map(|&d| d / d.length()) {
             let texel = map.texel(&mut Query::new(d));
             assert_eq!(texel % map.width, exact_column(d), "direction {d:?}");
-            fast += usize::from(map.column_without_atan2(&Query::new(d)).is_some());
+            fast += usize::from(map.column_without_atan2(&mut Query::new(d)).is_some());
         }
         // The shortcut answers nearly every random direction.
         assert!(fast > 100_000 * 99 / 100, "{fast}");
