@@ -29,8 +29,8 @@
 //!
 //! After [`IntegratorSettings::roulette_start`] bounces, Russian roulette ends paths
 //! with probability 1 − q, q = max_λ throughput held within
-//! [[`ROULETTE_LEAST_SURVIVAL`], 0.95], and divides the survivors by q, which keeps
-//! the estimate unbiased. Paths also end at
+//! [[`ROULETTE_LEAST_SURVIVAL`], [`ROULETTE_MOST_SURVIVAL`]], and divides the
+//! survivors by q, which keeps the estimate unbiased. Paths also end at
 //! [`IntegratorSettings::max_bounces`] (a bias toward darker images, taken to be far
 //! below the noise for the car; no measurement of it is recorded).
 //!
@@ -101,11 +101,16 @@ impl Default for IntegratorSettings {
 /// (docs/benchmarks.md, "Comparison").
 pub const ROULETTE_LEAST_SURVIVAL: f32 = 0.3;
 
+/// The most survival probability Russian roulette gives a path: even a bright
+/// path may end, so that no path runs to [`IntegratorSettings::max_bounces`] for
+/// certain.
+pub const ROULETTE_MOST_SURVIVAL: f32 = 0.95;
+
 /// The probability that Russian roulette lets a path go on whose largest
 /// throughput over the wavelengths is `largest`.
 #[inline]
 fn roulette_survival(largest: f32) -> f32 {
-    largest.clamp(ROULETTE_LEAST_SURVIVAL, 0.95)
+    largest.clamp(ROULETTE_LEAST_SURVIVAL, ROULETTE_MOST_SURVIVAL)
 }
 
 /// Most light samples at the first vertex ([`IntegratorSettings::first_light_samples`]).
