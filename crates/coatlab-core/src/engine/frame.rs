@@ -111,11 +111,29 @@ pub(super) fn film_frame(
     display: &DisplaySettings,
     coarse: bool,
 ) -> Frame {
+    frame_showing(
+        view.film().to_display(display),
+        view,
+        stats,
+        display,
+        coarse,
+    )
+}
+
+/// A view's frame showing `pixels` (its film as shown, or a pane made from it):
+/// the view's size, samples, rate and noise with `display`.
+fn frame_showing(
+    pixels: Vec<[u8; 4]>,
+    view: &impl BackendView,
+    stats: PassStats,
+    display: &DisplaySettings,
+    coarse: bool,
+) -> Frame {
     let film = view.film();
     Frame {
         width: film.width(),
         height: film.height(),
-        pixels: film.to_display(display),
+        pixels,
         samples_per_pixel: view.samples_per_pixel(),
         samples_per_second: stats.samples_per_second(),
         noise_delta_e: if coarse {
@@ -170,17 +188,25 @@ pub(super) fn shared_update(
     display: &DisplaySettings,
     (coarse, map_due): (bool, bool),
 ) -> ViewsUpdate {
-    let first = Frame {
-        pixels: display_xyz(&pane_a.xyz, display),
-        ..film_frame(a, stats_a, display, coarse)
-    };
+    let first = frame_showing(
+        display_xyz(&pane_a.xyz, display),
+        a,
+        stats_a,
+        display,
+        coarse,
+    );
     let second = Frame {
-        pixels: display_xyz(&pane_b.xyz, display),
         source: Some(SecondSource::Shared {
             recorded_spp: shared_spp,
             own_weight: *own_weight,
         }),
-        ..film_frame(b, stats_b, display, coarse)
+        ..frame_showing(
+            display_xyz(&pane_b.xyz, display),
+            b,
+            stats_b,
+            display,
+            coarse,
+        )
     };
     let map = map_due.then(|| {
         DeltaEMap::between_xyz(

@@ -104,11 +104,13 @@ impl<V: BackendView> ViewSet<V> {
         let (second, (difference, _)) = (self.second.as_ref()?, self.difference.as_ref()?);
         self.shared.as_ref()?;
         let (a, b) = (self.first.film(), second.film());
-        Some(
-            difference
-                .combine_first(a, b)
-                .and_then(|first| Ok([first, difference.combine(a, b)?])),
-        )
+        // The two panes side by side: each pass publishes them while the
+        // tracer's threads wait.
+        let (first, second) = rayon::join(
+            || difference.combine_first(a, b),
+            || difference.combine(a, b),
+        );
+        Some(first.and_then(|first| Ok([first, second?])))
     }
 
     /// The second view's image for an export.

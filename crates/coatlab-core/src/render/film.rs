@@ -317,6 +317,49 @@ fn add_exact(pixel: &mut PixelSums, exact: &mut [i128; 3], part: &[i128; 3]) {
     }
 }
 
+/// Rows of a film's per-pixel sums (each slice the same pixels, row major from
+/// the rows' first pixel): what a merge writes, one film's rows or one row of
+/// many tiles at a time.
+struct FilmRows<'a> {
+    pixels: &'a mut [PixelSums],
+    exact: &'a mut [[i128; 3]],
+    squares: &'a mut [[f64; 3]],
+    blocks: &'a mut [BlockSums],
+}
+
+impl FilmRows<'_> {
+    /// Adds row `row` of `other` (a film inside these rows' film, checked by
+    /// [`Film::check_mergeable`]) to the pixels from index `start` on.
+    #[inline]
+    fn merge_row(&mut self, other: &Film, row: usize, start: usize) {
+        let width = other.width as usize;
+        let range = row * width..(row + 1) * width;
+        let pixels = self.pixels[start..][..width].iter_mut();
+        let exact = self.exact[start..][..width].iter_mut();
+        let sources = other.pixels[range.clone()]
+            .iter()
+            .zip(&other.exact[range.clone()]);
+        for ((to, to_exact), (from, from_exact)) in pixels.zip(exact).zip(sources) {
+            add_exact(to, to_exact, from_exact);
+            to.count += from.count;
+        }
+        for (to, from) in self.squares[start..][..width]
+            .iter_mut()
+            .zip(&other.squares[range.clone()])
+        {
+            for k in 0..3 {
+                to[k] += from[k];
+            }
+        }
+        for (to, from) in self.blocks[start..][..width]
+            .iter_mut()
+            .zip(&other.blocks[range])
+        {
+            to.merge(from);
+        }
+    }
+}
+
 /// The unbiased sample variance over n of a pixel's mean XYZ, per component;
 /// `None` below two samples.
 #[inline]
@@ -504,6 +547,59 @@ impl Film {
     /// If `other` is for a different grid or image size, or covers pixels outside
     /// this film's region (programming errors).
     pub fn merge(&mut self, other: &Film) {
+        self.check_mergeable(other);
+        let width = self.width as usize;
+        let column = (other.origin[0] - self.origin[0]) as usize;
+        let first_row = (other.origin[1] - self.origin[1]) as usize;
+        let mut rows = self.rows_mut();
+        for row in 0..other.height as usize {
+            rows.merge_row(other, row, (first_row + row) * width + column);
+        }
+        self.rejected += other.rejected;
+    }
+
+    /// [`Self::merge`] of every film of `tiles` (disjoint or not), its rows in
+    /// parallel: after each progressive pass the whole image's tiles are merged
+    /// while the tracer's threads would otherwise wait. Each pixel takes its
+    /// tiles' sums in the order of `tiles`, so the film is bit for bit that of
+    /// merging them one by one, whatever the thread count.
+    ///
+    /// # Panics
+    /// As [`Self::merge`], for any of `tiles`.
+    pub fn merge_tiles(&mut self, tiles: &[Film]) {
+        use rayon::prelude::*;
+        for tile in tiles {
+            self.check_mergeable(tile);
+        }
+        // A film of no columns has no pixels, so no chunks either.
+        let (width, [origin_x, origin_y]) = (self.width.max(1) as usize, self.origin);
+        let rows = (self.pixels.par_chunks_mut(width))
+            .zip(self.exact.par_chunks_mut(width))
+            .zip(self.squares.par_chunks_mut(width))
+            .zip(self.blocks.par_chunks_mut(width));
+        rows.enumerate()
+            .for_each(|(y, (((pixels, exact), squares), blocks))| {
+                let mut row = FilmRows {
+                    pixels,
+                    exact,
+                    squares,
+                    blocks,
+                };
+                let image_y = origin_y + y as u32;
+                for tile in tiles {
+                    if let Some(tile_row) = image_y.checked_sub(tile.origin[1])
+                        && tile_row < tile.height
+                    {
+                        let column = (tile.origin[0] - origin_x) as usize;
+                        row.merge_row(tile, tile_row as usize, column);
+                    }
+                }
+            });
+        self.rejected += tiles.iter().map(|t| t.rejected).sum::<u64>();
+    }
+
+    /// The checks of [`Self::merge`] (see its panics).
+    fn check_mergeable(&self, other: &Film) {
         assert!(
             self.weights.channels == other.weights.channels,
             "merging films on different channels"
@@ -520,28 +616,16 @@ impl Film {
             inside,
             "merging a film that is not inside this one's region"
         );
-        for row in 0..other.height as usize {
-            let start = self.index(other.origin[0], other.origin[1] + row as u32);
-            let range = row * other.width as usize..(row + 1) * other.width as usize;
-            let pixels = self.pixels[start..][..range.len()].iter_mut();
-            let exact = self.exact[start..][..range.len()].iter_mut();
-            let sources = other.pixels[range.clone()].iter().zip(&other.exact[range]);
-            for ((to, to_exact), (from, from_exact)) in pixels.zip(exact).zip(sources) {
-                add_exact(to, to_exact, from_exact);
-                to.count += from.count;
-            }
-            let source = &other.squares[row * other.width as usize..][..other.width as usize];
-            for (to, from) in self.squares[start..][..source.len()].iter_mut().zip(source) {
-                for k in 0..3 {
-                    to[k] += from[k];
-                }
-            }
-            let source = &other.blocks[row * other.width as usize..][..other.width as usize];
-            for (to, from) in self.blocks[start..][..source.len()].iter_mut().zip(source) {
-                to.merge(from);
-            }
+    }
+
+    /// The per-pixel sums of every row of this film's region.
+    fn rows_mut(&mut self) -> FilmRows<'_> {
+        FilmRows {
+            pixels: &mut self.pixels,
+            exact: &mut self.exact,
+            squares: &mut self.squares,
+            blocks: &mut self.blocks,
         }
-        self.rejected += other.rejected;
     }
 
     /// Accumulates one sample of spectral radiance (on the film's grid) at pixel
@@ -740,10 +824,13 @@ impl Film {
     /// The displayable image of this film's region: 8-bit sRGB, alpha 255,
     /// row-major from the top-left. Pixels without samples are black.
     pub fn to_display_srgba(&self, settings: &DisplaySettings) -> Vec<Srgba<u8>> {
+        use rayon::prelude::*;
         let m = display_matrix(settings.adapt_white, settings.exposure_stops);
         let lut = encode_lut();
+        // In parallel: the preview converts every pass's film while the tracer's
+        // threads wait for the next pass.
         self.pixels
-            .iter()
+            .par_iter()
             .map(|p| {
                 if p.count == 0 {
                     return Srgba::new(0, 0, 0, 255);
@@ -781,30 +868,33 @@ impl Film {
     /// degree of freedom: only the mean over many pixels is an estimate; the 95th
     /// percentile mixes the pixels' spread with that per-pixel noise.
     pub fn noise_estimate(&self, settings: &DisplaySettings, stride: u32) -> Option<NoiseEstimate> {
+        use rayon::prelude::*;
         let transform = DisplayTransform::of(settings);
         let stride = stride.max(1) as usize;
-        let mut errors = Vec::new();
-        for y in (0..self.height as usize).step_by(stride) {
-            for x in (0..self.width as usize).step_by(stride) {
-                let index = y * self.width as usize + x;
-                let p = &self.pixels[index];
-                let Some(error) = self.blocks[index].error_of_mean(p) else {
-                    continue;
-                };
-                let n = p.count as f64;
-                let mean = p.sum.map(|s| s / n);
-                let a = transform.lab_of_xyz(Xyz::new(mean[0], mean[1], mean[2]));
-                let b = transform.lab_of_xyz(Xyz::new(
-                    mean[0] + error[0],
-                    mean[1] + error[1],
-                    mean[2] + error[2],
-                ));
-                let delta = ciede2000(a, b);
-                if delta.is_finite() {
-                    errors.push(delta);
-                }
-            }
-        }
+        // Rows in parallel (the preview asks after every pass), collected in
+        // order, so the figures do not depend on the thread count.
+        let rows: Vec<usize> = (0..self.height as usize).step_by(stride).collect();
+        let mut errors: Vec<f64> = rows
+            .par_iter()
+            .flat_map_iter(|&y| {
+                (0..self.width as usize)
+                    .step_by(stride)
+                    .filter_map(move |x| {
+                        let index = y * self.width as usize + x;
+                        let p = &self.pixels[index];
+                        let error = self.blocks[index].error_of_mean(p)?;
+                        let n = p.count as f64;
+                        let mean = p.sum.map(|s| s / n);
+                        let a = transform.lab_of_xyz(Xyz::new(mean[0], mean[1], mean[2]));
+                        let b = transform.lab_of_xyz(Xyz::new(
+                            mean[0] + error[0],
+                            mean[1] + error[1],
+                            mean[2] + error[2],
+                        ));
+                        Some(ciede2000(a, b)).filter(|delta| delta.is_finite())
+                    })
+            })
+            .collect();
         if errors.is_empty() {
             return None;
         }
@@ -1143,6 +1233,51 @@ mod tests {
     /// The estimate of one pixel by hand: samples 0 .. 4 and a fifth, P = 4, the
     /// error of the first four samples' mean taken as half the difference of
     /// samples 0–1's and 2–3's means, scaled by √(4/5).
+    /// Merging a pass's tiles in parallel gives the film of merging them one
+    /// by one, bit for bit: on a sub-region of an image (tiles of uneven sizes
+    /// at its edges), with a second pass over the region among the "tiles" (so
+    /// pixels take two parts, in the list's order), and rejected samples.
+    #[test]
+    fn merging_tiles_in_parallel_is_merging_them_one_by_one() {
+        let grid = WavelengthGrid::visible(4).unwrap();
+        let image = Film::new(23, 17, grid);
+        let region = image.tile(3, 2, 19, 13);
+        let fill = |film: &mut Film, salt: u32| {
+            let [x0, y0] = film.origin();
+            for y in y0..y0 + film.height() {
+                for x in x0..x0 + film.width() {
+                    for s in 0..3 {
+                        let v = 0.1 + ((x * 31 + y * 7 + s * 3 + salt) % 17) as f32 * 0.37;
+                        film.add_sample(x, y, &[v, 2.0 * v, 0.5 * v, v * v]);
+                    }
+                }
+            }
+        };
+        let mut parts = region.tiles(5);
+        for (k, tile) in parts.iter_mut().enumerate() {
+            fill(tile, k as u32);
+        }
+        let mut whole_pass = region.tile(3, 2, 19, 13);
+        fill(&mut whole_pass, 99);
+        whole_pass.add_sample(4, 3, &[f32::NAN; 4]);
+        parts.insert(3, whole_pass);
+        let mut one_by_one = region.tile(3, 2, 19, 13);
+        for part in &parts {
+            one_by_one.merge(part);
+        }
+        let mut parallel = region.tile(3, 2, 19, 13);
+        parallel.merge_tiles(&parts);
+        assert_eq!(parallel.pixels, one_by_one.pixels);
+        assert_eq!(parallel.exact, one_by_one.exact);
+        assert_eq!(parallel.blocks, one_by_one.blocks);
+        let bits = |film: &Film| -> Vec<u64> {
+            film.squares.iter().flatten().map(|v| v.to_bits()).collect()
+        };
+        assert_eq!(bits(&parallel), bits(&one_by_one));
+        assert_eq!(parallel.rejected_samples(), 1);
+        assert_eq!(one_by_one.rejected_samples(), 1);
+    }
+
     #[test]
     fn error_of_mean_is_the_half_difference_of_the_prefix_halves() {
         let grid = Channels::LinearSrgb;

@@ -793,9 +793,7 @@ impl ProgressiveRender {
             self.cache.samples_per_pixel = end.saturating_sub(self.cache_first);
             self.cache.tiles.iter_mut().for_each(TileCache::end_pass);
         }
-        for tile in &self.tiles {
-            self.film.merge(tile);
-        }
+        self.film.merge_tiles(&self.tiles);
         if counts.is_some() {
             self.adaptive_passes += 1;
         }
