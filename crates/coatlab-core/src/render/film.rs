@@ -53,10 +53,11 @@
 //! samples 2–3; k: 2^(k−1) .. 2^k). Per pixel the film keeps the sums of the
 //! highest block holding a sample and of the one below; everything lower is the
 //! total minus those. Samples may arrive in any order and tiles of later passes
-//! merge exactly (the block sums of the union are the sums of the parts'). Parallel rendering takes [`Film::tiles`], fills each tile on its
-//! own thread with image pixel coordinates, and [`Film::merge`]s them back in a fixed
-//! order: a pixel receives its samples in the same order as in a serial render, so
-//! the result is bit-for-bit deterministic.
+//! merge exactly (the block sums of the union are the sums of the parts').
+//! Parallel rendering takes [`Film::tiles`], fills each tile on its own thread
+//! with image pixel coordinates, and merges them back ([`Film::merge_tiles`], the
+//! film's rows in parallel) in a fixed order: a pixel receives its samples in the
+//! same order as in a serial render, so the result is bit-for-bit deterministic.
 //!
 //! # Tone mapping
 //! See [`ToneMapping`]: Khronos PBR Neutral by default, which shows every colour
@@ -873,10 +874,10 @@ impl Film {
         let stride = stride.max(1) as usize;
         // Rows in parallel (the preview asks after every pass), collected in
         // order, so the figures do not depend on the thread count.
-        let rows: Vec<usize> = (0..self.height as usize).step_by(stride).collect();
-        let mut errors: Vec<f64> = rows
-            .par_iter()
-            .flat_map_iter(|&y| {
+        let mut errors: Vec<f64> = (0..self.height as usize)
+            .into_par_iter()
+            .step_by(stride)
+            .flat_map_iter(|y| {
                 (0..self.width as usize)
                     .step_by(stride)
                     .filter_map(move |x| {
