@@ -18,9 +18,9 @@
 //! the signal about once in a hundred); counted, like one run's noise, also where
 //! the reference map is decided, with what those pixels show. The pixels where a
 //! single run's noise is not below the signal are listed by what they show, and
-//! one by one with the map, the signal, the first
-//! view's samples there, and each pane's CIELAB beside its reference's (whether
-//! the error is one of lightness or of hue).
+//! one by one with the map, the signal, the first view's samples there, and each
+//! pane's CIELAB beside its reference's (whether the error is one of lightness or
+//! of hue).
 //! In `designs` mode the second design is the second preset, or with
 //! `COMPARE_SECOND_GU=GU` the first preset at another gloss reading (the same
 //! geometry): a variant a designer compares with the original.
