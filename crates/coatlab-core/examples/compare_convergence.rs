@@ -413,10 +413,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         known.noise_mean,
         known.percent_below()
     );
-    // Per pixel, the sum over runs of the squared error of the map, for each way
-    // the runs were made (map guidance on or off, which lobes are shared), with
+    // Per pixel, the sums over runs of the map's error and of its square, for each
+    // way the runs were made (map guidance on or off, which lobes are shared), with
     // their count.
-    let mut squared_error = std::collections::BTreeMap::<String, (Vec<f64>, usize)>::new();
+    let mut run_errors = std::collections::BTreeMap::<String, (Vec<f64>, Vec<f64>, usize)>::new();
+    let mut run_panes: Vec<(Vec<f64>, Vec<Lab>, Vec<Lab>)> = Vec::new();
     for (run, (first, second)) in panes.iter().enumerate() {
         let way = format!(
             "map guidance {}, {}",
@@ -427,9 +428,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 Some(_) => "lobes that differ by more than 1 % rendered apart",
             }
         );
-        let (errors, runs) = squared_error
+        let (errors, squared_errors, runs) = run_errors
             .entry(way)
-            .or_insert_with(|| (vec![0.0; signal.len()], 0));
+            .or_insert_with(|| (vec![0.0; signal.len()], vec![0.0; signal.len()], 0));
         *runs += 1;
         let (la, lb) = (labs(first, &display), labs(second, &display));
         println!(
@@ -438,8 +439,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             mean(&delta_e(&lb, &lrb))
         );
         let map = delta_e(&la, &lb);
-        for (e, (m, s)) in errors.iter_mut().zip(map.iter().zip(&signal)) {
-            *e += (m - s) * (m - s);
+        for ((e, e2), (m, s)) in errors
+            .iter_mut()
+            .zip(squared_errors.iter_mut())
+            .zip(map.iter().zip(&signal))
+        {
+            *e += m - s;
+            *e2 += (m - s) * (m - s);
         }
         let noise: Vec<f64> = map
             .iter()
@@ -469,6 +475,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             on_decided.percent_below(),
             on_decided.misses.len()
         );
+        run_panes.push((map.clone(), la.clone(), lb.clone()));
         if run == 0 {
             describe_misses(&tally.misses, &map, &signal, &scene, &camera, width);
             for &i in &tally.misses {
@@ -489,13 +496,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
     }
-    for (way, (errors, runs)) in squared_error {
+    for (way, (errors, squared_errors, runs)) in run_errors {
         if runs < 2 {
             continue;
         }
         // The map's noise at a pixel as the root mean square of its error over the
         // independent runs (one run's |error| is a single draw of it).
-        let rms: Vec<f64> = errors.iter().map(|e| (e / runs as f64).sqrt()).collect();
+        let rms: Vec<f64> = squared_errors
+            .iter()
+            .map(|e| (e / runs as f64).sqrt())
+            .collect();
         let tally = NoiseTally::of(&rms, &signal);
         println!(
             "over {runs} runs, {way}: the map's RMS noise where the models differ by > 1: mean \
@@ -521,6 +531,36 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             on_decided.misses.len(),
             shown.join(", ")
         );
+        // An RMS is the runs' spread about their mean and that mean's offset from
+        // the reference map: an offset well beyond the spread over √runs is the
+        // reference's own error, or a bias of the map.
+        for &i in &on_decided.misses {
+            let offset = errors[i] / runs as f64;
+            let spread = (squared_errors[i] / runs as f64 - offset * offset)
+                .max(0.0)
+                .sqrt();
+            println!(
+                "  RMS miss ({}, {}): signal {:.2}, RMS {:.2}: runs' mean {:+.2} from the \
+                 reference map, spread {:.2}; the reference map's own noise {:.2}",
+                i % width as usize,
+                i / width as usize,
+                signal[i],
+                rms[i],
+                offset,
+                spread,
+                reference_noise[i]
+            );
+            for (map, la, lb) in &run_panes {
+                println!(
+                    "    map {:.2}: first ({:.1}, {:.1}, {:.1}) second ({:.1}, {:.1}, {:.1})",
+                    map[i], la[i].l, la[i].a, la[i].b, lb[i].l, lb[i].a, lb[i].b
+                );
+            }
+            println!(
+                "    references: first ({:.1}, {:.1}, {:.1}) second ({:.1}, {:.1}, {:.1})",
+                lra[i].l, lra[i].a, lra[i].b, lrb[i].l, lrb[i].a, lrb[i].b
+            );
+        }
     }
     Ok(())
 }
