@@ -38,12 +38,12 @@ fn film(seed: u64, tint: f32) -> Film {
     film
 }
 
-/// What a shared comparison's guide is given: both films' means as panes and a
-/// variance of their difference's Y.
+/// What a shared comparison's guide is given: both films' means as panes and
+/// the variances of their difference's X, Y and Z.
 struct Panes {
     first: Vec<[f32; 3]>,
     second: Vec<[f32; 3]>,
-    variance_y: Vec<f32>,
+    variance: Vec<[f32; 3]>,
 }
 
 fn panes(a: &Film, b: &Film) -> Panes {
@@ -56,14 +56,17 @@ fn panes(a: &Film, b: &Film) -> Panes {
             })
             .collect()
     };
-    let variance_y = (0..HEIGHT)
+    let variance = (0..HEIGHT)
         .flat_map(|y| (0..WIDTH).map(move |x| (x, y)))
-        .map(|(x, y)| (a.variance_of_mean_xyz(x, y)[1] + b.variance_of_mean_xyz(x, y)[1]) as f32)
+        .map(|(x, y)| {
+            let (va, vb) = (a.variance_of_mean_xyz(x, y), b.variance_of_mean_xyz(x, y));
+            std::array::from_fn(|c| (va[c] + vb[c]) as f32)
+        })
         .collect();
     Panes {
         first: means(a),
         second: means(b),
-        variance_y,
+        variance,
     }
 }
 
@@ -82,7 +85,7 @@ fn guide_apart(a: &Film, b: &Film, display: &DisplaySettings) -> Option<Vec<f32>
 }
 
 fn guide_shared(p: &Panes, a: &Film, display: &DisplaySettings) -> Option<Vec<f32>> {
-    shared_map_guided_weights(&p.first, &p.second, &p.variance_y, a, display)
+    shared_map_guided_weights(&p.first, &p.second, &p.variance, a, display)
 }
 
 fn comparison(c: &mut Criterion) {

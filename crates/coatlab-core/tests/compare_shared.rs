@@ -369,9 +369,9 @@ fn successive_recordings_merge_into_the_difference_of_all_their_samples() {
         "the second recording repeats the first's samples"
     );
     let total = |d: &ShadingDifference| {
-        d.variance_of_mean_y()
+        d.variance_of_mean_xyz()
             .iter()
-            .map(|&v| f64::from(v))
+            .map(|v| f64::from(v[1]))
             .sum::<f64>()
     };
     let ratio = total(&merged) / total(&all);
@@ -458,14 +458,14 @@ fn recordings_of_weighted_passes_hold_each_pixels_own_samples_and_merge_by_them(
     );
 }
 
-/// The variance of the panes' difference in Y that the map guidance reads
-/// (`ShadingDifference::panes_difference_variance_y`), summed over the image,
-/// against the spread of that difference over independent replicas: above it,
-/// as every variance estimated from a pixel's stratified samples is
-/// (tests/render.rs, `film_variance_overstates_the_replica_spread`), and less
-/// than three times it. Measured ×2.2; the panes' own variances summed, which
-/// leave out that the panes share the difference, give ×6.2, and the shared
-/// difference's variance alone ×3.4. Each replica: a paint render recording
+/// The variances of the panes' difference in X, Y and Z that the map guidance
+/// reads (`ShadingDifference::panes_difference_variance_xyz`), each summed over
+/// the image, against the spread of that difference over independent
+/// replicas: above it, as every variance estimated from a pixel's stratified
+/// samples is (tests/render.rs, `film_variance_overstates_the_replica_spread`),
+/// and less than three times it. Measured in Y ×2.2; the panes' own variances
+/// summed, which leave out that the panes share the difference, give ×6.2,
+/// and the shared difference's variance alone ×3.4. Each replica: a paint render recording
 /// every sample and a Phong render of its own with the same seed, as the
 /// engine's two views are.
 #[test]
@@ -473,8 +473,8 @@ fn the_panes_difference_variance_follows_the_spread_over_replicas() {
     const SPP: u32 = 16;
     const K: usize = 16;
     let pixels = (WIDTH * HEIGHT) as usize;
-    let mut predicted = 0.0;
-    let mut differences: Vec<Vec<f64>> = Vec::with_capacity(K);
+    let mut predicted = [0.0; 3];
+    let mut differences: Vec<Vec<[f64; 3]>> = Vec::with_capacity(K);
     for i in 0..K {
         let s = seed(300 + i as u64);
         let (a, scene) = render(ShadingModel::Paint, s, SPP, SPP);
@@ -483,36 +483,42 @@ fn the_panes_difference_variance_follows_the_spread_over_replicas() {
         let (first, _) = d.combine_first(a.film(), b.film()).expect("first pane");
         let (second, _) = d.combine(a.film(), b.film()).expect("second pane");
         let variance = d
-            .panes_difference_variance_y(a.film(), b.film())
+            .panes_difference_variance_xyz(a.film(), b.film())
             .expect("same size");
-        predicted += variance.iter().map(|&v| f64::from(v)).sum::<f64>() / K as f64;
+        for (c, sum) in predicted.iter_mut().enumerate() {
+            *sum += variance.iter().map(|v| f64::from(v[c])).sum::<f64>() / K as f64;
+        }
         differences.push(
             first
                 .xyz
                 .iter()
                 .zip(&second.xyz)
-                .map(|(p, q)| f64::from(q[1]) - f64::from(p[1]))
+                .map(|(p, q)| std::array::from_fn(|c| f64::from(q[c]) - f64::from(p[c])))
                 .collect(),
         );
     }
-    let measured: f64 = (0..pixels)
-        .map(|p| {
-            let mean = differences.iter().map(|d| d[p]).sum::<f64>() / K as f64;
-            differences
-                .iter()
-                .map(|d| (d[p] - mean).powi(2))
-                .sum::<f64>()
-                / (K - 1) as f64
-        })
-        .sum();
-    let ratio = predicted / measured;
-    println!(
-        "panes' difference, variance of Y summed: predicted {predicted:.3e}, over replicas {measured:.3e}, ratio {ratio:.2}"
-    );
-    assert!(
-        (1.0..3.0).contains(&ratio),
-        "predicted ×{ratio:.2} the replicas' spread"
-    );
+    for (c, channel) in ["X", "Y", "Z"].into_iter().enumerate() {
+        let measured: f64 = (0..pixels)
+            .map(|p| {
+                let mean = differences.iter().map(|d| d[p][c]).sum::<f64>() / K as f64;
+                differences
+                    .iter()
+                    .map(|d| (d[p][c] - mean).powi(2))
+                    .sum::<f64>()
+                    / (K - 1) as f64
+            })
+            .sum();
+        let ratio = predicted[c] / measured;
+        println!(
+            "panes' difference, variance of {channel} summed: predicted {:.3e}, over replicas \
+             {measured:.3e}, ratio {ratio:.2}",
+            predicted[c]
+        );
+        assert!(
+            (1.0..3.0).contains(&ratio),
+            "{channel}: predicted ×{ratio:.2} the replicas' spread"
+        );
+    }
 }
 
 /// A pass cancelled before any tile ran leaves the recorded counts as they

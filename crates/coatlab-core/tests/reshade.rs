@@ -87,14 +87,14 @@ fn weights() -> &'static Weights {
     WEIGHTS.get_or_init(car_render::weights)
 }
 
-/// The reported variance of Y (`Reshaded::variance_y`) against the replicas'
+/// The reported variance of Y (`Reshaded::variance_xyz`) against the replicas'
 /// spread: Σ over pixels of the replicas' mean report over Σ of the variance of
 /// one replica's Y.
 fn reported_over_actual(reshades: &[Reshaded], replicas: &Replicas) -> f64 {
     let k = reshades.len() as f64;
     let reported: f64 = reshades
         .iter()
-        .flat_map(|r| r.variance_y.iter().map(|&v| f64::from(v)))
+        .flat_map(|r| r.variance_xyz.iter().map(|v| f64::from(v[1])))
         .sum::<f64>()
         / k;
     let actual: f64 = replicas.variance.iter().map(|v| v[1] * k).sum();
@@ -657,7 +657,7 @@ fn partial_reshades_agree_with_fresh_renders() {
     let full_replicas = replicas(&full);
     let mean_reported = |r: &[Reshaded]| {
         r.iter()
-            .flat_map(|r| r.variance_y.iter().map(|&v| f64::from(v)))
+            .flat_map(|r| r.variance_xyz.iter().map(|v| f64::from(v[1])))
             .sum::<f64>()
     };
     for m in [1, 2] {
@@ -699,7 +699,7 @@ fn partial_reshades_agree_with_fresh_renders() {
         9,
     );
     assert_eq!(all.xyz, full[0].xyz);
-    assert_eq!(all.variance_y, full[0].variance_y);
+    assert_eq!(all.variance_xyz, full[0].variance_xyz);
 }
 
 /// `render`'s recorded paths re-shaded with `shading` from the first `samples` of
@@ -750,7 +750,7 @@ fn partial_reshades_do_not_depend_on_the_pass_sizes() {
         let other = reshaded(passes);
         for (m, (a, b)) in ones.iter().zip(&other).enumerate() {
             assert_eq!(a.xyz, b.xyz, "first {} samples, passes {passes:?}", m + 1);
-            assert_eq!(a.variance_y, b.variance_y, "first {} samples", m + 1);
+            assert_eq!(a.variance_xyz, b.variance_xyz, "first {} samples", m + 1);
         }
     }
     assert_ne!(ones[0].xyz, ones[3].xyz);

@@ -7,8 +7,8 @@
 //! noise of either film ([`Film::sample_delta_e`]). Shared, the map is between
 //! the two panes, whose difference is mostly the shared difference of the first
 //! view's recorded paths; its error is what one standard error of that
-//! difference's Y moves the colour by
-//! ([`crate::render::reshade::ShadingDifference::panes_difference_variance_y`]),
+//! difference's X, Y and Z moves the colour by
+//! ([`crate::render::reshade::ShadingDifference::panes_difference_variance_xyz`]),
 //! and s = σ √n with n the first view's samples (its recordings take every
 //! sample of its passes, so a pixel's recorded samples grow with its weight,
 //! [`crate::render::reshade::PathCache::recorded_per_pixel`]). A pixel whose
@@ -138,25 +138,27 @@ pub fn map_guided_weights(a: &Film, b: &Film, display: &DisplaySettings) -> Opti
 }
 
 /// [`map_guided_weights`] for a shared comparison: its panes `first` and
-/// `second` (each a mean XYZ per pixel), the variance of the second's Y less
-/// the first's per pixel (`difference_variance_y`, what
-/// [`crate::render::reshade::ShadingDifference::panes_difference_variance_y`]
+/// `second` (each a mean XYZ per pixel), the variances of the second's X, Y
+/// and Z less the first's per pixel (`difference_variance`, what
+/// [`crate::render::reshade::ShadingDifference::panes_difference_variance_xyz`]
 /// gives) and the first view's film, whose samples per pixel the panes' noise
 /// falls with (its recordings take the same share of the weights as its
 /// passes). The map's error at a pixel is the ΔE00 that one standard error of
-/// that Y moves the second pane's colour by, along its own chromaticity: the
-/// panes' variance is known for Y only. `None` while a pixel has fewer than two
-/// samples or the sizes differ.
+/// each of X, Y and Z moves the second pane's colour by, as a film's
+/// per-sample noise is taken ([`Film::sample_delta_e`]): in a dark pixel of a
+/// saturated colour the map's noise is mostly one of chroma, which an error of
+/// Y alone along the colour's own chromaticity would not show. `None` while a
+/// pixel has fewer than two samples or the sizes differ.
 pub fn shared_map_guided_weights(
     first: &[[f32; 3]],
     second: &[[f32; 3]],
-    difference_variance_y: &[f32],
+    difference_variance: &[[f32; 3]],
     film: &Film,
     display: &DisplaySettings,
 ) -> Option<Vec<f32>> {
     let (width, height) = (film.width(), film.height());
     let pixels = width as usize * height as usize;
-    if difference_variance_y.len() != pixels {
+    if difference_variance.len() != pixels {
         return None;
     }
     let map = DeltaEMap::between_xyz(width, height, first, second, display)?;
@@ -169,19 +171,12 @@ pub fn shared_map_guided_weights(
     }
     let noise: Vec<f32> = second
         .par_iter()
-        .zip(difference_variance_y.par_iter())
+        .zip(difference_variance.par_iter())
         .zip(samples.par_iter())
         .map(|((&colour, &variance), &n)| {
             let c = colour.map(f64::from);
-            let se = f64::from(variance).max(0.0).sqrt();
-            // The direction a change of Y moves the colour in: its own
-            // chromaticity, or white where it has no luminance to scale.
-            let along = if c[1] > 1e-9 {
-                c.map(|v| v / c[1])
-            } else {
-                [0.9505, 1.0, 1.089]
-            };
-            let delta = transform.delta_e_of_offset(c, along.map(|a| se * a));
+            let se = variance.map(|v| f64::from(v).max(0.0).sqrt());
+            let delta = transform.delta_e_of_offset(c, se);
             if delta.is_finite() {
                 (delta * n.sqrt()) as f32
             } else {
@@ -515,8 +510,9 @@ mod tests {
     /// Shared panes that differ by a little over 2 ΔE00 on the 3 × 3 pixels
     /// around the centre, and agree precisely elsewhere: where the variance of
     /// their difference makes that reading uncertain, those pixels and their
-    /// neighbours ask for more samples; where it is precise, the weights stay
-    /// even.
+    /// neighbours ask for more samples, also where only X and Z are uncertain
+    /// (a difference whose noise is one of chroma); where it is precise, the
+    /// weights stay even.
     #[test]
     fn shared_panes_ask_where_their_difference_is_uncertain() {
         let pixels = (SIZE * SIZE) as usize;
@@ -538,37 +534,44 @@ mod tests {
         println!("the centre reads {:.2}", map.values[pixels / 2]);
         assert!((2.0..3.0).contains(&map.values[pixels / 2]));
         let films = film(8, grey);
-        let weights_with = |standard_error: f32| {
-            let variance: Vec<f32> = (0..pixels)
+        let weights_with = |standard_error: [f32; 3]| {
+            let variance: Vec<[f32; 3]> = (0..pixels)
                 .map(|i| {
                     if centre(i) {
-                        standard_error.powi(2)
+                        standard_error.map(|e| e * e)
                     } else {
-                        0.0
+                        [0.0; 3]
                     }
                 })
                 .collect();
             shared_map_guided_weights(&first, &second, &variance, &films, &display())
                 .expect("weights")
         };
-        let uncertain = weights_with(0.03);
-        assert_mean_one(&uncertain);
-        // The block's noise spreads to its neighbours (the largest noise of a
-        // 3 × 3 neighbourhood) and their shortfall twice more: everything
-        // within three pixels of the centre may ask, the corners do not.
-        let most = uncertain.iter().copied().fold(0.0f32, f32::max);
-        let least = uncertain.iter().copied().fold(f32::INFINITY, f32::min);
-        let corner = uncertain[0];
-        println!("uncertain: {least:.2} to {most:.2}, corner {corner:.2}");
-        assert_eq!(corner, least);
-        assert!(most > 2.0 * corner, "most {most}, corner {corner}");
-        let precise = weights_with(1e-5);
+        for (what, standard_error) in [
+            ("X, Y and Z", [0.03; 3]),
+            ("X and Z only", [0.03, 0.0, 0.03]),
+        ] {
+            let uncertain = weights_with(standard_error);
+            assert_mean_one(&uncertain);
+            // The block's noise spreads to its neighbours (the largest noise of
+            // a 3 × 3 neighbourhood) and their shortfall twice more: everything
+            // within three pixels of the centre may ask, the corners do not.
+            let most = uncertain.iter().copied().fold(0.0f32, f32::max);
+            let least = uncertain.iter().copied().fold(f32::INFINITY, f32::min);
+            let corner = uncertain[0];
+            println!("{what} uncertain: {least:.2} to {most:.2}, corner {corner:.2}");
+            assert_eq!(corner, least, "{what}");
+            assert!(most > 2.0 * corner, "{what}: most {most}, corner {corner}");
+        }
+        let precise = weights_with([1e-5; 3]);
         assert!(
             precise.iter().all(|&w| (w - 1.0).abs() < 1e-6),
             "{precise:?}"
         );
         // A variance of another size: no weights.
-        assert!(shared_map_guided_weights(&first, &second, &[0.0], &films, &display()).is_none());
+        assert!(
+            shared_map_guided_weights(&first, &second, &[[0.0; 3]], &films, &display()).is_none()
+        );
     }
 
     #[test]

@@ -597,7 +597,7 @@ fn map_weights<V: BackendView>(views: &ViewSet<V>) -> Option<Vec<f32>> {
     let [(first_pane, _), (second_pane, _)] = views.shared_panes()?.ok()?;
     let (difference, _) = views.difference.as_ref()?;
     let variance = difference
-        .panes_difference_variance_y(first_film, second_film)
+        .panes_difference_variance_xyz(first_film, second_film)
         .ok()?;
     shared_map_guided_weights(
         &first_pane.xyz,

@@ -566,18 +566,18 @@ impl ProgressiveRender {
         let film = &self.film;
         let width = film.width();
         let mut xyz = reshaded.xyz.clone();
-        let mut variance_y = reshaded.variance_y.clone();
+        let mut variance_xyz = reshaded.variance_xyz.clone();
         if w > 0.0 {
             let keep = 1.0 - w;
-            for (i, (v, var)) in xyz.iter_mut().zip(variance_y.iter_mut()).enumerate() {
+            for (i, (v, var)) in xyz.iter_mut().zip(variance_xyz.iter_mut()).enumerate() {
                 let (x, y) = (i as u32 % width, i as u32 / width);
                 let m = film.mean_xyz(x, y);
                 let f = [m.x, m.y, m.z];
+                let vf = film.variance_of_mean_xyz(x, y);
                 for c in 0..3 {
                     v[c] = (keep * f64::from(v[c]) + w * f[c]) as f32;
+                    var[c] = (keep * keep * f64::from(var[c]) + w * w * vf[c]) as f32;
                 }
-                let vf = film.variance_of_mean_xyz(x, y)[1];
-                *var = (keep * keep * f64::from(*var) + w * w * vf) as f32;
             }
         }
         Some((
@@ -585,7 +585,7 @@ impl ProgressiveRender {
                 width: reshaded.width,
                 height: reshaded.height,
                 xyz,
-                variance_y,
+                variance_xyz,
             },
             w,
         ))
@@ -599,10 +599,10 @@ impl ProgressiveRender {
         let film = &self.film;
         let width = film.width();
         let (mut v_r, mut v_f) = (0.0f64, 0.0f64);
-        for (i, &vr) in reshaded.variance_y.iter().enumerate() {
+        for (i, vr) in reshaded.variance_xyz.iter().enumerate() {
             let vf = film.variance_of_mean_xyz(i as u32 % width, i as u32 / width)[1];
             if vf.is_finite() {
-                v_r += f64::from(vr);
+                v_r += f64::from(vr[1]);
                 v_f += vf;
             }
         }

@@ -807,7 +807,7 @@ impl PathCache {
 }
 
 /// A re-shaded image: per pixel the estimate of the new design's mean XYZ and the
-/// variance of that estimate's Y.
+/// variances of that estimate's X, Y and Z.
 #[derive(Debug, Clone)]
 pub struct Reshaded {
     /// Width, pixels.
@@ -816,56 +816,49 @@ pub struct Reshaded {
     pub height: u32,
     /// Mean XYZ per pixel (white at Y = 1), row-major.
     pub xyz: Vec<[f32; 3]>,
-    /// Estimated variance of each pixel's Y.
-    pub variance_y: Vec<f32>,
+    /// Estimated variances of each pixel's X, Y and Z.
+    pub variance_xyz: Vec<[f32; 3]>,
 }
 
 /// The image a re-shade starts from: per pixel the mean XYZ of the recorded
-/// render and the variance of its Y, in f32. Prepared once per editing session
+/// render and the variances of its X, Y and Z, in f32. Prepared once per editing session
 /// ([`BaseImage::of`]), so an edit does not walk the film's f64 sums again.
 #[derive(Debug, Clone)]
 pub struct BaseImage {
     width: u32,
     height: u32,
     xyz: Vec<[f32; 3]>,
-    variance_y: Vec<f32>,
+    variance_xyz: Vec<[f32; 3]>,
 }
 
 impl BaseImage {
     /// The means and variances of `film` (in parallel over rows).
     pub fn of(film: &Film) -> Self {
         let (width, height) = (film.width(), film.height());
-        let rows: Vec<(Vec<[f32; 3]>, Vec<f32>)> = (0..height)
+        // Rows in parallel, collected in order: unzipped into the two images.
+        let (xyz, variance_xyz) = (0..height)
             .into_par_iter()
-            .map(|y| {
-                (0..width)
-                    .map(|x| {
-                        let m = film.mean_xyz(x, y);
-                        (
-                            [m.x as f32, m.y as f32, m.z as f32],
-                            film.variance_of_mean_xyz(x, y)[1] as f32,
-                        )
-                    })
-                    .unzip()
+            .flat_map_iter(|y| {
+                (0..width).map(move |x| {
+                    let m = film.mean_xyz(x, y);
+                    (
+                        [m.x as f32, m.y as f32, m.z as f32],
+                        film.variance_of_mean_xyz(x, y).map(|v| v as f32),
+                    )
+                })
             })
-            .collect();
-        let mut xyz = Vec::with_capacity((width * height) as usize);
-        let mut variance_y = Vec::with_capacity((width * height) as usize);
-        for (m, v) in rows {
-            xyz.extend_from_slice(&m);
-            variance_y.extend_from_slice(&v);
-        }
+            .unzip();
         Self {
             width,
             height,
             xyz,
-            variance_y,
+            variance_xyz,
         }
     }
 
     /// Heap memory held, bytes.
     pub fn memory_bytes(&self) -> usize {
-        self.xyz.capacity() * size_of::<[f32; 3]>() + self.variance_y.capacity() * size_of::<f32>()
+        (self.xyz.capacity() + self.variance_xyz.capacity()) * size_of::<[f32; 3]>()
     }
 }
 
@@ -903,7 +896,7 @@ pub fn reshade(
 /// Each recorded sample alone gives an unbiased estimate of the difference the
 /// edit makes, so the mean over the first `samples` of them does too, only
 /// noisier; the image from all K (or fresh passes, which the editing flow blends
-/// in) follows. The variance of Y it reports covers that noise: with two or more
+/// in) follows. The variances it reports cover that noise: with two or more
 /// samples their sample variance over `samples`; from a single sample, where no
 /// variance can be estimated, the squared difference itself (its expectation is
 /// the variance plus the squared mean: an overestimate, never an underestimate).
@@ -945,14 +938,14 @@ pub fn reshade_prepared(
     let used = samples.max(1);
     let width = base.width as usize;
     let mut xyz = vec![[0.0f32; 3]; base.xyz.len()];
-    let mut variance_y = vec![0.0f32; base.variance_y.len()];
+    let mut variance_xyz = vec![[0.0f32; 3]; base.variance_xyz.len()];
     // Work by strips of tiles (runs of tiles on the same rows, in the order of
     // `Film::tiles`): each strip owns its rows of the output, copies the base into
     // them and adds its tiles' differences, with one tile-sized scratch of sums
     // per strip. (Image-sized f64 sums and a serial merge were a third of the
     // re-shade's time.)
     let mut strips: Vec<Strip<'_>> = Vec::new();
-    let (mut xyz_rest, mut var_rest) = (&mut xyz[..], &mut variance_y[..]);
+    let (mut xyz_rest, mut var_rest) = (&mut xyz[..], &mut variance_xyz[..]);
     let mut tiles = &cache.tiles[..];
     let mut row = 0usize;
     while let Some(first) = tiles.first() {
@@ -974,18 +967,18 @@ pub fn reshade_prepared(
     // Rows no tile covers (an empty cache): the base as it is.
     let covered = row * width;
     xyz_rest.copy_from_slice(&base.xyz[covered..]);
-    var_rest.copy_from_slice(&base.variance_y[covered..]);
+    var_rest.copy_from_slice(&base.variance_xyz[covered..]);
     strips
         .into_par_iter()
         .try_for_each(|(tiles, xyz_rows, var_rows, row)| {
             let start = row * width;
             xyz_rows.copy_from_slice(&base.xyz[start..start + xyz_rows.len()]);
-            var_rows.copy_from_slice(&base.variance_y[start..start + var_rows.len()]);
+            var_rows.copy_from_slice(&base.variance_xyz[start..start + var_rows.len()]);
             let mut buffers = ReplayBuffers::new(shading.len());
             let mut sums: Vec<DifferenceSums> = Vec::new();
             for tile in tiles {
                 sums.clear();
-                sums.resize((tile.width * tile.height) as usize, [0.0; 4]);
+                sums.resize((tile.width * tile.height) as usize, [0.0; 6]);
                 replay_tile(
                     tile,
                     film,
@@ -997,7 +990,7 @@ pub fn reshade_prepared(
                     &mut sums,
                 )?;
                 for (p, s) in sums.iter().enumerate() {
-                    if s[3] == 0.0 && s[1] == 0.0 && s[0] == 0.0 && s[2] == 0.0 {
+                    if s.iter().all(|&v| v == 0.0) {
                         continue;
                     }
                     let (tx, ty) = (p % tile.width as usize, p / tile.width as usize);
@@ -1010,13 +1003,14 @@ pub fn reshade_prepared(
                     let used = used.min(recorded);
                     let k = f64::from(used);
                     for c in 0..3 {
-                        v[c] += (s[c] / k) as f32;
-                    }
-                    if used > 1 {
-                        let mean = s[1] / k;
-                        *var += (((s[3] - k * mean * mean) / (k - 1.0)).max(0.0) / k) as f32;
-                    } else if recorded > 1 {
-                        *var += s[3] as f32;
+                        let mean = s[c] / k;
+                        v[c] += mean as f32;
+                        if used > 1 {
+                            var[c] +=
+                                (((s[3 + c] - k * mean * mean) / (k - 1.0)).max(0.0) / k) as f32;
+                        } else if recorded > 1 {
+                            var[c] += s[3 + c] as f32;
+                        }
                     }
                 }
             }
@@ -1026,7 +1020,7 @@ pub fn reshade_prepared(
         width: base.width,
         height: base.height,
         xyz,
-        variance_y,
+        variance_xyz,
     })
 }
 
@@ -1036,12 +1030,17 @@ pub(crate) fn paint_is_mirror(shading: &Shading) -> bool {
     shading.design().delta_reflectance([0.0, 0.0, 1.0], &mut f)
 }
 
-/// A run of tiles on the same rows, the output rows they cover (XYZ, variance of
-/// Y) and the first of those rows.
-type Strip<'a> = (&'a [TileCache], &'a mut [[f32; 3]], &'a mut [f32], usize);
+/// A run of tiles on the same rows, the output rows they cover (XYZ, variances
+/// of X, Y and Z) and the first of those rows.
+type Strip<'a> = (
+    &'a [TileCache],
+    &'a mut [[f32; 3]],
+    &'a mut [[f32; 3]],
+    usize,
+);
 
-/// Per pixel: Σ ΔX, Σ ΔY, Σ ΔZ, Σ ΔY² over its stored paths.
-type DifferenceSums = [f64; 4];
+/// Per pixel: Σ ΔX, Σ ΔY, Σ ΔZ, Σ ΔX², Σ ΔY², Σ ΔZ² over its stored paths.
+type DifferenceSums = [f64; 6];
 
 /// Adds the [`DifferenceSums`] of every pixel of a tile, from the paths of its
 /// first `samples` samples, into `sums` (one per pixel of the tile).
@@ -1066,8 +1065,8 @@ fn replay_tile(
         let s = &mut sums[pixel as usize];
         for c in 0..3 {
             s[c] += d[c];
+            s[3 + c] += d[c] * d[c];
         }
-        s[3] += d[1] * d[1];
     };
     for path in tile.compact.iter().filter(|p| p.sample < samples) {
         let spectra = &tile.spectra[path.spectra as usize..][..2 * len];

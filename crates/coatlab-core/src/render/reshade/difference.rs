@@ -11,7 +11,7 @@ use crate::render::film::Film;
 /// The difference a second shading makes to a render's picture, estimated from
 /// the render's recorded paths: per pixel the mean over the recorded samples of
 /// c_B − c_A (the paths evaluated with the second shading less their own
-/// value) and the variance of that mean's Y. One recording gives one estimate;
+/// value) and the variances of that mean's X, Y and Z. One recording gives one estimate;
 /// the estimates of the render's successive recordings merge into one
 /// ([`Self::merged`]) while its own film keeps refining; what a comparison's
 /// second pane is made of ([`Self::combine`]).
@@ -20,7 +20,7 @@ pub struct ShadingDifference {
     width: u32,
     height: u32,
     xyz: Vec<[f32; 3]>,
-    variance_y: Vec<f32>,
+    variance_xyz: Vec<[f32; 3]>,
     samples: u32,
     /// Per pixel, the recorded samples its mean is over.
     counts: Vec<u32>,
@@ -50,17 +50,25 @@ impl ShadingDifference {
             .zip(&base.xyz)
             .map(|(r, b)| std::array::from_fn(|c| r[c] - b[c]))
             .collect();
-        let variance_y = reshaded
-            .variance_y
+        let variance_xyz = reshaded
+            .variance_xyz
             .iter()
-            .zip(&base.variance_y)
-            .map(|(r, b)| if b.is_finite() { (r - b).max(0.0) } else { *r })
+            .zip(&base.variance_xyz)
+            .map(|(r, b)| {
+                std::array::from_fn(|c| {
+                    if b[c].is_finite() {
+                        (r[c] - b[c]).max(0.0)
+                    } else {
+                        r[c]
+                    }
+                })
+            })
             .collect();
         Ok(Self {
             width: reshaded.width,
             height: reshaded.height,
             xyz,
-            variance_y,
+            variance_xyz,
             samples,
             counts,
         })
@@ -83,9 +91,9 @@ impl ShadingDifference {
         &self.xyz
     }
 
-    /// Per pixel the variance of [`Self::mean_xyz`]'s Y.
-    pub fn variance_of_mean_y(&self) -> &[f32] {
-        &self.variance_y
+    /// Per pixel the variances of [`Self::mean_xyz`]'s X, Y and Z.
+    pub fn variance_of_mean_xyz(&self) -> &[[f32; 3]] {
+        &self.variance_xyz
     }
 
     /// This difference and `other`, estimated from other samples of the same
@@ -99,7 +107,7 @@ impl ShadingDifference {
             return Err(ReshadeError::SizeChanged);
         }
         let pixels = self.xyz.len();
-        let (mut xyz, mut variance_y) = (Vec::with_capacity(pixels), Vec::with_capacity(pixels));
+        let (mut xyz, mut variance_xyz) = (Vec::with_capacity(pixels), Vec::with_capacity(pixels));
         for i in 0..pixels {
             let (ka, kb) = (f64::from(self.counts[i]), f64::from(other.counts[i]));
             let k = ka + kb;
@@ -112,17 +120,16 @@ impl ShadingDifference {
             xyz.push(std::array::from_fn(|c| {
                 (wa * f64::from(a[c]) + wb * f64::from(b[c])) as f32
             }));
-            let (va, vb) = (
-                f64::from(self.variance_y[i]),
-                f64::from(other.variance_y[i]),
-            );
-            variance_y.push((wa * wa * va + wb * wb * vb) as f32);
+            let (va, vb) = (self.variance_xyz[i], other.variance_xyz[i]);
+            variance_xyz.push(std::array::from_fn(|c| {
+                (wa * wa * f64::from(va[c]) + wb * wb * f64::from(vb[c])) as f32
+            }));
         }
         Ok(Self {
             width: self.width,
             height: self.height,
             xyz,
-            variance_y,
+            variance_xyz,
             samples: self.samples + other.samples,
             counts: self
                 .counts
@@ -177,18 +184,19 @@ impl ShadingDifference {
     }
 
     /// Per pixel of `first`'s and `second`'s panes ([`Self::combine_first`],
-    /// [`Self::combine`]), the variance of the second pane's Y less the first
-    /// pane's: what the noise of the panes' ΔE00 map is made of. With the
-    /// panes' weights w₁ and w₂ of their own films, the difference is
-    /// (1 − w₁ − w₂)(A − B) + (2 − w₁ − w₂)·D, A and B the films and D this
-    /// difference; taken as independent (D shares some of A's samples, a
-    /// covariance the sum leaves out), its variance is
-    /// (1 − w₁ − w₂)²(V_A + V_B) + (2 − w₁ − w₂)² V_D.
-    pub fn panes_difference_variance_y(
+    /// [`Self::combine`]), the variances of the second pane's X, Y and Z less
+    /// the first pane's: what the noise of the panes' ΔE00 map is made of (in
+    /// a dark pixel of a saturated colour mostly its chroma, which Y alone does
+    /// not show). With the panes' weights w₁ and w₂ of their own films, the
+    /// difference is (1 − w₁ − w₂)(A − B) + (2 − w₁ − w₂)·D, A and B the films
+    /// and D this difference; taken as independent (D shares some of A's
+    /// samples, a covariance the sum leaves out), its variance is, channel by
+    /// channel, (1 − w₁ − w₂)²(V_A + V_B) + (2 − w₁ − w₂)² V_D.
+    pub fn panes_difference_variance_xyz(
         &self,
         first: &Film,
         second: &Film,
-    ) -> Result<Vec<f32>, ReshadeError> {
+    ) -> Result<Vec<[f32; 3]>, ReshadeError> {
         let first_pane = self.pixel_estimates(second, -1.0, first)?;
         let second_pane = self.pixel_estimates(first, 1.0, second)?;
         let (w1, w2) = (
@@ -199,21 +207,23 @@ impl ShadingDifference {
             .iter()
             .zip(&second_pane)
             .zip(w1.iter().zip(&w2))
-            .zip(&self.variance_y)
-            .map(|(((p1, p2), (w1, w2)), &v_d)| {
+            .zip(&self.variance_xyz)
+            .map(|(((p1, p2), (w1, w2)), v_d)| {
                 // Each pane's own variance is its own film's: A's for the first,
                 // B's for the second.
                 let (v_a, v_b) = (p1.own_variance, p2.own_variance);
                 let films = 1.0 - w1 - w2;
                 let shared = 2.0 - w1 - w2;
-                (films * films * (v_a + v_b) + shared * shared * f64::from(v_d)) as f32
+                std::array::from_fn(|c| {
+                    (films * films * (v_a[c] + v_b[c]) + shared * shared * f64::from(v_d[c])) as f32
+                })
             })
             .collect())
     }
 
     /// Per pixel: `base` + `sign` × this difference (the shared estimate) and
-    /// its variance of Y, and `own`'s mean and variance of Y (0 where not
-    /// finite, so it drops out of the sums).
+    /// its variances of X, Y and Z, and `own`'s mean and variances (0 where not
+    /// finite, so they drop out of the sums).
     fn pixel_estimates(
         &self,
         base: &Film,
@@ -233,12 +243,18 @@ impl ShadingDifference {
                 let d = self.xyz[i].map(|v| sign * f64::from(v));
                 let finite = |v: f64| if v.is_finite() { v } else { 0.0 };
                 let o = own.mean_xyz(x, y);
+                let (base_variance, own_variance) = (
+                    base.variance_of_mean_xyz(x, y),
+                    own.variance_of_mean_xyz(x, y),
+                );
+                let difference_variance = self.variance_xyz[i];
                 PaneEstimates {
                     shared: [m.x + d[0], m.y + d[1], m.z + d[2]],
-                    shared_variance: finite(base.variance_of_mean_xyz(x, y)[1])
-                        + f64::from(self.variance_y[i]),
+                    shared_variance: std::array::from_fn(|c| {
+                        finite(base_variance[c]) + f64::from(difference_variance[c])
+                    }),
                     own: [o.x, o.y, o.z],
-                    own_variance: finite(own.variance_of_mean_xyz(x, y)[1]),
+                    own_variance: own_variance.map(finite),
                 }
             })
             .collect())
@@ -260,8 +276,8 @@ impl ShadingDifference {
         let mut sums = vec![[0.0f64; 2]; blocks_x * height.div_ceil(COMBINE_BLOCK)];
         for (i, p) in pixels.iter().enumerate() {
             let b = &mut sums[block_of(i)];
-            b[0] += p.shared_variance;
-            b[1] += p.own_variance;
+            b[0] += p.shared_variance[1];
+            b[1] += p.own_variance[1];
         }
         // A film of fewer than two samples has no variance (it reads as 0, as if
         // certain), so it cannot take part in the weighing. While the second
@@ -286,8 +302,8 @@ impl ShadingDifference {
             .enumerate()
             .map(|(i, p)| {
                 let b = sums[block_of(i)];
-                let rest_s = (b[0] - p.shared_variance).max(0.0);
-                let rest_o = (b[1] - p.own_variance).max(0.0);
+                let rest_s = (b[0] - p.shared_variance[1]).max(0.0);
+                let rest_o = (b[1] - p.own_variance[1]).max(0.0);
                 if let Some(w) = fixed_weight {
                     w
                 } else if rest_s + rest_o > 0.0 {
@@ -307,14 +323,16 @@ impl ShadingDifference {
         let pixels = self.pixel_estimates(base, sign, own)?;
         let weights = self.own_weights(&pixels, base, sign, own);
         let mean_weight = weights.iter().sum::<f64>() / weights.len().max(1) as f64;
-        let (xyz, variance_y) = pixels
+        let (xyz, variance_xyz) = pixels
             .iter()
             .zip(&weights)
             .map(|(p, &w)| {
                 let keep = 1.0 - w;
                 let xyz: [f32; 3] =
                     std::array::from_fn(|c| (keep * p.shared[c] + w * p.own[c]) as f32);
-                let variance = (keep * keep * p.shared_variance + w * w * p.own_variance) as f32;
+                let variance: [f32; 3] = std::array::from_fn(|c| {
+                    (keep * keep * p.shared_variance[c] + w * w * p.own_variance[c]) as f32
+                });
                 (xyz, variance)
             })
             .unzip();
@@ -323,7 +341,7 @@ impl ShadingDifference {
                 width: self.width,
                 height: self.height,
                 xyz,
-                variance_y,
+                variance_xyz,
             },
             mean_weight,
         ))
@@ -331,12 +349,13 @@ impl ShadingDifference {
 }
 
 /// One pixel of a pane before its blend: the shared estimate and the pane's
-/// own film's, each with its variance of Y.
+/// own film's, each with its variances of X, Y and Z (the blend's weights
+/// follow Y's).
 struct PaneEstimates {
     shared: [f64; 3],
-    shared_variance: f64,
+    shared_variance: [f64; 3],
     own: [f64; 3],
-    own_variance: f64,
+    own_variance: [f64; 3],
 }
 
 /// Side of the blocks of pixels whose variances set the weights of
