@@ -16,11 +16,15 @@
 //! the RMS tells a pixel whose map is noisy from one that drew a value far in the
 //! tail (with 16 runs, a pixel whose noise is 0.7 of its signal has its RMS reach
 //! the signal about once in a hundred); counted, like one run's noise, also where
-//! the reference map is decided, with what those pixels show. The pixels where a
-//! single run's noise is not below the signal are listed by what they show, and
-//! one by one with the map, the signal, the first view's samples there, and each
-//! pane's CIELAB beside its reference's (whether the error is one of lightness or
-//! of hue).
+//! the reference map is decided, with what those pixels show, and each of those
+//! listed with the runs' mean offset from the reference map and their spread,
+//! the reference map's own noise, and each run's map and panes' CIELAB (noise
+//! the guidance has missed shows as spread; a pixel whose few bright paths
+//! runs of this length do not draw, as an offset every run shares). The pixels
+//! where a single run's noise is not below the signal are listed by what they
+//! show, and one by one with the map, the signal, the first view's samples there,
+//! and each pane's CIELAB beside its reference's (whether the error is one of
+//! lightness or of hue).
 //! In `designs` mode the second design is the second preset, or with
 //! `COMPARE_SECOND_GU=GU` the first preset at another gloss reading (the same
 //! geometry): a variant a designer compares with the original.
