@@ -19,8 +19,8 @@
 //! the reference map is decided, with what those pixels show, and each of those
 //! listed with the runs' mean offset from the reference map and their spread,
 //! the reference map's own noise, and each run's map and panes' CIELAB (noise
-//! the guidance has missed shows as spread; a pixel whose few bright paths
-//! runs of this length do not draw, as an offset every run shares). The pixels
+//! the guidance has missed shows as spread; a bias of the map, or the
+//! reference's own error, as an offset every run shares). The pixels
 //! where a single run's noise is not below the signal are listed by what they
 //! show, and one by one with the map, the signal, the first view's samples there,
 //! and each pane's CIELAB beside its reference's (whether the error is one of
@@ -39,6 +39,8 @@
 //! the lobes differ by more than 1 %, to measure where the engine's limit on a
 //! sharper second lobe belongs.
 //! `COMPARE_ADAPTIVE=1` turns on adaptive sampling (its defaults) in every view;
+//! `COMPARE_WATCH=X,Y` lists pixel (X, Y) with those whose RMS reaches the
+//! signal, whether it does or not (to see one pixel under two builds or settings).
 //! `COMPARE_MISSES=FILE.png` draws the signal in grey and those pixels in red.
 //! `COMPARE_PANES=PREFIX` writes the first run's panes as shown (its display
 //! settings) to PREFIX-first.png and PREFIX-second.png, to look at.
@@ -148,18 +150,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let reference_spp: u32 = args.get(3).map_or(Ok(256), |s| s.parse())?;
 
-    let explain = match std::env::var("COMPARE_EXPLAIN") {
-        Ok(xy) => {
-            let pixel = xy
-                .split_once(',')
-                .and_then(|(x, y)| Some((x.trim().parse().ok()?, y.trim().parse().ok()?)))
-                .filter(|&(x, y): &(u32, u32)| x < width && y < height);
-            Some(pixel.ok_or(format!(
-                "COMPARE_EXPLAIN {xy:?}: a pixel X,Y inside {width}x{height}"
-            ))?)
+    let pixel_of = |variable: &str| -> Result<Option<(u32, u32)>, String> {
+        match std::env::var(variable) {
+            Ok(xy) => {
+                let pixel = xy
+                    .split_once(',')
+                    .and_then(|(x, y)| Some((x.trim().parse().ok()?, y.trim().parse().ok()?)))
+                    .filter(|&(x, y): &(u32, u32)| x < width && y < height);
+                Ok(Some(pixel.ok_or(format!(
+                    "{variable} {xy:?}: a pixel X,Y inside {width}x{height}"
+                ))?))
+            }
+            Err(_) => Ok(None),
         }
-        Err(_) => None,
     };
+    let explain = pixel_of("COMPARE_EXPLAIN")?;
+    let watched = pixel_of("COMPARE_WATCH")?.map(|(x, y)| (y * width + x) as usize);
     let all = presets::all();
     let original = &all.first().ok_or("no preset designs")?.design;
     let design = match gloss_reading("COMPARE_FIRST_GU")? {
@@ -538,13 +544,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // An RMS is the runs' spread about their mean and that mean's offset from
         // the reference map: an offset well beyond the spread over √runs is the
         // reference's own error, or a bias of the map.
-        for &i in &on_decided.misses {
+        let listed = on_decided
+            .misses
+            .iter()
+            .copied()
+            .chain(watched.filter(|i| !on_decided.misses.contains(i)));
+        for i in listed {
             let offset = errors[i] / runs as f64;
             let spread = (squared_errors[i] / runs as f64 - offset * offset)
                 .max(0.0)
                 .sqrt();
             println!(
-                "  RMS miss ({}, {}): signal {:.2}, RMS {:.2}: runs' mean {:+.2} from the \
+                "  pixel ({}, {}): signal {:.2}, RMS {:.2}: runs' mean {:+.2} from the \
                  reference map, spread {:.2}; the reference map's own noise {:.2}",
                 i % width as usize,
                 i / width as usize,
