@@ -821,8 +821,9 @@ pub struct Reshaded {
 }
 
 /// The image a re-shade starts from: per pixel the mean XYZ of the recorded
-/// render and the variances of its X, Y and Z, in f32. Prepared once per editing session
-/// ([`BaseImage::of`]), so an edit does not walk the film's f64 sums again.
+/// render and the variances of its X, Y and Z, in f32. Prepared once per
+/// editing session ([`BaseImage::of`]), so an edit does not walk the film's f64
+/// sums again.
 #[derive(Debug, Clone)]
 pub struct BaseImage {
     width: u32,
