@@ -465,9 +465,9 @@ fn recordings_of_weighted_passes_hold_each_pixels_own_samples_and_merge_by_them(
 /// samples is (tests/render.rs, `film_variance_overstates_the_replica_spread`),
 /// and less than three times it. Measured in Y ×2.2; the panes' own variances
 /// summed, which leave out that the panes share the difference, give ×6.2,
-/// and the shared difference's variance alone ×3.4. Each replica: a paint render recording
-/// every sample and a Phong render of its own with the same seed, as the
-/// engine's two views are.
+/// and the shared difference's variance alone ×3.4. Each replica: a paint
+/// render recording every sample and a Phong render of its own with the same
+/// seed, as the engine's two views are.
 #[test]
 fn the_panes_difference_variance_follows_the_spread_over_replicas() {
     const SPP: u32 = 16;

@@ -174,14 +174,7 @@ pub fn shared_map_guided_weights(
         .zip(difference_variance.par_iter())
         .zip(samples.par_iter())
         .map(|((&colour, &variance), &n)| {
-            let c = colour.map(f64::from);
-            let se = variance.map(|v| f64::from(v).max(0.0).sqrt());
-            let delta = transform.delta_e_of_offset(c, se);
-            if delta.is_finite() {
-                (delta * n.sqrt()) as f32
-            } else {
-                0.0
-            }
+            transform.sample_noise(colour.map(f64::from), variance.map(f64::from), n)
         })
         .collect();
     let widen = |v: &[[f32; 3]]| {

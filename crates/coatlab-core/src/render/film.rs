@@ -931,14 +931,8 @@ impl Film {
                     return f32::INFINITY;
                 };
                 let n = p.count as f64;
-                let mean = p.sum.map(|s| s / n);
                 // The mean is never negative (nor are its samples' X, Y, Z).
-                let delta = transform.delta_e_of_offset(mean, variance.map(f64::sqrt));
-                if delta.is_finite() {
-                    (delta * n.sqrt()) as f32
-                } else {
-                    0.0
-                }
+                transform.sample_noise(p.sum.map(|s| s / n), variance, n)
             })
             .collect()
     }

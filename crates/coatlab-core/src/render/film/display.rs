@@ -384,6 +384,19 @@ impl DisplayTransform {
         let centre = lab(xyz);
         ciede2000(centre, moved(1.0)).max(ciede2000(centre, moved(-1.0)))
     }
+
+    /// The perceptual noise of one sample behind a mean `xyz` of `samples`
+    /// samples whose variance in X, Y and Z is `variance_of_mean`: √n times
+    /// [`Self::delta_e_of_offset`] by one standard error, so the mean's error
+    /// after n samples is about this over √n; 0 where that is not finite.
+    pub fn sample_noise(&self, xyz: [f64; 3], variance_of_mean: [f64; 3], samples: f64) -> f32 {
+        let delta = self.delta_e_of_offset(xyz, variance_of_mean.map(|v| v.max(0.0).sqrt()));
+        if delta.is_finite() {
+            (delta * samples.sqrt()) as f32
+        } else {
+            0.0
+        }
+    }
 }
 
 fn display_lab_of(m: &Mat3f, tone_mapping: ToneMapping, xyz: Xyz) -> Lab {

@@ -11,10 +11,10 @@ use crate::render::film::Film;
 /// The difference a second shading makes to a render's picture, estimated from
 /// the render's recorded paths: per pixel the mean over the recorded samples of
 /// c_B − c_A (the paths evaluated with the second shading less their own
-/// value) and the variances of that mean's X, Y and Z. One recording gives one estimate;
-/// the estimates of the render's successive recordings merge into one
-/// ([`Self::merged`]) while its own film keeps refining; what a comparison's
-/// second pane is made of ([`Self::combine`]).
+/// value) and the variances of that mean's X, Y and Z. One recording gives one
+/// estimate; the estimates of the render's successive recordings merge into
+/// one ([`Self::merged`]) while its own film keeps refining; what a
+/// comparison's second pane is made of ([`Self::combine`]).
 #[derive(Debug, Clone)]
 pub struct ShadingDifference {
     width: u32,
