@@ -48,7 +48,9 @@
 //! (X, Y) in each view's model and prints how that pixel's estimate is made up —
 //! the mean, quantiles of the samples and the brightest samples' paths (what each
 //! vertex was, its light sample's and continuation's densities, how the path
-//! ended) — to tell a firefly from a highlight that few samples reach — and the
+//! ended) — to tell a firefly from a highlight that few samples reach —, the
+//! share of the mean and of the samples' variance from paths that met a lamp
+//! or took a glossy bounce after a rough one (a caustic), and the
 //! standard deviation of a 64-sample mean over 256 seeds, the error a sampling
 //! change is judged by (a second is SECONDS enough: the runs only set up the
 //! scene).
@@ -815,7 +817,7 @@ fn explain_pixel(
     let len = shading.len();
     let mut buffers = PathBuffers::new(len);
     let mut radiance = vec![0.0f32; len];
-    let mut samples: Vec<(f32, String)> = Vec::with_capacity(EXPLAINED_SAMPLES as usize);
+    let mut samples: Vec<(f32, String, PathKind)> = Vec::with_capacity(EXPLAINED_SAMPLES as usize);
     let mut one = OneSample {
         tracer: &tracer,
         camera,
@@ -827,11 +829,42 @@ fn explain_pixel(
         let mut path = PathWords {
             materials: scene.materials(),
             words: String::new(),
+            kind: PathKind::default(),
+            rough_before: false,
         };
         let value = one.brightness(0x5eed_0303, sample, &mut path);
-        samples.push((value, path.words));
+        samples.push((value, path.words, path.kind));
     }
     let mean = samples.iter().map(|s| f64::from(s.0)).sum::<f64>() / samples.len() as f64;
+    // Where a pixel's noise is a few rare bright paths, which kind they are:
+    // lamps, found only by a path's own BSDF samples (no light sample aims at
+    // them), or caustics, a light seen in a glossy reflection from a rough
+    // surface, which a path tracer finds only when the rough bounce happens to
+    // aim at the glossy reflection.
+    let variance_sum: f64 = samples
+        .iter()
+        .map(|s| (f64::from(s.0) - mean).powi(2))
+        .sum();
+    let share = |of: fn(&PathKind) -> bool| {
+        let (mut count, mut sum, mut square) = (0usize, 0.0, 0.0);
+        for (value, _, _) in samples.iter().filter(|s| of(&s.2)) {
+            count += 1;
+            sum += f64::from(*value);
+            square += (f64::from(*value) - mean).powi(2);
+        }
+        (
+            count,
+            100.0 * sum / (mean * samples.len() as f64),
+            100.0 * square / variance_sum,
+        )
+    };
+    let shares = [
+        ("shaded an emissive surface", share(|k| k.emitter)),
+        (
+            "took a glossy bounce (density ≥ 10 /sr) after a rough one",
+            share(|k| k.caustic),
+        ),
+    ];
     samples.sort_by(|a, b| b.0.total_cmp(&a.0));
     let above = |share: f64| samples[(share * samples.len() as f64) as usize].0;
     println!(
@@ -842,10 +875,16 @@ fn explain_pixel(
         above(0.01),
         above(0.001)
     );
-    for (value, words) in samples.iter().take(8) {
+    for (value, words, _) in samples.iter().take(8) {
         println!(
             "  {value:.3} ({:.1e} of the sum):{words}",
             f64::from(*value) / (mean * samples.len() as f64)
+        );
+    }
+    for (what, (count, of_mean, of_variance)) in shares {
+        println!(
+            "  paths that {what}: {count} of {EXPLAINED_SAMPLES}, {of_mean:.1} % of the mean, \
+             {of_variance:.1} % of the samples' variance"
         );
     }
     // How far a pixel's mean of N samples strays, from the spread of such means
@@ -912,14 +951,46 @@ impl OneSample<'_> {
 struct PathWords<'a> {
     materials: &'a [SceneMaterial],
     words: String,
+    kind: PathKind,
+    /// Whether the last vertex's continuation was a rough one.
+    rough_before: bool,
 }
+
+/// What a path met, for `COMPARE_EXPLAIN`'s shares.
+#[derive(Default)]
+struct PathKind {
+    /// A vertex on an emissive material.
+    emitter: bool,
+    /// A glossy continuation (a density of at least [`GLOSSY_DENSITY`]) right
+    /// after a rough one.
+    caustic: bool,
+}
+
+/// The continuation density (per steradian) from which `COMPARE_EXPLAIN` counts
+/// a bounce as glossy: a Lambertian surface's is at most 1/π, the paint's clear
+/// coat's in the tens to thousands.
+const GLOSSY_DENSITY: f32 = 10.0;
 
 impl PathRecorder for PathWords<'_> {
     fn vertex(&mut self, vertex: &VertexRecord, light_transmittance: Option<&[f32]>) {
         let name = match vertex.surface {
-            Surface::Mesh { material } => self.materials[material as usize].name.as_str(),
+            Surface::Mesh { material } => {
+                let material = &self.materials[material as usize];
+                let e = material.emissive;
+                self.kind.emitter |= e.red > 0.0 || e.green > 0.0 || e.blue > 0.0;
+                material.name.as_str()
+            }
             Surface::Floor => "floor",
         };
+        let glossy = vertex
+            .next
+            .as_ref()
+            .is_some_and(|next| next.delta || next.pdf >= GLOSSY_DENSITY);
+        self.kind.caustic |= glossy && self.rough_before;
+        self.rough_before = vertex
+            .next
+            .as_ref()
+            .is_some_and(|next| !glossy && !next.delta);
         self.words += &format!(" {name} (cos to viewer {:.2}", vertex.wo[2]);
         if let Some(light) = &vertex.light {
             let through = if light_transmittance.is_some() {
