@@ -74,9 +74,12 @@ pub const UNDECIDED_FROM: f64 = 0.5;
 /// a few hundred undecided pixels then reach the samples of a render many times
 /// longer without slowing the rest of the image much. At a gloss variant's
 /// highlight fringe, where a percent of the samples find the highlight, the map
-/// needs some 20–30 times the image's mean samples; measured against 15 and 63
+/// needs some 20–30 times the image's mean samples. With the budget spent (a
+/// mean weight of 1 / [`LEAST_SHARE`] before normalising) a pixel takes at most
+/// (1 + this) · [`LEAST_SHARE`] = 16 times the mean; measured against 15 and 31
+/// with half an even share kept, and against 31 with a quarter
 /// (docs/benchmarks.md, "Comparison").
-pub const MOST_EXTRA: f64 = 31.0;
+pub const MOST_EXTRA: f64 = 63.0;
 /// The weights are made again when the first view's samples per pixel have grown
 /// by this factor: a pixel at a highlight's edge that has just drawn the
 /// highlight is served soon after. Measured against adaptive sampling's ×1.5
@@ -86,8 +89,13 @@ pub const MOST_EXTRA: f64 = 31.0;
 /// more.
 pub const REWEIGH_GROWTH: f64 = 1.2;
 /// The least share of an even pass any pixel keeps, however many pixels are
-/// undecided, so each pane still converges to its own image everywhere.
-pub const LEAST_SHARE: f64 = 0.5;
+/// undecided, so each pane still converges to its own image everywhere. A
+/// quarter rather than a half: where two designs differ across the car (two
+/// presets), tens of thousands of pixels are undecided at first, and the few
+/// whose noise is rare long paths (the cabin through the glass) were left at
+/// about an even share; measured against a half and 0.7 (docs/benchmarks.md,
+/// "Comparison": a run's misses halved, the panes' mean error 0.31 → 0.37).
+pub const LEAST_SHARE: f64 = 0.25;
 
 /// The weights (one per pixel, row major, mean 1) for the next passes of both
 /// views rendered apart, `a` and `b`, their map seen with `display` (see the
