@@ -859,9 +859,12 @@ fn explain_pixel(
         )
     };
     let shares = [
-        ("shaded an emissive surface", share(|k| k.emitter)),
         (
-            "took a glossy bounce (density ≥ 10 /sr) after a rough one",
+            "shaded an emissive surface".to_string(),
+            share(|k| k.emitter),
+        ),
+        (
+            format!("took a glossy bounce (density ≥ {GLOSSY_DENSITY} /sr) after a rough one"),
             share(|k| k.caustic),
         ),
     ];
@@ -987,10 +990,7 @@ impl PathRecorder for PathWords<'_> {
             .as_ref()
             .is_some_and(|next| next.delta || next.pdf >= GLOSSY_DENSITY);
         self.kind.caustic |= glossy && self.rough_before;
-        self.rough_before = vertex
-            .next
-            .as_ref()
-            .is_some_and(|next| !glossy && !next.delta);
+        self.rough_before = vertex.next.is_some() && !glossy;
         self.words += &format!(" {name} (cos to viewer {:.2}", vertex.wo[2]);
         if let Some(light) = &vertex.light {
             let through = if light_transmittance.is_some() {
