@@ -979,8 +979,7 @@ impl PathRecorder for PathWords<'_> {
         let name = match vertex.surface {
             Surface::Mesh { material } => {
                 let material = &self.materials[material as usize];
-                let e = material.emissive;
-                self.kind.emitter |= e.red > 0.0 || e.green > 0.0 || e.blue > 0.0;
+                self.kind.emitter |= material.is_emissive();
                 material.name.as_str()
             }
             Surface::Floor => "floor",
