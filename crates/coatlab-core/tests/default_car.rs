@@ -9,7 +9,7 @@ use std::sync::OnceLock;
 use coatlab_core::accel::Accel;
 use coatlab_core::scene::Scene;
 use coatlab_core::scene::car::{self, ARCH_LIP_WIDTH_M, CarParameters, SEGMENT_RANGES};
-use coatlab_core::scene::gltf_loader::{LoadOptions, load};
+use coatlab_core::scene::gltf_loader::{LoadOptions, load, visible_area_by_material};
 use glam::Vec3;
 
 fn scene() -> &'static Scene {
@@ -54,7 +54,7 @@ fn body_vertices(scene: &Scene) -> Vec<bool> {
 }
 
 /// Every material the issue asks the car to have as a part of its own.
-const PARTS: [&str; 15] = [
+const PARTS: [&str; 16] = [
     "body",
     "glass",
     "tyre",
@@ -70,6 +70,7 @@ const PARTS: [&str; 15] = [
     "interior",
     "seat",
     "mirror-housing",
+    "cabin-lining",
 ];
 
 #[test]
@@ -279,13 +280,18 @@ fn body_is_the_largest_material_and_the_paint() {
         .map(|t| scene.mesh.triangle_area(t))
         .sum();
     assert!((total - summed).abs() < 1e-3 * summed);
+    // Largest as seen from outside (what the loader's heuristic weighs): the
+    // cabin's lining, inside the body, has more area in all.
+    let seen = visible_area_by_material(&scene.mesh, scene.materials.len());
     for (k, m) in scene.materials.iter().enumerate() {
         assert!(m.area_m2 > 0.0, "{} has no area", m.name);
         if k as u32 != body {
             assert!(
-                m.area_m2 < scene.materials[body as usize].area_m2,
-                "{} larger than the body",
-                m.name
+                seen[k] < seen[body as usize],
+                "{} seen larger than the body from outside ({} against {} m²)",
+                m.name,
+                seen[k],
+                seen[body as usize]
             );
         }
     }
@@ -621,12 +627,18 @@ fn interior_lies_inside_the_body_shell() {
     .iter()
     .map(|n| material_index(scene, n))
     .collect();
-    // Left out with the interior: the parts outside the shell whose mounts sink into
-    // it.
-    let inside: Vec<u32> = ["interior", "seat", "mirror-housing", "door-handle"]
-        .iter()
-        .map(|n| material_index(scene, n))
-        .collect();
+    // Left out with the interior: the cabin's lining (the rays pass it to reach the
+    // shell), and the parts outside the shell whose mounts sink into it.
+    let inside: Vec<u32> = [
+        "interior",
+        "seat",
+        "cabin-lining",
+        "mirror-housing",
+        "door-handle",
+    ]
+    .iter()
+    .map(|n| material_index(scene, n))
+    .collect();
     let others: Vec<[u32; 3]> = mesh
         .triangles
         .iter()
@@ -675,4 +687,73 @@ fn interior_lies_inside_the_body_shell() {
         }
     }
     assert!(checked > 10_000, "{checked} rays");
+}
+
+#[test]
+fn the_cabin_is_lined_and_shows_no_paint_from_inside() {
+    // From the seated occupants' heads, rays over the whole sphere first meet
+    // trim, seats or glass: the body's inside is lined (door cards, pillars,
+    // headliner), so the paint shows only on the outside, as on a real car.
+    let scene = scene();
+    let mesh = &scene.mesh;
+    let accel = Accel::build(coatlab_core::accel::Triangles::new(
+        &mesh.positions,
+        &mesh.triangles,
+    ))
+    .expect("builds");
+    let seats = vertices_of(scene, &["seat"]);
+    let (mut z_min, mut z_max, mut top) = (f32::INFINITY, f32::NEG_INFINITY, 0.0f32);
+    for (v, p) in mesh.positions.iter().enumerate() {
+        if seats[v] {
+            (z_min, z_max, top) = (z_min.min(p[2]), z_max.max(p[2]), top.max(p[1]));
+        }
+    }
+    // Heads in front of the front seats' headrests and the rear bench's, and the
+    // cabin's middle.
+    let head_y = top - 0.12;
+    let heads = [
+        Vec3::new(0.37, head_y, z_max - 0.35),
+        Vec3::new(-0.37, head_y, z_max - 0.35),
+        Vec3::new(0.36, head_y, z_min + 0.45),
+        Vec3::new(0.0, head_y, 0.5 * (z_min + z_max)),
+    ];
+    let painted = [
+        material_index(scene, "body"),
+        material_index(scene, "panel-gap"),
+    ];
+    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    let rays = 4000;
+    let mut counts: HashMap<&str, usize> = HashMap::new();
+    let mut paint = Vec::new();
+    for head in heads {
+        for k in 0..rays {
+            let y = 1.0 - 2.0 * (k as f32 + 0.5) / rays as f32;
+            let r = (1.0 - y * y).sqrt();
+            let phi = golden * k as f32;
+            let dir = Vec3::new(r * phi.cos(), y, r * phi.sin());
+            let hit = accel
+                .closest_hit(head.to_array(), dir.to_array(), f32::INFINITY)
+                .unwrap_or_else(|| panic!("ray from {head} along {dir} leaves the car unhit"));
+            let material = mesh.triangle_material[hit.triangle as usize];
+            *counts
+                .entry(scene.materials[material as usize].name.as_str())
+                .or_default() += 1;
+            if painted.contains(&material) {
+                paint.push((head, dir));
+            }
+        }
+    }
+    assert!(
+        paint.is_empty(),
+        "{} of {} rays from the heads meet paint first (first: {:?}); first hits {counts:?}",
+        paint.len(),
+        heads.len() * rays,
+        paint.first()
+    );
+    assert!(
+        counts
+            .get("glass")
+            .is_some_and(|&n| n > heads.len() * rays / 20),
+        "{counts:?}"
+    );
 }

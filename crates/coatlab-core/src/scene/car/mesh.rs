@@ -207,6 +207,66 @@ pub(super) fn add_superellipsoid(
 /// Flips every triangle's winding when the sum of `measure` over the triangles
 /// (their corners' positions) is negative: the part's whole orientation is chosen
 /// by one signed total (a volume, or a facing along a direction).
+/// Appends the quads of a ring grid (rows closed around, as in
+/// [`add_ring_surface`]) whose `material(i, j)` is `Some`, as one open surface: the
+/// quad from ring `i`, row `j`, to ring `i + 1`, row `j + 1`. Every quad is wound
+/// alike, the whole so that the faces point along `facing(i, j)` on the whole.
+/// Only the points the kept quads use are stored.
+pub(super) fn add_ring_quads(
+    mesh: &mut TriangleMesh,
+    rings: &[Vec<DVec3>],
+    material: impl Fn(usize, usize) -> Option<u32>,
+    facing: impl Fn(usize, usize) -> DVec3,
+) {
+    let m = rings[0].len();
+    let mut index_of = vec![u32::MAX; rings.len() * m];
+    let mut positions: Vec<[f64; 3]> = Vec::new();
+    let mut vertex = |i: usize, j: usize| {
+        let k = i * m + j % m;
+        if index_of[k] == u32::MAX {
+            index_of[k] = positions.len() as u32;
+            positions.push(rings[i][j % m].to_array());
+        }
+        index_of[k]
+    };
+    let mut triangles = Vec::new();
+    let mut materials = Vec::new();
+    let mut alignment = 0.0;
+    for i in 0..rings.len().saturating_sub(1) {
+        for j in 0..m {
+            let Some(mat) = material(i, j) else {
+                continue;
+            };
+            let [a, b, c, d] =
+                [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)].map(|(i, j)| vertex(i, j));
+            let (pa, pc) = (rings[i][j], rings[i + 1][(j + 1) % m]);
+            alignment += (rings[i + 1][j] - pa).cross(pc - pa).dot(facing(i, j));
+            triangles.push([a, b, c]);
+            triangles.push([a, c, d]);
+            materials.extend([mat, mat]);
+        }
+    }
+    if triangles.is_empty() {
+        return;
+    }
+    if alignment < 0.0 {
+        for t in &mut triangles {
+            t.swap(1, 2);
+        }
+    }
+    push_part(mesh, &positions, &triangles, materials);
+}
+
+/// Appends loose triangles of one material, each flat (no vertex shared, so each
+/// face's normal is its own), facing as wound.
+pub(super) fn add_triangles(mesh: &mut TriangleMesh, triangles: &[[DVec3; 3]], material: u32) {
+    let positions: Vec<[f64; 3]> = triangles.iter().flatten().map(|p| p.to_array()).collect();
+    let faces: Vec<[u32; 3]> = (0..triangles.len() as u32)
+        .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
+        .collect();
+    push_part(mesh, &positions, &faces, vec![material; triangles.len()]);
+}
+
 fn orient_by(
     triangles: &mut [[u32; 3]],
     positions: &[[f64; 3]],

@@ -80,6 +80,11 @@
 //!   arm, mirror glass), and the interior seen through the glass: floor, dashboard,
 //!   console and steering wheel ([`INTERIOR`]), two front seats and a rear bench with
 //!   headrests ([`SEAT`]); each a closed superellipsoid or torus.
+//! - **Cabin lining** (`body.rs`): inside the body over the cabin's length, the
+//!   section grid drawn 3 cm in toward each section's centre, less the glass's
+//!   quads (door cards, pillar trims, headliner), a strip from its edge out to each
+//!   pane's (the reveals), and a bulkhead closing each end ([`CABIN_LINING`]): seen
+//!   through the glass the body's inside is trim, as in a real car, not the paint.
 //! - **Normals**: area-weighted averages of the face normals of each part, outward
 //!   (every closed part is oriented by its signed volume, each lamp bowl toward its
 //!   lens).
@@ -98,10 +103,10 @@
 //! In index order: [`BODY`] (the paint, the only entry of `paint_materials`),
 //! [`GLASS`], [`TYRE`], [`RIM`], [`TRIM`], [`PANEL_GAP`], [`HEADLAMP_LENS`],
 //! [`LAMP_REFLECTOR`], [`LAMP_EMITTER`], [`TAIL_LAMP`], [`MIRROR_GLASS`],
-//! [`DOOR_HANDLE`], [`INTERIOR`], [`SEAT`], [`MIRROR_HOUSING`]; named `body`,
-//! `glass`, `tyre`, `rim`, `trim`, `panel-gap`, `headlamp-lens`, `lamp-reflector`,
-//! `lamp-emitter`, `tail-lamp`, `mirror-glass`, `door-handle`, `interior`, `seat`,
-//! `mirror-housing`. Only `body` matches
+//! [`DOOR_HANDLE`], [`INTERIOR`], [`SEAT`], [`MIRROR_HOUSING`], [`CABIN_LINING`];
+//! named `body`, `glass`, `tyre`, `rim`, `trim`, `panel-gap`, `headlamp-lens`,
+//! `lamp-reflector`, `lamp-emitter`, `tail-lamp`, `mirror-glass`, `door-handle`,
+//! `interior`, `seat`, `mirror-housing`, `cabin-lining`. Only `body` matches
 //! the loader's paint-name hints, so the heuristic picks it when the GLB is loaded.
 //! The materials are base colour, roughness and metallic; the glass and the lamp
 //! lenses are thin-walled panes (`KHR_materials_transmission`, index 1.52), the
@@ -167,6 +172,9 @@ pub const INTERIOR: u32 = 12;
 pub const SEAT: u32 = 13;
 /// Material index of the door mirrors' housings and arms (black).
 pub const MIRROR_HOUSING: u32 = 14;
+/// Material index of the cabin's lining: door cards, pillar trims, headliner,
+/// bulkheads and the reveals around the glass (dark grey textile).
+pub const CABIN_LINING: u32 = 15;
 
 /// Width of the arch lip (the well wall), metres: the crease band of the body.
 pub const ARCH_LIP_WIDTH_M: f64 = 0.05;
@@ -425,6 +433,7 @@ pub fn generate(parameters: &CarParameters) -> Scene {
         material("interior", grey(0.03), 0.7, 0.0),
         material("seat", LinSrgb::new(0.18, 0.09, 0.045), 0.55, 0.0),
         material("mirror-housing", grey(0.015), 0.45, 0.0),
+        material("cabin-lining", grey(0.04), 0.9, 0.0),
     ];
     for t in 0..mesh.triangle_count() {
         materials[mesh.triangle_material[t] as usize].area_m2 += mesh.triangle_area(t);
