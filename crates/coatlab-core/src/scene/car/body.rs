@@ -494,88 +494,7 @@ impl BodyShape {
             },
         );
 
-        // The cabin's lining (door cards, pillar trims, headliner): the body seen
-        // from inside through the glass is trim, as in a real car, not the paint.
-        // The grid drawn in toward each section's centre over the cabin's length,
-        // less the glass's quads: toward the centre, not along the normals, which
-        // would fold where the arch lips turn tighter than the inset.
-        let lined = |i: usize| {
-            (self.cowl - LINING_OVERHANG_M..=self.deck + LINING_OVERHANG_M)
-                .contains(&ring_plan[i].d)
-        };
-        if let (Some(first), Some(end)) =
-            ((0..last).position(lined), (0..last + 1).rposition(lined))
-        {
-            let lining: Vec<Vec<DVec3>> = (first..=end)
-                .map(|i| {
-                    let waist = self.section(ring_plan[i].d).waist;
-                    (0..m)
-                        .map(|j| {
-                            let point = DVec3::from(rings[i][j]);
-                            let outward = point - DVec3::new(0.0, waist, point.z);
-                            point - outward * (LINING_INSET_M / outward.length())
-                        })
-                        .collect()
-                })
-                .collect();
-            let lined_quad = |i: usize, j: usize| materials[first + i][j % m] != GLASS;
-            add_ring_quads(
-                mesh,
-                &lining,
-                |i, j| lined_quad(i, j).then_some(CABIN_LINING),
-                |i, j| -normals[first + i][j],
-            );
-            // The seals: where the lining meets a pane, a strip from its edge out to
-            // the pane's, so that no paint shows between them at a glancing look.
-            let shell = |i: usize, j: usize| DVec3::from(rings[first + i][j % m]);
-            let inner = |i: usize, j: usize| lining[i][j % m];
-            // Each faces the pane (i, j) it borders, away from the hollow between
-            // the lining and the body.
-            let strip = |(i0, j0): (usize, usize), (i1, j1): (usize, usize), (i, j)| {
-                let [a, b, c, d] = [inner(i0, j0), inner(i1, j1), shell(i1, j1), shell(i0, j0)];
-                let pane =
-                    0.25 * (shell(i, j) + shell(i + 1, j) + shell(i, j + 1) + shell(i + 1, j + 1));
-                if (b - a).cross(c - a).dot(pane - 0.5 * (a + b)) >= 0.0 {
-                    [[a, b, c], [a, c, d]]
-                } else {
-                    [[a, c, b], [a, d, c]]
-                }
-            };
-            let quads = lining.len() - 1;
-            let mut seals = Vec::new();
-            for i in 0..quads {
-                for j in (0..m).filter(|&j| lined_quad(i, j)) {
-                    let below = (j + m - 1) % m;
-                    if !lined_quad(i, below) {
-                        seals.extend(strip((i, j), (i + 1, j), (i, below)));
-                    }
-                    if !lined_quad(i, j + 1) {
-                        seals.extend(strip((i, j + 1), (i + 1, j + 1), (i, j + 1)));
-                    }
-                    if i > 0 && !lined_quad(i - 1, j) {
-                        seals.extend(strip((i, j), (i, j + 1), (i - 1, j)));
-                    }
-                    if i + 1 < quads && !lined_quad(i + 1, j) {
-                        seals.extend(strip((i + 1, j), (i + 1, j + 1), (i + 1, j)));
-                    }
-                }
-            }
-            add_triangles(mesh, &seals, CABIN_LINING);
-            // The bulkheads closing the lining at its two ends (the front one behind
-            // the dashboard, the rear one behind the rear seat's backrest).
-            let bulkheads: Vec<[DVec3; 3]> = [0, quads]
-                .into_iter()
-                .flat_map(|i| {
-                    let centre = DVec3::new(
-                        0.0,
-                        self.section(ring_plan[first + i].d).waist,
-                        lining[i][0].z,
-                    );
-                    (0..m).map(move |j| [centre, inner(i, j), inner(i, j + 1)])
-                })
-                .collect();
-            add_triangles(mesh, &bulkheads, CABIN_LINING);
-        }
+        self.add_cabin_lining(mesh, &ring_plan, &rings, &normals, &materials);
 
         for (lens, depth) in [(HEADLAMP_LENS, 0.03), (TAIL_LAMP, 0.025)] {
             for right in [true, false] {
@@ -601,6 +520,101 @@ impl BodyShape {
                 bowl.add_to(mesh, &rings, &normals);
             }
         }
+    }
+
+    /// Appends the cabin's lining (door cards, pillar trims, headliner): seen from
+    /// inside through the glass the body is trim, as in a real car, not the paint.
+    /// It is the body's grid (`rings`, with its `normals` and quad `materials`)
+    /// drawn in toward each section's centre over the cabin's length, less the
+    /// glass's quads: toward the centre, not along the normals, which would fold
+    /// where the arch lips turn tighter than the inset.
+    fn add_cabin_lining(
+        &self,
+        mesh: &mut TriangleMesh,
+        ring_plan: &[Ring],
+        rings: &[Vec<[f64; 3]>],
+        normals: &[Vec<DVec3>],
+        materials: &[Vec<u32>],
+    ) {
+        let last = ring_plan.len() - 1;
+        let m = rings[0].len();
+        let lined = |i: usize| {
+            (self.cowl - LINING_OVERHANG_M..=self.deck + LINING_OVERHANG_M)
+                .contains(&ring_plan[i].d)
+        };
+        let (Some(first), Some(end)) = ((0..last).position(lined), (0..last + 1).rposition(lined))
+        else {
+            return;
+        };
+        let lining: Vec<Vec<DVec3>> = (first..=end)
+            .map(|i| {
+                let waist = self.section(ring_plan[i].d).waist;
+                (0..m)
+                    .map(|j| {
+                        let point = DVec3::from(rings[i][j]);
+                        let outward = point - DVec3::new(0.0, waist, point.z);
+                        point - outward * (LINING_INSET_M / outward.length())
+                    })
+                    .collect()
+            })
+            .collect();
+        let lined_quad = |i: usize, j: usize| materials[first + i][j % m] != GLASS;
+        add_ring_quads(
+            mesh,
+            &lining,
+            |i, j| lined_quad(i, j).then_some(CABIN_LINING),
+            |i, j| -normals[first + i][j],
+        );
+        // The reveals: where the lining meets a pane, a strip from its edge out
+        // to the pane's, so that no paint shows between them at a glancing look.
+        let shell = |i: usize, j: usize| DVec3::from(rings[first + i][j % m]);
+        let inner = |i: usize, j: usize| lining[i][j % m];
+        // Each faces the pane (i, j) it borders, away from the hollow between
+        // the lining and the body.
+        let strip = |(i0, j0): (usize, usize), (i1, j1): (usize, usize), (i, j)| {
+            let [a, b, c, d] = [inner(i0, j0), inner(i1, j1), shell(i1, j1), shell(i0, j0)];
+            let pane =
+                0.25 * (shell(i, j) + shell(i + 1, j) + shell(i, j + 1) + shell(i + 1, j + 1));
+            if (b - a).cross(c - a).dot(pane - 0.5 * (a + b)) >= 0.0 {
+                [[a, b, c], [a, c, d]]
+            } else {
+                [[a, c, b], [a, d, c]]
+            }
+        };
+        let quads = lining.len() - 1;
+        let mut reveals = Vec::new();
+        for i in 0..quads {
+            for j in (0..m).filter(|&j| lined_quad(i, j)) {
+                let below = (j + m - 1) % m;
+                if !lined_quad(i, below) {
+                    reveals.extend(strip((i, j), (i + 1, j), (i, below)));
+                }
+                if !lined_quad(i, j + 1) {
+                    reveals.extend(strip((i, j + 1), (i + 1, j + 1), (i, j + 1)));
+                }
+                if i > 0 && !lined_quad(i - 1, j) {
+                    reveals.extend(strip((i, j), (i, j + 1), (i - 1, j)));
+                }
+                if i + 1 < quads && !lined_quad(i + 1, j) {
+                    reveals.extend(strip((i + 1, j), (i + 1, j + 1), (i + 1, j)));
+                }
+            }
+        }
+        add_triangles(mesh, &reveals, CABIN_LINING);
+        // The bulkheads closing the lining at its two ends (the front one behind
+        // the dashboard, the rear one behind the rear seat's backrest).
+        let bulkheads: Vec<[DVec3; 3]> = [0, quads]
+            .into_iter()
+            .flat_map(|i| {
+                let centre = DVec3::new(
+                    0.0,
+                    self.section(ring_plan[first + i].d).waist,
+                    lining[i][0].z,
+                );
+                (0..m).map(move |j| [centre, inner(i, j), inner(i, j + 1)])
+            })
+            .collect();
+        add_triangles(mesh, &bulkheads, CABIN_LINING);
     }
 
     /// Material of one quad of the body grid.
