@@ -430,7 +430,14 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 
 fn reference_key(prepared: &PreparedCase, protocol: &Protocol) -> String {
     let scene = match &prepared.case.scene {
-        None => "default-car".to_owned(),
+        // The committed asset is the generator's output byte for byte
+        // (tests/default_car.rs), so its hash keys the car the sweep renders: a
+        // reference of an earlier car is not read back.
+        None => {
+            let asset = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/default-car.glb");
+            let bytes = std::fs::read(asset).unwrap_or_default();
+            format!("default-car-{:08x}", fnv1a(&bytes) as u32)
+        }
         Some(path) => {
             let bytes = std::fs::read(path).unwrap_or_default();
             format!(
