@@ -204,14 +204,11 @@ pub(super) fn add_superellipsoid(
     add_ring_surface(mesh, &ring_points, Some(poles), false, |_, _| material);
 }
 
-/// Flips every triangle's winding when the sum of `measure` over the triangles
-/// (their corners' positions) is negative: the part's whole orientation is chosen
-/// by one signed total (a volume, or a facing along a direction).
 /// Appends the quads of a ring grid (rows closed around, as in
 /// [`add_ring_surface`]) whose `material(i, j)` is `Some`, as one open surface: the
 /// quad from ring `i`, row `j`, to ring `i + 1`, row `j + 1`. Every quad is wound
-/// alike, the whole so that the faces point along `facing(i, j)` on the whole.
-/// Only the points the kept quads use are stored.
+/// alike, and the whole turned so that its faces point along `facing(i, j)` summed
+/// over the quads. Only the points the kept quads use are stored.
 pub(super) fn add_ring_quads(
     mesh: &mut TriangleMesh,
     rings: &[Vec<DVec3>],
@@ -267,6 +264,9 @@ pub(super) fn add_triangles(mesh: &mut TriangleMesh, triangles: &[[DVec3; 3]], m
     push_part(mesh, &positions, &faces, vec![material; triangles.len()]);
 }
 
+/// Flips every triangle's winding when the sum of `measure` over the triangles
+/// (their corners' positions) is negative: the part's whole orientation is chosen
+/// by one signed total (a volume, or a facing along a direction).
 fn orient_by(
     triangles: &mut [[u32; 3]],
     positions: &[[f64; 3]],
