@@ -1195,12 +1195,52 @@ fn read_primitive(
                 .collect()
         }
     };
-    Ok(Some(LocalPrimitive {
-        positions,
-        normals,
-        texcoords,
-        triangles,
-    }))
+    Ok(Some(
+        LocalPrimitive {
+            positions,
+            normals,
+            texcoords,
+            triangles,
+        }
+        .used_vertices_only(),
+    ))
+}
+
+impl LocalPrimitive {
+    /// The primitive with only the vertices its triangles use, in the order they
+    /// are first used (the order the whole mesh's compaction gives them, so the
+    /// loaded mesh is the same). Primitives that share one vertex accessor (a GLB
+    /// with one vertex array for all its materials) would otherwise each hold, and
+    /// add to the mesh, every vertex of it.
+    fn used_vertices_only(mut self) -> Self {
+        let mut remap = vec![u32::MAX; self.positions.len()];
+        let mut used = Vec::new();
+        for t in &mut self.triangles {
+            for v in t.iter_mut() {
+                let slot = &mut remap[*v as usize];
+                if *slot == u32::MAX {
+                    *slot = used.len() as u32;
+                    used.push(*v as usize);
+                }
+                *v = *slot;
+            }
+        }
+        if used.len() == self.positions.len() && used.iter().enumerate().all(|(i, &v)| i == v) {
+            return self;
+        }
+        fn pick<T: Copy>(values: &[T], used: &[usize]) -> Vec<T> {
+            used.iter().map(|&v| values[v]).collect()
+        }
+        Self {
+            positions: pick(&self.positions, &used),
+            normals: self.normals.as_deref().map(|n| pick(n, &used)),
+            texcoords: self
+                .texcoords
+                .each_ref()
+                .map(|set| set.as_deref().map(|uv| pick(uv, &used))),
+            triangles: self.triangles,
+        }
+    }
 }
 
 fn append_instance(
@@ -1376,6 +1416,30 @@ fn normalise(mesh: &mut TriangleMesh) -> Result<DAffine3, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_primitive_keeps_only_the_vertices_its_triangles_use_in_first_use_order() {
+        // Five vertices of a shared array; the triangles use 4, 1, 3 (and 1 again).
+        let at = |k: usize| [k as f64, 10.0 * k as f64, 0.0];
+        let local = LocalPrimitive {
+            positions: (0..5).map(at).collect(),
+            normals: Some((0..5).map(|k| [0.0, 0.0, k as f64]).collect()),
+            texcoords: [Some((0..5).map(|k| [k as f32, 0.5]).collect()), None],
+            triangles: vec![[4, 1, 3], [1, 4, 3]],
+        }
+        .used_vertices_only();
+        assert_eq!(local.positions, vec![at(4), at(1), at(3)]);
+        assert_eq!(
+            local.normals,
+            Some(vec![[0.0, 0.0, 4.0], [0.0, 0.0, 1.0], [0.0, 0.0, 3.0]])
+        );
+        assert_eq!(
+            local.texcoords[0],
+            Some(vec![[4.0, 0.5], [1.0, 0.5], [3.0, 0.5]])
+        );
+        assert_eq!(local.texcoords[1], None);
+        assert_eq!(local.triangles, vec![[0, 1, 2], [1, 0, 2]]);
+    }
 
     #[test]
     fn base64_round_trips_known_vectors() {
