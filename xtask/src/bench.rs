@@ -34,7 +34,7 @@ use coatlab_core::render::lighting::Lighting;
 use coatlab_core::render::material::ShadingModel;
 use coatlab_core::render::progressive::{ProgressiveRender, RenderScene, RenderSettings};
 use coatlab_core::scene::Scene;
-use coatlab_core::scene::car::{CarParameters, generate};
+use coatlab_core::scene::car::{CarParameters, generate, to_glb};
 use coatlab_core::scene::gltf_loader::{LoadOptions, SceneError, load};
 
 use crate::{Failed, OrFail, status};
@@ -430,12 +430,11 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 
 fn reference_key(prepared: &PreparedCase, protocol: &Protocol) -> String {
     let scene = match &prepared.case.scene {
-        // The committed asset is the generator's output byte for byte
-        // (tests/default_car.rs), so its hash keys the car the sweep renders: a
-        // reference of an earlier car is not read back.
+        // The car the sweep renders, written as GLB (the bytes of
+        // assets/default-car.glb when that is up to date): a reference of an
+        // earlier car is not read back.
         None => {
-            let asset = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/default-car.glb");
-            let bytes = std::fs::read(asset).unwrap_or_default();
+            let bytes = to_glb(&generate(&CarParameters::default())).unwrap_or_default();
             format!("default-car-{:08x}", fnv1a(&bytes) as u32)
         }
         Some(path) => {
