@@ -43,7 +43,10 @@
 //! signal, whether it does or not (to see one pixel under two builds or settings).
 //! `COMPARE_MISSES=FILE.png` draws the signal in grey and those pixels in red.
 //! `COMPARE_PANES=PREFIX` writes the first run's panes as shown (its display
-//! settings) to PREFIX-first.png and PREFIX-second.png, to look at.
+//! settings) to PREFIX-first.png and PREFIX-second.png, to look at;
+//! `COMPARE_ERRORS=PREFIX` their ΔE00 to their references (0 black, 2 white) to
+//! PREFIX-0.png and PREFIX-1.png. The first run's pane errors are also split by
+//! what the pixels show.
 //! `COMPARE_EXPLAIN=X,Y` compares nothing: it traces 65 536 samples of pixel
 //! (X, Y) in each view's model and prints how that pixel's estimate is made up —
 //! the mean, quantiles of the samples and the brightest samples' paths (what each
@@ -450,6 +453,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             mean(&delta_e(&la, &lra)),
             mean(&delta_e(&lb, &lrb))
         );
+        if run == 0 {
+            for (pane, (lab, reference)) in [(&la, &lra), (&lb, &lrb)].into_iter().enumerate() {
+                let error = delta_e(lab, reference);
+                pane_error_by_what_it_shows(pane, &error, &scene, &camera, width);
+                if let Some(prefix) = std::env::var_os("COMPARE_ERRORS") {
+                    // ΔE00 0 black to 2 white, so a pane's noise can be seen where it lies.
+                    let pixels: Vec<Srgb<u8>> = error
+                        .iter()
+                        .map(|e| {
+                            let v = (e / 2.0 * 255.0).clamp(0.0, 255.0) as u8;
+                            Srgb::new(v, v, v)
+                        })
+                        .collect();
+                    let path = format!("{}-{pane}.png", prefix.to_string_lossy());
+                    write_srgb8_png(std::path::Path::new(&path), width, height, &pixels)?;
+                    println!("pane {pane}'s error (ΔE00 0 to 2, black to white) written to {path}");
+                }
+            }
+        }
         let map = delta_e(&la, &lb);
         for ((e, e2), (m, s)) in errors
             .iter_mut()
@@ -737,6 +759,46 @@ fn misses_by_what_they_show(
         entry.1 += usize::from(outline);
     }
     by_material
+}
+
+/// A pane's error split by what its pixels show (as [`misses_by_what_they_show`]):
+/// each part's pixels, its mean ΔE00 and its share of the pane's summed error, the
+/// largest first: where samples would lower the pane's mean most.
+fn pane_error_by_what_it_shows(
+    pane: usize,
+    error: &[f64],
+    scene: &RenderScene,
+    camera: &Camera,
+    width: u32,
+) {
+    let mut parts = std::collections::BTreeMap::<String, (usize, f64)>::new();
+    for (i, e) in error.iter().enumerate() {
+        let (x, y) = ((i % width as usize) as f32, (i / width as usize) as f32);
+        let name = pick(scene, camera, x + 0.5, y + 0.5).map_or_else(
+            || "floor or background".to_string(),
+            |p| scene.materials()[p.material as usize].name.clone(),
+        );
+        let part = parts.entry(name).or_default();
+        part.0 += 1;
+        part.1 += e;
+    }
+    let total: f64 = error.iter().sum();
+    let mut parts: Vec<_> = parts.into_iter().collect();
+    parts.sort_by(|a, b| b.1.1.total_cmp(&a.1.1));
+    let listed: Vec<String> = parts
+        .iter()
+        .map(|(name, (pixels, sum))| {
+            format!(
+                "{name} {pixels} px mean {:.2} ({:.0} %)",
+                sum / *pixels as f64,
+                100.0 * sum / total
+            )
+        })
+        .collect();
+    println!(
+        "run 0, pane {pane}'s error by what it shows: {}",
+        listed.join("; ")
+    );
 }
 
 /// Where the map's noise is not below its signal: what each such pixel shows
