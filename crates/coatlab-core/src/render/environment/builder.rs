@@ -5,7 +5,7 @@
 use std::f64::consts::PI;
 
 use super::emitters::{Patch, Shape};
-use super::facing_up::FacingUpSampling;
+use super::facing_up::{FacingUpSampling, horizontal_irradiance};
 use super::map::{MAX_MAP_CHANNELS, RadianceMap, Texel};
 use super::{Environment, EnvironmentKind, Floor, dot_f32, luminance_weights};
 use crate::colour::spectrum::Channels;
@@ -150,8 +150,12 @@ impl Builder {
             &emitters,
             &component_weights,
         );
+        let horizontal_irradiance = facing_up
+            .as_ref()
+            .and_then(|sampling| horizontal_irradiance(&map, &emitters, sampling));
         Some(Environment {
             kind,
+            horizontal_irradiance,
             channels: radiance_channels,
             luminance_weights,
             patches: emitters,

@@ -54,7 +54,8 @@ impl Shape {
     }
 
     /// ∫ max(y, 0) dω over the region: horizontal irradiance per unit radiance
-    /// (exact for a cap entirely above the horizon).
+    /// (exact for a lat-long rectangle, which is cut at the horizon, and for a cap
+    /// [`Self::above_horizon`]).
     pub(super) fn cosine_integral(&self) -> f64 {
         match self {
             Shape::LatLong { azimuth, y } => {
@@ -70,6 +71,19 @@ impl Shape {
                 let sin2 = one_minus_cos * (2.0 - one_minus_cos);
                 PI * sin2 * axis.y.max(0.0)
             }
+        }
+    }
+
+    /// Whether the region lies wholly on or above the horizon, where
+    /// [`Self::cosine_integral`] is exact.
+    pub(super) fn above_horizon(&self) -> bool {
+        match self {
+            Shape::LatLong { .. } => true,
+            Shape::Cap {
+                axis,
+                one_minus_cos,
+                ..
+            } => axis.y >= (one_minus_cos * (2.0 - one_minus_cos)).sqrt(),
         }
     }
 

@@ -2,7 +2,10 @@
 //! emitters and map rows reweighted by their mean cosine to the vertical, so the
 //! floor's direct light is sampled in proportion to what it receives.
 
+use std::f64::consts::PI;
+
 use super::emitters::Patch;
+use super::map::RadianceMap;
 use crate::sampling::Distribution1D;
 
 /// The least mean cosine an emitter is given in [`FacingUpSampling`].
@@ -83,4 +86,51 @@ impl FacingUpSampling {
             row_factor,
         })
     }
+}
+
+/// The horizontal irradiance, per channel, that [`FacingUpSampling`]'s light
+/// samples estimate: ∫ L(ω) max(y, 0) dω over the directions they can draw (the
+/// map's texels with a density, every emitter), in closed form — each texel's
+/// radiance is constant over it, and ∫ y dω over a texel or an emitter is known.
+/// `None` where that form is not exact: an emitter that reaches below the
+/// horizon other than a lat-long rectangle (which is cut there exactly).
+///
+/// The floor uses it as a control variate (docs/rendering.md): its direct light
+/// is this irradiance, less what the shadow rays find missing, so an unshadowed
+/// floor carries no noise from its light samples.
+pub(super) fn horizontal_irradiance(
+    map: &RadianceMap,
+    patches: &[Patch],
+    sampling: &FacingUpSampling,
+) -> Option<Vec<f32>> {
+    if !patches.iter().all(|p| p.shape.above_horizon()) {
+        return None;
+    }
+    let len = map.channels.first().map_or(0, Vec::len);
+    let mut sum = vec![0.0f64; len];
+    let mut texel_spectrum = vec![0.0f32; len];
+    for row in 0..map.height {
+        let (y0, y1) = (map.row_cos[row + 1].max(0.0), map.row_cos[row].max(0.0));
+        let cosine_integral = 2.0 * PI / map.width as f64 * 0.5 * (y1 * y1 - y0 * y0);
+        if cosine_integral <= 0.0 || sampling.row_factor[row] <= 0.0 {
+            continue;
+        }
+        for texel in row * map.width..(row + 1) * map.width {
+            if map.pdf(texel) <= 0.0 {
+                continue;
+            }
+            texel_spectrum.fill(0.0);
+            map.add_radiance(texel, &mut texel_spectrum);
+            for (s, &l) in sum.iter_mut().zip(&texel_spectrum) {
+                *s += f64::from(l) * cosine_integral;
+            }
+        }
+    }
+    for patch in patches {
+        let cosine_integral = patch.shape.cosine_integral();
+        for (s, &l) in sum.iter_mut().zip(&patch.radiance) {
+            *s += f64::from(l) * cosine_integral;
+        }
+    }
+    Some(sum.into_iter().map(|s| s as f32).collect())
 }

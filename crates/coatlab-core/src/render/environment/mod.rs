@@ -145,6 +145,9 @@ pub struct Environment {
     /// Light sampling for a surface facing straight up (the floor); `None` when
     /// nothing above the horizon gives light.
     facing_up: Option<FacingUpSampling>,
+    /// What the facing-up light samples estimate, per channel
+    /// ([`Environment::horizontal_irradiance`]).
+    horizontal_irradiance: Option<Vec<f32>>,
     floor: Option<Floor>,
     sun_dir: Option<[f32; 3]>,
 }
@@ -169,6 +172,16 @@ impl Environment {
     pub fn with_floor(mut self, floor: Option<Floor>) -> Self {
         self.floor = floor;
         self
+    }
+
+    /// The irradiance of a surface facing straight up with nothing above it, per
+    /// channel: exactly the expectation of a facing-up light sample's
+    /// L · cos θ / pdf ([`Self::sample_for`]), so the floor can take its direct
+    /// light as this less what its shadow rays find blocked (a control variate).
+    /// `None` where no closed form is exact (an emitter reaching below the
+    /// horizon) or nothing lights a surface facing up.
+    pub fn horizontal_irradiance(&self) -> Option<&[f32]> {
+        self.horizontal_irradiance.as_deref()
     }
 
     /// The unit direction toward the sun's centre, outdoors.
