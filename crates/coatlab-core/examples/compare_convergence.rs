@@ -1008,6 +1008,10 @@ impl OneSample<'_> {
             self.radiance,
             recorder,
         );
+        // A recorded path's radiance leaves the floor's control term to the film.
+        for (r, c) in self.radiance.iter_mut().zip(self.buffers.floor_control(0)) {
+            *r += c;
+        }
         self.radiance.iter().sum::<f32>() / self.radiance.len() as f32
     }
 }

@@ -312,6 +312,114 @@ fn the_cheaper_estimator_agrees_with_the_plain_one() {
     );
 }
 
+/// The floor's direct light as a control variate (α·ρ/π·E, plus each light
+/// sample's contribution times what its shadow ray lets through less α, α the
+/// open share the geometry gives the point) estimates the same image as the
+/// light samples alone: the grey car in the studio, X, Y and Z, every control
+/// rejected. Seen from further out (the car a third of the frame's width), the floor's
+/// variance falls where the car leaves the sky open (α = 1) to a small fraction
+/// of what it was, and does not rise under and beside the car (α < 1).
+#[test]
+fn the_floors_control_variate_agrees_and_quietens_the_open_floor() {
+    let without = IntegratorSettings {
+        floor_control_variate: false,
+        ..IntegratorSettings::default()
+    };
+    // As for the cheaper estimator: twice the samples, and here twice the
+    // replicas a side, so that a 2 % bias on 5 % of the paint shows.
+    let (k, spp) = (2 * GREY_CAR_REPLICAS.0, 2 * GREY_CAR_REPLICAS.1);
+    let with_it = grey_car_replicas_at(IntegratorSettings::default(), 500, k, spp);
+    let plain = grey_car_replicas_at(without, 600, k, spp);
+    let weights = Weights::from_pilots(&[
+        &grey_car_pilot(IntegratorSettings::default()),
+        &grey_car_pilot(without),
+    ]);
+    let region = paint_region(&with_it);
+    assert_agree_with_controls_in(&with_it, &plain, &weights, "floor control variate", region);
+
+    // The variance of Y, per pixel over replicas, from further out.
+    let grid = WavelengthGrid::visible(8).expect("grid");
+    let model = grey_model(grid, GlossExponent::Finite(300.0));
+    let scene = car_render::car_with_lamps_off();
+    let (lo, hi) = scene.mesh.bounds().expect("bounds");
+    let size = (hi[0] - lo[0]).max(hi[2] - lo[2]);
+    let wide = (
+        [lo[0] - size, 0.0, lo[2] - size],
+        [hi[0] + size, hi[1], hi[2] + size],
+    );
+    let (w, h) = (80, 48);
+    let camera = Camera::framing(wide, w, h);
+    let render_scene = RenderScene::new(scene.clone()).expect("scene");
+    let height = hi[1];
+    // Per pixel: the car, the floor the control variate takes whole (one car
+    // height or more from the car's footprint), or the floor nearer the car.
+    let car = pixels_showing(&render_scene, &camera, |_| true);
+    let shown: Vec<Option<bool>> = (0..w * h)
+        .map(|p| {
+            let ray = camera.ray((p % w) as f32 + 0.5, (p / w) as f32 + 0.5);
+            match car[p as usize] {
+                true => None,
+                false if ray.1[1] < 0.0 => {
+                    let t = -ray.0[1] / ray.1[1];
+                    let p = [ray.0[0] + t * ray.1[0], ray.0[2] + t * ray.1[2]];
+                    let dx = (lo[0] - p[0]).max(p[0] - hi[0]).max(0.0);
+                    let dz = (lo[2] - p[1]).max(p[1] - hi[2]).max(0.0);
+                    Some((dx * dx + dz * dz).sqrt() >= 1.05 * height)
+                }
+                false => None,
+            }
+        })
+        .collect();
+    let variance = |integrator: IntegratorSettings, first_seed: u64| {
+        Replicas::collect(w, h, 8, |i| {
+            film_image(&render(
+                scene.clone(),
+                Environment::studio(&grid),
+                &model,
+                ShadingModel::Paint,
+                camera.clone(),
+                RenderSettings {
+                    seed: seed(first_seed + i as u64),
+                    integrator,
+                    ..RenderSettings::default()
+                },
+                16,
+            ))
+        })
+    };
+    let (a, b) = (
+        variance(IntegratorSettings::default(), 700),
+        variance(without, 800),
+    );
+    // Medians over the pixels: a few paths from the floor that find a softbox
+    // in the car's paint (the same with either estimator) would set a sum.
+    let ratio = |open: bool| {
+        let median = |r: &Replicas| {
+            let mut v: Vec<f64> = r
+                .variance
+                .iter()
+                .zip(&shown)
+                .filter(|(_, s)| **s == Some(open))
+                .map(|(v, _)| v[1])
+                .collect();
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        };
+        median(&a) / median(&b)
+    };
+    let count = |open: bool| shown.iter().filter(|s| **s == Some(open)).count();
+    let (open, near) = (ratio(true), ratio(false));
+    println!(
+        "floor control variate: median variance of Y ×{open:.3} on the open floor ({} pixels), \
+         ×{near:.2} on the floor nearer the car ({} pixels)",
+        count(true),
+        count(false)
+    );
+    assert!(count(true) > 100 && count(false) > 50, "the view");
+    assert!(open < 0.1, "open floor: variance ×{open:.3}");
+    assert!(near < 1.2, "floor near the car: variance ×{near:.2}");
+}
+
 /// Two sets of seeds estimate the same image: X, Y and Z within their noise,
 /// every control rejected.
 #[test]
@@ -353,8 +461,11 @@ fn a_render_matches_the_stored_reference() {
 /// pixels of the ratio (each pixel's film variance averaged over the replicas,
 /// the replicas' variance with 15 degrees of freedom, so the spread of the ratio
 /// is partly that of the estimate) and the ratio of the image sums. Asserted:
-/// the over-statement is there (median > 1.5 at 16 samples, > 3 at 64; a
+/// the over-statement is there (median > 1.3 at 16 samples, > 1.6 at 64; a
 /// sampler that lost its stratification would give 1), and it grows with n.
+/// (Measured ×1.5 and ×1.9; ×1.6–1.8 and ×3.1–3.5 before the floor's direct
+/// light became a control variate: the open floor, where the stratified light
+/// samples had gained most, now has no variance to over-state.)
 #[test]
 fn film_variance_overstates_the_replica_spread() {
     let film = grey_car_in_the_studio();
@@ -401,8 +512,8 @@ fn film_variance_overstates_the_replica_spread() {
         println!("{line}");
         medians.push(median_y);
     }
-    assert!(medians[0] > 1.5, "16 spp: median ×{}", medians[0]);
-    assert!(medians[1] > 3.0, "64 spp: median ×{}", medians[1]);
+    assert!(medians[0] > 1.3, "16 spp: median ×{}", medians[0]);
+    assert!(medians[1] > 1.6, "64 spp: median ×{}", medians[1]);
     assert!(medians[1] > medians[0], "{medians:?}");
 }
 
@@ -412,7 +523,7 @@ fn film_variance_overstates_the_replica_spread() {
 /// of two) and 64 spp. A replica's error is its displayed colour against the
 /// mean of the other seven, whose own error adds in quadrature (×√(8/7) on a
 /// small error, taken out). The estimate from the two halves of each pixel's
-/// power-of-two prefix of samples is within ×0.7–1.5 of the error (it is a
+/// power-of-two prefix of samples is within ×0.7–1.3 of the error (it is a
 /// designer's guide to how far the picture is from converged, not a bound).
 /// Negative control: the figure from the film's s²/n (which treats the samples
 /// as independent: the mean moved by one standard error s/√n in X, Y and Z) is
@@ -472,7 +583,7 @@ fn noise_estimate_follows_the_error_left() {
             estimate / actual,
             variance_based / actual
         );
-        let band = 0.7..1.5;
+        let band = 0.7..1.3;
         assert!(
             band.contains(&(estimate / actual)),
             "{spp} spp: estimate {estimate} vs actual {actual}"

@@ -53,6 +53,8 @@ pub struct RenderGeometry {
     mesh: TriangleMesh,
     accel: Accel,
     floor: bool,
+    /// The mesh's bounds (min, max), `None` when it is empty.
+    bounds: Option<([f32; 3], [f32; 3])>,
 }
 
 impl RenderGeometry {
@@ -60,7 +62,18 @@ impl RenderGeometry {
     /// above only: it is the ground the car stands on).
     pub fn new(mesh: TriangleMesh, floor: bool) -> Result<Self, AccelError> {
         let accel = Accel::build(&mesh)?;
-        Ok(Self { mesh, accel, floor })
+        let bounds = mesh.bounds();
+        Ok(Self {
+            mesh,
+            accel,
+            floor,
+            bounds,
+        })
+    }
+
+    /// The mesh's axis-aligned bounds (min, max); `None` when it is empty.
+    pub fn bounds(&self) -> Option<([f32; 3], [f32; 3])> {
+        self.bounds
     }
 
     /// The mesh.

@@ -23,6 +23,20 @@
 //!   MIS with the cosine-sampled continuation could only add back the noise the
 //!   light distribution removed; both strategies cover every direction that
 //!   lights the floor, so either alone is unbiased.
+//! - The floor's direct light with a control variate
+//!   ([`IntegratorSettings::floor_control_variate`]): the floor is flat and the
+//!   environment distant, so its unshadowed direct light is the same everywhere,
+//!   ρ/π times the environment's horizontal irradiance E
+//!   ([`Environment::horizontal_irradiance`], exactly the mean of a facing-up
+//!   light sample's L·cos θ/pdf). A floor vertex takes α·ρ/π·E and adds each
+//!   light sample's contribution times (T − α), T what its shadow ray lets
+//!   through and α the share of the sky the car leaves the point
+//!   (`floor_control_share`): 0 where the sky is clear and α = 1, so the open
+//!   floor's direct light carries no noise; the expectation is unchanged for
+//!   any α. A recorded path's radiance leaves that term out
+//!   (the re-shade replays the plain estimator, so the old and new contributions
+//!   of a path stay alike), and the caller adds it to the film
+//!   ([`PathBuffers::floor_control`]).
 //! - At the first vertex, [`IntegratorSettings::first_light_samples`] light samples
 //!   (each weighted 1/k, their numbers the points k·s … k·s + k − 1 of one
 //!   stratified dimension pair) share the camera ray and the hit.
@@ -78,6 +92,11 @@ pub struct IntegratorSettings {
     /// (weight 1; escapes from the floor count 0); `false`: the sphere's light
     /// samples and MIS with the BSDF sample, as on every other surface.
     pub floor_light_only: bool,
+    /// The floor's direct light as its unshadowed value less what the shadow rays
+    /// find blocked (a control variate; needs [`Self::floor_light_only`] and an
+    /// environment with [`Environment::horizontal_irradiance`]); `false`: the
+    /// light samples' contributions alone.
+    pub floor_control_variate: bool,
 }
 
 impl Default for IntegratorSettings {
@@ -87,6 +106,7 @@ impl Default for IntegratorSettings {
             roulette_start: 4,
             first_light_samples: 2,
             floor_light_only: true,
+            floor_control_variate: true,
         }
     }
 }
@@ -135,6 +155,8 @@ pub struct PathBuffers {
     /// Per shadow ray: its light sample's contribution, added once the ray is
     /// known to be clear.
     pending: Vec<f32>,
+    /// Per path: the floor's control-variate term ([`Self::floor_control`]).
+    control: Vec<f32>,
     /// Per further light sample of a batch (at first vertices): its radiance, its
     /// look-up begun, what the look-up found.
     light_extra: Vec<f32>,
@@ -174,6 +196,7 @@ impl PathBuffers {
             len,
             throughput: Vec::new(),
             pending: Vec::new(),
+            control: Vec::new(),
             light_extra: Vec::new(),
             begun_extra: Vec::new(),
             looked_up_extra: Vec::new(),
@@ -195,6 +218,14 @@ impl PathBuffers {
             shadow_transmittance: Vec::new(),
             scratch: BatchScratch::default(),
         }
+    }
+
+    /// After [`PathTracer::radiance_wave`] with a recorder that records: path
+    /// `path`'s floor control-variate term (see the module documentation), which
+    /// its radiance leaves out and its film sample takes. Zero for a path that
+    /// met no floor, and for every path not recorded (whose radiance holds it).
+    pub fn floor_control(&self, path: usize) -> &[f32] {
+        &self.control[path * self.len..(path + 1) * self.len]
     }
 }
 
@@ -258,6 +289,9 @@ pub struct PathTracer<'a> {
     environment: &'a Environment,
     shading: &'a Shading,
     floor: Option<SimpleMaterial>,
+    /// The floor's unshadowed direct light per channel, ρ/π · E, when the floor
+    /// takes it as a control variate.
+    floor_direct: Option<Vec<f32>>,
     settings: IntegratorSettings,
     /// Whether any material is glass or alpha (else no hit is looked at for it).
     see_through: bool,
@@ -380,11 +414,27 @@ impl<'a> PathTracer<'a> {
             .floor()
             .filter(|_| geometry.has_floor())
             .map(|f| SimpleMaterial::lambertian(&f.reflectance));
+        let floor_direct = match (environment.floor(), environment.horizontal_irradiance()) {
+            (Some(floor), Some(irradiance))
+                if settings.floor_light_only && settings.floor_control_variate =>
+            {
+                Some(
+                    floor
+                        .reflectance
+                        .iter()
+                        .zip(irradiance)
+                        .map(|(r, e)| r * std::f32::consts::FRAC_1_PI * e)
+                        .collect(),
+                )
+            }
+            _ => None,
+        };
         Self {
             geometry,
             environment,
             shading,
             floor,
+            floor_direct,
             settings,
             see_through: shading.see_through().any(),
         }
@@ -435,7 +485,9 @@ impl<'a> PathTracer<'a> {
     /// `origin + t·dir`, `dir` a unit vector), one estimate, written to `out`.
     /// Random numbers come from `sampler` in a fixed order, so the estimate is a
     /// function of the sampler's key alone. `recorder` is told every decision
-    /// the path made ([`NoRecord`] for ordinary rendering).
+    /// the path made ([`NoRecord`] for ordinary rendering); with one that
+    /// records, `out` leaves out the floor's control term, which is then in
+    /// [`PathBuffers::floor_control`].
     pub fn radiance(
         &self,
         origin: [f32; 3],
@@ -458,7 +510,8 @@ impl<'a> PathTracer<'a> {
     /// [`Self::radiance`] for several paths at once (at most
     /// [`WAVE_PATHS`] for the batches to pay): camera ray `rays[i]` with
     /// `samplers[i]`, its radiance to `out[i·len..(i+1)·len]`, its decisions to
-    /// `recorders[i]`. Each path draws the same random numbers, meets the same
+    /// `recorders[i]` (when they record, `out` leaves the floor's control term to
+    /// [`PathBuffers::floor_control`]). Each path draws the same random numbers, meets the same
     /// surfaces and adds up its radiance in the same order as it would alone, so
     /// the result is bit for bit that of tracing the paths one by one; only the
     /// rays go to the BVH together (each bounce's closest-hit rays as one batch,
@@ -486,6 +539,7 @@ impl<'a> PathTracer<'a> {
         let PathBuffers {
             throughput,
             pending,
+            control,
             light_extra,
             begun_extra,
             looked_up_extra,
@@ -509,6 +563,8 @@ impl<'a> PathTracer<'a> {
             ..
         } = buffers;
         out.fill(0.0);
+        control.clear();
+        control.resize(paths * len, 0.0);
         throughput.clear();
         throughput.resize(paths * len, 1.0);
         lights.clear();
@@ -771,6 +827,20 @@ impl<'a> PathTracer<'a> {
                 let samples = std::iter::once((light_sample, light)).chain(
                     extras.map(|e| (looked_up_extra[e], &light_extra[e * len..(e + 1) * len])),
                 );
+                // The floor's control variate: its unshadowed direct light now,
+                // each light sample's contribution taken off here and given back
+                // by its shadow ray as far as the ray gets through.
+                let mut floor_control = match &self.floor_direct {
+                    Some(direct) if light_only => {
+                        let share = floor_control_share(self.geometry.bounds(), hit.position);
+                        let control = &mut control[i * len..(i + 1) * len];
+                        for ((c, t), d) in control.iter_mut().zip(throughput.iter()).zip(direct) {
+                            *c += share * t * d;
+                        }
+                        (share > 0.0).then_some((control, share))
+                    }
+                    _ => None,
+                };
                 for (k, (light_sample, radiance)) in samples.enumerate() {
                     let Some(light_sample) = light_sample else {
                         continue;
@@ -793,6 +863,12 @@ impl<'a> PathTracer<'a> {
                     ) else {
                         continue;
                     };
+                    if let Some((control, share)) = &mut floor_control {
+                        let contribution = &pending[pending.len() - len..];
+                        for (c, p) in control.iter_mut().zip(contribution) {
+                            *c -= *share * p;
+                        }
+                    }
                     shadow_lanes.push(i);
                     if k == 0 {
                         record.light = Some(light_record);
@@ -907,6 +983,11 @@ impl<'a> PathTracer<'a> {
                         .filter(|t| t.iter().any(|&v| v != 1.0));
                     recorder.vertex(&record, transmittance);
                 }
+            }
+        }
+        if !R::RECORDS && self.floor_direct.is_some() {
+            for (o, c) in out.iter_mut().zip(control.iter()) {
+                *o += c;
             }
         }
         stats
@@ -1215,6 +1296,25 @@ struct LightWeights<'a> {
     share: f32,
     /// Light sampling alone (MIS weight 1).
     light_only: bool,
+}
+
+/// How much of the floor's control variate a floor point at `position` takes,
+/// α in [0, 1]: its direct light is estimated as α·ρ/π·E plus each light
+/// sample's contribution times (T − α), unbiased for any α that does not depend
+/// on the sample. Its variance is least for α near the share of the sky the
+/// point sees: 1 in the open (no noise left where nothing is blocked), 0 under
+/// the car (where α = 1 would add the light samples' own noise to a blocked
+/// sky's). That share is taken from the geometry: 0 over the mesh's footprint,
+/// rising linearly to 1 at one mesh height (its top above the floor) from it.
+#[inline]
+fn floor_control_share(bounds: Option<([f32; 3], [f32; 3])>, position: [f32; 3]) -> f32 {
+    let Some((lo, hi)) = bounds else {
+        return 1.0;
+    };
+    let dx = (lo[0] - position[0]).max(position[0] - hi[0]).max(0.0);
+    let dz = (lo[2] - position[2]).max(position[2] - hi[2]).max(0.0);
+    let height = hi[1].max(1e-3);
+    ((dx * dx + dz * dz).sqrt() / height).min(1.0)
 }
 
 /// Multiplies `throughput` by `weight` element by element and returns the largest

@@ -1132,6 +1132,13 @@ impl TileJob<'_> {
                     log.replay_into(*recorder);
                     recorder.finish(x, y, tile.xyz_of(spectrum));
                 }
+                // The recorder holds each path's plain contribution, which its
+                // replay reproduces; the film also takes the floor's control term.
+                for (path, spectrum) in radiance.chunks_exact_mut(self.len).enumerate() {
+                    for (s, c) in spectrum.iter_mut().zip(buffers.floor_control(path)) {
+                        *s += c;
+                    }
+                }
                 stats
             }
             None => self.tracer.radiance_wave(
