@@ -211,11 +211,16 @@ fn grey_car_in_the_studio() -> impl Fn(u64, u32) -> Film {
 /// [`grey_car_in_the_studio`] with the integrator's settings chosen per render:
 /// `film(integrator, seed, spp)`.
 fn grey_car_in_the_studio_with() -> impl Fn(IntegratorSettings, u64, u32) -> Film {
+    let scene = car_render::car_with_lamps_off();
+    let (w, h) = GREY_CAR_SIZE;
+    grey_car_in_the_studio_seen_by(Camera::framing(scene.mesh.bounds().expect("bounds"), w, h))
+}
+
+/// [`grey_car_in_the_studio_with`] seen by `camera`.
+fn grey_car_in_the_studio_seen_by(camera: Camera) -> impl Fn(IntegratorSettings, u64, u32) -> Film {
     let grid = WavelengthGrid::visible(8).expect("grid");
     let model = grey_model(grid, GlossExponent::Finite(300.0));
     let scene = car_render::car_with_lamps_off();
-    let (w, h) = GREY_CAR_SIZE;
-    let camera = Camera::framing(scene.mesh.bounds().expect("bounds"), w, h);
     move |integrator, seed, spp| {
         render(
             scene.clone(),
@@ -338,8 +343,6 @@ fn the_floors_control_variate_agrees_and_quietens_the_open_floor() {
     assert_agree_with_controls_in(&with_it, &plain, &weights, "floor control variate", region);
 
     // The variance of Y, per pixel over replicas, from further out.
-    let grid = WavelengthGrid::visible(8).expect("grid");
-    let model = grey_model(grid, GlossExponent::Finite(300.0));
     let scene = car_render::car_with_lamps_off();
     let (lo, hi) = scene.mesh.bounds().expect("bounds");
     let size = (hi[0] - lo[0]).max(hi[2] - lo[2]);
@@ -370,21 +373,10 @@ fn the_floors_control_variate_agrees_and_quietens_the_open_floor() {
             }
         })
         .collect();
+    let film = grey_car_in_the_studio_seen_by(camera);
     let variance = |integrator: IntegratorSettings, first_seed: u64| {
         Replicas::collect(w, h, 8, |i| {
-            film_image(&render(
-                scene.clone(),
-                Environment::studio(&grid),
-                &model,
-                ShadingModel::Paint,
-                camera.clone(),
-                RenderSettings {
-                    seed: seed(first_seed + i as u64),
-                    integrator,
-                    ..RenderSettings::default()
-                },
-                16,
-            ))
+            film_image(&film(integrator, seed(first_seed + i as u64), 16))
         })
     };
     let (a, b) = (
