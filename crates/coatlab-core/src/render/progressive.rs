@@ -160,15 +160,13 @@ pub struct RenderScene {
     geometry: RenderGeometry,
     materials: Vec<SceneMaterial>,
     paint_materials: Vec<u32>,
-    bounds: ([f32; 3], [f32; 3]),
     framing: SceneFraming,
 }
 
 impl RenderScene {
     /// Builds the BVH of `scene`.
     pub fn new(scene: Scene) -> Result<Self, RenderError> {
-        let bounds = scene.mesh.bounds().ok_or(RenderError::EmptyScene)?;
-        if scene.mesh.triangle_count() == 0 {
+        if scene.mesh.positions.is_empty() || scene.mesh.triangle_count() == 0 {
             return Err(RenderError::EmptyScene);
         }
         let framing = SceneFraming::new(&scene);
@@ -177,7 +175,6 @@ impl RenderScene {
             geometry,
             materials: scene.materials,
             paint_materials: scene.paint_materials,
-            bounds,
             framing,
         })
     }
@@ -199,7 +196,8 @@ impl RenderScene {
 
     /// Axis-aligned bounds of the mesh, metres.
     pub fn bounds(&self) -> ([f32; 3], [f32; 3]) {
-        self.bounds
+        // `new` refuses a mesh without vertices, so the geometry has bounds.
+        self.geometry.bounds().unwrap_or_default()
     }
 
     /// The shading of this scene's materials, its painted ones carrying `paint`

@@ -1213,24 +1213,9 @@ impl LocalPrimitive {
     /// with one vertex array for all its materials) would otherwise each hold, and
     /// add to the mesh, every vertex of it.
     fn used_vertices_only(mut self) -> Self {
-        let mut remap = vec![u32::MAX; self.positions.len()];
-        let mut used = Vec::new();
-        for t in &mut self.triangles {
-            for v in t.iter_mut() {
-                let slot = &mut remap[*v as usize];
-                if *slot == u32::MAX {
-                    *slot = used.len() as u32;
-                    used.push(*v as usize);
-                }
-                *v = *slot;
-            }
-        }
-        if used.len() == self.positions.len() && used.iter().enumerate().all(|(i, &v)| i == v) {
+        let Some(used) = renumber_by_first_use(&mut self.triangles, self.positions.len()) else {
             return self;
-        }
-        fn pick<T: Copy>(values: &[T], used: &[usize]) -> Vec<T> {
-            used.iter().map(|&v| values[v]).collect()
-        }
+        };
         Self {
             positions: pick(&self.positions, &used),
             normals: self.normals.as_deref().map(|n| pick(n, &used)),
@@ -1338,6 +1323,31 @@ fn smooth_normals(mesh: &mut TriangleMesh, vertex_base: usize, triangle_base: us
     }
 }
 
+/// Renumbers the vertices of `triangles` (indices below `vertex_count`) in the
+/// order the triangles first use them; for each new index, the old one. `None`
+/// when every vertex is used and keeps its index.
+fn renumber_by_first_use(triangles: &mut [[u32; 3]], vertex_count: usize) -> Option<Vec<usize>> {
+    let mut remap = vec![u32::MAX; vertex_count];
+    let mut used = Vec::new();
+    for t in triangles {
+        for v in t.iter_mut() {
+            let slot = &mut remap[*v as usize];
+            if *slot == u32::MAX {
+                *slot = used.len() as u32;
+                used.push(*v as usize);
+            }
+            *v = *slot;
+        }
+    }
+    let unchanged = used.len() == vertex_count && used.iter().enumerate().all(|(i, &v)| i == v);
+    (!unchanged).then_some(used)
+}
+
+/// The values of the vertices `used` (old indices, in their new order).
+fn pick<T: Copy>(values: &[T], used: &[usize]) -> Vec<T> {
+    used.iter().map(|&v| values[v]).collect()
+}
+
 /// Drops vertices no triangle uses (so the bounds are those of the geometry).
 fn compact_vertices(mesh: &mut TriangleMesh) {
     for set in &mut mesh.texcoords {
@@ -1345,43 +1355,16 @@ fn compact_vertices(mesh: &mut TriangleMesh) {
             set.resize(mesh.positions.len(), [0.0; 2]);
         }
     }
-    let mut remap = vec![u32::MAX; mesh.positions.len()];
-    let mut next = 0u32;
-    for t in &mut mesh.triangles {
-        for v in t.iter_mut() {
-            let slot = &mut remap[*v as usize];
-            if *slot == u32::MAX {
-                *slot = next;
-                next += 1;
-            }
-            *v = *slot;
-        }
-    }
-    if next as usize == mesh.positions.len()
-        && remap.iter().enumerate().all(|(i, &r)| r as usize == i)
-    {
+    let Some(used) = renumber_by_first_use(&mut mesh.triangles, mesh.positions.len()) else {
         return;
-    }
-    let mut positions = vec![[0.0; 3]; next as usize];
-    let mut normals = vec![[0.0; 3]; next as usize];
-    let mut texcoords = mesh
-        .texcoords
-        .each_ref()
-        .map(|set| vec![[0.0; 2]; if set.is_empty() { 0 } else { next as usize }]);
-    for (old, &new) in remap.iter().enumerate() {
-        if new != u32::MAX {
-            positions[new as usize] = mesh.positions[old];
-            normals[new as usize] = mesh.normals[old];
-            for (out, set) in texcoords.iter_mut().zip(&mesh.texcoords) {
-                if !set.is_empty() {
-                    out[new as usize] = set[old];
-                }
-            }
+    };
+    mesh.positions = pick(&mesh.positions, &used);
+    mesh.normals = pick(&mesh.normals, &used);
+    for set in &mut mesh.texcoords {
+        if !set.is_empty() {
+            *set = pick(set, &used);
         }
     }
-    mesh.positions = positions;
-    mesh.normals = normals;
-    mesh.texcoords = texcoords;
 }
 
 /// Scales uniformly so the larger horizontal extent is [`TARGET_LENGTH_M`], puts

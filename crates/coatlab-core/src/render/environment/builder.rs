@@ -4,7 +4,7 @@
 
 use std::f64::consts::PI;
 
-use super::emitters::{Patch, Shape};
+use super::emitters::{Patch, Shape, lat_long_cosine_integral};
 use super::facing_up::{FacingUpSampling, horizontal_irradiance};
 use super::map::{MAX_MAP_CHANNELS, RadianceMap, Texel};
 use super::{Environment, EnvironmentKind, Floor, dot_f32, luminance_weights};
@@ -87,8 +87,10 @@ impl Builder {
         let n = self.channels.len();
         let mut e = vec![0.0; n];
         for row in 0..self.height {
-            let (y0, y1) = (self.row_cos[row + 1].max(0.0), self.row_cos[row].max(0.0));
-            let cos_integral = 2.0 * PI / self.width as f64 * 0.5 * (y1 * y1 - y0 * y0);
+            let cos_integral = lat_long_cosine_integral(
+                2.0 * PI / self.width as f64,
+                [self.row_cos[row + 1], self.row_cos[row]],
+            );
             if cos_integral <= 0.0 {
                 continue;
             }

@@ -58,10 +58,7 @@ impl Shape {
     /// [`Self::above_horizon`]).
     pub(super) fn cosine_integral(&self) -> f64 {
         match self {
-            Shape::LatLong { azimuth, y } => {
-                let (y0, y1) = (y[0].max(0.0), y[1].max(0.0));
-                (azimuth[1] - azimuth[0]) * 0.5 * (y1 * y1 - y0 * y0)
-            }
+            Shape::LatLong { azimuth, y } => lat_long_cosine_integral(azimuth[1] - azimuth[0], *y),
             Shape::Cap {
                 axis,
                 one_minus_cos,
@@ -126,6 +123,14 @@ impl Shape {
             }
         }
     }
+}
+
+/// ∫ max(y, 0) dω over `azimuth_width` radians of azimuth and y = sin(elevation)
+/// in `y`: dω = dφ dy, so Δφ (y₁² − y₀²)/2 with both cut at the horizon. A
+/// lat-long emitter's, and a map texel's (its row's y bounds, 2π/width wide).
+pub(super) fn lat_long_cosine_integral(azimuth_width: f64, y: [f64; 2]) -> f64 {
+    let (y0, y1) = (y[0].max(0.0), y[1].max(0.0));
+    azimuth_width * 0.5 * (y1 * y1 - y0 * y0)
 }
 
 /// An emitter: a region with its radiance.

@@ -4,7 +4,7 @@
 
 use std::f64::consts::PI;
 
-use super::emitters::Patch;
+use super::emitters::{Patch, lat_long_cosine_integral};
 use super::map::RadianceMap;
 use crate::sampling::Distribution1D;
 
@@ -110,8 +110,10 @@ pub(super) fn horizontal_irradiance(
     let mut sum = vec![0.0f64; len];
     let mut texel_spectrum = vec![0.0f32; len];
     for row in 0..map.height {
-        let (y0, y1) = (map.row_cos[row + 1].max(0.0), map.row_cos[row].max(0.0));
-        let cosine_integral = 2.0 * PI / map.width as f64 * 0.5 * (y1 * y1 - y0 * y0);
+        let cosine_integral = lat_long_cosine_integral(
+            2.0 * PI / map.width as f64,
+            [map.row_cos[row + 1], map.row_cos[row]],
+        );
         if cosine_integral <= 0.0 || sampling.row_factor[row] <= 0.0 {
             continue;
         }
