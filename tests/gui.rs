@@ -644,7 +644,8 @@ fn the_comparison_shows_paint_and_phong_with_one_camera_and_a_delta_e_map() {
 
     // Split view: dragging the divider moves the divider, not the camera.
     h.get_by_label("Split").click();
-    // The split view renders each view at the whole area's size: wait for that.
+    // The split view renders each view with the whole area's aspect (within the
+    // views' share of the preview's pixels): wait for that size.
     wait_until(&mut h, "the split view's images", |app| {
         compared(app, 1) && !preview(app).change_pending()
     });

@@ -488,13 +488,19 @@ impl Preview {
     }
 
     /// Asks for the render size that fits `pane` (points) at this display's
-    /// pixel density and the quality's resolution divisor.
+    /// pixel density, the views' share of the preview's pixels and the quality's
+    /// resolution divisor.
     fn fit_to(&mut self, ui: &Ui, pane: egui::Vec2) {
         let ppp = ui.ctx().pixels_per_point();
+        let views = if self.compare == CompareMode::Off {
+            1
+        } else {
+            2
+        };
         let want = self
             .quality
             .knobs
-            .divide(panes::fit(pane.x * ppp, pane.y * ppp));
+            .divide(panes::fit(pane.x * ppp, pane.y * ppp, views));
         if want != self.size && want.0 > 16 && want.1 > 16 {
             self.size = want;
             self.send(Command::Size(want.0, want.1));

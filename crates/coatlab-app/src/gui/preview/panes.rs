@@ -410,11 +410,17 @@ pub(super) fn names_of(materials: &[MaterialInfo], indices: &[u32]) -> String {
     }
 }
 
-/// The render size for an area of `w`×`h` physical pixels, capped at
-/// [`MAX_PREVIEW_PIXELS`] with the area's aspect.
-pub(super) fn fit(w: f32, h: f32) -> (u32, u32) {
+/// The render size for an area of `w`×`h` physical pixels, with the area's
+/// aspect, within [`MAX_PREVIEW_PIXELS`] and, for `views` views rendered side by
+/// side in time, within their share of its pixels: a comparison's two views
+/// together cost what one view costs, so every layout converges as fast as the
+/// side-by-side panes of the default window (316×400, about half the pixels),
+/// for which the 30-second figures of `docs/gui.md` are measured.
+pub(super) fn fit(w: f32, h: f32, views: u32) -> (u32, u32) {
     let (mw, mh) = (MAX_PREVIEW_PIXELS.0 as f32, MAX_PREVIEW_PIXELS.1 as f32);
-    let scale = (mw / w.max(1.0)).min(mh / h.max(1.0)).min(1.0);
+    let (w, h) = (w.max(1.0), h.max(1.0));
+    let share = mw * mh / views.max(1) as f32;
+    let scale = (mw / w).min(mh / h).min((share / (w * h)).sqrt()).min(1.0);
     ((w * scale).round() as u32, (h * scale).round() as u32)
 }
 
@@ -444,6 +450,32 @@ mod tests {
     fn overlap(a: egui::Rect, b: egui::Rect) -> bool {
         let i = a.intersect(b);
         i.width() > 1e-3 && i.height() > 1e-3
+    }
+
+    /// One view renders up to 640×400; a comparison's two views each get at most
+    /// half those pixels, with the area's aspect kept, so a side-by-side pane of
+    /// the default window keeps its size and a split or map layout renders
+    /// 452×283 instead of 640×400.
+    #[test]
+    fn a_comparisons_views_share_one_views_pixels() {
+        assert_eq!(fit(640.0, 400.0, 1), (640, 400));
+        assert_eq!(fit(1280.0, 800.0, 1), (640, 400));
+        assert_eq!(fit(300.0, 200.0, 1), (300, 200));
+        assert_eq!(fit(640.0, 400.0, 2), (453, 283));
+        assert_eq!(fit(1280.0, 800.0, 2), (453, 283));
+        assert_eq!(fit(316.0, 400.0, 2), (316, 400));
+        assert_eq!(fit(632.0, 800.0, 2), (316, 400));
+        for (w, h) in [
+            (640.0, 400.0),
+            (1000.0, 300.0),
+            (400.0, 1000.0),
+            (576.0, 400.0),
+        ] {
+            let (fw, fh) = fit(w, h, 2);
+            assert!(fw * fh <= 128_000 + fw + fh, "{w}×{h} → {fw}×{fh}");
+            let (aspect, fitted) = (w / h, fw as f32 / fh as f32);
+            assert!((fitted / aspect - 1.0).abs() < 0.01, "{w}×{h} → {fw}×{fh}");
+        }
     }
 
     /// The background fill and the images tile the preview area exactly: every
