@@ -413,9 +413,9 @@ pub(super) fn names_of(materials: &[MaterialInfo], indices: &[u32]) -> String {
 /// The render size for an area of `w`×`h` physical pixels, with the area's
 /// aspect, within [`MAX_PREVIEW_PIXELS`] and, for `views` views rendered side by
 /// side in time, within their share of its pixels: a comparison's two views
-/// together cost what one view costs, so every layout converges as fast as the
-/// side-by-side panes of the default window (316×400, about half the pixels),
-/// for which the 30-second figures of `docs/gui.md` are measured.
+/// together cost what one view costs, and the split and map layouts converge
+/// about as fast as the side-by-side panes (278×400 in the default window), for
+/// which the 30-second figures of `docs/gui.md` are measured.
 pub(super) fn fit(w: f32, h: f32, views: u32) -> (u32, u32) {
     let (mw, mh) = (MAX_PREVIEW_PIXELS.0 as f32, MAX_PREVIEW_PIXELS.1 as f32);
     let (w, h) = (w.max(1.0), h.max(1.0));
@@ -463,6 +463,8 @@ mod tests {
         assert_eq!(fit(300.0, 200.0, 1), (300, 200));
         assert_eq!(fit(640.0, 400.0, 2), (453, 283));
         assert_eq!(fit(1280.0, 800.0, 2), (453, 283));
+        // The default window's side-by-side pane area, in pixels.
+        assert_eq!(fit(515.0, 740.0, 2), (278, 400));
         assert_eq!(fit(316.0, 400.0, 2), (316, 400));
         assert_eq!(fit(632.0, 800.0, 2), (316, 400));
         for (w, h) in [
