@@ -455,7 +455,7 @@ mod tests {
     /// One view renders up to 640×400; a comparison's two views each get at most
     /// half those pixels, with the area's aspect kept, so a side-by-side pane of
     /// the default window keeps its size and a split or map layout renders
-    /// 452×283 instead of 640×400.
+    /// 453×283 instead of 640×400.
     #[test]
     fn a_comparisons_views_share_one_views_pixels() {
         assert_eq!(fit(640.0, 400.0, 1), (640, 400));
