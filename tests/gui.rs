@@ -590,12 +590,27 @@ fn save_screenshot(h: &mut Harness<'static, CoatlabApp>, name: &str) {
     }
 }
 
+/// Pixels each view of a comparison renders at most: half of the preview's
+/// 640×400.
+const ONE_VIEWS_SHARE: u32 = 128_000;
+
+/// The size the preview's first view renders at.
+fn rendered_size(h: &Harness<'static, CoatlabApp>) -> (u32, u32) {
+    let s = preview(h.state()).status().expect("a rendered image");
+    (s.width, s.height)
+}
+
 #[test]
 fn the_comparison_shows_paint_and_phong_with_one_camera_and_a_delta_e_map() {
     let mut h = preview_harness(true);
     wait_until(&mut h, "the first refined image", |app| {
         app.preview_status().is_some_and(|s| !s.coarse)
     });
+    let single = rendered_size(&h);
+    assert!(
+        single.0 * single.1 > ONE_VIEWS_SHARE,
+        "one view alone renders more than a comparison's view: {single:?}"
+    );
     h.get_by_role_and_label(Role::ComboBox, "Compare").click();
     steps(&mut h, 2);
     h.get_by_label("Paint vs Phong").click();
@@ -649,6 +664,13 @@ fn the_comparison_shows_paint_and_phong_with_one_camera_and_a_delta_e_map() {
     wait_until(&mut h, "the split view's images", |app| {
         compared(app, 1) && !preview(app).change_pending()
     });
+    // The picture is as wide as one view's, but each of the two views renders
+    // at most its share of one view's pixels, with the area's aspect.
+    let (w, h_px) = rendered_size(&h);
+    assert!(
+        w * h_px <= ONE_VIEWS_SHARE + w + h_px && w > h_px,
+        "the split view renders {w}×{h_px}"
+    );
     let epoch = preview(h.state()).status().map(|s| s.epoch).unwrap_or(0);
     let divider = h
         .get_by_role_and_label(Role::Splitter, "Split divider")
