@@ -38,9 +38,6 @@
 //! no wider than the first), and renders those of the others apart wherever
 //! the lobes differ by more than 1 %, to measure where the engine's limit on a
 //! sharper second lobe belongs.
-//! `COMPARE_BOTH_LOBES=off` renders two designs whose lobes differ apart instead
-//! of sharing the paths of a first view sampled by both lobes (the engine as the
-//! app runs it, `on`), `alternate` every other run so (the first on).
 //! `COMPARE_ADAPTIVE=1` turns on adaptive sampling (its defaults) in every view;
 //! `COMPARE_WATCH=X,Y` lists pixel (X, Y) with those whose RMS reaches the
 //! signal, whether it does or not (to see one pixel under two builds or settings).
@@ -221,18 +218,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     };
     lobe_narrowing(0)?;
-    let both_lobes_setting = std::env::var("COMPARE_BOTH_LOBES").ok();
-    let both_lobes = |run: usize| -> Result<bool, String> {
-        match both_lobes_setting.as_deref() {
-            None | Some("on") => Ok(true),
-            Some("off") => Ok(false),
-            Some("alternate") => Ok(run.is_multiple_of(2)),
-            Some(other) => Err(format!(
-                "COMPARE_BOTH_LOBES {other:?}: on, off or alternate"
-            )),
-        }
-    };
-    both_lobes(0)?;
 
     // Each run: a fresh engine of its own seed left alone for `seconds`; the
     // first run's engine gives the camera, scene and display for the rest.
@@ -256,7 +241,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         if let Some(narrowing) = lobe_narrowing(run)? {
             live.set_shared_lobe_narrowing(narrowing);
         }
-        live.set_sampling_by_both_lobes(both_lobes(run)?);
         // How the second pane was last made, as the engine publishes it.
         let mut source = None;
         let mut keep = |output: Output| {
@@ -451,17 +435,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut run_panes: Vec<(Vec<f64>, Vec<Lab>, Vec<Lab>)> = Vec::new();
     for (run, (first, second)) in panes.iter().enumerate() {
         let way = format!(
-            "map guidance {}, {}, {}",
+            "map guidance {}, {}",
             if guided(run)? { "on" } else { "off" },
             match lobe_narrowing(run)? {
                 None => "the engine's lobe rule",
                 Some(n) if n.is_infinite() => "lobes shared where the re-shade allows",
                 Some(_) => "lobes that differ by more than 1 % rendered apart",
-            },
-            if both_lobes(run)? {
-                "sampled by both lobes where they differ"
-            } else {
-                "apart where they differ"
             }
         );
         let (errors, squared_errors, runs) = run_errors

@@ -9,7 +9,6 @@ use coatlab_core::paint::fresnel::reflectance;
 use coatlab_core::paint::gloss::{GlossExponent, GlossGeometry};
 use coatlab_core::paint::lobe::{LobeKind, phong_lobe};
 use coatlab_core::paint::model::{GlossSetting, PaintModel, PaintParams, SpectralBsdf};
-use coatlab_core::render::material::DesignBsdf;
 use coatlab_core::simd_path::SimdPath;
 use proptest::prelude::*;
 use rand::{RngExt, SeedableRng};
@@ -535,81 +534,6 @@ fn sampler_matches_its_density() {
             test.p_value
         );
     }
-}
-
-/// A design sampled by both its own lobe and another design's
-/// (`DesignBsdf::SampledByBoth`, the first view of a comparison of two designs
-/// whose lobes differ) draws its directions by the mixture's density, half each
-/// sampler's (χ², and rejected against its own density alone), keeps its own
-/// BSDF, and weighs each sample f·cos/pdf by that mixture.
-#[test]
-fn a_design_sampled_by_both_lobes_draws_by_the_mixtures_density() {
-    let lobe = |rho, m| {
-        let model = grey_model(
-            rho,
-            1.5,
-            0.05,
-            GlossExponent::Finite(m),
-            LobeKind::Normalised,
-        );
-        DesignBsdf::Paint(model.spectral().clone())
-    };
-    for (own, other, theta) in [
-        (lobe(0.0, 60.0), lobe(0.6, 5.0), 40.0),
-        (lobe(0.6, 5.0), lobe(0.0, 60.0), 30.0),
-        (lobe(0.0, 200.0), lobe(0.0, 150.0), 60.0),
-    ] {
-        let both = own.sampled_also_by(&other).expect("finite lobes");
-        assert_eq!(both.lobe_exponent(), own.lobe_exponent());
-        let widest = own
-            .lobe_exponent()
-            .zip(other.lobe_exponent())
-            .map(|(a, b)| a.min(b));
-        assert_eq!(both.sampled_lobe_exponent(), widest);
-        let wo = to_f32(direction(theta, 20.0));
-        let mixture = |wi| 0.5 * f64::from(own.pdf(wo, wi) + other.pdf(wo, wi));
-        let test = chi_square_test(&both, wo, &mixture, BINS, SAMPLES, 5, Perturbation::None);
-        println!("sampled by both, θ {theta}: {test:?}");
-        assert!(
-            test.p_value > 1e-3,
-            "θ {theta}: χ² p-value {:e}",
-            test.p_value
-        );
-        let own_only = |wi| f64::from(own.pdf(wo, wi));
-        let control = chi_square_test(&both, wo, &own_only, BINS, SAMPLES, 5, Perturbation::None);
-        assert_far_rejected(&control, "sampled by both", "its own density alone");
-        let mut rng = Pcg64::seed_from_u64(11);
-        let (mut weight, mut f) = (vec![0.0f32; own.len()], vec![0.0f32; own.len()]);
-        for _ in 0..1000 {
-            let u = [rng.random(), rng.random(), rng.random()];
-            let Some(s) = both.sample(wo, u, &mut weight) else {
-                continue;
-            };
-            assert!(!s.delta);
-            let pdf = 0.5 * (own.pdf(wo, s.wi) + other.pdf(wo, s.wi));
-            assert!(
-                (s.pdf / pdf - 1.0).abs() < 1e-5,
-                "pdf {} against {pdf}",
-                s.pdf
-            );
-            own.eval(s.wi, wo, &mut f);
-            for (w, f) in weight.iter().zip(&f) {
-                let expected = f * s.wi[2] / pdf;
-                assert!(
-                    (w - expected).abs() <= 1e-5 * expected.abs().max(1e-3),
-                    "{w} against {expected}"
-                );
-            }
-        }
-    }
-    // A mirror has no density to mix.
-    let mirror = DesignBsdf::Paint(
-        grey_model(0.6, 1.5, 0.05, GlossExponent::Mirror, LobeKind::Normalised)
-            .spectral()
-            .clone(),
-    );
-    assert!(mirror.sampled_also_by(&lobe(0.6, 5.0)).is_none());
-    assert!(lobe(0.6, 5.0).sampled_also_by(&mirror).is_none());
 }
 
 #[test]

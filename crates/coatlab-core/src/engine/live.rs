@@ -279,15 +279,6 @@ impl<B: RenderBackend> LiveEngine<B> {
         self.views.lobe_narrowing = narrowing;
     }
 
-    /// Whether the first view of a comparison of two designs whose lobes differ
-    /// ([`Self::set_shared_lobe_narrowing`]) samples by both lobes and shares its
-    /// paths with the second (on from the start, which is what the app runs), or
-    /// the two are rendered apart; for measuring the one against the other.
-    /// Takes effect when the second view's shading is next built.
-    pub fn set_sampling_by_both_lobes(&mut self, on: bool) {
-        self.views.sample_both_lobes = on;
-    }
-
     /// What the engine has built and rendered so far.
     pub fn counters(&self) -> EngineCounters {
         self.counters

@@ -19,8 +19,7 @@ use super::guide::{REWEIGH_GROWTH, map_guided_weights, shared_map_guided_weights
 use super::live::{LiveEngine, Output, Progress};
 use super::plan::{self, Actions, Outcome, Phase, Restart, Second, Tables};
 use super::views::{
-    Recordings, SecondSpec, ViewSet, first_sampling_for, independent_reason, lobes_differ,
-    spawn_second_shading,
+    Recordings, SecondSpec, ViewSet, independent_reason, lobes_differ, spawn_second_shading,
 };
 use super::{COARSE_FACTOR, COMPARE_CACHE_SAMPLES, RESHADE_SAMPLES};
 
@@ -146,22 +145,6 @@ impl<B: RenderBackend> LiveEngine<B> {
             .model_for(&self.inputs.design, rebuild, &mut self.counters)?;
         let shading = Shading::new(model, self.inputs.views.first, scene.materials(), &paint);
         self.counters.shading_builds += 1;
-        // In a comparison, sampled as the second view's design needs (the second
-        // view's shading made anew corrects this when it is ready).
-        let second = self
-            .inputs
-            .views
-            .second
-            .as_ref()
-            .and(self.views.second.as_ref())
-            .map(|view| view.shading().clone());
-        let shading = first_sampling_for(
-            &shading,
-            second.as_deref(),
-            self.views.lobe_narrowing,
-            self.views.sample_both_lobes,
-        )
-        .unwrap_or(shading);
         Some(Arc::new(shading))
     }
 
@@ -311,11 +294,7 @@ impl<B: RenderBackend> LiveEngine<B> {
                 self.publish_first_only(stats, coarse, out);
             }
             let shading = job.join().ok().flatten();
-            if self.take_second_shading(shading, out) {
-                // The first view starts again, sampled for the comparison; both
-                // views' next passes are its first.
-                return Progress::Stepped;
-            }
+            self.take_second_shading(shading, out);
         }
         if self.views.second.is_some() {
             return self.step_second(first, cancel, out);
@@ -331,49 +310,25 @@ impl<B: RenderBackend> LiveEngine<B> {
     }
 
     /// The second view's new shading: shared where the first view's paths
-    /// re-shade into it, a render of its own where not. Whether the first view
-    /// started again, sampled by both designs' lobes (or no longer).
-    fn take_second_shading(
-        &mut self,
-        shading: Option<Arc<Shading>>,
-        out: &mut dyn FnMut(Output),
-    ) -> bool {
+    /// re-shade into it, a render of its own where not.
+    fn take_second_shading(&mut self, shading: Option<Arc<Shading>>, out: &mut dyn FnMut(Output)) {
         let Some(shading) = shading else {
             failed(out, EngineError::SecondDesignInvalid);
             self.views.second = None;
             self.advance(Outcome::SecondInvalid);
-            return false;
+            return;
         };
-        let resampled = first_sampling_for(
-            self.views.first.shading(),
-            Some(&shading),
-            self.views.lobe_narrowing,
-            self.views.sample_both_lobes,
-        );
-        let restarted = match resampled {
-            Some(first) => {
-                if let Err(e) = self.views.first.set_shading(Arc::new(first)) {
-                    failed(out, e.into());
-                }
-                true
-            }
-            None => false,
-        };
-        let first_design = self.views.first.shading().design();
-        let lobes_apart = lobes_differ(
-            first_design.lobe_exponent(),
-            shading.design().lobe_exponent(),
-            self.views.lobe_narrowing,
-        )
-        .filter(|_| first_design.also_sampled_by().is_none());
-        let shared = if let Some(reason) = lobes_apart {
+        let first_lobe = self.views.first.shading().design().lobe_exponent();
+        let second_lobe = shading.design().lobe_exponent();
+        let shared = if let Some(reason) =
+            lobes_differ(first_lobe, second_lobe, self.views.lobe_narrowing)
+        {
             self.views.reason = reason;
             false
         } else {
             self.counters.pane_reshades += 1;
             match self.views.first.reshade_recorded(&shading) {
-                // A first view started again has recorded nothing yet.
-                Ok(_) | Err(ReshadeError::NotReady { .. }) => true,
+                Ok(_) => true,
                 Err(e) => {
                     self.views.reason = independent_reason(&e);
                     false
@@ -391,7 +346,6 @@ impl<B: RenderBackend> LiveEngine<B> {
             (true, true) => Outcome::SecondShared,
             (true, false) => Outcome::SecondIndependent,
         });
-        restarted
     }
 
     /// The difference the second shading makes, from the first view's recorded

@@ -773,9 +773,6 @@ fn compared_counts(
 ) -> (LiveEngine, Vec<u64>) {
     let mut engine = engine();
     engine.set_map_guidance(guided);
-    // Designs whose lobes differ are rendered apart only without the first
-    // view's sampling by both lobes.
-    engine.set_sampling_by_both_lobes(pairing != Pairing::Independent);
     apply(
         &mut engine,
         Command::Quality(knobs(DEFAULT_WAVELENGTHS, samples)),
@@ -875,15 +872,12 @@ fn shared_views_and_their_recordings_spend_their_samples_where_the_map_is_undeci
     );
 }
 
-/// Two designs whose gloss lobes differ (a sharper second lobe beyond
-/// [`SHARED_LOBE_NARROWING`], or any wider one) are shared from a first view
-/// whose design draws half its directions by the second design's lobe, and
-/// whose image stays its own design's; with that sampling off they are rendered
-/// apart and say why. A second lobe a little sharper, and Phong, naive or best
-/// fit, whose lobe is the paint's, are shared from the first design's own
-/// sampling.
+/// Two designs whose gloss lobes differ are rendered apart, a sharper second
+/// lobe beyond [`SHARED_LOBE_NARROWING`] and any wider one, and say why; a
+/// second lobe a little sharper, and Phong, naive or best fit, whose lobe is
+/// the paint's, are shared.
 #[test]
-fn designs_whose_lobes_differ_share_paths_sampled_by_both_lobes() {
+fn designs_whose_lobes_differ_are_rendered_apart_and_say_why() {
     let at = |change: f64| {
         let mut d = design();
         d.gloss.gu += change;
@@ -900,9 +894,11 @@ fn designs_whose_lobes_differ_share_paths_sampled_by_both_lobes() {
     // this one's; 0.5 GU less: within it.
     assert!(lobe(&design()) / lobe(&at(-8.0)) - 1.0 > SHARED_LOBE_NARROWING);
     assert!(lobe(&design()) / lobe(&at(-0.5)) - 1.0 < SHARED_LOBE_NARROWING);
-    let compare = |first: PaintDesign, second: PaintDesign, both: bool| {
+    let compare = |first: PaintDesign, second: PaintDesign, narrowing: Option<f32>| {
         let (mut engine, _) = converged();
-        engine.set_sampling_by_both_lobes(both);
+        if let Some(narrowing) = narrowing {
+            engine.set_shared_lobe_narrowing(narrowing);
+        }
         apply(&mut engine, Command::Design(Box::new(first)));
         apply(
             &mut engine,
@@ -910,67 +906,28 @@ fn designs_whose_lobes_differ_share_paths_sampled_by_both_lobes() {
         );
         engine
     };
-    // Which lobe the first view's design draws its other half from, if any.
-    let second_sampler = |engine: &LiveEngine| {
-        let design = engine.first().shading().design();
-        design.also_sampled_by().map(|d| d.lobe_exponent())
-    };
-    let shared_by_both = |first: PaintDesign, second: PaintDesign| {
-        let own = lobe(&first);
-        let mut engine = compare(first, second.clone(), true);
-        converge_in_pairing(&mut engine, Pairing::Shared);
-        let design = engine.first().shading().design();
-        assert_eq!(
-            design.lobe_exponent(),
-            Some(own),
-            "the first view renders its own design"
-        );
-        let partner = second_sampler(&engine).flatten().expect("sampled by both");
-        assert!((partner / lobe(&second) - 1.0).abs() < 1e-3);
-        assert_eq!(design.sampled_lobe_exponent(), Some(own.min(partner)));
-    };
-    let apart = |first: PaintDesign, second: PaintDesign| {
-        let mut engine = compare(first, second, false);
+    let apart = |mut engine: LiveEngine| {
         let (_, pane) = converge_in_pairing(&mut engine, Pairing::Independent);
         assert!(
             matches!(&pane.source, Some(SecondSource::Independent { reason }) if reason.contains("gloss lobes differ")),
             "{:?}",
             pane.source
         );
-        assert_eq!(second_sampler(&engine), None);
     };
     // A much sharper second lobe, and a wider one.
-    shared_by_both(at(-8.0), design());
-    shared_by_both(design(), at(-0.5));
-    apart(at(-8.0), design());
-    apart(design(), at(-0.5));
-    // A little sharper: shared from the first design's own sampling.
-    let mut engine = compare(at(-0.5), design(), true);
-    converge_in_pairing(&mut engine, Pairing::Shared);
-    assert_eq!(second_sampler(&engine), None);
-    // The comparison ended: the first view samples by its own lobe again once
-    // its shading is made anew (an edit), and a comparison with a second
-    // design of its own lobe drops the other sampler.
-    let mut engine = compare(at(-8.0), design(), true);
-    converge_in_pairing(&mut engine, Pairing::Shared);
-    apply(
-        &mut engine,
-        Command::Views(Views::designs(ShadingModel::Paint, Some(&at(-8.0)))),
+    apart(compare(at(-8.0), design(), None));
+    apart(compare(design(), at(-0.5), None));
+    // A little sharper: shared; much sharper, with any narrowing allowed (for
+    // measuring): shared too.
+    converge_in_pairing(&mut compare(at(-0.5), design(), None), Pairing::Shared);
+    converge_in_pairing(
+        &mut compare(at(-8.0), design(), Some(f32::INFINITY)),
+        Pairing::Shared,
     );
-    converge_in_pairing(&mut engine, Pairing::Shared);
-    assert_eq!(second_sampler(&engine), None);
-    apply(
-        &mut engine,
-        Command::Views(Views::single(ShadingModel::Paint)),
-    );
-    apply(&mut engine, Command::Design(Box::new(at(-7.0))));
-    converge(&mut engine);
-    assert_eq!(second_sampler(&engine), None);
     for variant in [PhongVariant::BestFit, PhongVariant::Naive] {
         let (mut engine, _) = converged();
         apply(&mut engine, Command::Views(Views::models(variant)));
         converge_in_pairing(&mut engine, Pairing::Shared);
-        assert_eq!(second_sampler(&engine), None);
     }
 }
 

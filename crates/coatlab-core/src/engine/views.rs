@@ -48,10 +48,6 @@ pub(super) struct ViewSet<V> {
     /// How much sharper the second view's lobe may be and still be shared
     /// ([`SHARED_LOBE_NARROWING`] unless measuring).
     pub lobe_narrowing: f32,
-    /// Whether designs whose lobes differ by more than that are shared from a
-    /// first view sampled by both lobes ([`first_sampling_for`]) rather than
-    /// rendered apart.
-    pub sample_both_lobes: bool,
 }
 
 /// Which of the first view's recordings a shared difference is made of.
@@ -82,7 +78,6 @@ impl<V: BackendView> ViewSet<V> {
             map_guidance: true,
             guided_at: None,
             lobe_narrowing: SHARED_LOBE_NARROWING,
-            sample_both_lobes: true,
         }
     }
 
@@ -197,35 +192,6 @@ pub(super) fn lobes_differ(
              with its own, more samples where the map is undecided"
         )
     })
-}
-
-/// The first view's shading as a comparison with `second` needs it, where that
-/// differs from `first`: its design sampled by both designs' lobes where the two
-/// lobes differ by more than sharing paths of one lobe takes ([`lobes_differ`]
-/// with `narrowing`), so that its recorded paths re-weigh into the second
-/// design without the highlights' noise and the two panes stay shared; its own
-/// sampling otherwise (`both` off, where such designs are rendered apart, and
-/// for textured scenes, which are not re-shaded).
-pub(super) fn first_sampling_for(
-    first: &Shading,
-    second: Option<&Shading>,
-    narrowing: f32,
-    both: bool,
-) -> Option<Shading> {
-    let own = first.design().lobe_exponent();
-    let partner = second.filter(|s| {
-        both && !first.has_textures()
-            && lobes_differ(own, s.design().lobe_exponent(), narrowing).is_some()
-    });
-    let wanted = partner.map(|s| s.design().lobe_exponent());
-    let current = first.design().also_sampled_by().map(|d| d.lobe_exponent());
-    if wanted == current {
-        return None;
-    }
-    match partner {
-        Some(second) => first.sampled_also_by(second),
-        None => Some(first.with_own_sampling()),
-    }
 }
 
 /// Why the second view cannot be re-shaded from the first view's paths, as the

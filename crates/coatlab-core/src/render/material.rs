@@ -23,7 +23,7 @@ use std::sync::Arc;
 
 use crate::colour::spectrum::Channels;
 use crate::colour::upsampling::RgbUpsampler;
-use crate::paint::model::{BsdfSample, PaintModel, SpectralBsdf, SpectralPaint, weigh_sample};
+use crate::paint::model::{BsdfSample, PaintModel, SpectralBsdf, SpectralPaint};
 use crate::paint::phong::{PhongNormalisation, PhongParams, PhongVariant, SpectralPhong};
 use crate::render::glass::SeeThroughMaterials;
 use crate::render::microfacet::{GltfBsdf, GltfParameters};
@@ -59,23 +59,6 @@ pub enum DesignBsdf {
     Paint(SpectralPaint),
     /// A Phong translation of the design.
     Phong(SpectralPhong),
-    /// A design sampled half the time by another design's BSDF
-    /// ([`SampledByBoth`]).
-    SampledByBoth(Box<SampledByBoth>),
-}
-
-/// One design's BSDF (`own`: what it evaluates) whose directions are drawn half
-/// the time by its own sampler and half the time by `other`'s, with the
-/// mixture's density: the first view of a comparison of two designs whose gloss
-/// lobes differ samples so, and its recorded paths then re-weigh into either
-/// lobe with a weight f/pdf at most twice that design's own (multiple importance
-/// sampling over the two lobes, the balance heuristic). A path sampled by one
-/// lobe alone and re-weighed into a sharper one, or a wider one, is noisy in the
-/// highlights, where such designs differ.
-#[derive(Debug, Clone)]
-pub struct SampledByBoth {
-    own: DesignBsdf,
-    other: DesignBsdf,
 }
 
 impl DesignBsdf {
@@ -84,93 +67,15 @@ impl DesignBsdf {
         match self {
             DesignBsdf::Paint(b) => b.lobe_exponent(),
             DesignBsdf::Phong(b) => Some(b.exponent()),
-            DesignBsdf::SampledByBoth(b) => b.own.lobe_exponent(),
         }
-    }
-
-    /// The exponent of the widest lobe its samples are drawn from (the design's
-    /// own but for [`DesignBsdf::SampledByBoth`]); `None` if one is a mirror.
-    pub fn sampled_lobe_exponent(&self) -> Option<f32> {
-        match self {
-            DesignBsdf::SampledByBoth(b) => {
-                Some(b.own.lobe_exponent()?.min(b.other.lobe_exponent()?))
-            }
-            _ => self.lobe_exponent(),
-        }
-    }
-
-    /// The design's own BSDF, without another design's sampling.
-    pub fn own(&self) -> &DesignBsdf {
-        match self {
-            DesignBsdf::SampledByBoth(b) => &b.own,
-            _ => self,
-        }
-    }
-
-    /// The other design whose sampler draws half of this one's directions, if
-    /// any ([`DesignBsdf::SampledByBoth`]).
-    pub fn also_sampled_by(&self) -> Option<&DesignBsdf> {
-        match self {
-            DesignBsdf::SampledByBoth(b) => Some(&b.other),
-            _ => None,
-        }
-    }
-
-    /// This design sampled half the time by `other`'s sampler (their own
-    /// BSDFs); `None` where either is an ideal mirror, whose delta no mixture
-    /// density covers.
-    pub fn sampled_also_by(&self, other: &DesignBsdf) -> Option<DesignBsdf> {
-        let (own, other) = (self.own(), other.own());
-        own.lobe_exponent()?;
-        other.lobe_exponent()?;
-        Some(DesignBsdf::SampledByBoth(Box::new(SampledByBoth {
-            own: own.clone(),
-            other: other.clone(),
-        })))
     }
 }
-
-impl SpectralBsdf for SampledByBoth {
-    fn len(&self) -> usize {
-        self.own.len()
-    }
-
-    #[inline]
-    fn eval(&self, wi: [f32; 3], wo: [f32; 3], out: &mut [f32]) {
-        self.own.eval(wi, wo, out);
-    }
-
-    #[inline]
-    fn pdf(&self, wo: [f32; 3], wi: [f32; 3]) -> f32 {
-        0.5 * (self.own.pdf(wo, wi) + self.other.pdf(wo, wi))
-    }
-
-    fn sample(&self, wo: [f32; 3], u: [f32; 3], weight: &mut [f32]) -> Option<BsdfSample> {
-        // The first number picks the sampler and, stretched back over [0, 1),
-        // is that sampler's own first number.
-        let (sampler, u0) = if u[0] < 0.5 {
-            (&self.own, 2.0 * u[0])
-        } else {
-            (&self.other, (2.0 * u[0] - 1.0).min(ONE_BELOW))
-        };
-        let picked = sampler.sample(wo, [u0, u[1], u[2]], weight)?;
-        if picked.delta {
-            return None;
-        }
-        weigh_sample(self, wo, picked.wi, weight)
-    }
-}
-
-/// The largest f32 below 1: a uniform number stretched from [0.5, 1) stays in
-/// [0, 1).
-const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 
 impl SpectralBsdf for DesignBsdf {
     fn len(&self) -> usize {
         match self {
             DesignBsdf::Paint(b) => b.len(),
             DesignBsdf::Phong(b) => b.len(),
-            DesignBsdf::SampledByBoth(b) => b.len(),
         }
     }
 
@@ -179,7 +84,6 @@ impl SpectralBsdf for DesignBsdf {
         match self {
             DesignBsdf::Paint(b) => b.eval(wi, wo, out),
             DesignBsdf::Phong(b) => b.eval(wi, wo, out),
-            DesignBsdf::SampledByBoth(b) => b.eval(wi, wo, out),
         }
     }
 
@@ -188,7 +92,6 @@ impl SpectralBsdf for DesignBsdf {
         match self {
             DesignBsdf::Paint(b) => b.pdf(wo, wi),
             DesignBsdf::Phong(b) => b.pdf(wo, wi),
-            DesignBsdf::SampledByBoth(b) => b.pdf(wo, wi),
         }
     }
 
@@ -197,7 +100,6 @@ impl SpectralBsdf for DesignBsdf {
         match self {
             DesignBsdf::Paint(b) => b.sample(wo, u, weight),
             DesignBsdf::Phong(b) => b.sample(wo, u, weight),
-            DesignBsdf::SampledByBoth(b) => b.sample(wo, u, weight),
         }
     }
 
@@ -206,7 +108,6 @@ impl SpectralBsdf for DesignBsdf {
         match self {
             DesignBsdf::Paint(b) => b.delta_reflectance(wo, out),
             DesignBsdf::Phong(b) => b.delta_reflectance(wo, out),
-            DesignBsdf::SampledByBoth(b) => b.own.delta_reflectance(wo, out),
         }
     }
 }
@@ -406,25 +307,6 @@ impl Shading {
     /// The design's BSDF.
     pub fn design(&self) -> &DesignBsdf {
         &self.design
-    }
-
-    /// This shading with its design's directions drawn by its own sampler alone.
-    pub fn with_own_sampling(&self) -> Shading {
-        Shading {
-            design: self.design.own().clone(),
-            ..self.clone()
-        }
-    }
-
-    /// This shading with its design's directions drawn half the time by
-    /// `other`'s design ([`SampledByBoth`]; from either's own sampler where one
-    /// is sampled so already); `None` where either design is an ideal mirror.
-    pub fn sampled_also_by(&self, other: &Shading) -> Option<Shading> {
-        let design = self.design.sampled_also_by(&other.design)?;
-        Some(Shading {
-            design,
-            ..self.clone()
-        })
     }
 
     /// Number of channels.

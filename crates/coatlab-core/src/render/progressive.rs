@@ -723,7 +723,7 @@ impl ProgressiveRender {
         };
         if recording {
             self.cache.paint_is_mirror = paint_is_mirror(&self.shading);
-            self.cache.lobe_exponent = self.shading.design().sampled_lobe_exponent();
+            self.cache.lobe_exponent = self.shading.design().lobe_exponent();
             // What the budget leaves beside the caches held, shared by the tiles.
             let room = self
                 .cache_budget_bytes

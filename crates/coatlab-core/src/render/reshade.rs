@@ -752,8 +752,7 @@ pub struct PathCache {
     pub(crate) samples_per_pixel: u32,
     /// Whether the paint it was recorded with is an ideal mirror.
     pub(crate) paint_is_mirror: bool,
-    /// The exponent of the widest lobe its paint's directions were drawn from
-    /// (`None`: a mirror).
+    /// The exponent of the paint's lobe it was recorded with (`None`: a mirror).
     pub(crate) lobe_exponent: Option<f32>,
 }
 

@@ -97,24 +97,6 @@ pub fn render_with(
     render_with_settings(model, which, spp, cached, settings)
 }
 
-/// [`render`] with the shading `make` builds for the car's scene.
-pub fn render_shaded(
-    make: impl FnOnce(&Scene) -> Arc<Shading>,
-    seed: u64,
-    spp: u32,
-    cached: u32,
-) -> (ProgressiveRender, Scene) {
-    let (scene, render_scene) = shared_car();
-    let framed = Framed::new(
-        render_scene.clone(),
-        Environment::studio(&grid()),
-        WIDTH,
-        HEIGHT,
-    );
-    let render = framed.render(make(scene), RenderSettings::seeded(seed), spp, cached);
-    (render, scene.clone())
-}
-
 /// [`render`] with the render's settings as given.
 pub fn render_with_settings(
     model: &PaintModel,
