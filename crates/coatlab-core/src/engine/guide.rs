@@ -27,10 +27,11 @@
 //!    neighbours' samples, which keeps its plain mean nearly unbiased, and the
 //!    edge of a highlight gets the samples its middle asks for (with step 1,
 //!    an undecided pixel's samples spread over its 5 × 5 neighbourhood);
-//! 3. its extra, x − τ clamped to [0, [`MOST_EXTRA`]], with τ the least level at
-//!    which the extra averages no more than 1 / [`LEAST_SHARE`] − 1 over the image:
-//!    the most undecided pixels are served first, and every pixel keeps at
-//!    least [`LEAST_SHARE`] of an even share;
+//! 3. its extra, x clamped to [0, [`MOST_EXTRA`]] and to the largest level λ at
+//!    which the extra averages no more than 1 / [`LEAST_SHARE`] − 1 over the
+//!    image: the pixels nearest to being decided are served whole, the rest
+//!    share what is left, and every pixel keeps at least [`LEAST_SHARE`] of an
+//!    even share;
 //! 4. weight 1 + extra, normalised to a mean of 1.
 //!
 //! A pixel asks only where the map of the views' 3 × 3 mean colours reads at
@@ -231,8 +232,7 @@ fn weights_from(
         .map(f64::from)
         .collect();
     let budget = 1.0 / LEAST_SHARE - 1.0;
-    let level = fill_level(&widened, budget);
-    let extra: Vec<f64> = widened.iter().map(|&x| extra_above(x, level)).collect();
+    let extra = nearest_first(&widened, budget);
     let mean = 1.0 + extra.iter().sum::<f64>() / extra.len().max(1) as f64;
     extra.iter().map(|&x| ((1.0 + x) / mean) as f32).collect()
 }
@@ -274,38 +274,36 @@ fn samples_to_decide(noise: f64, reading: f64) -> f64 {
     to_visible.min(to_reading)
 }
 
-/// The least level τ ≥ 0 at which the pixels' extra, their shortfall above τ
-/// (at most [`MOST_EXTRA`]), averages no more than `budget`: the most undecided
-/// pixels are served first, and a pixel asks for nothing until the level has
-/// come down to its shortfall. By bisection (the mean falls as τ rises), in a
-/// fixed order.
-fn fill_level(shortfall: &[f64], budget: f64) -> f64 {
-    let mean_above = |level: f64| {
-        shortfall
-            .iter()
-            .map(|&x| extra_above(x, level))
-            .sum::<f64>()
-            / shortfall.len().max(1) as f64
-    };
-    if mean_above(0.0) <= budget {
-        return 0.0;
+/// Each pixel's extra: its shortfall, at most [`MOST_EXTRA`] and at most a
+/// level λ, the largest at which the extras average no more than `budget`
+/// (none where the budget covers every shortfall). The pixels nearest to being
+/// decided get all they ask; the rest share what is left, each as much. Not the
+/// most undecided first: where the views differ across the car in a wide
+/// picture, tens of thousands of pixels are short and the most short are the
+/// floor's, which light the car throws onto the floor leaves undecided however
+/// many samples they get; served first, they take the samples that would
+/// decide the rest (docs/benchmarks.md, "Comparison"). By bisection (the mean rises with
+/// λ), in a fixed order.
+fn nearest_first(shortfall: &[f64], budget: f64) -> Vec<f64> {
+    let capped: Vec<f64> = shortfall
+        .iter()
+        .map(|&x| x.clamp(0.0, MOST_EXTRA))
+        .collect();
+    let mean_below =
+        |level: f64| capped.iter().map(|&x| x.min(level)).sum::<f64>() / capped.len().max(1) as f64;
+    if mean_below(MOST_EXTRA) <= budget {
+        return capped;
     }
-    let (mut low, mut high) = (0.0, shortfall.iter().copied().fold(0.0f64, f64::max));
+    let (mut low, mut high) = (0.0, MOST_EXTRA);
     for _ in 0..64 {
         let mid = 0.5 * (low + high);
-        if mean_above(mid) > budget {
-            low = mid;
-        } else {
+        if mean_below(mid) > budget {
             high = mid;
+        } else {
+            low = mid;
         }
     }
-    high
-}
-
-/// A pixel's extra at the water level `level`: its shortfall `x` above it, at
-/// most [`MOST_EXTRA`].
-fn extra_above(x: f64, level: f64) -> f64 {
-    (x - level).clamp(0.0, MOST_EXTRA)
+    capped.iter().map(|&x| x.min(low)).collect()
 }
 
 #[cfg(test)]
@@ -449,9 +447,8 @@ mod tests {
         assert_mean_one(&weights);
         // Six rows are undecided and two more ask through their neighbours
         // (the third row takes the fourth's noise, the second shares the
-        // third's shortfall): more than the budget serves, so the most undecided rows
-        // take it all and the first row, asking nothing, keeps exactly its
-        // least share.
+        // third's shortfall): more than the budget serves, so they share it
+        // and the first row, asking nothing, keeps exactly its least share.
         let asking = weights.iter().filter(|&&w| w > weights[0]).count();
         assert!(asking >= 2 * SIZE as usize, "{asking} pixels ask");
         assert!(
@@ -496,16 +493,20 @@ mod tests {
     }
 
     #[test]
-    fn the_most_undecided_pixels_are_served_first() {
-        // Ten pixels and a budget of MOST_EXTRA + 5 extra samples in all: the
-        // level comes down to 15, where the first pixel's extra is full
-        // (MOST_EXTRA) and the second's 5; the third, 5 short, gets nothing yet.
+    fn the_pixels_nearest_to_being_decided_are_served_first() {
+        // Ten pixels and a budget of 35 extra samples in all: the one 5 short
+        // gets its 5, the two more short share the other 30 (15 each: the one
+        // MOST_EXTRA + 25 short no more than the one 20 short).
         let mut shortfall = [0.0; 10];
         shortfall[..3].copy_from_slice(&[MOST_EXTRA + 25.0, 20.0, 5.0]);
-        let level = fill_level(&shortfall, (MOST_EXTRA + 5.0) / 10.0);
-        assert!((level - 15.0).abs() < 1e-9, "level {level}");
-        // A budget that covers every shortfall: no level.
-        assert_eq!(fill_level(&[3.0, 1.0, 0.0], 2.0), 0.0);
+        let extra = nearest_first(&shortfall, 35.0 / 10.0);
+        for (got, want) in extra[..3].iter().zip([15.0, 15.0, 5.0]) {
+            assert!((got - want).abs() < 1e-9, "{extra:?}");
+        }
+        assert!(extra[3..].iter().all(|&x| x == 0.0));
+        // A budget that covers every shortfall: each its own, at most MOST_EXTRA.
+        let extra = nearest_first(&shortfall, 10.0 * MOST_EXTRA);
+        assert_eq!(extra[..3], [MOST_EXTRA, 20.0, 5.0]);
     }
 
     /// Shared panes that differ by a little over 2 ΔE00 on the 3 × 3 pixels

@@ -812,8 +812,12 @@ fn views_rendered_apart_spend_their_samples_where_the_map_is_undecided() {
     let even = counts(false);
     assert!(even.iter().all(|&n| n == u64::from(SAMPLES)));
     let (least, most) = least_and_most(&counts(true));
+    // The extra goes to every undecided pixel up to a common level, the least
+    // short served whole (`guide::nearest_first`): on this small image, where
+    // much of the car is undecided, the most a pixel gets is a quarter above
+    // an even share or more.
     assert!(
-        most >= 2 * u64::from(SAMPLES),
+        4 * most >= 5 * u64::from(SAMPLES),
         "the undecided pixels got at most {most} samples"
     );
     assert!(
@@ -849,8 +853,12 @@ fn shared_views_and_their_recordings_spend_their_samples_where_the_map_is_undeci
     );
     let (guided, recorded) = counts(true);
     let (least, most) = least_and_most(&guided);
+    // The extra goes to every undecided pixel up to a common level, the least
+    // short served whole (`guide::nearest_first`): on this small image, where
+    // much of the car is undecided, the most a pixel gets is a quarter above
+    // an even share or more.
     assert!(
-        most >= 2 * u64::from(SAMPLES),
+        4 * most >= 5 * u64::from(SAMPLES),
         "the undecided pixels got at most {most} samples"
     );
     // Recorded samples follow the film's: the pixels with the most samples hold
