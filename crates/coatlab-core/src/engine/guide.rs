@@ -282,8 +282,8 @@ fn samples_to_decide(noise: f64, reading: f64) -> f64 {
 /// picture, tens of thousands of pixels are short and the most short are the
 /// floor's, which light the car throws onto the floor leaves undecided however
 /// many samples they get; served first, they take the samples that would
-/// decide the rest (docs/benchmarks.md, "Comparison"). By bisection (the mean rises with
-/// λ), in a fixed order.
+/// decide the rest (docs/benchmarks.md, "Comparison"). By bisection (the mean
+/// rises with λ), in a fixed order.
 fn nearest_first(shortfall: &[f64], budget: f64) -> Vec<f64> {
     let capped: Vec<f64> = shortfall
         .iter()
