@@ -1,19 +1,9 @@
-//! Small stored references of the shared glTF test models rendered with their
-//! own materials and textures: per model, the default view (framed on the car)
-//! in the studio with the signal-red preset on the paint materials, from enough
-//! independent replicas that its own noise is far below a test render's (the
-//! format of `support/render_reference.rs`, one file per model).
-//! Written by `examples/make_gltf_references.rs`, read by `tests/gltf_render.rs`.
-//!
-//! The references are the project's own renders: they change whenever a
-//! material model changes what a model looks like (textures, conductors, rough
-//! dielectrics, glass). Regenerate them after such a change, never to make a
-//! test pass:
-//!
-//!     cargo run -p coatlab-core --example make_gltf_references
-#![allow(dead_code)] // the example and the test each use their own half
+//! The shared glTF test models rendered with their own materials and textures,
+//! for `tests/gltf_render.rs`: the default view (framed on the car) in the
+//! studio with the signal-red preset on the paint materials, small, from the
+//! model read in place.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use coatlab_core::colour::spectrum::WavelengthGrid;
 use coatlab_core::design::presets;
@@ -28,25 +18,10 @@ use coatlab_core::scene::gltf_loader::{LoadOptions, load};
 use crate::image_stats::{Replicas, film_image};
 use crate::progressive::film_in_passes;
 
-/// Where the references are, one `NAME.csv` per model file `NAME.glb|gltf`.
-pub const REFERENCE_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/gltf_reference");
-/// The first seed of a reference's replicas (replica i has seed + i).
-pub const REFERENCE_SEED: u64 = 7000;
-/// A reference's replicas and samples per pixel of each.
-pub const REFERENCE_REPLICAS: (usize, u32) = (24, 256);
 /// The image: small, so a test render takes a fraction of a second; wide
 /// enough that a texture's colours cover whole pixels.
 pub const SIZE: (u32, u32) = (32, 20);
 const WAVELENGTHS: usize = 8;
-
-/// Where the reference of the model file `model` is stored.
-pub fn reference_path(model: &Path) -> PathBuf {
-    let stem = model
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .expect("a file name");
-    Path::new(REFERENCE_DIR).join(format!("{stem}.csv"))
-}
 
 /// The model file loaded as the application loads it; `None` when the loader
 /// refuses it (a compression extension).
