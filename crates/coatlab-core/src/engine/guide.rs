@@ -285,7 +285,7 @@ fn samples_to_decide(noise: f64, reading: f64) -> f64 {
 /// decide the rest (docs/benchmarks.md, "Comparison"). By bisection (the mean
 /// rises with λ), in a fixed order.
 fn nearest_first(shortfall: &[f64], budget: f64) -> Vec<f64> {
-    let capped: Vec<f64> = shortfall
+    let mut capped: Vec<f64> = shortfall
         .iter()
         .map(|&x| x.clamp(0.0, MOST_EXTRA))
         .collect();
@@ -303,7 +303,10 @@ fn nearest_first(shortfall: &[f64], budget: f64) -> Vec<f64> {
             low = mid;
         }
     }
-    capped.iter().map(|&x| x.min(low)).collect()
+    for x in &mut capped {
+        *x = x.min(low);
+    }
+    capped
 }
 
 #[cfg(test)]

@@ -798,6 +798,17 @@ fn least_and_most(counts: &[u64]) -> (u64, u64) {
     (least, most)
 }
 
+/// The extra goes to every undecided pixel up to a common level, the least short
+/// served whole (`guide::nearest_first`): on these small images, where much of
+/// the car is undecided, the most a pixel gets is a quarter above an even share
+/// of `samples` or more.
+fn assert_the_undecided_got_more(most: u64, samples: u32) {
+    assert!(
+        4 * most >= 5 * u64::from(samples),
+        "the undecided pixels got at most {most} samples"
+    );
+}
+
 /// Rendered apart (a glossier design against a satin one: the second lobe is
 /// wider), both views spend more samples where the ΔE00 map is undecided and
 /// take the same counts per pixel; with the guidance off, or before the first
@@ -812,14 +823,7 @@ fn views_rendered_apart_spend_their_samples_where_the_map_is_undecided() {
     let even = counts(false);
     assert!(even.iter().all(|&n| n == u64::from(SAMPLES)));
     let (least, most) = least_and_most(&counts(true));
-    // The extra goes to every undecided pixel up to a common level, the least
-    // short served whole (`guide::nearest_first`): on this small image, where
-    // much of the car is undecided, the most a pixel gets is a quarter above
-    // an even share or more.
-    assert!(
-        4 * most >= 5 * u64::from(SAMPLES),
-        "the undecided pixels got at most {most} samples"
-    );
+    assert_the_undecided_got_more(most, SAMPLES);
     assert!(
         least >= u64::from(COMPARE_CACHE_SAMPLES),
         "a pixel got {least} samples: fewer than the uniform recording"
@@ -853,14 +857,7 @@ fn shared_views_and_their_recordings_spend_their_samples_where_the_map_is_undeci
     );
     let (guided, recorded) = counts(true);
     let (least, most) = least_and_most(&guided);
-    // The extra goes to every undecided pixel up to a common level, the least
-    // short served whole (`guide::nearest_first`): on this small image, where
-    // much of the car is undecided, the most a pixel gets is a quarter above
-    // an even share or more.
-    assert!(
-        4 * most >= 5 * u64::from(SAMPLES),
-        "the undecided pixels got at most {most} samples"
-    );
+    assert_the_undecided_got_more(most, SAMPLES);
     // Recorded samples follow the film's: the pixels with the most samples hold
     // more recorded ones than those with the fewest.
     let recorded_where = |n: u64| {
