@@ -20,7 +20,7 @@ use crate::progressive::film_in_passes;
 
 /// The image: small, so a test render takes a fraction of a second; wide
 /// enough that a texture's colours cover whole pixels.
-pub const SIZE: (u32, u32) = (32, 20);
+const SIZE: (u32, u32) = (32, 20);
 const WAVELENGTHS: usize = 8;
 
 /// The model file loaded as the application loads it; `None` when the loader

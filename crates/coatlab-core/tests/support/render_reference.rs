@@ -94,21 +94,12 @@ impl Reference {
 
     pub fn write(&self, path: &Path) -> std::io::Result<()> {
         let (k, spp) = REFERENCE_REPLICAS;
-        self.write_titled(
-            path,
-            &format!(
-                "default car, studio, signal-red, {WAVELENGTHS} wavelengths, {k} replicas \
-                 of {spp} spp, seeds {REFERENCE_SEED}..{}",
-                REFERENCE_SEED + k as u64 - 1
-            ),
-        )
-    }
-
-    /// Writes the reference with `title` (what it is a render of) in its header.
-    pub fn write_titled(&self, path: &Path, title: &str) -> std::io::Result<()> {
         // Six significant digits of a mean: its own noise is about 10⁻³ of it.
         let mut text = format!(
-            "# Coatlab render reference: {title}\n# replicas={}\nx,y,X,Y,Z,var_X,var_Y,var_Z\n",
+            "# Coatlab render reference: default car, studio, signal-red, {WAVELENGTHS} \
+             wavelengths, {k} replicas of {spp} spp, seeds {REFERENCE_SEED}..{}\n\
+             # replicas={}\nx,y,X,Y,Z,var_X,var_Y,var_Z\n",
+            REFERENCE_SEED + k as u64 - 1,
             self.replicas
         );
         for y in 0..self.height {
@@ -124,11 +115,6 @@ impl Reference {
     }
 
     pub fn read(path: &Path) -> Result<Self, String> {
-        Self::read_sized(path, (WIDTH, HEIGHT))
-    }
-
-    /// Reads a reference of `size` pixels (width, height).
-    pub fn read_sized(path: &Path, size: (u32, u32)) -> Result<Self, String> {
         let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
         let mut values = Vec::new();
         let (mut width, mut height, mut replicas) = (0, 0, 0);
@@ -165,12 +151,10 @@ impl Reference {
                 parse(7)?,
             ]);
         }
-        if (width, height) != size || values.len() != (size.0 * size.1) as usize {
+        if (width, height) != (WIDTH, HEIGHT) || values.len() != (WIDTH * HEIGHT) as usize {
             return Err(format!(
-                "{}: expected {}x{} pixels",
-                path.display(),
-                size.0,
-                size.1
+                "{}: expected {WIDTH}x{HEIGHT} pixels",
+                path.display()
             ));
         }
         if replicas < 2 {
