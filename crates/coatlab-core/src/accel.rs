@@ -341,27 +341,16 @@ impl Accel {
         let sheared = ShearedRay::new(origin, dir);
         if let Tree::Simd8(tree) = &self.bvh.tree {
             let box_ray = BoxRay::new(origin, dir);
-            let mut best = None;
+            let mut nearest = Nearest::default();
             tree.nodes().closest::<ISA>(
                 &box_ray,
                 t_max,
                 #[inline(always)]
-                |pack, _, t_max| match sheared.intersect_pack::<ISA, PACK>(&self.packs[pack], t_max)
-                {
-                    Some(hit) => {
-                        best = Some((pack, hit));
-                        hit.t
-                    }
-                    None => t_max,
-                },
+                |pack, _, t_max| nearest.test::<ISA>(&sheared, &self.packs, pack, t_max),
                 #[inline(always)]
                 |pack, _| fetch_pack(&self.packs, pack),
             );
-            return best.map(|(p, hit)| Hit {
-                t: hit.t,
-                triangle: self.packs[p].id[hit.lane],
-                barycentric: hit.barycentric,
-            });
+            return nearest.hit(&self.packs);
         }
         self.closest_hit_by_slot(&sheared, RayQuery { origin, dir, t_max })
     }
@@ -492,7 +481,7 @@ impl Accel {
             index: usize,
             box_ray: BoxRay,
             sheared: ShearedRay,
-            best: Option<(usize, triangle::LaneHit)>,
+            nearest: Nearest,
             traversal: Traversal,
         }
         // Unusable rays are skipped below and miss.
@@ -506,7 +495,7 @@ impl Accel {
             index: 0,
             box_ray: idle_box,
             sheared: idle_sheared,
-            best: None,
+            nearest: Nearest::default(),
             traversal: Traversal::new(),
         });
         let mut next = 0;
@@ -520,7 +509,7 @@ impl Accel {
                     lane.index = index;
                     lane.box_ray = BoxRay::new(query.origin, query.dir);
                     lane.sheared = ShearedRay::new(query.origin, query.dir);
-                    lane.best = None;
+                    lane.nearest = Nearest::default();
                     lane.traversal.start(query.t_max);
                     return true;
                 }
@@ -549,29 +538,18 @@ impl Accel {
                 let Lane {
                     box_ray,
                     sheared,
-                    best,
+                    nearest,
                     traversal,
                     ..
                 } = lane;
-                let mut leaf = |pack: usize, _, t_max: f32| match sheared
-                    .intersect_pack::<ISA, PACK>(&packs[pack], t_max)
-                {
-                    Some(hit) => {
-                        *best = Some((pack, hit));
-                        hit.t
-                    }
-                    None => t_max,
-                };
+                let mut leaf =
+                    |pack: usize, _, t_max: f32| nearest.test::<ISA>(sheared, packs, pack, t_max);
                 if tree.closest_step::<ISA>(box_ray, traversal, &mut leaf, &fetch_leaf) {
                     i += 1;
                     continue;
                 }
                 // This ray is done: its result, then the next ray in its place.
-                hits[lane.index] = lane.best.map(|(p, hit)| Hit {
-                    t: hit.t,
-                    triangle: packs[p].id[hit.lane],
-                    barycentric: hit.barycentric,
-                });
+                hits[lane.index] = lane.nearest.hit(packs);
                 if take(lane) {
                     i += 1;
                 } else {
@@ -756,7 +734,8 @@ impl Accel {
             .bvh
             .closest(ray, |ray, slot| self.slot_distance(sheared, ray, slot))?;
         // Barycentrics only for the winner.
-        let hit = sheared.intersect_pack::<PORTABLE, 1>(&single(&self.triangles[slot]), t_max)?;
+        let hit = sheared
+            .intersect_pack::<PORTABLE, 1>(&single(&self.triangles[slot]), t_max.next_down())?;
         Some(Hit {
             t: hit.t,
             triangle: self.mesh_triangle[slot],
@@ -776,7 +755,7 @@ impl Accel {
     #[inline(always)]
     fn slot_distance(&self, sheared: &ShearedRay, ray: &Ray, slot: usize) -> f32 {
         sheared
-            .intersect_pack::<PORTABLE, 1>(&single(&self.triangles[slot]), ray.tmax)
+            .intersect_pack::<PORTABLE, 1>(&single(&self.triangles[slot]), ray.tmax.next_down())
             .map_or(f32::INFINITY, |hit| hit.t)
     }
 
@@ -796,6 +775,60 @@ impl Accel {
             *entry = Some(*t);
         }
         Ok(())
+    }
+}
+
+/// The nearest hit of one closest-hit query so far, and the leaf test that
+/// improves on it. Of hits at the same distance (a ray through an edge or vertex
+/// that triangles share) the one with the least triangle index wins, whichever the
+/// traversal reaches first: the SIMD paths' box tests round differently, so they
+/// visit leaves in different orders, and their results are the same bit for bit
+/// only because no result depends on that order.
+#[derive(Debug, Clone, Copy, Default)]
+struct Nearest {
+    /// The pack and the lane's hit.
+    best: Option<(usize, triangle::LaneHit)>,
+}
+
+impl Nearest {
+    /// Tests `packs[pack]` within the traversal's `t_max` and returns the new
+    /// `t_max`: the query's own (an open bound) until the first hit, then the
+    /// nearest hit's distance, which a later hit may equal and win on its index.
+    #[inline(always)]
+    fn test<const ISA: u8>(
+        &mut self,
+        sheared: &ShearedRay,
+        packs: &[TrianglePack<PACK>],
+        pack: usize,
+        t_max: f32,
+    ) -> f32 {
+        let t_limit = match self.best {
+            Some(_) => t_max,
+            None => t_max.next_down(),
+        };
+        let Some(hit) = sheared.intersect_pack::<ISA, PACK>(&packs[pack], t_limit) else {
+            return t_max;
+        };
+        // A tie that does not win (a triangle split into several leaves ties with
+        // itself).
+        if let Some((p, best)) = self.best
+            && hit.t == best.t
+            && packs[pack].id[hit.lane] >= packs[p].id[best.lane]
+        {
+            return t_max;
+        }
+        self.best = Some((pack, hit));
+        hit.t
+    }
+
+    /// The query's result.
+    #[inline(always)]
+    fn hit(&self, packs: &[TrianglePack<PACK>]) -> Option<Hit> {
+        self.best.map(|(p, hit)| Hit {
+            t: hit.t,
+            triangle: packs[p].id[hit.lane],
+            barycentric: hit.barycentric,
+        })
     }
 }
 
@@ -841,7 +874,7 @@ pub fn intersect_triangle(
     let mut pack = TrianglePack::<1>::empty();
     pack.set(0, vertices, 0);
     ShearedRay::new(origin, dir)
-        .intersect_pack::<PORTABLE, 1>(&pack, t_max)
+        .intersect_pack::<PORTABLE, 1>(&pack, t_max.next_down())
         .map(|hit| (hit.t, hit.barycentric))
 }
 

@@ -105,14 +105,14 @@ impl ShearedRay {
         }
     }
 
-    /// Lane-wise test of a pack; per lane, the hit distance in `(0, t_max)` with its
-    /// barycentrics, or `t = ∞` for a miss (zero-area triangles, NaN and unused lanes
-    /// never hit).
+    /// Lane-wise test of a pack; per lane, the hit distance in `(0, t_limit]` with
+    /// its barycentrics, or `t = ∞` for a miss (zero-area triangles, NaN and unused
+    /// lanes never hit).
     #[inline(always)]
     fn lanes<const ISA: u8, const N: usize>(
         &self,
         pack: &TrianglePack<N>,
-        t_max: f32,
+        t_limit: f32,
     ) -> ([f32; N], [f32; N], [f32; N]) {
         let [kx, ky, kz] = self.k;
         let [sx, sy, sz] = self.shear;
@@ -165,7 +165,7 @@ impl ShearedRay {
             let inv_det = 1.0 / det;
             let ti = (u[i] * a[2][i] + v[i] * b[2][i] + w[i] * c[2][i]) * inv_det;
             // Written so that NaN fails.
-            let hit = !(negative & positive) & (det != 0.0) & (ti > 0.0) & (ti < t_max);
+            let hit = !(negative & positive) & (det != 0.0) & (ti > 0.0) & (ti <= t_limit);
             t[i] = if hit { ti } else { f32::INFINITY };
             bu[i] = v[i] * inv_det;
             bv[i] = w[i] * inv_det;
@@ -188,8 +188,8 @@ impl ShearedRay {
     }
 
     /// The hit of `lane`, at `t` by [`ShearedRay::lanes`], checked: `t` where its
-    /// sign is certain, else the distance recomputed in f64 (∞ when that is not in
-    /// `(0, t_max)`).
+    /// sign is certain, else the distance recomputed in f64 where that is farther,
+    /// `t` where it is nearer, ∞ where it is not in `(0, t_limit]`.
     ///
     /// The distance's rounding error can exceed the distance itself when the
     /// origin lies micrometres from a long sliver's plane (the edge functions
@@ -199,13 +199,19 @@ impl ShearedRay {
     /// checked: a hit closer than its own rounding error may still be missed, as
     /// with any f32 test, but none is reported behind the origin. The edge test,
     /// and so watertightness, is unchanged.
+    ///
+    /// A check never brings a hit nearer than its f32 distance: the packs' tests
+    /// drop a lane beyond `t_limit` by that distance before any check, so a check
+    /// that could bring it nearer would make the closest hit depend on the order in
+    /// which the traversal visits the leaves, and the SIMD paths, whose box tests
+    /// round differently, visit them in different orders.
     #[inline(always)]
     fn checked_distance<const N: usize>(
         &self,
         pack: &TrianglePack<N>,
         lane: usize,
         t: f32,
-        t_max: f32,
+        t_limit: f32,
     ) -> f32 {
         let corners = self.corners(pack, lane);
         let [a, b, c] = corners.map(|p| p[2]);
@@ -214,21 +220,24 @@ impl ShearedRay {
         if (a > 0.0) & (b > 0.0) & (c > 0.0) {
             return t;
         }
-        certain_distance(corners, t, t_max)
+        certain_distance(corners, t, t_limit)
     }
 
-    /// The nearest hit in the pack with `t` in `(0, t_max)`; on equal distances the
-    /// lowest lane.
+    /// The nearest hit in the pack with `t` in `(0, t_limit]` (a closed interval, so
+    /// that a caller can break ties with hits it already has); on equal distances
+    /// the lane with the least id. Each lane's distance depends on the ray and its
+    /// triangle only, so the nearest hit over several packs, ties broken by the
+    /// least id, does not depend on the order in which they are tested.
     #[inline(always)]
     pub fn intersect_pack<const ISA: u8, const N: usize>(
         &self,
         pack: &TrianglePack<N>,
-        t_max: f32,
+        t_limit: f32,
     ) -> Option<LaneHit> {
-        let (mut t, bu, bv) = self.lanes::<ISA, N>(pack, t_max);
+        let (mut t, bu, bv) = self.lanes::<ISA, N>(pack, t_limit);
         loop {
-            let best = nearest_lane::<ISA, N>(&t)?;
-            let checked = self.checked_distance(pack, best, t[best], t_max);
+            let best = nearest_lane::<ISA, N>(&t, &pack.id)?;
+            let checked = self.checked_distance(pack, best, t[best], t_limit);
             if checked.to_bits() == t[best].to_bits() {
                 return Some(LaneHit {
                     lane: best,
@@ -236,13 +245,13 @@ impl ShearedRay {
                     barycentric: [bu[best], bv[best]],
                 });
             }
-            // Rare: the lane's distance was uncertain. Its f64 distance (or a
-            // miss) replaces it, and the nearest lane is chosen again; the f64
+            // Rare: the lane's distance was uncertain. Its checked distance (or a
+            // miss) replaces it, and the nearest lane is chosen again; the checked
             // distance is final (checking it again returns it unchanged, as its
             // corners are the same), so this ends.
             t[best] = checked;
             if checked < f32::INFINITY {
-                return self.nearest_after_recheck(pack, &mut t, &bu, &bv, t_max);
+                return self.nearest_after_recheck(pack, &mut t, &bu, &bv, t_limit);
             }
         }
     }
@@ -256,14 +265,14 @@ impl ShearedRay {
         t: &mut [f32; N],
         bu: &[f32; N],
         bv: &[f32; N],
-        t_max: f32,
+        t_limit: f32,
     ) -> Option<LaneHit> {
         for (i, ti) in t.iter_mut().enumerate() {
             if *ti < f32::INFINITY {
-                *ti = self.checked_distance(pack, i, *ti, t_max);
+                *ti = self.checked_distance(pack, i, *ti, t_limit);
             }
         }
-        nearest_lane_portable(t).map(|best| LaneHit {
+        nearest_lane_portable(t, &pack.id).map(|best| LaneHit {
             lane: best,
             t: t[best],
             barycentric: [bu[best], bv[best]],
@@ -277,9 +286,11 @@ impl ShearedRay {
         pack: &TrianglePack<N>,
         t_max: f32,
     ) -> bool {
-        let (mut t, _, _) = self.lanes::<ISA, N>(pack, t_max);
-        while let Some(best) = nearest_lane::<ISA, N>(&t) {
-            if self.checked_distance(pack, best, t[best], t_max) < f32::INFINITY {
+        // The open interval as a closed one: the largest f32 below `t_max`.
+        let t_limit = t_max.next_down();
+        let (mut t, _, _) = self.lanes::<ISA, N>(pack, t_limit);
+        while let Some(best) = nearest_lane::<ISA, N>(&t, &pack.id) {
+            if self.checked_distance(pack, best, t[best], t_limit) < f32::INFINITY {
                 return true;
             }
             t[best] = f32::INFINITY;
@@ -290,7 +301,8 @@ impl ShearedRay {
 
 /// [`ShearedRay::checked_distance`] for a triangle with corners on both sides of
 /// the origin: `t` where its rounding error cannot change the hit decision, else
-/// the distance recomputed in f64, or ∞ where that is not in `(0, t_max)`.
+/// the larger of `t` and the distance recomputed in f64, or ∞ where that is not in
+/// `(0, t_limit]`.
 /// `corners` are the vertices in ray space.
 ///
 /// The bound: in ray space the distance is `Σ eᵢ·zᵢ / Σ eᵢ` with edge functions
@@ -301,7 +313,7 @@ impl ShearedRay {
 /// `t = 0`, is right.
 #[inline(never)]
 #[cold]
-fn certain_distance(corners: [[f32; 3]; 3], t: f32, t_max: f32) -> f32 {
+fn certain_distance(corners: [[f32; 3]; 3], t: f32, t_limit: f32) -> f32 {
     let [a, b, c] = corners;
     // The products of each edge function: u = c₀b₁ − c₁b₀, v = a₀c₁ − a₁c₀,
     // w = b₀a₁ − b₁a₀.
@@ -334,8 +346,9 @@ fn certain_distance(corners: [[f32; 3]; 3], t: f32, t_max: f32) -> f32 {
     let det = e[0] + e[1] + e[2];
     let distance = (e[0] * f64::from(a[2]) + e[1] * f64::from(b[2]) + e[2] * f64::from(c[2])) / det;
     let distance = distance as f32;
-    if distance > 0.0 && distance < t_max {
-        distance
+    // Never nearer than `t` (see `checked_distance`): `t` is in (0, t_limit].
+    if distance > 0.0 && distance <= t_limit {
+        distance.max(t)
     } else {
         f32::INFINITY
     }
@@ -368,10 +381,23 @@ fn any_zero_portable<const N: usize>(u: &[f32; N], v: &[f32; N], w: &[f32; N]) -
     (0..N).any(|i| (u[i] == 0.0) | (v[i] == 0.0) | (w[i] == 0.0))
 }
 
-/// The lane of the smallest `t` below ∞, the lowest such lane on ties; `None` when
-/// every lane is ∞ (no lane holds NaN: the test writes ∞ for every miss).
+/// The lane of the smallest `t` below ∞, the one with the least `id` on ties;
+/// `None` when every lane is ∞ (no lane holds NaN: the test writes ∞ for every
+/// miss).
 #[inline(always)]
-fn nearest_lane<const ISA: u8, const N: usize>(t: &[f32; N]) -> Option<usize> {
+fn nearest_lane<const ISA: u8, const N: usize>(t: &[f32; N], id: &[u32; N]) -> Option<usize> {
+    let at_minimum = lanes_at_minimum::<ISA, N>(t)?;
+    Some(if at_minimum.is_power_of_two() {
+        at_minimum.trailing_zeros() as usize
+    } else {
+        least_id_lane(at_minimum, id)
+    })
+}
+
+/// The lanes holding the smallest `t` below ∞ (bit i for lane i); `None` when every
+/// lane is ∞.
+#[inline(always)]
+fn lanes_at_minimum<const ISA: u8, const N: usize>(t: &[f32; N]) -> Option<u32> {
     #[cfg(target_arch = "x86_64")]
     if ISA >= AVX2
         && let Ok(t) = t[..].try_into()
@@ -379,26 +405,42 @@ fn nearest_lane<const ISA: u8, const N: usize>(t: &[f32; N]) -> Option<usize> {
         // SAFETY: as in `any_zero`.
         return unsafe {
             if ISA == AVX512 {
-                avx512::nearest_lane(t)
+                avx512::lanes_at_minimum(t)
             } else {
-                avx::nearest_lane(t)
+                avx::lanes_at_minimum(t)
             }
         };
     }
-    nearest_lane_portable(t)
+    lanes_at_minimum_portable(t)
 }
 
-/// The portable [`nearest_lane`]: a running index, seven dependent compares and
-/// branches for a pack of 8 (the AVX version: a min tree, one compare, a mask).
+/// The portable [`lanes_at_minimum`]: the minimum, then a compare a lane (the AVX
+/// version: a min tree, one compare, a mask).
 #[inline(always)]
-fn nearest_lane_portable<const N: usize>(t: &[f32; N]) -> Option<usize> {
-    let mut best = 0;
-    for i in 1..N {
-        if t[i] < t[best] {
-            best = i;
-        }
-    }
-    (t[best] < f32::INFINITY).then_some(best)
+fn lanes_at_minimum_portable<const N: usize>(t: &[f32; N]) -> Option<u32> {
+    let minimum = t.iter().fold(f32::INFINITY, |m, &x| m.min(x));
+    (minimum < f32::INFINITY).then(|| {
+        t.iter()
+            .enumerate()
+            .fold(0, |mask, (i, &x)| mask | (u32::from(x == minimum) << i))
+    })
+}
+
+/// The portable [`nearest_lane`].
+#[inline(always)]
+fn nearest_lane_portable<const N: usize>(t: &[f32; N], id: &[u32; N]) -> Option<usize> {
+    let at_minimum = lanes_at_minimum_portable(t)?;
+    Some(least_id_lane(at_minimum, id))
+}
+
+/// Of the lanes in `mask` (not empty), the one with the least `id`: a tie between
+/// triangles at the same distance (a ray through a shared edge or vertex), rare.
+#[cold]
+fn least_id_lane<const N: usize>(mask: u32, id: &[u32; N]) -> usize {
+    (0..N)
+        .filter(|&i| mask & (1 << i) != 0)
+        .min_by_key(|&i| id[i])
+        .unwrap_or(0)
 }
 
 /// The 8-lane reductions of the pack test with AVX intrinsics (the loop vectoriser
@@ -444,13 +486,13 @@ mod avx {
     }
 
     #[inline(always)]
-    pub(super) unsafe fn nearest_lane(t: &[f32; 8]) -> Option<usize> {
+    pub(super) unsafe fn lanes_at_minimum(t: &[f32; 8]) -> Option<u32> {
         // SAFETY: see above.
         unsafe {
             let t = vector(t);
             let min = minimum(t);
             let at_min = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(t, min)) as u32;
-            (_mm256_cvtss_f32(min) < f32::INFINITY).then_some(at_min.trailing_zeros() as usize)
+            (_mm256_cvtss_f32(min) < f32::INFINITY).then_some(at_min)
         }
     }
 }
@@ -478,13 +520,13 @@ mod avx512 {
     }
 
     #[inline(always)]
-    pub(super) unsafe fn nearest_lane(t: &[f32; 8]) -> Option<usize> {
+    pub(super) unsafe fn lanes_at_minimum(t: &[f32; 8]) -> Option<u32> {
         // SAFETY: see above.
         unsafe {
             let t = vector(t);
             let min = minimum(t);
             let at_min = u32::from(_mm256_cmp_ps_mask::<_CMP_EQ_OQ>(t, min));
-            (_mm256_cvtss_f32(min) < f32::INFINITY).then_some(at_min.trailing_zeros() as usize)
+            (_mm256_cvtss_f32(min) < f32::INFINITY).then_some(at_min)
         }
     }
 }
@@ -575,10 +617,19 @@ mod tests {
                 any_zero_portable(&u, &v, &w),
                 "{u:?} {v:?} {w:?}"
             );
-            // Distances are positive or ∞ (misses).
+            // Distances are positive or ∞ (misses); ids in any order.
             let t = u.map(|x| if x > 0.0 { x } else { f32::INFINITY });
-            let best = nearest_lane::<ISA, PACK>(&t);
-            assert_eq!(best, nearest_lane_portable(&t), "{t:?}");
+            let id: [u32; PACK] = std::array::from_fn(|i| (pick().to_bits() ^ i as u32) % 5);
+            let best = nearest_lane::<ISA, PACK>(&t, &id);
+            assert_eq!(best, nearest_lane_portable(&t, &id), "{t:?} {id:?}");
+            let expected = (0..PACK)
+                .filter(|&i| t[i] < f32::INFINITY)
+                .min_by(|&i, &j| t[i].total_cmp(&t[j]).then(id[i].cmp(&id[j])));
+            if let (Some(b), Some(e)) = (best, expected) {
+                assert_eq!((t[b], id[b]), (t[e], id[e]), "{t:?} {id:?}");
+            } else {
+                assert_eq!(best, expected, "{t:?}");
+            }
             match best {
                 None => none += 1,
                 Some(b) if t.iter().filter(|&&x| x == t[b]).count() > 1 => ties += 1,
