@@ -29,18 +29,32 @@
 //!   The closest-hit traversal is a resumable state ([`Traversal`]) advanced one node
 //!   or leaf at a time ([`Nodes::closest_step`]), so that a batch can interleave
 //!   the steps of several rays; a single ray ([`Nodes::closest`]) takes the same
-//!   steps with its state in locals and its node steps in a loop of their own.
+//!   steps with its state in locals and its node steps in a loop of their own
+//!   (with the fused box test on the AVX2 and AVX-512 paths, so the steps can
+//!   differ there where a box is entered within rounding, the hit not).
 //!
 //! # Robustness
 //!
-//! The slab test computes `(plane − origin) · (1/dir)` (a subtraction, then a
-//! product: no fused `plane · (1/dir) − origin/dir`, whose cancellation error grows
-//! with the distance of the origin from the world origin), and widens the exit
-//! distance by a few ulps as Ize does ("Robust BVH Ray Traversal", JCGT 2013), so a
-//! box is never missed by a ray that hits a primitive inside it. The distances'
+//! The portable slab test computes `(plane − origin) · (1/dir)` (a subtraction, then
+//! a product) and widens the exit distance by a few ulps as Ize does ("Robust BVH
+//! Ray Traversal", JCGT 2013), so a box is never missed by a ray that hits a
+//! primitive inside it. The AVX2 and AVX-512 single-ray traversals compute
+//! `plane · (1/dir) − origin · (1/dir)` in one fused multiply-add instead, one
+//! rounding and one operation shorter on the chain that a ray's node steps wait on
+//! (Embree's form); `origin · (1/dir)` is rounded once per ray, with an error that
+//! grows with the origin's distance from the world's origin rather than with the
+//! distance to the box, so it is taken as two offsets, one moved up and one down by
+//! more than that error ([`BoxRay::new`]): the entry distance is never later, the
+//! exit never earlier, than exact arithmetic would put them. The batch keeps the
+//! portable form, which needs fewer of a ray's values reloaded at each of its steps
+//! (docs/benchmarks.md). The paths therefore visit leaves in different orders at
+//! times, which leaves their results unchanged, as the leaf test's ties do not
+//! depend on that order (`Nearest` in `accel.rs`). The distances'
 //! maxima, minima, widening and compares work on their bits as integers
-//! ([`ordered`]), exact for what the test decides. Zero direction
-//! components are replaced by ±`f32::MIN_POSITIVE`, so no `0 · ∞` NaN arises; and
+//! ([`ordered`]), exact for what the test decides. Direction components smaller
+//! than ±`f32::MIN_POSITIVE` (or than 2⁻¹⁰⁰ of the origin's coordinate, where that
+//! is larger) are replaced by it, so no `0 · ∞` NaN arises and `origin · (1/dir)`
+//! stays finite; and
 //! child boxes are stored one ulp larger on every side, so that a ray with a zero
 //! component (an axis-aligned ray) that hits a primitive has its origin strictly
 //! inside that slab and sees the slab as unbounded, rather than leaving it at
@@ -92,6 +106,9 @@ const EXIT_WIDEN_ULPS: i32 = 16;
 /// entry distance lies a few ulps beyond an equally distant hit must still be entered
 /// (ties on shared edges).
 const TMAX_WIDEN: f32 = 1.0 + 1.0 / 65_536.0;
+/// 2⁻¹⁰⁰: a direction component is at least this times the origin's coordinate on
+/// its axis ([`BoxRay::new`]).
+const DIR_FLOOR_OF_ORIGIN: f32 = f32::from_bits((127 - 100) << 23);
 
 /// An 8-wide node: `bounds[2·axis]` are the children's minima along `axis`,
 /// `bounds[2·axis + 1]` their maxima.
@@ -178,11 +195,24 @@ impl Node {
     }
 }
 
-/// `b` one ulp larger on every side.
+/// `b` one ulp larger on every side, with no face at a subnormal coordinate: a face
+/// moved by one ulp from 0 (as every mesh centred on or mirrored about a coordinate
+/// plane has) would lie at ±1.4·10⁻⁴⁵, and on x86 a fused multiply-add with a
+/// subnormal product takes a microcode assist of about a hundred cycles, unless the
+/// thread flushes subnormals to zero (Embree asks its callers to; Coatlab does not,
+/// as that would change the rest of its arithmetic). Such a face moves further out,
+/// to ∓`f32::MIN_POSITIVE` (docs/benchmarks.md).
 fn widened(b: &Bounds) -> Bounds {
+    let normal = |x: f32, outward: f32| {
+        if x.abs() < f32::MIN_POSITIVE {
+            outward
+        } else {
+            x
+        }
+    };
     Bounds {
-        min: b.min.map(f32::next_down),
-        max: b.max.map(f32::next_up),
+        min: b.min.map(|x| normal(x.next_down(), -f32::MIN_POSITIVE)),
+        max: b.max.map(|x| normal(x.next_up(), f32::MIN_POSITIVE)),
     }
 }
 
@@ -227,6 +257,11 @@ pub(super) struct Nodes<'a>(&'a [Node]);
 pub(super) struct BoxRay {
     origin: [f32; 3],
     inv_dir: [f32; 3],
+    /// `origin · inv_dir` per axis, rounded and then moved up by more than its
+    /// rounding error, and down: what the fused test subtracts from a near plane's
+    /// `plane · inv_dir`, and from a far plane's.
+    near_offset: [f32; 3],
+    far_offset: [f32; 3],
     /// Per axis, the plane row by which the ray enters a box (its minimum where
     /// the direction is positive, its maximum where negative) and the one by which
     /// it leaves.
@@ -283,52 +318,91 @@ impl PlaneRow {
 
 impl BoxRay {
     /// For a finite origin and a finite, non-zero direction.
+    ///
+    /// A direction component below `f32::MIN_POSITIVE`, or below 2⁻¹⁰⁰ of the
+    /// origin's coordinate on that axis, is replaced by that bound (its sign kept):
+    /// ±0 and subnormals would give ±∞ and then 0 · ∞ = NaN for a plane through the
+    /// origin, and the second bound keeps `origin · (1/dir)` below 2¹⁰⁰, so the
+    /// fused test's offsets are finite. A larger component shortens the slab's
+    /// distances, but by the second bound a box face other than the one the origin
+    /// lies on is at least an ulp of the origin's coordinate away, so at least 2⁷⁵
+    /// (in units of `|dir|`) along the ray, beyond any scene.
     #[inline(always)]
     pub fn new(origin: [f32; 3], dir: [f32; 3]) -> BoxRay {
-        let inv_dir = dir.map(|d| {
-            // ±0 and subnormals would give ±∞ and then 0 · ∞ = NaN for a plane
-            // through the origin; 1/MIN_POSITIVE is finite.
-            let d = if d.abs() < f32::MIN_POSITIVE {
-                f32::MIN_POSITIVE.copysign(d)
+        let inv_dir: [f32; 3] = std::array::from_fn(|axis| {
+            let least = f32::MIN_POSITIVE.max(origin[axis].abs() * DIR_FLOOR_OF_ORIGIN);
+            let d = dir[axis];
+            let d = if d.abs() < least {
+                least.copysign(d)
             } else {
                 d
             };
             1.0 / d
         });
+        // The product's rounding error is at most 2⁻²⁴ of it, the offset's own
+        // rounding as much again: a margin of 2⁻²² of it covers both, and
+        // `MIN_POSITIVE` a product rounded among the subnormals.
+        let scaled: [f32; 3] = std::array::from_fn(|axis| origin[axis] * inv_dir[axis]);
+        let margin = scaled.map(|c| c.abs() * (1.0 / 4_194_304.0) + f32::MIN_POSITIVE);
         let rows: [(PlaneRow, PlaneRow); 3] =
             std::array::from_fn(|axis| PlaneRow::entry_exit(axis, inv_dir[axis]));
         BoxRay {
             origin,
             inv_dir,
+            near_offset: std::array::from_fn(|axis| scaled[axis] + margin[axis]),
+            far_offset: std::array::from_fn(|axis| scaled[axis] - margin[axis]),
             near: rows.map(|r| r.0),
             far: rows.map(|r| r.1),
         }
     }
 
     /// The children hit within `[0, t_max]` (bit i for child i) and each one's
-    /// entry distance.
+    /// entry distance; with `FUSED` (taken only with AVX2 or AVX-512, where the
+    /// multiply-add is one instruction), by the fused form of the module
+    /// documentation.
     #[inline(always)]
-    fn hit_children<const ISA: u8>(&self, node: &Node, t_max: f32) -> (u32, [f32; WIDTH]) {
+    fn hit_children<const ISA: u8, const FUSED: bool>(
+        &self,
+        node: &Node,
+        t_max: f32,
+    ) -> (u32, [f32; WIDTH]) {
         #[cfg(target_arch = "x86_64")]
         if ISA == AVX512 {
             // SAFETY: `ISA` is AVX512 only where AVX-512 is enabled and the CPU has
             // it (see the module documentation).
-            return unsafe { avx512::hit_children(self, node, t_max) };
+            return unsafe { avx512::hit_children::<FUSED>(self, node, t_max) };
         }
         let [bnx, bny, bnz] = self.near.map(|row| row.of(node));
         let [bfx, bfy, bfz] = self.far.map(|row| row.of(node));
         let [ox, oy, oz] = self.origin;
         let [rx, ry, rz] = self.inv_dir;
+        let [nx, ny, nz] = self.near_offset;
+        let [fx, fy, fz] = self.far_offset;
         let distance = |plane: f32, origin: f32, inv_dir: f32| ordered((plane - origin) * inv_dir);
+        let fused =
+            |plane: f32, inv_dir: f32, offset: f32| ordered(plane.mul_add(inv_dir, -offset));
         let mut entry = [0i32; WIDTH];
         let mut beyond = [0i32; WIDTH];
         for i in 0..WIDTH {
-            let tnx = distance(bnx[i], ox, rx);
-            let tny = distance(bny[i], oy, ry);
-            let tnz = distance(bnz[i], oz, rz);
-            let tfx = distance(bfx[i], ox, rx);
-            let tfy = distance(bfy[i], oy, ry);
-            let tfz = distance(bfz[i], oz, rz);
+            let [tnx, tny, tnz, tfx, tfy, tfz] = if FUSED && ISA >= AVX2 {
+                [
+                    fused(bnx[i], rx, nx),
+                    fused(bny[i], ry, ny),
+                    fused(bnz[i], rz, nz),
+                    fused(bfx[i], rx, fx),
+                    fused(bfy[i], ry, fy),
+                    fused(bfz[i], rz, fz),
+                ]
+            } else {
+                [
+                    distance(bnx[i], ox, rx),
+                    distance(bny[i], oy, ry),
+                    distance(bnz[i], oz, rz),
+                    distance(bfx[i], ox, rx),
+                    distance(bfy[i], oy, ry),
+                    distance(bfz[i], oz, rz),
+                ]
+            };
             entry[i] = tnx.max(tny).max(tnz.max(0));
             beyond[i] = exit_beyond(tfx.min(tfy).min(tfz));
         }
@@ -405,18 +479,18 @@ fn hit_mask_portable(entry: &[i32; WIDTH], beyond: &[i32; WIDTH], t_beyond: i32)
 
 /// The slab test of [`BoxRay::hit_children`] with AVX-512: per axis, the near
 /// and far planes of the 8 children in one 16-lane register, `(plane − origin) ·
-/// (1/dir)` for both at once; then over the axes the maximum in the near lanes and
-/// the minimum in the far lanes of their [`ordered`] bits (a maximum, then a masked
-/// minimum), and the compare into a mask register. Lane by lane the portable code's
-/// operations, so the same bits.
+/// (1/dir)` (or its fused form) for both at once; then over the axes the maximum in
+/// the near lanes and the minimum in the far lanes of their [`ordered`] bits (a
+/// maximum, then a masked minimum), and the compare into a mask register. Lane by
+/// lane the operations of the AVX2 code, so the same bits.
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
     use std::arch::x86_64::{
         __m512i, _mm256_add_epi32, _mm256_castsi256_ps, _mm256_cmplt_epi32_mask, _mm256_loadu_ps,
         _mm256_min_epi32, _mm256_set1_epi32, _mm256_storeu_ps, _mm512_castps_si512,
-        _mm512_castps256_ps512, _mm512_castsi512_si256, _mm512_extracti32x8_epi32,
-        _mm512_insertf32x8, _mm512_load_si512, _mm512_mask_min_epi32, _mm512_max_epi32,
-        _mm512_mul_ps, _mm512_set1_ps, _mm512_sub_ps,
+        _mm512_castps256_ps512, _mm512_castsi512_si256, _mm512_extracti32x8_epi32, _mm512_fmsub_ps,
+        _mm512_insertf32x8, _mm512_load_si512, _mm512_mask_blend_ps, _mm512_mask_min_epi32,
+        _mm512_max_epi32, _mm512_mul_ps, _mm512_set1_ps, _mm512_sub_ps,
     };
 
     use super::{BoxRay, Node, WIDTH, exit_beyond, ordered};
@@ -460,7 +534,7 @@ mod avx512 {
     /// To be called only where the CPU has AVX-512 F, VL and DQ, and inlined only
     /// into code compiled with them (`ISA` = AVX512).
     #[inline(always)]
-    pub(super) unsafe fn hit_children(
+    pub(super) unsafe fn hit_children<const FUSED: bool>(
         ray: &BoxRay,
         node: &Node,
         t_max: f32,
@@ -477,10 +551,20 @@ mod avx512 {
                 let near = _mm256_loadu_ps(ray.near[axis].of(node).as_ptr());
                 let far = _mm256_loadu_ps(ray.far[axis].of(node).as_ptr());
                 let planes = _mm512_insertf32x8::<1>(_mm512_castps256_ps512(near), far);
-                _mm512_castps_si512(_mm512_mul_ps(
-                    _mm512_sub_ps(planes, _mm512_set1_ps(ray.origin[axis])),
-                    _mm512_set1_ps(ray.inv_dir[axis]),
-                ))
+                let inv_dir = _mm512_set1_ps(ray.inv_dir[axis]);
+                _mm512_castps_si512(if FUSED {
+                    let offsets = _mm512_mask_blend_ps(
+                        FAR,
+                        _mm512_set1_ps(ray.near_offset[axis]),
+                        _mm512_set1_ps(ray.far_offset[axis]),
+                    );
+                    _mm512_fmsub_ps(planes, inv_dir, offsets)
+                } else {
+                    _mm512_mul_ps(
+                        _mm512_sub_ps(planes, _mm512_set1_ps(ray.origin[axis])),
+                        inv_dir,
+                    )
+                })
             };
             let (x, y, z) = (axis(0), axis(1), axis(2));
             let floor = _mm512_load_si512(FLOOR.0.as_ptr().cast());
@@ -705,9 +789,9 @@ impl Nodes<'_> {
     ///
     /// One ray on its own, with its state in locals and a stack that never
     /// allocates ([`BoundedStack`]); in the rare tree deep enough to fill that
-    /// stack, the ray is traced again with the stack that grows, which takes the same
-    /// steps as [`Nodes::closest_step`] (so a query's results do not depend on which
-    /// of the two ran, bit for bit).
+    /// stack, the ray is traced again with the stack that grows, through the steps
+    /// of [`Nodes::closest_step`] (the same hit, bit for bit: no hit depends on the
+    /// order in which leaves are visited).
     #[inline(always)]
     pub fn closest<const ISA: u8>(
         &self,
@@ -770,7 +854,9 @@ impl Nodes<'_> {
             let ray = &{ *std::hint::black_box(ray) };
             while current & LEAF_BIT == 0 {
                 let node = &self.0[current as usize];
-                current = match self.enter::<ISA, false>(node, ray, t_box, &mut stack, fetch_leaf) {
+                current = match self
+                    .enter::<ISA, false, true>(node, ray, t_box, &mut stack, fetch_leaf)
+                {
                     Some(next) => next,
                     None => match stack.pop_within(t_box) {
                         Some(next) => next,
@@ -809,8 +895,9 @@ impl Nodes<'_> {
     /// asks the cache for the nearest too: a batch's other rays work before it is
     /// read, whereas one ray on its own reads it at once, and the request would only
     /// cost instructions (the node's address and bounds check, four prefetches).
+    /// `FUSED` as for [`BoxRay::hit_children`].
     #[inline(always)]
-    fn enter<const ISA: u8, const FETCH_NEXT: bool>(
+    fn enter<const ISA: u8, const FETCH_NEXT: bool, const FUSED: bool>(
         &self,
         node: &Node,
         ray: &BoxRay,
@@ -818,7 +905,7 @@ impl Nodes<'_> {
         stack: &mut impl PushStack,
         fetch_leaf: &impl Fn(usize, usize),
     ) -> Option<u32> {
-        let (mut mask, entry) = ray.hit_children::<ISA>(node, t_box);
+        let (mut mask, entry) = ray.hit_children::<ISA, FUSED>(node, t_box);
         // One or two children hit (most steps): the order the sort below would
         // give, without it.
         if mask.is_power_of_two() {
@@ -882,8 +969,8 @@ impl Nodes<'_> {
     /// leaf and moves on to the next one, which it has asked the cache for. Returns
     /// `false` when the traversal is over. [`Nodes::closest`] runs the steps of one
     /// ray back to back; a batch interleaves the steps of several rays, so that the
-    /// memory each ray waits for arrives while the others work. The steps of one ray
-    /// are the same either way, so are its results, bit for bit.
+    /// memory each ray waits for arrives while the others work. The results are the
+    /// same either way, bit for bit.
     #[inline(always)]
     pub fn closest_step<const ISA: u8>(
         &self,
@@ -900,7 +987,7 @@ impl Nodes<'_> {
             let (first, count) = leaf_parts(current);
             traversal.t_max = leaf(first, count, traversal.t_max);
             traversal.t_box = traversal.t_max * TMAX_WIDEN;
-        } else if let Some(next) = self.enter::<ISA, true>(
+        } else if let Some(next) = self.enter::<ISA, true, false>(
             &self.0[current as usize],
             ray,
             traversal.t_box,
@@ -944,7 +1031,7 @@ impl Nodes<'_> {
                 }
             } else {
                 let node = &self.0[current as usize];
-                let (mut mask, _) = ray.hit_children::<ISA>(node, t_box);
+                let (mut mask, _) = ray.hit_children::<ISA, true>(node, t_box);
                 if mask != 0 {
                     // No ordering: any hit ends the query.
                     let i = mask.trailing_zeros() as usize;

@@ -1,7 +1,8 @@
 //! Unit tests of the 8-wide tree's private parts: a given top is kept, the AVX
-//! hit mask agrees with the portable one, and so does the AVX-512 slab test; no
-//! path's slab test misses a box that the ray enters; the single-ray query's
-//! bounded stack hands over to the growing one without changing a result.
+//! hit mask agrees with the portable one, and the AVX-512 slab test with the AVX2
+//! one in both forms; no path's slab test, fused or not, misses a box that the ray
+//! enters; stored boxes have no subnormal face; the single-ray query's bounded
+//! stack hands over to the growing one without changing a result.
 
 use super::super::test_support::{XorShift, on_path, slivers};
 use super::*;
@@ -132,18 +133,25 @@ fn ordered_distances_order_as_the_slab_test_needs() {
     assert!(ordered(0.0) < exit_beyond(ordered(0.0)));
 }
 
-/// The AVX-512 slab test (near and far planes in one register) gives the portable one's mask, and its entry distances bit for bit
-/// on the children hit, for rays in all octants, with zero and subnormal
+/// The AVX-512 slab test (near and far planes in one register) gives the portable
+/// one's mask and entry distances bit for bit on the children hit, and in its fused
+/// form the AVX2 fused test's, for rays in all octants, with zero and subnormal
 /// direction components, origins on box planes, empty child slots and `t_max`
 /// from 0 to ∞ (where the CPU has AVX-512).
 #[test]
-fn avx512_slab_test_agrees_with_the_portable_one() {
+fn avx512_slab_test_agrees_with_the_portable_and_avx2_ones() {
     on_path(SimdPath::Avx512, slab_tests_agree);
 }
 
 #[inline(always)]
 fn slab_tests_agree() {
     use crate::simd_path::isa::PORTABLE;
+    let agree = |a: (u32, [f32; WIDTH]), b: (u32, [f32; WIDTH]), what: &str| {
+        assert_eq!(a.0, b.0, "{what}");
+        for i in (0..WIDTH).filter(|&i| a.0 & (1 << i) != 0) {
+            assert_eq!(a.1[i].to_bits(), b.1[i].to_bits(), "child {i}: {what}");
+        }
+    };
     let mut rng = XorShift(0x2545_f491_4f6c_dd1d);
     let mut next = move || rng.next();
     let mut unit = move || (next() >> 40) as f32 / (1u64 << 24) as f32;
@@ -177,12 +185,19 @@ fn slab_tests_agree() {
             continue;
         }
         let t_max = [f32::INFINITY, 0.0, 0.5, 3.0][round % 4];
-        let portable = BoxRay::new(origin, dir).hit_children::<PORTABLE>(&node, t_max);
-        let wide = BoxRay::new(origin, dir).hit_children::<AVX512>(&node, t_max);
-        assert_eq!(wide.0, portable.0, "{origin:?} {dir:?} {t_max}");
-        for i in (0..WIDTH).filter(|&i| portable.0 & (1 << i) != 0) {
-            assert_eq!(wide.1[i], portable.1[i], "child {i}: {origin:?} {dir:?}");
-        }
+        let ray = BoxRay::new(origin, dir);
+        let portable = ray.hit_children::<PORTABLE, false>(&node, t_max);
+        let what = format!("{origin:?} {dir:?} {t_max}");
+        agree(
+            ray.hit_children::<AVX512, false>(&node, t_max),
+            portable,
+            &what,
+        );
+        agree(
+            ray.hit_children::<AVX512, true>(&node, t_max),
+            ray.hit_children::<AVX2, true>(&node, t_max),
+            &what,
+        );
         if portable.0 == 0 {
             misses += 1;
         } else {
@@ -203,9 +218,36 @@ fn slab_tests_agree() {
 #[test]
 fn no_slab_test_misses_a_box_the_ray_enters() {
     use crate::simd_path::isa::PORTABLE;
-    no_box_missed::<PORTABLE>();
-    on_path(SimdPath::Avx2, no_box_missed::<AVX2>);
-    on_path(SimdPath::Avx512, no_box_missed::<AVX512>);
+    no_box_missed::<PORTABLE, false>();
+    on_path(SimdPath::Avx2, no_box_missed::<AVX2, false>);
+    on_path(SimdPath::Avx2, no_box_missed::<AVX2, true>);
+    on_path(SimdPath::Avx512, no_box_missed::<AVX512, false>);
+    on_path(SimdPath::Avx512, no_box_missed::<AVX512, true>);
+}
+
+/// A stored box contains the given one, with every face moved out by at least an
+/// ulp, and none at a subnormal coordinate (which would slow the fused slab test by
+/// microcode assists; `widened`).
+#[test]
+fn stored_boxes_are_larger_and_have_no_subnormal_face() {
+    let values: [f32; 10] = [
+        0.0, -0.0, 1e-45, -1e-45, 1e-39, -1e-39, 1.0, -2.5, 1e30, -1e30,
+    ];
+    for &a in &values {
+        for &b in &values {
+            let (lo, hi) = (a.min(b), a.max(b));
+            let w = widened(&Bounds {
+                min: [lo; 3],
+                max: [hi; 3],
+            });
+            for k in 0..3 {
+                assert!(w.min[k] < lo && w.max[k] > hi, "{lo} {hi}: {w:?}");
+                for face in [w.min[k], w.max[k]] {
+                    assert!(face.is_normal(), "{lo} {hi}: face {face}");
+                }
+            }
+        }
+    }
 }
 
 /// The exact (f64) entry and exit distances of the ray from `origin` along `dir`
@@ -241,7 +283,7 @@ fn exact_slab(
 }
 
 #[inline(always)]
-fn no_box_missed<const ISA: u8>() {
+fn no_box_missed<const ISA: u8, const FUSED: bool>() {
     let mut rng = XorShift(0x6a09_e667_f3bc_c908);
     let (mut checked, mut missed) = (0, 0);
     for round in 0..40_000u32 {
@@ -292,7 +334,7 @@ fn no_box_missed<const ISA: u8>() {
             continue;
         }
         let t_max = [f32::INFINITY, 1.0, 0.5][round as usize % 3];
-        let (mask, entry) = BoxRay::new(origin, dir).hit_children::<ISA>(&node, t_max);
+        let (mask, entry) = BoxRay::new(origin, dir).hit_children::<ISA, FUSED>(&node, t_max);
         assert_eq!(
             mask >> children,
             0,
