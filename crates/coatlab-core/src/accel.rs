@@ -48,7 +48,10 @@
 //! (`accel/triangle.rs`; the `Simd8` leaves run the same operations 8 lanes at a
 //! time, bit for bit).
 //! A ray through an edge or vertex shared by two triangles hits at least one of
-//! them. Möller–Trumbore was tried first and is not good enough here: a ray 1.4·10⁻⁶
+//! them; of hits at the same distance the query reports the triangle with the least
+//! index, whichever the traversal reaches first (so that every SIMD path and the
+//! batch report the same hit, though their box tests round differently).
+//! Möller–Trumbore was tried first and is not good enough here: a ray 1.4·10⁻⁶
 //! (barycentric) inside a torus's triangle 1.35 m away missed both triangles of the
 //! edge, even with edges widened by 10⁻⁶, because `origin − v0` loses the digits that
 //! matter (the tests keep that ray).
@@ -344,7 +347,7 @@ impl Accel {
             let mut nearest = Nearest::default();
             tree.nodes().closest::<ISA>(
                 &box_ray,
-                t_max,
+                Nearest::closed_bound(t_max),
                 #[inline(always)]
                 |pack, _, t_max| nearest.test::<ISA>(&sheared, &self.packs, pack, t_max),
                 #[inline(always)]
@@ -510,7 +513,7 @@ impl Accel {
                     lane.box_ray = BoxRay::new(query.origin, query.dir);
                     lane.sheared = ShearedRay::new(query.origin, query.dir);
                     lane.nearest = Nearest::default();
-                    lane.traversal.start(query.t_max);
+                    lane.traversal.start(Nearest::closed_bound(query.t_max));
                     return true;
                 }
             }
@@ -791,9 +794,17 @@ struct Nearest {
 }
 
 impl Nearest {
-    /// Tests `packs[pack]` within the traversal's `t_max` and returns the new
-    /// `t_max`: the query's own (an open bound) until the first hit, then the
-    /// nearest hit's distance, which a later hit may equal and win on its index.
+    /// The traversal's first `t_max` for a query's: the largest distance below it,
+    /// as the traversal's bound is a closed one (a later hit may equal the nearest
+    /// so far and win on its index).
+    #[inline(always)]
+    fn closed_bound(query_t_max: f32) -> f32 {
+        query_t_max.next_down()
+    }
+
+    /// Tests `packs[pack]` for hits within the traversal's `t_max` (a closed bound:
+    /// [`Nearest::closed_bound`] of the query's, then the nearest hit's distance)
+    /// and returns the new `t_max`.
     #[inline(always)]
     fn test<const ISA: u8>(
         &mut self,
@@ -802,17 +813,13 @@ impl Nearest {
         pack: usize,
         t_max: f32,
     ) -> f32 {
-        let t_limit = match self.best {
-            Some(_) => t_max,
-            None => t_max.next_down(),
-        };
-        let Some(hit) = sheared.intersect_pack::<ISA, PACK>(&packs[pack], t_limit) else {
+        let Some(hit) = sheared.intersect_pack::<ISA, PACK>(&packs[pack], t_max) else {
             return t_max;
         };
         // A tie that does not win (a triangle split into several leaves ties with
         // itself).
-        if let Some((p, best)) = self.best
-            && hit.t == best.t
+        if hit.t == t_max
+            && let Some((p, best)) = self.best
             && packs[pack].id[hit.lane] >= packs[p].id[best.lane]
         {
             return t_max;
