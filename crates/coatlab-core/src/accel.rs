@@ -343,7 +343,7 @@ impl Accel {
         }
         let sheared = ShearedRay::new(origin, dir);
         if let Tree::Simd8(tree) = &self.bvh.tree {
-            let box_ray = BoxRay::new(origin, dir);
+            let box_ray = BoxRay::single::<ISA>(origin, dir);
             let mut nearest = Nearest::default();
             tree.nodes().closest::<ISA>(
                 &box_ray,
@@ -586,7 +586,7 @@ impl Accel {
         }
         let sheared = ShearedRay::new(origin, dir);
         if let Tree::Simd8(tree) = &self.bvh.tree {
-            let box_ray = BoxRay::new(origin, dir);
+            let box_ray = BoxRay::single::<ISA>(origin, dir);
             return tree.nodes().any::<ISA>(
                 &box_ray,
                 t_max,

@@ -44,7 +44,7 @@
 //! (Embree's form); `origin · (1/dir)` is rounded once per ray, with an error that
 //! grows with the origin's distance from the world's origin rather than with the
 //! distance to the box, so it is taken as two offsets, one moved up and one down by
-//! more than that error ([`BoxRay::new`]): the entry distance is never later, the
+//! more than that error ([`BoxRay::single`]): the entry distance is never later, the
 //! exit never earlier, than exact arithmetic would put them. The batch keeps the
 //! portable form, which needs fewer of a ray's values reloaded at each of its steps
 //! (docs/benchmarks.md). The paths therefore visit leaves in different orders at
@@ -317,7 +317,24 @@ impl PlaneRow {
 }
 
 impl BoxRay {
-    /// For a finite origin and a finite, non-zero direction.
+    /// For a finite origin and a finite, non-zero direction, for the unfused box
+    /// test (the batch's, and every traversal's on the portable path): without the
+    /// fused test's offsets, which are NaN here, so that a fused test given this
+    /// ray would miss every box rather than pass unnoticed.
+    #[inline(always)]
+    pub fn new(origin: [f32; 3], dir: [f32; 3]) -> BoxRay {
+        BoxRay::prepared(origin, dir, false)
+    }
+
+    /// [`BoxRay::new`] for the single-ray traversals ([`Nodes::closest`],
+    /// [`Nodes::any`]), which take the fused test where `ISA` is AVX2 or AVX-512:
+    /// with its offsets there (the batch does not pay for them).
+    #[inline(always)]
+    pub fn single<const ISA: u8>(origin: [f32; 3], dir: [f32; 3]) -> BoxRay {
+        BoxRay::prepared(origin, dir, ISA >= AVX2)
+    }
+
+    /// The ray, with the fused test's offsets where `fused`.
     ///
     /// A direction component below `f32::MIN_POSITIVE`, or below 2⁻¹⁰⁰ of the
     /// origin's coordinate on that axis, is replaced by that bound (its sign kept):
@@ -328,7 +345,7 @@ impl BoxRay {
     /// lies on is at least an ulp of the origin's coordinate away, so at least 2⁷⁵
     /// (in units of `|dir|`) along the ray, beyond any scene.
     #[inline(always)]
-    pub fn new(origin: [f32; 3], dir: [f32; 3]) -> BoxRay {
+    fn prepared(origin: [f32; 3], dir: [f32; 3], fused: bool) -> BoxRay {
         let inv_dir: [f32; 3] = std::array::from_fn(|axis| {
             let least = f32::MIN_POSITIVE.max(origin[axis].abs() * DIR_FLOOR_OF_ORIGIN);
             let d = dir[axis];
@@ -339,18 +356,26 @@ impl BoxRay {
             };
             1.0 / d
         });
-        // The product's rounding error is at most 2⁻²⁴ of it, the offset's own
-        // rounding as much again: a margin of 2⁻²² of it covers both, and
-        // `MIN_POSITIVE` a product rounded among the subnormals.
-        let scaled: [f32; 3] = std::array::from_fn(|axis| origin[axis] * inv_dir[axis]);
-        let margin = scaled.map(|c| c.abs() * (1.0 / 4_194_304.0) + f32::MIN_POSITIVE);
+        let (near_offset, far_offset) = if fused {
+            // The product's rounding error is at most 2⁻²⁴ of it, the offset's own
+            // rounding as much again: a margin of 2⁻²² of it covers both, and
+            // `MIN_POSITIVE` a product rounded among the subnormals.
+            let scaled: [f32; 3] = std::array::from_fn(|axis| origin[axis] * inv_dir[axis]);
+            let margin = scaled.map(|c| c.abs() * (1.0 / 4_194_304.0) + f32::MIN_POSITIVE);
+            (
+                std::array::from_fn(|axis| scaled[axis] + margin[axis]),
+                std::array::from_fn(|axis| scaled[axis] - margin[axis]),
+            )
+        } else {
+            ([f32::NAN; 3], [f32::NAN; 3])
+        };
         let rows: [(PlaneRow, PlaneRow); 3] =
             std::array::from_fn(|axis| PlaneRow::entry_exit(axis, inv_dir[axis]));
         BoxRay {
             origin,
             inv_dir,
-            near_offset: std::array::from_fn(|axis| scaled[axis] + margin[axis]),
-            far_offset: std::array::from_fn(|axis| scaled[axis] - margin[axis]),
+            near_offset,
+            far_offset,
             near: rows.map(|r| r.0),
             far: rows.map(|r| r.1),
         }

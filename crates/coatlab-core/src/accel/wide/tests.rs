@@ -185,7 +185,7 @@ fn slab_tests_agree() {
             continue;
         }
         let t_max = [f32::INFINITY, 0.0, 0.5, 3.0][round % 4];
-        let ray = BoxRay::new(origin, dir);
+        let ray = BoxRay::single::<AVX512>(origin, dir);
         let portable = ray.hit_children::<PORTABLE, false>(&node, t_max);
         let what = format!("{origin:?} {dir:?} {t_max}");
         agree(
@@ -223,6 +223,35 @@ fn no_slab_test_misses_a_box_the_ray_enters() {
     on_path(SimdPath::Avx2, no_box_missed::<AVX2, true>);
     on_path(SimdPath::Avx512, no_box_missed::<AVX512, false>);
     on_path(SimdPath::Avx512, no_box_missed::<AVX512, true>);
+}
+
+/// A ray prepared without the fused test's offsets (`BoxRay::new`, for the unfused
+/// test) misses every box in the fused test, rather than taking wrong offsets
+/// unnoticed; prepared with them, it hits the boxes it is aimed at.
+#[test]
+fn a_fused_test_without_the_offsets_misses_every_box() {
+    on_path(SimdPath::Avx2, fused_without_offsets::<AVX2>);
+    on_path(SimdPath::Avx512, fused_without_offsets::<AVX512>);
+}
+
+#[inline(always)]
+fn fused_without_offsets<const ISA: u8>() {
+    let mut node = Node::empty();
+    for i in 0..WIDTH {
+        let x = i as f32 - 4.0;
+        node.set_bounds(
+            i,
+            &Bounds {
+                min: [x, -1.0, -1.0],
+                max: [x + 0.5, 1.0, 1.0],
+            },
+        );
+    }
+    let (origin, dir) = ([-10.0, 0.1, -0.2], [1.0, 0.01, 0.02]);
+    let with = BoxRay::single::<ISA>(origin, dir).hit_children::<ISA, true>(&node, f32::INFINITY);
+    assert_eq!(with.0, 0xff, "every box is on the ray");
+    let without = BoxRay::new(origin, dir).hit_children::<ISA, true>(&node, f32::INFINITY);
+    assert_eq!(without.0, 0);
 }
 
 /// A stored box contains the given one, with every face moved out by at least an
@@ -334,7 +363,8 @@ fn no_box_missed<const ISA: u8, const FUSED: bool>() {
             continue;
         }
         let t_max = [f32::INFINITY, 1.0, 0.5][round as usize % 3];
-        let (mask, entry) = BoxRay::new(origin, dir).hit_children::<ISA, FUSED>(&node, t_max);
+        let (mask, entry) =
+            BoxRay::single::<ISA>(origin, dir).hit_children::<ISA, FUSED>(&node, t_max);
         assert_eq!(
             mask >> children,
             0,
