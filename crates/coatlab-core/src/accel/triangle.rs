@@ -415,9 +415,10 @@ fn lanes_at_minimum<const ISA: u8, const N: usize>(t: &[f32; N]) -> Option<u32> 
 }
 
 /// The portable [`lanes_at_minimum`]: a running index of the least lane (seven
-/// compares and well-predicted branches for a pack of 8, where a fold of minima is a
-/// chain of seven four-cycle operations, measured ×0.87 the rays per second one by
-/// one), then a compare a lane (the AVX version: a min tree, one compare, a mask).
+/// compares and well-predicted branches for a pack of 8; a fold of minima instead,
+/// a chain of seven four-cycle operations, traced rays one by one about 5 % slower:
+/// docs/benchmarks.md), then a compare a lane (the AVX version: a min tree, one
+/// compare, a mask).
 #[inline(always)]
 fn lanes_at_minimum_portable<const N: usize>(t: &[f32; N]) -> Option<u32> {
     let mut least = 0;
