@@ -403,31 +403,24 @@ impl BoxRay {
         let [rx, ry, rz] = self.inv_dir;
         let [nx, ny, nz] = self.near_offset;
         let [fx, fy, fz] = self.far_offset;
-        let distance = |plane: f32, origin: f32, inv_dir: f32| ordered((plane - origin) * inv_dir);
-        let fused =
-            |plane: f32, inv_dir: f32, offset: f32| ordered(plane.mul_add(inv_dir, -offset));
+        // A plane's distance, fused (`offset`: the ray's offset for that plane's
+        // side) or not; the choice is a constant, so each form compiles alone.
+        let distance = |plane: f32, origin: f32, inv_dir: f32, offset: f32| {
+            ordered(if FUSED && ISA >= AVX2 {
+                plane.mul_add(inv_dir, -offset)
+            } else {
+                (plane - origin) * inv_dir
+            })
+        };
         let mut entry = [0i32; WIDTH];
         let mut beyond = [0i32; WIDTH];
         for i in 0..WIDTH {
-            let [tnx, tny, tnz, tfx, tfy, tfz] = if FUSED && ISA >= AVX2 {
-                [
-                    fused(bnx[i], rx, nx),
-                    fused(bny[i], ry, ny),
-                    fused(bnz[i], rz, nz),
-                    fused(bfx[i], rx, fx),
-                    fused(bfy[i], ry, fy),
-                    fused(bfz[i], rz, fz),
-                ]
-            } else {
-                [
-                    distance(bnx[i], ox, rx),
-                    distance(bny[i], oy, ry),
-                    distance(bnz[i], oz, rz),
-                    distance(bfx[i], ox, rx),
-                    distance(bfy[i], oy, ry),
-                    distance(bfz[i], oz, rz),
-                ]
-            };
+            let tnx = distance(bnx[i], ox, rx, nx);
+            let tny = distance(bny[i], oy, ry, ny);
+            let tnz = distance(bnz[i], oz, rz, nz);
+            let tfx = distance(bfx[i], ox, rx, fx);
+            let tfy = distance(bfy[i], oy, ry, fy);
+            let tfz = distance(bfz[i], oz, rz, fz);
             entry[i] = tnx.max(tny).max(tnz.max(0));
             beyond[i] = exit_beyond(tfx.min(tfy).min(tfz));
         }
