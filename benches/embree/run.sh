@@ -3,10 +3,13 @@
 # See README.md. Usage: benches/embree/run.sh [ROUNDS]   (WORK=folder, default
 # target/embree; ACCEL_MESH=substring restricts the meshes, as in the accel bench;
 # SIMD_PATHS="avx2 avx512 portable" runs Coatlab's side on each of those paths in
-# every round, default: the path Coatlab chooses itself)
+# every round, default: the path Coatlab chooses itself; ACCEL_FILTER=Simd8/Fast adds
+# Coatlab's trees without spatial splits, like Embree's `medium` and `robust` ones;
+# benches/embree/ratios.py reads the output)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 rounds="${1:-2}"
+trees="${ACCEL_FILTER:-Simd8/Fast/Spatial}"
 work="${WORK:-target/embree}"
 mkdir -p "$work"
 
@@ -37,10 +40,10 @@ for round in $(seq "$rounds"); do
   echo "== round $round, load $(cut -d' ' -f1-3 /proc/loadavg)"
   for simd in ${SIMD_PATHS:-default}; do
     if [ "$simd" = default ]; then
-      ACCEL_SUMMARY=1 ACCEL_FILTER="Simd8/Fast/Spatial" "$bench" 2>/dev/null | grep -v -- "---"
+      ACCEL_SUMMARY=1 ACCEL_FILTER="$trees" "$bench" 2>/dev/null | grep -v -- "---"
     else
       echo "-- Coatlab on its $simd path (COATLAB_SIMD=$simd)"
-      COATLAB_SIMD="$simd" ACCEL_SUMMARY=1 ACCEL_FILTER="Simd8/Fast/Spatial" "$bench" 2>/dev/null |
+      COATLAB_SIMD="$simd" ACCEL_SUMMARY=1 ACCEL_FILTER="$trees" "$bench" 2>/dev/null |
         grep -v -- "---"
     fi
   done
