@@ -19,7 +19,7 @@
 //! registers. Every instantiation does the same f32 operations, so their results
 //! are the same, bit for bit.
 
-use crate::simd_path::isa::{AVX2, AVX512};
+use crate::simd_path::isa::{AVX2, AVX512, PORTABLE};
 
 /// Triangles per leaf block of the 8-wide tree: 8, one AVX register per coordinate.
 /// (Measured against 4 with leaves of up to 4 or 8: see docs/benchmarks.md.)
@@ -272,7 +272,7 @@ impl ShearedRay {
                 *ti = self.checked_distance(pack, i, *ti, t_limit);
             }
         }
-        nearest_lane_portable(t, &pack.id).map(|best| LaneHit {
+        nearest_lane::<PORTABLE, N>(t, &pack.id).map(|best| LaneHit {
             lane: best,
             t: t[best],
             barycentric: [bu[best], bv[best]],
@@ -435,13 +435,6 @@ fn lanes_at_minimum_portable<const N: usize>(t: &[f32; N]) -> Option<u32> {
     })
 }
 
-/// The portable [`nearest_lane`].
-#[inline(always)]
-fn nearest_lane_portable<const N: usize>(t: &[f32; N], id: &[u32; N]) -> Option<usize> {
-    let at_minimum = lanes_at_minimum_portable(t)?;
-    Some(least_id_lane(at_minimum, id))
-}
-
 /// Of the lanes in `mask` (not empty), the one with the least `id`: a tie between
 /// triangles at the same distance (a ray through a shared edge or vertex), rare.
 #[cold]
@@ -544,7 +537,6 @@ mod avx512 {
 mod tests {
     use super::*;
     use crate::simd_path::SimdPath;
-    use crate::simd_path::isa::PORTABLE;
 
     /// A full pack agrees lane by lane, bit for bit, with packs of 1, on random
     /// triangles and rays (including rays through shared vertices).
@@ -630,7 +622,11 @@ mod tests {
             let t = u.map(|x| if x > 0.0 { x } else { f32::INFINITY });
             let id: [u32; PACK] = std::array::from_fn(|i| (pick().to_bits() ^ i as u32) % 5);
             let best = nearest_lane::<ISA, PACK>(&t, &id);
-            assert_eq!(best, nearest_lane_portable(&t, &id), "{t:?} {id:?}");
+            assert_eq!(
+                best,
+                nearest_lane::<PORTABLE, PACK>(&t, &id),
+                "{t:?} {id:?}"
+            );
             let expected = (0..PACK)
                 .filter(|&i| t[i] < f32::INFINITY)
                 .min_by(|&i, &j| t[i].total_cmp(&t[j]).then(id[i].cmp(&id[j])));
